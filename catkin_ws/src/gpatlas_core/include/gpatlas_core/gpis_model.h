@@ -1,0 +1,141 @@
+#pragma once
+
+#include "gpatlas_core/kernel.h"
+#include "gpatlas_core/types.h"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// Outcome of a fit or an update. On failure the model keeps its previous state.
+struct FitReport {
+  bool ok{false};
+  std::string message;
+  std::vector<std::string> warnings;
+  bool full_refit{false};      // false when the Cholesky factor was extended incrementally
+  bool renormalised{false};    // the centroid/scale changed, every point was re-normalised
+  double jitter{0.0};          // diagonal jitter that made the matrix factorisable
+  std::size_t num_added{0};    // points accepted from the call
+  std::size_t num_rejected{0}; // NaN/Inf, duplicates, out of domain
+};
+
+// Posterior at one point. Units: mean is the (unitless) implicit function value; gradients
+// are per metre of world coordinates; variance is in the model's reported units (see
+// GpisModel::Config::reference_prior_variance).
+struct Prediction {
+  double mean{0.0};
+  double variance{0.0};
+  Vector3 gradient{Vector3::Zero()};
+  Vector3 variance_gradient{Vector3::Zero()};
+  bool in_domain{true};
+};
+
+struct BatchPrediction {
+  Eigen::VectorXd mean;
+  Eigen::VectorXd variance;
+  Points3 gradient;           // filled when requested
+  Points3 variance_gradient;  // filled when requested
+  Eigen::Array<bool, Eigen::Dynamic, 1> in_domain;
+};
+
+// Gaussian Process Implicit Surface (paper section 3.1): a GP with zero prior mean fit to
+// surface points (target 0), outside points (+1) and inside points (-1), evaluated in a
+// normalised frame (centroid at the origin, surface data inside a ball of fixed radius), so
+// that the kernel's parameters and the pseudo-points are fixed numbers.
+//
+// World coordinates are stored; the normalised copies are derived on every (re)fit, so a change
+// of centroid or scale can never leave stale points behind. Const queries are thread-safe.
+class GpisModel {
+ public:
+  struct Config {
+    std::string kernel{"thin_plate"};
+    // Kernel log-parameters at construction; empty keeps the kernel's defaults.
+    std::vector<double> initial_params;
+    // Surface data are scaled into a ball of this radius around their centroid.
+    double data_radius{0.6};
+    // A new surface point beyond this normalised radius triggers renormalisation + full refit.
+    double renormalise_radius{0.85};
+    // Every training point and query must lie within this normalised radius; the thin-plate
+    // kernel needs R >= 2 * domain_radius, which is checked at construction and fit.
+    double domain_radius{1.0};
+    // Pseudo-points (paper 3.1): outside points (+1) on the domain sphere, and one inside
+    // point (-1) at the centroid of the surface data.
+    int num_outside_points{32};
+    bool inside_point_at_centroid{true};
+    double pseudo_point_sigma{0.0};
+    // Multiplies every point's noise variance; tuned with the kernel's parameters.
+    double noise_scale{1.0};
+    // Diagonal jitter first tried, escalated x10 up to max_jitter on a failed factorisation.
+    double jitter{1e-9};
+    double max_jitter{1e-4};
+    // Two points closer than this (normalised) with the same label are duplicates.
+    double duplicate_distance{1e-6};
+    // Reported variance = posterior variance * reference_prior_variance / k(0). With the
+    // default thin-plate kernel (R = 2, k(0) = 8) it is the paper's variance; when tuning
+    // changes k(0), thresholds such as V_max keep their meaning (a fraction of the prior).
+    double reference_prior_variance{8.0};
+  };
+
+  explicit GpisModel(Config config = Config());
+  GpisModel(const GpisModel& other);
+  GpisModel& operator=(const GpisModel& other);
+  GpisModel(GpisModel&&) noexcept;
+  GpisModel& operator=(GpisModel&&) noexcept;
+  ~GpisModel();
+
+  // Replaces the data and fits from scratch. Needs at least 4 valid surface points.
+  FitReport fit(const std::vector<TrainingPoint>& points);
+  // Adds points to a fitted model by extending the Cholesky factor (O(n^2 k)); falls back to
+  // a full refit when the normalisation must change.
+  FitReport addPoints(const std::vector<TrainingPoint>& points);
+  // Full refit of the current data (after a change of hyperparameters, or to compare).
+  FitReport refit();
+
+  bool isFitted() const;
+  const Config& config() const;
+  // Observations in world coordinates (no pseudo-points).
+  const std::vector<TrainingPoint>& observations() const;
+  // Size of the GP's training set, pseudo-points included.
+  std::size_t size() const;
+
+  // Normalisation: x_normalised = (x_world - centroid) / scale.
+  const Vector3& centroid() const;
+  double scale() const;
+  Vector3 toNormalised(const Vector3& x_world) const;
+  Vector3 toWorld(const Vector3& x_normalised) const;
+  bool inDomain(const Vector3& x_world) const;
+  // Centre and radius (metres) of the ball in which the model is valid.
+  double domainRadiusWorld() const;
+
+  Prediction predict(const Vector3& x_world) const;
+  double mean(const Vector3& x_world) const;
+  double variance(const Vector3& x_world) const;
+  // One matrix solve for the whole batch. Gradients are computed only when asked for.
+  BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
+                               bool with_variance_gradient = true) const;
+
+  // Hyperparameters.
+  const Kernel& kernel() const;
+  double noiseScale() const;
+  // Sets kernel log-parameters and the noise scale, then refits; on failure restores the
+  // previous ones and returns the failing report.
+  FitReport setHyperparameters(const Eigen::VectorXd& kernel_log_params, double noise_scale);
+  // Log marginal likelihood of the current fit (normalised frame).
+  double logMarginalLikelihood() const;
+  // Log marginal likelihood for trial hyperparameters on the current training set and its
+  // gradient with respect to [kernel log-params..., log noise_scale]; NaN if not factorisable.
+  double logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params, double log_noise_scale,
+                               Eigen::VectorXd* gradient) const;
+  // Factor turning a raw posterior variance into the reported units.
+  double varianceUnitFactor() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace gpatlas_core

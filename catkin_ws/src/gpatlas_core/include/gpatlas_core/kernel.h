@@ -1,0 +1,118 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// A stationary isotropic covariance function k(r), r = |x - x'|, in the model's normalised
+// frame. Hyperparameters are exposed as natural logarithms so that optimisers work on an
+// unbounded, scale-free parameterisation.
+class Kernel {
+ public:
+  virtual ~Kernel() = default;
+
+  virtual std::string name() const = 0;
+  virtual std::unique_ptr<Kernel> clone() const = 0;
+
+  virtual int numParams() const = 0;
+  virtual std::vector<std::string> paramNames() const = 0;
+  virtual Eigen::VectorXd logParams() const = 0;
+  virtual void setLogParams(const Eigen::VectorXd& log_params) = 0;
+
+  // k(r).
+  virtual double value(double r) const = 0;
+  // dk/dr; zero at r = 0 for every kernel here (they are all differentiable at the origin).
+  virtual double derivative(double r) const = 0;
+  // dk/d(log theta_j) for every hyperparameter, written into out (size numParams()).
+  virtual void paramGradient(double r, double* out) const = 0;
+
+  // Largest distance for which the kernel is a valid (positive definite) covariance;
+  // infinity for the kernels that are valid everywhere.
+  virtual double maxValidDistance() const;
+
+  // Gradient of k(|x - y|) with respect to x.
+  Eigen::Vector3d gradient(const Eigen::Vector3d& x, const Eigen::Vector3d& y) const;
+  double priorVariance() const { return value(0.0); }
+};
+
+// Creates a kernel by name: "thin_plate" (parameter: R), "squared_exponential",
+// "matern32", "matern52" (parameters: signal sigma, length scale). Throws
+// std::invalid_argument with the list of known names for an unknown name.
+std::unique_ptr<Kernel> makeKernel(const std::string& name);
+std::vector<std::string> kernelNames();
+// Adds a kernel to the registry so that configs can name it; returns false if the name is taken.
+bool registerKernel(const std::string& name, std::function<std::unique_ptr<Kernel>()> factory);
+
+// Thin-plate covariance of Williams and Fitzgibbon (paper eq. 6):
+// k(r) = 2 r^3 - 3 R r^2 + R^3, a valid covariance for r <= R.
+class ThinPlateKernel : public Kernel {
+ public:
+  explicit ThinPlateKernel(double radius = 2.0) : radius_(radius) {}
+  std::string name() const override { return "thin_plate"; }
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<ThinPlateKernel>(*this); }
+  int numParams() const override { return 1; }
+  std::vector<std::string> paramNames() const override { return {"R"}; }
+  Eigen::VectorXd logParams() const override;
+  void setLogParams(const Eigen::VectorXd& log_params) override;
+  double value(double r) const override;
+  double derivative(double r) const override;
+  void paramGradient(double r, double* out) const override;
+  double maxValidDistance() const override { return radius_; }
+  double radius() const { return radius_; }
+
+ private:
+  double radius_;
+};
+
+// Shared base of the kernels with a signal standard deviation and a length scale.
+class ScaledKernel : public Kernel {
+ public:
+  ScaledKernel(double sigma, double length) : sigma_(sigma), length_(length) {}
+  int numParams() const override { return 2; }
+  std::vector<std::string> paramNames() const override { return {"sigma", "length"}; }
+  Eigen::VectorXd logParams() const override;
+  void setLogParams(const Eigen::VectorXd& log_params) override;
+  double sigma() const { return sigma_; }
+  double length() const { return length_; }
+
+ protected:
+  double sigma_;
+  double length_;
+};
+
+class SquaredExponentialKernel : public ScaledKernel {
+ public:
+  explicit SquaredExponentialKernel(double sigma = 1.0, double length = 0.3) : ScaledKernel(sigma, length) {}
+  std::string name() const override { return "squared_exponential"; }
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<SquaredExponentialKernel>(*this); }
+  double value(double r) const override;
+  double derivative(double r) const override;
+  void paramGradient(double r, double* out) const override;
+};
+
+class Matern32Kernel : public ScaledKernel {
+ public:
+  explicit Matern32Kernel(double sigma = 1.0, double length = 0.3) : ScaledKernel(sigma, length) {}
+  std::string name() const override { return "matern32"; }
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<Matern32Kernel>(*this); }
+  double value(double r) const override;
+  double derivative(double r) const override;
+  void paramGradient(double r, double* out) const override;
+};
+
+class Matern52Kernel : public ScaledKernel {
+ public:
+  explicit Matern52Kernel(double sigma = 1.0, double length = 0.3) : ScaledKernel(sigma, length) {}
+  std::string name() const override { return "matern52"; }
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<Matern52Kernel>(*this); }
+  double value(double r) const override;
+  double derivative(double r) const override;
+  void paramGradient(double r, double* out) const override;
+};
+
+}  // namespace gpatlas_core

@@ -1,0 +1,27 @@
+#pragma once
+
+#include "gpatlas_core/types.h"
+
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// What a probe reports after executing a touch. A failed touch (unreachable, collision,
+// nothing touched when contact was required) has success == false and a reason; it may still
+// carry free-space points it observed on the way.
+struct ProbeResult {
+  bool success{false};
+  std::string reason;
+  std::vector<Contact> contacts;
+  std::vector<Vector3> free_space;  // points observed to be outside the object, world frame
+};
+
+// Executes touches: the simulated probe, a real robot driver, or an analytic shape in tests.
+class Prober {
+ public:
+  virtual ~Prober() = default;
+  virtual ProbeResult probe(const Touch& touch) = 0;
+};
+
+}  // namespace gpatlas_core

@@ -1,0 +1,50 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+using Vector3 = Eigen::Vector3d;
+using Points3 = Eigen::Matrix3Xd;  // one point per column, metres
+
+// Where a training point came from; kept so that displays and reports can tell vision from
+// touch, and so that free-space points can be treated differently from surface points.
+enum class PointSource : std::uint8_t { kVision = 0, kTouch = 1, kFreeSpace = 2, kPseudo = 3 };
+
+const char* toString(PointSource source);
+
+// Training label of a point: on the surface (f = 0), outside (f = +1) or inside (f = -1).
+enum class PointLabel : std::int8_t { kInside = -1, kSurface = 0, kOutside = 1 };
+
+// One observation in world coordinates (metres). noise_sigma is the standard deviation of the
+// observation of f at this point, in the model's normalised units of f.
+struct TrainingPoint {
+  Vector3 position{Vector3::Zero()};
+  PointLabel label{PointLabel::kSurface};
+  double noise_sigma{0.0};
+  PointSource source{PointSource::kVision};
+};
+
+// A contact measured by a probe: a point on the surface and, if the probe can tell, the
+// surface normal there (zero vector when unknown).
+struct Contact {
+  Vector3 position{Vector3::Zero()};
+  Vector3 normal{Vector3::Zero()};
+};
+
+// A touch to execute: an ordered path on the predicted surface with the outward normal
+// (approach direction is -normal) and the predicted variance at each waypoint.
+struct Touch {
+  enum class Kind : std::uint8_t { kPoke = 0, kSlide = 1 };
+  Kind kind{Kind::kPoke};
+  std::vector<Vector3> points;
+  std::vector<Vector3> normals;
+  std::vector<double> variances;  // in the model's reported (paper-equivalent) units
+  std::string strategy;
+};
+
+}  // namespace gpatlas_core
