@@ -42,6 +42,36 @@ struct BatchPrediction {
   Eigen::Array<bool, Eigen::Dynamic, 1> in_domain;
 };
 
+// Settings of GpisModel (declared outside the class so it can be a default argument).
+struct GpisModelConfig {
+  std::string kernel{"thin_plate"};
+  // Kernel log-parameters at construction; empty keeps the kernel's defaults.
+  std::vector<double> initial_params;
+  // Surface data are scaled into a ball of this radius around their centroid.
+  double data_radius{0.6};
+  // A new surface point beyond this normalised radius triggers renormalisation + full refit.
+  double renormalise_radius{0.85};
+  // Every training point and query must lie within this normalised radius; the thin-plate
+  // kernel needs R >= 2 * domain_radius, which is checked at construction and fit.
+  double domain_radius{1.0};
+  // Pseudo-points (paper 3.1): outside points (+1) on the domain sphere, and one inside
+  // point (-1) at the centroid of the surface data.
+  int num_outside_points{32};
+  bool inside_point_at_centroid{true};
+  double pseudo_point_sigma{0.0};
+  // Multiplies every point's noise variance; tuned with the kernel's parameters.
+  double noise_scale{1.0};
+  // Diagonal jitter first tried, escalated x10 up to max_jitter on a failed factorisation.
+  double jitter{1e-9};
+  double max_jitter{1e-4};
+  // Two points closer than this (normalised) with the same label are duplicates.
+  double duplicate_distance{1e-6};
+  // Reported variance = posterior variance * reference_prior_variance / k(0). With the
+  // default thin-plate kernel (R = 2, k(0) = 8) it is the paper's variance; when tuning
+  // changes k(0), thresholds such as V_max keep their meaning (a fraction of the prior).
+  double reference_prior_variance{8.0};
+};
+
 // Gaussian Process Implicit Surface (paper section 3.1): a GP with zero prior mean fit to
 // surface points (target 0), outside points (+1) and inside points (-1), evaluated in a
 // normalised frame (centroid at the origin, surface data inside a ball of fixed radius), so
@@ -51,34 +81,8 @@ struct BatchPrediction {
 // of centroid or scale can never leave stale points behind. Const queries are thread-safe.
 class GpisModel {
  public:
-  struct Config {
-    std::string kernel{"thin_plate"};
-    // Kernel log-parameters at construction; empty keeps the kernel's defaults.
-    std::vector<double> initial_params;
-    // Surface data are scaled into a ball of this radius around their centroid.
-    double data_radius{0.6};
-    // A new surface point beyond this normalised radius triggers renormalisation + full refit.
-    double renormalise_radius{0.85};
-    // Every training point and query must lie within this normalised radius; the thin-plate
-    // kernel needs R >= 2 * domain_radius, which is checked at construction and fit.
-    double domain_radius{1.0};
-    // Pseudo-points (paper 3.1): outside points (+1) on the domain sphere, and one inside
-    // point (-1) at the centroid of the surface data.
-    int num_outside_points{32};
-    bool inside_point_at_centroid{true};
-    double pseudo_point_sigma{0.0};
-    // Multiplies every point's noise variance; tuned with the kernel's parameters.
-    double noise_scale{1.0};
-    // Diagonal jitter first tried, escalated x10 up to max_jitter on a failed factorisation.
-    double jitter{1e-9};
-    double max_jitter{1e-4};
-    // Two points closer than this (normalised) with the same label are duplicates.
-    double duplicate_distance{1e-6};
-    // Reported variance = posterior variance * reference_prior_variance / k(0). With the
-    // default thin-plate kernel (R = 2, k(0) = 8) it is the paper's variance; when tuning
-    // changes k(0), thresholds such as V_max keep their meaning (a fraction of the prior).
-    double reference_prior_variance{8.0};
-  };
+  using Config = GpisModelConfig;
+
 
   explicit GpisModel(Config config = Config());
   GpisModel(const GpisModel& other);
@@ -92,8 +96,10 @@ class GpisModel {
   // Adds points to a fitted model by extending the Cholesky factor (O(n^2 k)); falls back to
   // a full refit when the normalisation must change.
   FitReport addPoints(const std::vector<TrainingPoint>& points);
-  // Full refit of the current data (after a change of hyperparameters, or to compare).
-  FitReport refit();
+  // Full refit of the current data (after a change of hyperparameters, or to compare with an
+  // incremental update). Keeps the current normalisation unless `renormalise` is set, the model
+  // was never fitted, or a surface point lies beyond renormalise_radius.
+  FitReport refit(bool renormalise = false);
 
   bool isFitted() const;
   const Config& config() const;

@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -27,6 +28,9 @@ struct TrainingPoint {
   PointLabel label{PointLabel::kSurface};
   double noise_sigma{0.0};
   PointSource source{PointSource::kVision};
+  // When finite, replaces the label's target (-1/0/+1): plain GP regression on other data,
+  // e.g. samples drawn from a known kernel in the tuner's tests.
+  double target_override{std::numeric_limits<double>::quiet_NaN()};
 };
 
 // A contact measured by a probe: a point on the surface and, if the probe can tell, the

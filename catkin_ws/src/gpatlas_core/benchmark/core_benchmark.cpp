@@ -1,0 +1,103 @@
+// Micro-benchmarks of the GPIS core. Run: make bench-core (or the binary in the devel space).
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/hyperparameter_tuner.h"
+
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+namespace {
+
+using gpatlas_core::GpisModel;
+using gpatlas_core::TrainingPoint;
+
+// Noisy points on the upper part of a 10 cm sphere: the shape of a partial camera view.
+std::vector<TrainingPoint> viewOfSphere(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g;
+  std::vector<TrainingPoint> pts;
+  while (static_cast<int>(pts.size()) < count) {
+    Eigen::Vector3d d(g(rng), g(rng), g(rng));
+    d.normalize();
+    if (d.z() < -0.3) continue;
+    TrainingPoint p;
+    p.position = Eigen::Vector3d(0.7, 0.0, 0.1) + 0.1 * d;
+    p.noise_sigma = 0.1;
+    pts.push_back(p);
+  }
+  return pts;
+}
+
+gpatlas_core::Points3 queryPoints(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.1, 0.1);
+  gpatlas_core::Points3 q(3, count);
+  for (int j = 0; j < count; ++j) q.col(j) = Eigen::Vector3d(0.7 + u(rng), u(rng), 0.1 + u(rng));
+  return q;
+}
+
+void BM_FullFit(benchmark::State& state) {
+  const auto pts = viewOfSphere(static_cast<int>(state.range(0)), 1);
+  for (auto _ : state) {
+    GpisModel model;
+    benchmark::DoNotOptimize(model.fit(pts).ok);
+  }
+}
+
+void BM_AddPoints(benchmark::State& state) {
+  const auto pts = viewOfSphere(static_cast<int>(state.range(0)), 1);
+  const auto extra = viewOfSphere(64, 2);
+  GpisModel base;
+  base.fit(pts);
+  std::size_t next = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    GpisModel model(base);  // every iteration adds to a model of exactly N points
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(model.addPoints({extra[next++ % extra.size()]}).ok);
+  }
+}
+
+void BM_PredictMeanVariance(benchmark::State& state) {
+  GpisModel model;
+  model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const auto q = queryPoints(1000, 3);
+  for (auto _ : state) benchmark::DoNotOptimize(model.predictBatch(q, true, true).variance.sum());
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
+void BM_PredictLoop(benchmark::State& state) {
+  GpisModel model;
+  model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const auto q = queryPoints(1000, 3);
+  for (auto _ : state) {
+    double sum = 0.0;
+    for (int j = 0; j < q.cols(); ++j) sum += model.predict(q.col(j)).variance;
+    benchmark::DoNotOptimize(sum);
+  }
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
+void BM_Tune(benchmark::State& state) {
+  GpisModel base;
+  base.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  gpatlas_core::HyperparameterTuner::Config config;
+  config.max_iterations = 10;
+  const gpatlas_core::HyperparameterTuner tuner(config);
+  for (auto _ : state) {
+    state.PauseTiming();
+    GpisModel model(base);
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(tuner.tune(model).ok);
+  }
+}
+
+}  // namespace
+
+BENCHMARK(BM_FullFit)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AddPoints)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PredictMeanVariance)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PredictLoop)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Tune)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+BENCHMARK_MAIN();

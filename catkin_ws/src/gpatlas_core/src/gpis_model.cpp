@@ -1,0 +1,653 @@
+#include "gpatlas_core/gpis_model.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+
+namespace gpatlas_core {
+
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093453;
+
+bool isFinite(const Vector3& v) { return v.allFinite(); }
+
+double targetOf(const TrainingPoint& p) {
+  return std::isfinite(p.target_override) ? p.target_override : static_cast<double>(static_cast<int>(p.label));
+}
+
+// Evenly spread directions on the unit sphere (Fibonacci lattice): a deterministic, isotropic
+// set of outside pseudo-points.
+std::vector<Vector3> fibonacciSphere(int count) {
+  std::vector<Vector3> dirs;
+  dirs.reserve(static_cast<std::size_t>(count));
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / count;
+    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = golden * i;
+    dirs.emplace_back(rho * std::cos(phi), rho * std::sin(phi), z);
+  }
+  return dirs;
+}
+
+}  // namespace
+
+struct GpisModel::Impl {
+  Config config;
+  std::unique_ptr<Kernel> kernel;
+  double noise_scale{1.0};
+
+  std::vector<TrainingPoint> observations;  // world frame, accepted points only
+
+  // Derived state, rebuilt from `observations` whenever the normalisation changes.
+  bool fitted{false};
+  Vector3 centroid{Vector3::Zero()};
+  double scale{1.0};
+  Eigen::Index n{0};              // training-set size (pseudo-points first)
+  Eigen::Index num_pseudo{0};
+  Points3 x;                      // normalised inputs, capacity columns
+  Eigen::VectorXd y;              // targets, capacity
+  Eigen::VectorXd noise_var;      // per-point noise variance before noise_scale, capacity
+  Eigen::MatrixXd chol;           // lower Cholesky factor in the top-left n x n block
+  Eigen::VectorXd alpha;          // K^-1 y (size n)
+  double jitter{0.0};
+
+  void reserve(Eigen::Index needed) {
+    const Eigen::Index cap = chol.rows();
+    if (needed <= cap) return;
+    const Eigen::Index new_cap = std::max<Eigen::Index>(needed + 64, cap + cap / 2);
+    Eigen::MatrixXd new_chol(new_cap, new_cap);
+    new_chol.topLeftCorner(n, n) = chol.topLeftCorner(n, n);
+    chol.swap(new_chol);
+    Points3 new_x(3, new_cap);
+    new_x.leftCols(n) = x.leftCols(n);
+    x.swap(new_x);
+    Eigen::VectorXd new_y(new_cap), new_noise(new_cap);
+    new_y.head(n) = y.head(n);
+    new_noise.head(n) = noise_var.head(n);
+    y.swap(new_y);
+    noise_var.swap(new_noise);
+  }
+
+  Vector3 normalise(const Vector3& p) const { return (p - centroid) / scale; }
+
+  double diagonal(Eigen::Index i) const { return kernel->value(0.0) + noise_scale * noise_var[i] + jitter; }
+
+  double varianceUnitFactor() const { return config.reference_prior_variance / kernel->value(0.0); }
+
+  // A pivot that is tiny relative to the prior variance means a numerically rank-deficient
+  // matrix: LLT may still "succeed" on rounding noise, but its solution would be garbage.
+  bool wellConditioned(const Eigen::Ref<const Eigen::VectorXd>& pivots) const {
+    const double floor = 1e-13 * kernel->value(0.0);
+    return (pivots.array().square() > floor).all();
+  }
+
+  void solveAlpha() {
+    alpha = y.head(n);
+    const auto lower = chol.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+    lower.solveInPlace(alpha);
+    lower.transpose().solveInPlace(alpha);
+  }
+
+  // Factorises K for the first n points, escalating jitter. Returns false when even the largest
+  // jitter fails.
+  bool factorise(std::string* message) {
+    // Jitter ladder: the configured value, then x10 steps up to max_jitter.
+    std::vector<double> ladder{config.jitter};
+    for (double j = std::max(config.jitter * 10.0, 1e-12); j <= config.max_jitter * 1.0001; j *= 10.0) ladder.push_back(j);
+    for (double trial : ladder) {
+      jitter = trial;
+      auto block = chol.topLeftCorner(n, n);
+      for (Eigen::Index j = 0; j < n; ++j) {
+        for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = kernel->value((x.col(i) - x.col(j)).norm());
+        block(j, j) = diagonal(j);
+      }
+      Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(block);
+      if (llt.info() == Eigen::Success && wellConditioned(block.diagonal())) return true;
+    }
+    std::ostringstream msg;
+    msg << "covariance matrix of " << n << " points is not positive definite even with jitter "
+        << config.max_jitter << " (duplicate or contradictory points, or a kernel outside its valid range)";
+    *message = msg.str();
+    return false;
+  }
+};
+
+GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
+  impl_->config = std::move(config);
+  impl_->kernel = makeKernel(impl_->config.kernel);
+  if (!impl_->config.initial_params.empty()) {
+    impl_->kernel->setLogParams(Eigen::Map<const Eigen::VectorXd>(impl_->config.initial_params.data(),
+                                                                   impl_->config.initial_params.size()));
+  }
+  impl_->noise_scale = impl_->config.noise_scale;
+  const Config& c = impl_->config;
+  if (!(c.data_radius > 0.0 && c.data_radius < c.renormalise_radius && c.renormalise_radius <= c.domain_radius))
+    throw std::invalid_argument("GpisModel: need 0 < data_radius < renormalise_radius <= domain_radius");
+  if (2.0 * c.domain_radius > impl_->kernel->maxValidDistance())
+    throw std::invalid_argument("GpisModel: kernel '" + c.kernel + "' is valid only up to distance " +
+                                std::to_string(impl_->kernel->maxValidDistance()) +
+                                " but the domain diameter is " + std::to_string(2.0 * c.domain_radius));
+  if (!(c.noise_scale > 0.0)) throw std::invalid_argument("GpisModel: noise_scale must be > 0");
+}
+
+GpisModel::GpisModel(const GpisModel& other) : impl_(std::make_unique<Impl>()) { *this = other; }
+
+GpisModel& GpisModel::operator=(const GpisModel& other) {
+  if (this == &other) return *this;
+  auto copy = std::make_unique<Impl>();
+  const Impl& o = *other.impl_;
+  copy->config = o.config;
+  copy->kernel = o.kernel->clone();
+  copy->noise_scale = o.noise_scale;
+  copy->observations = o.observations;
+  copy->fitted = o.fitted;
+  copy->centroid = o.centroid;
+  copy->scale = o.scale;
+  copy->n = o.n;
+  copy->num_pseudo = o.num_pseudo;
+  copy->x = o.x;
+  copy->y = o.y;
+  copy->noise_var = o.noise_var;
+  copy->chol = o.chol;
+  copy->alpha = o.alpha;
+  copy->jitter = o.jitter;
+  impl_ = std::move(copy);
+  return *this;
+}
+
+GpisModel::GpisModel(GpisModel&&) noexcept = default;
+GpisModel& GpisModel::operator=(GpisModel&&) noexcept = default;
+GpisModel::~GpisModel() = default;
+
+namespace {
+
+// Validates and deduplicates incoming points against `existing` (normalised with the given
+// frame when the frame is known). Rejected points are counted and explained in warnings.
+std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
+  std::vector<TrainingPoint> accepted;
+  accepted.reserve(points.size());
+  std::size_t non_finite = 0, bad_noise = 0;
+  for (const auto& p : points) {
+    if (!isFinite(p.position)) {
+      ++non_finite;
+      continue;
+    }
+    if (!std::isfinite(p.noise_sigma) || p.noise_sigma < 0.0) {
+      ++bad_noise;
+      continue;
+    }
+    accepted.push_back(p);
+  }
+  if (non_finite > 0)
+    report->warnings.push_back(std::to_string(non_finite) + " point(s) with NaN/Inf coordinates dropped");
+  if (bad_noise > 0)
+    report->warnings.push_back(std::to_string(bad_noise) + " point(s) with a negative or NaN noise sigma dropped");
+  report->num_rejected += non_finite + bad_noise;
+  return accepted;
+}
+
+}  // namespace
+
+FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) {
+  FitReport report;
+  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  // A full fit starts from an empty set: the existing observations are replaced.
+  Impl trial;
+  trial.config = impl_->config;
+  trial.kernel = impl_->kernel->clone();
+  trial.noise_scale = impl_->noise_scale;
+  trial.observations = std::move(accepted);
+  std::swap(*impl_, trial);  // `trial` now holds the previous state
+  report.num_added = impl_->observations.size();
+  FitReport fit_report = refit();
+  fit_report.warnings.insert(fit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+  fit_report.num_rejected += report.num_rejected;
+  if (!fit_report.ok) {
+    std::swap(*impl_, trial);  // restore
+    return fit_report;
+  }
+  return fit_report;
+}
+
+FitReport GpisModel::refit(bool renormalise) {
+  FitReport report;
+  report.full_refit = true;
+  Impl& m = *impl_;
+  const Config& c = m.config;
+
+  std::size_t num_surface = 0;
+  Vector3 sum = Vector3::Zero();
+  for (const auto& p : m.observations) {
+    if (p.label == PointLabel::kSurface) {
+      ++num_surface;
+      sum += p.position;
+    }
+  }
+  if (num_surface < 4) {
+    report.message = "need at least 4 valid surface points to fit, got " + std::to_string(num_surface);
+    return report;
+  }
+  if (m.fitted && !renormalise) {
+    for (const auto& p : m.observations)
+      if (p.label == PointLabel::kSurface && m.normalise(p.position).norm() > c.renormalise_radius) renormalise = true;
+  }
+  renormalise = renormalise || !m.fitted;
+  Vector3 centroid = m.centroid;
+  double scale = m.scale;
+  if (renormalise) {
+    centroid = sum / static_cast<double>(num_surface);
+    double max_dist = 0.0;
+    for (const auto& p : m.observations)
+      if (p.label == PointLabel::kSurface) max_dist = std::max(max_dist, (p.position - centroid).norm());
+    if (!(max_dist > 1e-9)) {
+      report.message = "degenerate surface data: all surface points coincide";
+      return report;
+    }
+    scale = max_dist / c.data_radius;
+  }
+  report.renormalised = renormalise;
+
+  // Keep the old derived state so that a failed factorisation leaves the model untouched.
+  Impl backup;
+  backup.centroid = m.centroid;
+  backup.scale = m.scale;
+  backup.n = m.n;
+  backup.num_pseudo = m.num_pseudo;
+  backup.x = m.x;
+  backup.y = m.y;
+  backup.noise_var = m.noise_var;
+  backup.chol = m.chol;
+  backup.alpha = m.alpha;
+  backup.jitter = m.jitter;
+  const bool was_fitted = m.fitted;
+  const std::vector<TrainingPoint> old_observations = m.observations;
+
+  m.centroid = centroid;
+  m.scale = scale;
+
+  const std::vector<Vector3> outside = fibonacciSphere(c.num_outside_points);
+  const Eigen::Index num_pseudo = static_cast<Eigen::Index>(outside.size()) + (c.inside_point_at_centroid ? 1 : 0);
+  m.n = 0;
+  m.num_pseudo = num_pseudo;
+  m.chol.resize(0, 0);
+  m.x.resize(3, 0);
+  m.y.resize(0);
+  m.noise_var.resize(0);
+  m.reserve(num_pseudo + static_cast<Eigen::Index>(m.observations.size()));
+
+  const double pseudo_var = c.pseudo_point_sigma * c.pseudo_point_sigma;
+  for (const auto& dir : outside) {
+    m.x.col(m.n) = dir * c.domain_radius;
+    m.y[m.n] = 1.0;
+    m.noise_var[m.n] = pseudo_var;
+    ++m.n;
+  }
+  if (c.inside_point_at_centroid) {
+    m.x.col(m.n).setZero();
+    m.y[m.n] = -1.0;
+    m.noise_var[m.n] = pseudo_var;
+    ++m.n;
+  }
+
+  // Observations: drop out-of-domain outside points and duplicates.
+  std::vector<TrainingPoint> kept;
+  kept.reserve(m.observations.size());
+  std::size_t out_of_domain = 0, duplicates = 0;
+  const double dup2 = c.duplicate_distance * c.duplicate_distance;
+  for (const auto& p : m.observations) {
+    const Vector3 xn = m.normalise(p.position);
+    if (xn.norm() > c.domain_radius) {
+      ++out_of_domain;
+      continue;
+    }
+    bool duplicate = false;
+    const double target = targetOf(p);
+    for (Eigen::Index j = num_pseudo; j < m.n && !duplicate; ++j)
+      duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
+    if (duplicate) {
+      ++duplicates;
+      continue;
+    }
+    m.x.col(m.n) = xn;
+    m.y[m.n] = target;
+    m.noise_var[m.n] = p.noise_sigma * p.noise_sigma;
+    ++m.n;
+    kept.push_back(p);
+  }
+  if (out_of_domain > 0)
+    report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
+  if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
+  report.num_rejected = out_of_domain + duplicates;
+  m.observations = std::move(kept);
+
+  std::string error;
+  if (!m.factorise(&error)) {
+    m.centroid = backup.centroid;
+    m.scale = backup.scale;
+    m.n = backup.n;
+    m.num_pseudo = backup.num_pseudo;
+    m.x = std::move(backup.x);
+    m.y = std::move(backup.y);
+    m.noise_var = std::move(backup.noise_var);
+    m.chol = std::move(backup.chol);
+    m.alpha = std::move(backup.alpha);
+    m.jitter = backup.jitter;
+    m.fitted = was_fitted;
+    m.observations = old_observations;
+    report.message = error;
+    return report;
+  }
+  if (m.jitter > c.jitter)
+    report.warnings.push_back("covariance needed jitter " + std::to_string(m.jitter) + " to factorise");
+  m.solveAlpha();
+  m.fitted = true;
+  report.ok = true;
+  report.jitter = m.jitter;
+  report.num_added = m.observations.size();
+  report.message = "fitted " + std::to_string(m.n) + " training points (" + std::to_string(num_pseudo) +
+                   " pseudo-points)";
+  return report;
+}
+
+FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
+  if (!isFitted()) return fit(points);
+  FitReport report;
+  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  Impl& m = *impl_;
+  const Config& c = m.config;
+  if (accepted.empty()) {
+    report.ok = true;
+    report.message = "no valid point to add";
+    return report;
+  }
+
+  // A surface point far from the current centroid means the object is larger than the data
+  // seen so far: renormalise so that every point, old and new, stays within the domain.
+  bool needs_renormalise = false;
+  for (const auto& p : accepted)
+    if (p.label == PointLabel::kSurface && m.normalise(p.position).norm() > c.renormalise_radius)
+      needs_renormalise = true;
+  if (needs_renormalise) {
+    const auto previous = m.observations;
+    m.observations.insert(m.observations.end(), accepted.begin(), accepted.end());
+    FitReport refit_report = refit(true);
+    if (!refit_report.ok) m.observations = previous;  // refit() restored the derived state
+    refit_report.num_added = refit_report.ok ? accepted.size() : 0;
+    refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+    if (refit_report.ok) refit_report.message = "renormalised and refitted: " + refit_report.message;
+    return refit_report;
+  }
+
+  // Screen against the domain and duplicates in the current frame.
+  std::vector<TrainingPoint> kept;
+  std::vector<Vector3> kept_x;
+  std::size_t out_of_domain = 0, duplicates = 0;
+  const double dup2 = c.duplicate_distance * c.duplicate_distance;
+  for (const auto& p : accepted) {
+    const Vector3 xn = m.normalise(p.position);
+    if (xn.norm() > c.domain_radius) {
+      ++out_of_domain;
+      continue;
+    }
+    const double target = targetOf(p);
+    bool duplicate = false;
+    for (Eigen::Index j = m.num_pseudo; j < m.n && !duplicate; ++j)
+      duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
+    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
+      duplicate = targetOf(kept[j]) == target && (kept_x[j] - xn).squaredNorm() <= dup2;
+    if (duplicate) {
+      ++duplicates;
+      continue;
+    }
+    kept.push_back(p);
+    kept_x.push_back(xn);
+  }
+  if (out_of_domain > 0)
+    report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
+  if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
+  report.num_rejected += out_of_domain + duplicates;
+  if (kept.empty()) {
+    report.ok = true;
+    report.message = "no new point to add";
+    return report;
+  }
+
+  const Eigen::Index n = m.n;
+  const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
+  m.reserve(n + k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
+    m.y[n + j] = targetOf(kept[static_cast<std::size_t>(j)]);
+    const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
+    m.noise_var[n + j] = s * s;
+  }
+
+  // Block Cholesky extension: [L11 0; L21 L22] with L21^T = L11^-1 K12 and
+  // L22 L22^T = K22 - L21 L21^T. Cost O(n^2 k) for the triangular solve.
+  Eigen::MatrixXd cross(n, k);
+  for (Eigen::Index j = 0; j < k; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.kernel->value((m.x.col(i) - m.x.col(n + j)).norm());
+  m.chol.topLeftCorner(n, n).triangularView<Eigen::Lower>().solveInPlace(cross);
+  Eigen::MatrixXd schur(k, k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = m.kernel->value((m.x.col(n + i) - m.x.col(n + j)).norm());
+    schur(j, j) = m.diagonal(n + j);
+  }
+  schur.triangularView<Eigen::Lower>() -= cross.transpose() * cross;
+  Eigen::LLT<Eigen::MatrixXd> llt(schur.selfadjointView<Eigen::Lower>());
+  auto factored = [&] {
+    return llt.info() == Eigen::Success && m.wellConditioned(Eigen::MatrixXd(llt.matrixL()).diagonal());
+  };
+  double extra = m.jitter;
+  while (!factored() && extra < c.max_jitter) {
+    extra = std::max(extra * 10.0, 1e-12);
+    Eigen::MatrixXd bumped = schur.selfadjointView<Eigen::Lower>();
+    bumped.diagonal().array() += extra - m.jitter;
+    llt.compute(bumped);
+  }
+  if (!factored()) {
+    report.ok = false;
+    report.num_added = 0;
+    report.message = "adding " + std::to_string(k) +
+                     " point(s) makes the covariance singular (a point contradicts existing data); model unchanged";
+    return report;
+  }
+  if (extra > m.jitter)
+    report.warnings.push_back("new points needed extra jitter " + std::to_string(extra));
+  m.chol.block(n, 0, k, n) = cross.transpose();
+  m.chol.block(n, n, k, k) = llt.matrixL();
+  m.n = n + k;
+  m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+  m.solveAlpha();
+  report.ok = true;
+  report.num_added = kept.size();
+  report.jitter = m.jitter;
+  report.message = "added " + std::to_string(k) + " point(s) incrementally";
+  return report;
+}
+
+bool GpisModel::isFitted() const { return impl_->fitted; }
+const GpisModel::Config& GpisModel::config() const { return impl_->config; }
+const std::vector<TrainingPoint>& GpisModel::observations() const { return impl_->observations; }
+std::size_t GpisModel::size() const { return static_cast<std::size_t>(impl_->n); }
+const Vector3& GpisModel::centroid() const { return impl_->centroid; }
+double GpisModel::scale() const { return impl_->scale; }
+Vector3 GpisModel::toNormalised(const Vector3& x_world) const { return impl_->normalise(x_world); }
+Vector3 GpisModel::toWorld(const Vector3& x_normalised) const { return impl_->centroid + impl_->scale * x_normalised; }
+bool GpisModel::inDomain(const Vector3& x_world) const {
+  return impl_->fitted && impl_->normalise(x_world).norm() <= impl_->config.domain_radius;
+}
+double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
+const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
+double GpisModel::noiseScale() const { return impl_->noise_scale; }
+double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
+
+BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
+                                        bool with_variance_gradient) const {
+  const Impl& m = *impl_;
+  if (!m.fitted) throw std::logic_error("GpisModel: query before the model was fitted");
+  const Eigen::Index q = x_world.cols();
+  const Eigen::Index n = m.n;
+  BatchPrediction out;
+  out.mean.resize(q);
+  out.variance.resize(q);
+  out.in_domain.resize(q);
+  if (with_gradient) out.gradient.resize(3, q);
+  if (with_variance_gradient) out.variance_gradient.resize(3, q);
+  if (q == 0) return out;
+
+  Points3 xq = (x_world.colwise() - m.centroid) / m.scale;
+  const auto train = m.x.leftCols(n);
+  Eigen::MatrixXd cross(n, q);  // k(x_i, x*_j)
+  for (Eigen::Index j = 0; j < q; ++j) {
+    out.in_domain[j] = xq.col(j).allFinite() && xq.col(j).norm() <= m.config.domain_radius;
+    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.kernel->value((train.col(i) - xq.col(j)).norm());
+  }
+  out.mean.noalias() = cross.transpose() * m.alpha;
+
+  // v = L^-1 k*, var = k(0) - |v|^2; K^-1 k* = L^-T v is needed only for the variance gradient.
+  Eigen::MatrixXd solved = cross;
+  const auto lower = m.chol.topLeftCorner(n, n).triangularView<Eigen::Lower>();
+  lower.solveInPlace(solved);
+  const double prior = m.kernel->value(0.0);
+  const double unit = m.varianceUnitFactor();
+  out.variance = ((prior - solved.colwise().squaredNorm().array()).max(0.0) * unit).matrix();
+  if (with_variance_gradient) lower.transpose().solveInPlace(solved);
+
+  if (with_gradient || with_variance_gradient) {
+    const double inv_scale = 1.0 / m.scale;
+    for (Eigen::Index j = 0; j < q; ++j) {
+      Vector3 grad_mean = Vector3::Zero();
+      Vector3 grad_var = Vector3::Zero();
+      const Vector3 xj = xq.col(j);
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const Vector3 d = xj - train.col(i);
+        const double r = d.norm();
+        if (r <= 0.0) continue;
+        const Vector3 dk = (m.kernel->derivative(r) / r) * d;
+        if (with_gradient) grad_mean += dk * m.alpha[i];
+        if (with_variance_gradient) grad_var += dk * solved(i, j);
+      }
+      if (with_gradient) out.gradient.col(j) = grad_mean * inv_scale;
+      // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*
+      if (with_variance_gradient) out.variance_gradient.col(j) = -2.0 * unit * inv_scale * grad_var;
+    }
+  }
+  return out;
+}
+
+Prediction GpisModel::predict(const Vector3& x_world) const {
+  const BatchPrediction batch = predictBatch(x_world, true, true);
+  Prediction p;
+  p.mean = batch.mean[0];
+  p.variance = batch.variance[0];
+  p.gradient = batch.gradient.col(0);
+  p.variance_gradient = batch.variance_gradient.col(0);
+  p.in_domain = batch.in_domain[0];
+  return p;
+}
+
+double GpisModel::mean(const Vector3& x_world) const { return predictBatch(x_world, false, false).mean[0]; }
+double GpisModel::variance(const Vector3& x_world) const { return predictBatch(x_world, false, false).variance[0]; }
+
+double GpisModel::logMarginalLikelihood() const {
+  const Impl& m = *impl_;
+  if (!m.fitted) return std::numeric_limits<double>::quiet_NaN();
+  const double data_fit = m.y.head(m.n).dot(m.alpha);
+  const double log_det = 2.0 * m.chol.topLeftCorner(m.n, m.n).diagonal().array().log().sum();
+  return -0.5 * data_fit - 0.5 * log_det - 0.5 * static_cast<double>(m.n) * kLog2Pi;
+}
+
+double GpisModel::logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params, double log_noise_scale,
+                                        Eigen::VectorXd* gradient) const {
+  const Impl& m = *impl_;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  if (!m.fitted) return nan;
+  std::unique_ptr<Kernel> kernel = m.kernel->clone();
+  kernel->setLogParams(kernel_log_params);
+  if (2.0 * m.config.domain_radius > kernel->maxValidDistance()) return nan;
+  const double noise_scale = std::exp(log_noise_scale);
+  const Eigen::Index n = m.n;
+  const int p = kernel->numParams();
+  const auto train = m.x.leftCols(n);
+
+  Eigen::MatrixXd cov(n, n);
+  std::vector<Eigen::MatrixXd> dcov;
+  if (gradient) dcov.assign(static_cast<std::size_t>(p), Eigen::MatrixXd(n, n));
+  std::vector<double> dk(static_cast<std::size_t>(p));
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = j; i < n; ++i) {
+      const double r = (train.col(i) - train.col(j)).norm();
+      cov(i, j) = kernel->value(r);
+      if (gradient) {
+        kernel->paramGradient(r, dk.data());
+        for (int t = 0; t < p; ++t) dcov[static_cast<std::size_t>(t)](i, j) = dk[static_cast<std::size_t>(t)];
+      }
+    }
+    cov(j, j) += noise_scale * m.noise_var[j] + m.jitter;
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(cov.selfadjointView<Eigen::Lower>());
+  if (llt.info() != Eigen::Success) return nan;
+  const Eigen::VectorXd targets = m.y.head(n);
+  const Eigen::VectorXd alpha = llt.solve(targets);
+  const double log_det = 2.0 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum();
+  const double lml = -0.5 * targets.dot(alpha) - 0.5 * log_det - 0.5 * static_cast<double>(n) * kLog2Pi;
+  if (gradient) {
+    // dL/dtheta = 0.5 tr((alpha alpha^T - K^-1) dK/dtheta), with symmetric dK stored lower.
+    Eigen::MatrixXd weight = -llt.solve(Eigen::MatrixXd::Identity(n, n));
+    weight.noalias() += alpha * alpha.transpose();
+    gradient->resize(p + 1);
+    for (int t = 0; t < p; ++t) {
+      const Eigen::MatrixXd& d = dcov[static_cast<std::size_t>(t)];
+      double acc = 0.0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        acc += 0.5 * weight(j, j) * d(j, j);
+        for (Eigen::Index i = j + 1; i < n; ++i) acc += weight(i, j) * d(i, j);
+      }
+      (*gradient)[t] = acc;
+    }
+    double acc = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) acc += 0.5 * weight(i, i) * noise_scale * m.noise_var[i];
+    (*gradient)[p] = acc;
+  }
+  return lml;
+}
+
+FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& kernel_log_params, double noise_scale) {
+  FitReport report;
+  if (!kernel_log_params.allFinite() || kernel_log_params.size() != impl_->kernel->numParams() ||
+      !(noise_scale > 0.0) || !std::isfinite(noise_scale)) {
+    report.message = "invalid hyperparameters (wrong count, NaN or non-positive noise scale)";
+    return report;
+  }
+  std::unique_ptr<Kernel> trial = impl_->kernel->clone();
+  trial->setLogParams(kernel_log_params);
+  if (2.0 * impl_->config.domain_radius > trial->maxValidDistance()) {
+    report.message = "kernel parameters make the kernel invalid over the model domain";
+    return report;
+  }
+  std::unique_ptr<Kernel> previous = std::move(impl_->kernel);
+  const double previous_noise = impl_->noise_scale;
+  impl_->kernel = std::move(trial);
+  impl_->noise_scale = noise_scale;
+  if (!impl_->fitted) {
+    report.ok = true;
+    report.message = "hyperparameters set; model not fitted yet";
+    return report;
+  }
+  report = refit();
+  if (!report.ok) {
+    impl_->kernel = std::move(previous);
+    impl_->noise_scale = previous_noise;
+    refit();
+  }
+  return report;
+}
+
+}  // namespace gpatlas_core

@@ -1,0 +1,152 @@
+#include "gpatlas_core/kernel.h"
+
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+
+namespace gpatlas_core {
+
+double Kernel::maxValidDistance() const { return std::numeric_limits<double>::infinity(); }
+
+Eigen::Vector3d Kernel::gradient(const Eigen::Vector3d& x, const Eigen::Vector3d& y) const {
+  const Eigen::Vector3d d = x - y;
+  const double r = d.norm();
+  if (r <= 0.0) return Eigen::Vector3d::Zero();
+  return derivative(r) / r * d;
+}
+
+// ------------------------------------------------------------------ thin plate
+Eigen::VectorXd ThinPlateKernel::logParams() const {
+  Eigen::VectorXd p(1);
+  p << std::log(radius_);
+  return p;
+}
+
+void ThinPlateKernel::setLogParams(const Eigen::VectorXd& log_params) {
+  if (log_params.size() != 1) throw std::invalid_argument("thin_plate kernel takes 1 parameter (log R)");
+  radius_ = std::exp(log_params[0]);
+}
+
+double ThinPlateKernel::value(double r) const { return 2.0 * r * r * r - 3.0 * radius_ * r * r + radius_ * radius_ * radius_; }
+
+double ThinPlateKernel::derivative(double r) const { return 6.0 * r * (r - radius_); }
+
+void ThinPlateKernel::paramGradient(double r, double* out) const {
+  // dk/dlogR = R * dk/dR = R * (3 R^2 - 3 r^2)
+  out[0] = 3.0 * radius_ * (radius_ * radius_ - r * r);
+}
+
+// ------------------------------------------------------------------ scaled kernels
+Eigen::VectorXd ScaledKernel::logParams() const {
+  Eigen::VectorXd p(2);
+  p << std::log(sigma_), std::log(length_);
+  return p;
+}
+
+void ScaledKernel::setLogParams(const Eigen::VectorXd& log_params) {
+  if (log_params.size() != 2)
+    throw std::invalid_argument(name() + " kernel takes 2 parameters (log sigma, log length)");
+  sigma_ = std::exp(log_params[0]);
+  length_ = std::exp(log_params[1]);
+}
+
+double SquaredExponentialKernel::value(double r) const {
+  return sigma_ * sigma_ * std::exp(-0.5 * r * r / (length_ * length_));
+}
+
+double SquaredExponentialKernel::derivative(double r) const { return -value(r) * r / (length_ * length_); }
+
+void SquaredExponentialKernel::paramGradient(double r, double* out) const {
+  const double k = value(r);
+  out[0] = 2.0 * k;
+  out[1] = k * r * r / (length_ * length_);
+}
+
+namespace {
+constexpr double kSqrt3 = 1.7320508075688772;
+constexpr double kSqrt5 = 2.23606797749979;
+}  // namespace
+
+double Matern32Kernel::value(double r) const {
+  const double a = kSqrt3 * r / length_;
+  return sigma_ * sigma_ * (1.0 + a) * std::exp(-a);
+}
+
+double Matern32Kernel::derivative(double r) const {
+  const double a = kSqrt3 * r / length_;
+  // dk/da = -s^2 a e^-a, da/dr = sqrt(3)/l
+  return -sigma_ * sigma_ * a * std::exp(-a) * kSqrt3 / length_;
+}
+
+void Matern32Kernel::paramGradient(double r, double* out) const {
+  const double a = kSqrt3 * r / length_;
+  out[0] = 2.0 * value(r);
+  out[1] = sigma_ * sigma_ * a * a * std::exp(-a);  // dk/da * da/dlog(l), da/dlog(l) = -a
+}
+
+double Matern52Kernel::value(double r) const {
+  const double a = kSqrt5 * r / length_;
+  return sigma_ * sigma_ * (1.0 + a + a * a / 3.0) * std::exp(-a);
+}
+
+double Matern52Kernel::derivative(double r) const {
+  const double a = kSqrt5 * r / length_;
+  const double dk_da = -sigma_ * sigma_ * a * (1.0 + a) / 3.0 * std::exp(-a);
+  return dk_da * kSqrt5 / length_;
+}
+
+void Matern52Kernel::paramGradient(double r, double* out) const {
+  const double a = kSqrt5 * r / length_;
+  const double dk_da = -sigma_ * sigma_ * a * (1.0 + a) / 3.0 * std::exp(-a);
+  out[0] = 2.0 * value(r);
+  out[1] = -a * dk_da;
+}
+
+// ------------------------------------------------------------------ registry
+namespace {
+using KernelFactory = std::function<std::unique_ptr<Kernel>()>;
+
+std::map<std::string, KernelFactory>& registry() {
+  static std::map<std::string, KernelFactory> factories = {
+      {"thin_plate", [] { return std::make_unique<ThinPlateKernel>(); }},
+      {"squared_exponential", [] { return std::make_unique<SquaredExponentialKernel>(); }},
+      {"matern32", [] { return std::make_unique<Matern32Kernel>(); }},
+      {"matern52", [] { return std::make_unique<Matern52Kernel>(); }},
+  };
+  return factories;
+}
+
+std::mutex& registryMutex() {
+  static std::mutex mutex;
+  return mutex;
+}
+}  // namespace
+
+std::unique_ptr<Kernel> makeKernel(const std::string& name) {
+  std::lock_guard<std::mutex> lock(registryMutex());
+  const auto it = registry().find(name);
+  if (it == registry().end()) {
+    std::ostringstream msg;
+    msg << "unknown kernel '" << name << "'; known kernels:";
+    for (const auto& entry : registry()) msg << " " << entry.first;
+    throw std::invalid_argument(msg.str());
+  }
+  return it->second();
+}
+
+std::vector<std::string> kernelNames() {
+  std::lock_guard<std::mutex> lock(registryMutex());
+  std::vector<std::string> names;
+  for (const auto& entry : registry()) names.push_back(entry.first);
+  return names;
+}
+
+bool registerKernel(const std::string& name, std::function<std::unique_ptr<Kernel>()> factory) {
+  std::lock_guard<std::mutex> lock(registryMutex());
+  return registry().emplace(name, std::move(factory)).second;
+}
+
+}  // namespace gpatlas_core

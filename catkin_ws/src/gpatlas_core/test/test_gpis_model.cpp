@@ -1,0 +1,311 @@
+#include "gpatlas_core/gpis_model.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+using gpatlas_core::FitReport;
+using gpatlas_core::GpisModel;
+using gpatlas_core::PointLabel;
+using gpatlas_core::PointSource;
+using gpatlas_core::TrainingPoint;
+using Eigen::Vector3d;
+
+namespace {
+
+const Vector3d kCentre(0.6, -0.1, 0.12);
+constexpr double kRadius = 0.08;
+constexpr double kSigma = 0.05;
+
+// Uniform directions with z above `min_z` (unit sphere), i.e. a cap seen from above/front.
+std::vector<Vector3d> capDirections(int count, double min_z, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g;
+  std::vector<Vector3d> dirs;
+  while (static_cast<int>(dirs.size()) < count) {
+    Vector3d d(g(rng), g(rng), g(rng));
+    d.normalize();
+    if (d.z() >= min_z) dirs.push_back(d);
+  }
+  return dirs;
+}
+
+std::vector<TrainingPoint> surfacePoints(const std::vector<Vector3d>& dirs, const Vector3d& radii) {
+  std::vector<TrainingPoint> pts;
+  for (const auto& d : dirs) {
+    TrainingPoint p;
+    p.position = kCentre + d.cwiseProduct(radii);
+    p.noise_sigma = kSigma;
+    pts.push_back(p);
+  }
+  return pts;
+}
+
+std::vector<TrainingPoint> sphereCap(int count, double min_z, unsigned seed) {
+  return surfacePoints(capDirections(count, min_z, seed), Vector3d::Constant(kRadius));
+}
+
+double angleDeg(const Vector3d& a, const Vector3d& b) {
+  return std::acos(std::max(-1.0, std::min(1.0, a.normalized().dot(b.normalized())))) * 180.0 / M_PI;
+}
+
+TEST(GpisModel, SphereCapMeanSignsSurfaceAndNormals) {
+  GpisModel model;
+  const FitReport report = model.fit(sphereCap(300, -0.3, 1));
+  ASSERT_TRUE(report.ok) << report.message;
+  EXPECT_TRUE(report.full_refit);
+
+  // Inside / outside signs along seen directions.
+  for (const auto& d : capDirections(50, 0.0, 2)) {
+    EXPECT_LT(model.mean(kCentre + 0.5 * kRadius * d), 0.0);
+    EXPECT_GT(model.mean(kCentre + 1.5 * kRadius * d), 0.0);
+  }
+  // On the true surface near the data (fresh directions inside the cap): |mean| small and the
+  // normal (gradient direction) within 5 degrees of the analytic one.
+  double worst_mean = 0.0, worst_angle = 0.0;
+  for (const auto& d : capDirections(100, 0.1, 3)) {
+    const auto p = model.predict(kCentre + kRadius * d);
+    worst_mean = std::max(worst_mean, std::abs(p.mean));
+    worst_angle = std::max(worst_angle, angleDeg(p.gradient, d));
+  }
+  RecordProperty("worst_abs_mean_on_surface", std::to_string(worst_mean));
+  RecordProperty("worst_normal_angle_deg", std::to_string(worst_angle));
+  EXPECT_LT(worst_mean, 0.05);
+  EXPECT_LT(worst_angle, 5.0);
+
+  // Variance: lower near the data than on the unseen underside.
+  const double seen = model.variance(kCentre + kRadius * Vector3d(0, 0, 1));
+  const double unseen = model.variance(kCentre + kRadius * Vector3d(0, 0, -1));
+  EXPECT_LT(seen, 0.25 * unseen);
+}
+
+TEST(GpisModel, EllipsoidPartialViewSignsAndNormals) {
+  const Vector3d radii(0.10, 0.06, 0.04);
+  GpisModel model;
+  ASSERT_TRUE(model.fit(surfacePoints(capDirections(400, -0.2, 4), radii)).ok);
+  double worst_angle = 0.0;
+  for (const auto& d : capDirections(80, 0.2, 5)) {
+    const Vector3d on = kCentre + d.cwiseProduct(radii);
+    // Analytic ellipsoid normal: gradient of sum (x_i / a_i)^2.
+    const Vector3d normal = (on - kCentre).cwiseQuotient(radii.cwiseProduct(radii));
+    const auto p = model.predict(on);
+    EXPECT_LT(std::abs(p.mean), 0.08);
+    worst_angle = std::max(worst_angle, angleDeg(p.gradient, normal));
+    EXPECT_LT(model.mean(kCentre + 0.5 * d.cwiseProduct(radii)), 0.0);
+    EXPECT_GT(model.mean(kCentre + 1.5 * d.cwiseProduct(radii)), 0.0);
+  }
+  RecordProperty("worst_normal_angle_deg", std::to_string(worst_angle));
+  EXPECT_LT(worst_angle, 5.0);
+}
+
+TEST(GpisModel, GradientsMatchFiniteDifferences) {
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphereCap(150, -0.3, 6)).ok);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.2, 1.2);
+  for (int t = 0; t < 20; ++t) {
+    const Vector3d x = kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng));
+    const auto p = model.predict(x);
+    const double h = 1e-6;
+    for (int d = 0; d < 3; ++d) {
+      Vector3d e = Vector3d::Zero();
+      e[d] = h;
+      const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / (2 * h);
+      const double fd_var = (model.variance(x + e) - model.variance(x - e)) / (2 * h);
+      EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean)));
+      EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var)));
+    }
+  }
+}
+
+TEST(GpisModel, GradientsOfOtherKernelsMatchFiniteDifferences) {
+  for (const std::string name : {"squared_exponential", "matern32", "matern52"}) {
+    GpisModel::Config config;
+    config.kernel = name;
+    GpisModel model(config);
+    ASSERT_TRUE(model.fit(sphereCap(120, -0.3, 8)).ok) << name;
+    const Vector3d x = kCentre + Vector3d(0.03, -0.05, 0.07);
+    const auto p = model.predict(x);
+    for (int d = 0; d < 3; ++d) {
+      Vector3d e = Vector3d::Zero();
+      e[d] = 1e-6;
+      const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / 2e-6;
+      const double fd_var = (model.variance(x + e) - model.variance(x - e)) / 2e-6;
+      EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean))) << name;
+      EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var))) << name;
+    }
+  }
+}
+
+TEST(GpisModel, BatchEqualsSinglePointQueries) {
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphereCap(200, -0.3, 9)).ok);
+  std::mt19937 rng(10);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  gpatlas_core::Points3 queries(3, 40);
+  for (int j = 0; j < queries.cols(); ++j) queries.col(j) = kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng));
+  const auto batch = model.predictBatch(queries);
+  for (int j = 0; j < queries.cols(); ++j) {
+    const auto p = model.predict(queries.col(j));
+    EXPECT_NEAR(batch.mean[j], p.mean, 1e-12);
+    EXPECT_NEAR(batch.variance[j], p.variance, 1e-10);
+    EXPECT_LT((batch.gradient.col(j) - p.gradient).norm(), 1e-9);
+    EXPECT_LT((batch.variance_gradient.col(j) - p.variance_gradient).norm(), 1e-8);
+  }
+}
+
+TEST(GpisModel, IncrementalUpdateEqualsFullRefit) {
+  const auto initial = sphereCap(200, 0.0, 11);
+  auto extra = surfacePoints(capDirections(25, -1.0, 12), Vector3d::Constant(kRadius));
+  // Touch contacts anywhere on the sphere (within the renormalisation radius) and free space.
+  for (auto& p : extra) {
+    p.source = PointSource::kTouch;
+    p.noise_sigma = 0.01;
+  }
+  TrainingPoint free_point;
+  free_point.position = kCentre + Vector3d(0, 0, 1.3 * kRadius);
+  free_point.label = PointLabel::kOutside;
+  free_point.noise_sigma = 0.1;
+  free_point.source = PointSource::kFreeSpace;
+  extra.push_back(free_point);
+
+  GpisModel incremental;
+  ASSERT_TRUE(incremental.fit(initial).ok);
+  const std::vector<TrainingPoint> first(extra.begin(), extra.begin() + 10);
+  const std::vector<TrainingPoint> second(extra.begin() + 10, extra.end());
+  FitReport r1 = incremental.addPoints(first);
+  ASSERT_TRUE(r1.ok) << r1.message;
+  ASSERT_FALSE(r1.full_refit) << "the first batch should not need renormalisation";
+  ASSERT_TRUE(incremental.addPoints(second).ok);
+
+  // A full refit (new K, new Cholesky) of the same data in the same frame.
+  GpisModel full(incremental);
+  const FitReport refit = full.refit();
+  ASSERT_TRUE(refit.ok && refit.full_refit && !refit.renormalised) << refit.message;
+  ASSERT_EQ(full.centroid(), incremental.centroid());
+  std::mt19937 rng(13);
+  std::uniform_real_distribution<double> u(-1.2, 1.2);
+  for (int t = 0; t < 30; ++t) {
+    const Vector3d x = kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng));
+    const auto a = incremental.predict(x);
+    const auto b = full.predict(x);
+    EXPECT_NEAR(a.mean, b.mean, 1e-8 * std::max(1.0, std::abs(b.mean)));
+    EXPECT_NEAR(a.variance, b.variance, 1e-8 * std::max(1.0, b.variance));
+    EXPECT_LT((a.gradient - b.gradient).norm(), 1e-8 * std::max(1.0, b.gradient.norm()));
+  }
+  EXPECT_NEAR(incremental.logMarginalLikelihood(), full.logMarginalLikelihood(),
+              1e-8 * std::abs(full.logMarginalLikelihood()));
+}
+
+TEST(GpisModel, FarSurfacePointRenormalisesConsistently) {
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphereCap(150, 0.3, 14)).ok);
+  const double scale_before = model.scale();
+  // A contact on the unseen far side: beyond the renormalisation radius of the partial view.
+  TrainingPoint far;
+  far.position = kCentre + Vector3d(0, 0, -kRadius);
+  far.noise_sigma = 0.01;
+  far.source = PointSource::kTouch;
+  ASSERT_GT(model.toNormalised(far.position).norm(), model.config().renormalise_radius);
+  const FitReport report = model.addPoints({far});
+  ASSERT_TRUE(report.ok) << report.message;
+  EXPECT_TRUE(report.renormalised);
+  EXPECT_GT(model.scale(), scale_before);
+  // The new point is in the data and the model is consistent with a fresh fit of the same data.
+  GpisModel fresh;
+  ASSERT_TRUE(fresh.fit(model.observations()).ok);
+  EXPECT_NEAR(model.mean(far.position), fresh.mean(far.position), 1e-9);
+  EXPECT_LT(std::abs(model.mean(far.position)), 0.05);
+}
+
+TEST(GpisModel, RejectsBadInputWithClearMessages) {
+  GpisModel model;
+  EXPECT_FALSE(model.isFitted());
+  EXPECT_THROW(model.predict(kCentre), std::logic_error);
+
+  // Too few points.
+  FitReport r = model.fit(sphereCap(3, -1.0, 15));
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("at least 4"), std::string::npos) << r.message;
+  EXPECT_FALSE(model.isFitted());
+
+  // NaN coordinates are dropped with a warning; the rest is fitted.
+  auto pts = sphereCap(50, -0.3, 16);
+  pts[3].position.x() = std::numeric_limits<double>::quiet_NaN();
+  pts[7].position.z() = std::numeric_limits<double>::infinity();
+  r = model.fit(pts);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_EQ(r.num_rejected, 2u);
+  ASSERT_FALSE(r.warnings.empty());
+  EXPECT_NE(r.warnings.front().find("NaN"), std::string::npos);
+  EXPECT_EQ(model.observations().size(), 48u);
+
+  // Exact duplicates are dropped.
+  auto dup = sphereCap(40, -0.3, 17);
+  dup.push_back(dup[0]);
+  dup.push_back(dup[1]);
+  r = model.fit(dup);
+  ASSERT_TRUE(r.ok);
+  EXPECT_EQ(model.observations().size(), 40u);
+
+  // A failed fit keeps the previous model.
+  const double before = model.mean(kCentre);
+  r = model.fit({});
+  EXPECT_FALSE(r.ok);
+  EXPECT_TRUE(model.isFitted());
+  EXPECT_DOUBLE_EQ(model.mean(kCentre), before);
+}
+
+TEST(GpisModel, ContradictoryPointsEscalateJitterThenFailClearly) {
+  // The same position labelled on-surface and outside with zero noise: K is singular.
+  auto pts = sphereCap(40, -0.3, 18);
+  for (auto& p : pts) p.noise_sigma = 0.0;
+  TrainingPoint contradiction = pts[5];
+  contradiction.label = PointLabel::kOutside;
+  pts.push_back(contradiction);
+
+  GpisModel::Config no_initial_jitter;  // the ladder then climbs from 1e-12 to max_jitter
+  no_initial_jitter.jitter = 0.0;
+  GpisModel tolerant(no_initial_jitter);
+  FitReport r = tolerant.fit(pts);
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_GT(r.jitter, 0.0);
+  ASSERT_FALSE(r.warnings.empty());
+
+  GpisModel::Config strict;
+  strict.jitter = 0.0;
+  strict.max_jitter = 0.0;
+  GpisModel model(strict);
+  r = model.fit(pts);
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("not positive definite"), std::string::npos) << r.message;
+  EXPECT_FALSE(model.isFitted());
+}
+
+TEST(GpisModel, InvalidConfigurationIsRefused) {
+  GpisModel::Config config;
+  config.domain_radius = 1.5;  // diameter 3 > thin-plate R = 2
+  config.renormalise_radius = 1.2;
+  EXPECT_THROW(GpisModel{config}, std::invalid_argument);
+  GpisModel::Config unknown;
+  unknown.kernel = "nope";
+  EXPECT_THROW(GpisModel{unknown}, std::invalid_argument);
+}
+
+TEST(GpisModel, DomainAndUnits) {
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphereCap(100, -0.3, 19)).ok);
+  EXPECT_TRUE(model.inDomain(kCentre));
+  EXPECT_FALSE(model.inDomain(kCentre + Vector3d(10, 0, 0)));
+  const Vector3d x = kCentre + Vector3d(0.01, 0.02, 0.03);
+  EXPECT_LT((model.toWorld(model.toNormalised(x)) - x).norm(), 1e-12);
+  // Reported variance equals the raw variance for the default kernel (k(0) = 8).
+  EXPECT_DOUBLE_EQ(model.varianceUnitFactor(), 1.0);
+  // Far from any data the posterior approaches the prior (reported units: 8).
+  const auto batch = model.predictBatch(gpatlas_core::Points3(kCentre + Vector3d(0, 0, -0.5 * model.domainRadiusWorld())), false, false);
+  EXPECT_LE(batch.variance[0], 8.0 + 1e-9);
+  EXPECT_TRUE(batch.in_domain[0]);
+}
+
+}  // namespace

@@ -1,0 +1,111 @@
+#include "gpatlas_core/kernel.h"
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
+#include <random>
+
+using gpatlas_core::Kernel;
+using gpatlas_core::makeKernel;
+
+namespace {
+
+std::vector<std::unique_ptr<Kernel>> allKernels() {
+  std::vector<std::unique_ptr<Kernel>> kernels;
+  for (const auto& name : gpatlas_core::kernelNames()) kernels.push_back(makeKernel(name));
+  return kernels;
+}
+
+TEST(Kernel, ThinPlateMatchesPaperFormula) {
+  gpatlas_core::ThinPlateKernel k(2.0);
+  for (double r : {0.0, 0.3, 1.0, 1.7, 2.0}) EXPECT_NEAR(k.value(r), 2 * r * r * r - 6 * r * r + 8, 1e-12);
+  EXPECT_NEAR(k.value(2.0), 0.0, 1e-12);
+  EXPECT_NEAR(k.priorVariance(), 8.0, 1e-12);
+  EXPECT_DOUBLE_EQ(k.maxValidDistance(), 2.0);
+}
+
+TEST(Kernel, RadialDerivativeMatchesFiniteDifferences) {
+  for (const auto& k : allKernels()) {
+    for (double r : {0.05, 0.4, 0.9, 1.6}) {
+      const double h = 1e-6;
+      const double fd = (k->value(r + h) - k->value(r - h)) / (2 * h);
+      EXPECT_NEAR(k->derivative(r), fd, 1e-6 * std::max(1.0, std::abs(fd))) << k->name() << " r=" << r;
+    }
+    EXPECT_NEAR(k->derivative(0.0), 0.0, 1e-12) << k->name();
+  }
+}
+
+TEST(Kernel, SpatialGradientMatchesFiniteDifferences) {
+  const Eigen::Vector3d y(0.1, -0.2, 0.3);
+  const Eigen::Vector3d x(0.5, 0.1, -0.2);
+  for (const auto& k : allKernels()) {
+    const Eigen::Vector3d g = k->gradient(x, y);
+    for (int d = 0; d < 3; ++d) {
+      Eigen::Vector3d e = Eigen::Vector3d::Zero();
+      e[d] = 1e-6;
+      const double fd = (k->value((x + e - y).norm()) - k->value((x - e - y).norm())) / 2e-6;
+      EXPECT_NEAR(g[d], fd, 1e-6) << k->name() << " dim " << d;
+    }
+  }
+}
+
+TEST(Kernel, ParameterGradientMatchesFiniteDifferences) {
+  for (const auto& k : allKernels()) {
+    const Eigen::VectorXd base = k->logParams();
+    for (double r : {0.0, 0.3, 1.2}) {
+      std::vector<double> analytic(static_cast<std::size_t>(k->numParams()));
+      k->paramGradient(r, analytic.data());
+      for (int p = 0; p < k->numParams(); ++p) {
+        auto probe = k->clone();
+        Eigen::VectorXd plus = base, minus = base;
+        plus[p] += 1e-6;
+        minus[p] -= 1e-6;
+        probe->setLogParams(plus);
+        const double up = probe->value(r);
+        probe->setLogParams(minus);
+        const double down = probe->value(r);
+        const double fd = (up - down) / 2e-6;
+        EXPECT_NEAR(analytic[static_cast<std::size_t>(p)], fd, 1e-5 * std::max(1.0, std::abs(fd)))
+            << k->name() << " param " << p << " r=" << r;
+      }
+    }
+  }
+}
+
+TEST(Kernel, GramMatrixIsPositiveDefiniteWithinValidRange) {
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  std::vector<Eigen::Vector3d> pts;
+  while (pts.size() < 60) {
+    Eigen::Vector3d p(u(rng), u(rng), u(rng));
+    if (p.norm() <= 1.0) pts.push_back(p);  // pairwise distances <= 2 = R of the default thin plate
+  }
+  for (const auto& k : allKernels()) {
+    Eigen::MatrixXd gram(pts.size(), pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      for (std::size_t j = 0; j < pts.size(); ++j) gram(i, j) = k->value((pts[i] - pts[j]).norm());
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(gram);
+    EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * eig.eigenvalues().maxCoeff()) << k->name();
+  }
+}
+
+TEST(Kernel, UnknownNameListsKnownKernels) {
+  try {
+    makeKernel("no_such_kernel");
+    FAIL() << "expected an exception";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("thin_plate"), std::string::npos);
+  }
+}
+
+TEST(Kernel, RegistryAcceptsUserKernels) {
+  EXPECT_TRUE(gpatlas_core::registerKernel("test_wide_se", [] {
+    return std::make_unique<gpatlas_core::SquaredExponentialKernel>(1.0, 2.0);
+  }));
+  EXPECT_FALSE(gpatlas_core::registerKernel("thin_plate", [] { return std::make_unique<gpatlas_core::ThinPlateKernel>(); }));
+  EXPECT_NEAR(makeKernel("test_wide_se")->value(2.0), std::exp(-0.5), 1e-12);
+}
+
+}  // namespace

@@ -1,0 +1,27 @@
+#!/usr/bin/env bash
+# Runs every test of the workspace (gtest, rostest), then catkin_lint, and prints one closing
+# line "N passed, N failed"; exits non-zero on any failure.
+set -uo pipefail
+export PATH=/usr/bin:$PATH
+JOBS=${1:-2}
+root=$(cd "$(dirname "$0")/.." && pwd)
+ws="$root/catkin_ws"
+results="$ws/build/test_results"
+
+rm -rf "$results"
+# shellcheck disable=SC1091
+source "$ws/devel/setup.bash"
+(cd "$ws" && catkin_make run_tests -j"$JOBS" -DPYTHON_EXECUTABLE=/usr/bin/python3) 2>&1 | tee /tmp/gpatlas_run_tests.log \
+  | grep -E "^\[ *(RUN|OK|FAILED|PASSED|SKIPPED)|^\[==========\]|Error|error:|FAILURE|ERROR" || true
+build_status=${PIPESTATUS[0]}
+
+lint_failed=0
+if catkin_lint -W1 --strict "$ws/src" >/tmp/gpatlas_catkin_lint.log 2>&1; then
+  echo "[lint] catkin_lint clean"
+else
+  echo "[lint] catkin_lint reported problems:"
+  cat /tmp/gpatlas_catkin_lint.log
+  lint_failed=1
+fi
+
+/usr/bin/python3 "$root/scripts/summarize_test_results.py" "$results" "$build_status" "$lint_failed"
