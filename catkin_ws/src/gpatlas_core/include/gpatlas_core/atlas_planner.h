@@ -1,0 +1,73 @@
+#pragma once
+
+#include "gpatlas_core/atlas.h"
+#include "gpatlas_core/chart.h"
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_projection.h"
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+enum class PlanStatus : std::uint8_t {
+  kTouch = 0,       // a touch (path) was found
+  kConverged = 1,   // the predicted surface was covered without finding variance above V_max
+  kCapReached = 2,  // a chart or time budget ran out first: not a proof of convergence
+  kError = 3        // bad input or unusable model; see the message
+};
+const char* toString(PlanStatus status);
+
+struct AtlasPlanResult {
+  PlanStatus status{PlanStatus::kError};
+  std::string message;
+  Atlas atlas;                     // every chart grown, for display
+  std::vector<int> path;           // chart indices root -> new chart (kTouch only)
+  double max_chart_variance{0.0};  // over all charts of the atlas
+  int expansions{0};               // EXPANDCHART calls
+  int failed_projections{0};       // candidates dropped because eq. 13 had no solution
+  double elapsed_s{0.0};
+};
+
+// GPAtlasRRT, paper Algorithm 1: grows an atlas over the GP's zero level set toward high
+// variance and returns the tree path to the first chart whose centre variance exceeds V_max.
+class AtlasPlanner {
+ public:
+  struct Config {
+    ChartConfig chart;
+    ProjectionConfig projection;
+    // SELECTCHART: with this probability continue from the chart created by the previous
+    // expansion (depth-first, toward variance), otherwise pick an expandable chart uniformly
+    // (breadth). If the continuation chart has no candidates left, the uniform pick is used.
+    double depth_first_probability{0.4};
+    int max_charts{3000};
+    double max_time_s{10.0};
+    // A given start point must project onto the surface within this distance (metres).
+    double max_start_distance_m{0.03};
+    // Random training points tried as the root before giving up.
+    int max_start_attempts{25};
+    std::uint64_t seed{1};
+  };
+  // Called after each chart is added (for progress displays); may be empty.
+  using Progress = std::function<void(const Atlas& atlas)>;
+
+  AtlasPlanner() = default;
+  explicit AtlasPlanner(Config config) : config_(std::move(config)) {}
+  const Config& config() const { return config_; }
+
+  // `start`: a point near the surface (e.g. the probe's position); without it the root is a
+  // random on-surface training point of the model (SELECTSURFACEPOINT).
+  AtlasPlanResult plan(const GpisModel& model, double v_max,
+                       const std::optional<Vector3>& start = std::nullopt,
+                       const Progress& progress = {}) const;
+
+ private:
+  Config config_;
+};
+
+std::string validate(const AtlasPlanner::Config& config);
+
+}  // namespace gpatlas_core

@@ -1,0 +1,68 @@
+#pragma once
+
+#include "gpatlas_core/atlas_planner.h"
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_sampler.h"
+#include "gpatlas_core/types.h"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+struct PlanRequest {
+  double v_max{0.1};  // reported (paper-equivalent) variance units
+  // Where the probe is, if known: the atlas grows from there instead of a random surface point.
+  std::optional<Vector3> start;
+  // Mixed with the strategy's own seed so that successive plans of one exploration differ
+  // while the whole run stays reproducible.
+  std::uint64_t seed{0};
+};
+
+struct PlanResult {
+  PlanStatus status{PlanStatus::kError};
+  std::string message;
+  Touch touch;  // filled for kTouch
+  // The strategy's estimate of the largest variance left on the predicted surface: the
+  // largest chart variance for the atlas strategies, the largest sampled one for the others.
+  double max_surface_variance{0.0};
+  std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
+  double elapsed_s{0.0};
+};
+
+// Chooses the next touch on a GPIS model (the step "plan" of Algorithm 2).
+class ExplorationStrategy {
+ public:
+  virtual ~ExplorationStrategy() = default;
+  virtual std::string name() const = 0;
+  virtual PlanResult plan(const GpisModel& model, const PlanRequest& request) const = 0;
+};
+
+// Everything a built-in strategy may need; each uses the parts that concern it.
+struct StrategyConfig {
+  AtlasPlanner::Config atlas;       // atlas_poke, atlas_slide
+  SurfaceSampler::Config sampler;   // random, max_variance
+  std::uint64_t seed{1};
+};
+
+using StrategyFactory = std::function<std::unique_ptr<ExplorationStrategy>(const StrategyConfig&)>;
+
+// Creates a strategy by name: "atlas_poke", "atlas_slide", "random", "max_variance", or one
+// added with registerStrategy. Throws std::invalid_argument listing the known names.
+std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name,
+                                                  const StrategyConfig& config = StrategyConfig());
+// Returns false (and changes nothing) if the name is taken or the factory is empty.
+bool registerStrategy(const std::string& name, StrategyFactory factory);
+std::vector<std::string> strategyNames();
+
+// Shared argument checks: an error PlanResult for an unusable model or V_max, else nullopt.
+std::optional<PlanResult> checkPlanInput(const GpisModel& model, const PlanRequest& request);
+
+// Mixes two seeds into one (SplitMix64 finaliser) so that nearby seeds give unrelated streams.
+std::uint64_t mixSeeds(std::uint64_t a, std::uint64_t b);
+
+}  // namespace gpatlas_core

@@ -1,0 +1,76 @@
+#pragma once
+
+#include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/hyperparameter_tuner.h"
+#include "gpatlas_core/prober.h"
+#include "gpatlas_core/types.h"
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// One iteration of Algorithm 2.
+struct ExplorationRecord {
+  int index{0};                  // 0-based action number
+  PlanStatus plan_status{PlanStatus::kError};
+  bool probe_success{false};
+  std::string probe_reason;      // the prober's reason when the touch failed
+  int contacts_added{0};         // surface points accepted by the model
+  int free_points_added{0};      // outside points accepted by the model
+  double max_surface_variance{0.0};  // the strategy's estimate before this action
+  double plan_ms{0.0};
+  double update_ms{0.0};         // model update (and re-tuning, when it happened)
+  bool retuned{false};
+  Touch touch;
+};
+
+struct ExplorationResult {
+  // "converged", "max_actions", "consecutive_failures", "planner_cap_reached",
+  // "planner_error: ...", "update_failed: ...", "invalid_config: ...".
+  std::string stop_reason;
+  bool converged{false};
+  int actions{0};  // touches executed (probed), failed ones included
+  std::vector<ExplorationRecord> records;
+  // The strategy's estimate on the final model (from the plan that ended the run).
+  double final_max_surface_variance{0.0};
+};
+
+// Tactile exploration, paper Algorithm 2: plan a touch on the current model, probe it, add the
+// contacts as surface points and the free-space observations as outside points, update the
+// model incrementally, and repeat until the strategy reports convergence.
+class Explorer {
+ public:
+  struct Config {
+    double v_max{0.1};
+    int max_actions{100};
+    // The paper's extra stop on the real robot: this many failed touches in a row.
+    int max_consecutive_failures{5};
+    // Noise standard deviations of the new observations, in the model's units of f.
+    double contact_noise_sigma{0.02};
+    double free_space_noise_sigma{0.05};
+    // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
+    int retune_every{0};
+    HyperparameterTuner::Config tuner;
+    std::uint64_t seed{1};
+  };
+  // Called after every action with its record; may be empty.
+  using Progress = std::function<void(const ExplorationRecord& record, const GpisModel& model)>;
+
+  Explorer() = default;
+  explicit Explorer(Config config) : config_(std::move(config)) {}
+  const Config& config() const { return config_; }
+
+  // `model` must be fitted (the initial view); it is updated in place.
+  ExplorationResult run(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+                        const Progress& progress = {}) const;
+
+ private:
+  Config config_;
+};
+
+}  // namespace gpatlas_core

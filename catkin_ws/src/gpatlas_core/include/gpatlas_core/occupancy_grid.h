@@ -1,0 +1,59 @@
+#pragma once
+
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/types.h"
+
+#include <Eigen/Core>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// A regular grid of P(occupied) for the collision map used while approaching a touch.
+// Node (i, j, k) sits at origin + resolution * (i, j, k); i runs fastest in `probabilities`.
+struct OccupancyGrid {
+  bool ok{false};
+  std::string message;
+  Vector3 origin{Vector3::Zero()};
+  double resolution{0.0};
+  Eigen::Vector3i size{Eigen::Vector3i::Zero()};
+  std::vector<float> probabilities;
+
+  std::size_t index(int i, int j, int k) const {
+    return static_cast<std::size_t>(i) + static_cast<std::size_t>(size.x()) *
+           (static_cast<std::size_t>(j) + static_cast<std::size_t>(size.y()) * static_cast<std::size_t>(k));
+  }
+  Vector3 position(int i, int j, int k) const { return origin + resolution * Vector3(i, j, k); }
+};
+
+// Builds the grid from the GP: P(occupied) = Phi(-mean / sqrt(variance)), the probability
+// that f < 0 (inside) under the posterior, with the variance in the GP's own (raw) units.
+// Nodes outside the model's domain get 0: there the model is pinned to +1 by its outside
+// pseudo-points, i.e. it regards them as free.
+class OccupancyGridBuilder {
+ public:
+  struct Config {
+    double resolution_m{0.01};
+    // Axis-aligned bounds; without them the cube enclosing the model's domain ball.
+    std::optional<Vector3> min_corner;
+    std::optional<Vector3> max_corner;
+    // Refuses grids with more nodes than this instead of running for minutes.
+    std::size_t max_nodes{2'000'000};
+    // GP queries per batch: bounds the n x batch cross-covariance matrix in memory.
+    int batch_size{2048};
+  };
+
+  OccupancyGridBuilder() = default;
+  explicit OccupancyGridBuilder(Config config) : config_(std::move(config)) {}
+  OccupancyGrid build(const GpisModel& model) const;
+
+ private:
+  Config config_;
+};
+
+// Standard normal cumulative distribution.
+double standardNormalCdf(double x);
+
+}  // namespace gpatlas_core

@@ -1,0 +1,175 @@
+#include "gpatlas_core/atlas_planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <sstream>
+
+namespace gpatlas_core {
+
+const char* toString(PlanStatus status) {
+  switch (status) {
+    case PlanStatus::kTouch: return "touch";
+    case PlanStatus::kConverged: return "converged";
+    case PlanStatus::kCapReached: return "cap_reached";
+    case PlanStatus::kError: return "error";
+  }
+  return "unknown";
+}
+
+std::string validate(const AtlasPlanner::Config& config) {
+  std::ostringstream problem;
+  problem << validate(config.chart);
+  if (!(config.depth_first_probability >= 0.0 && config.depth_first_probability <= 1.0))
+    problem << "depth_first_probability must be in [0, 1]; ";
+  if (config.max_charts < 1) problem << "max_charts must be at least 1; ";
+  if (!(config.max_time_s > 0.0)) problem << "max_time_s must be positive; ";
+  if (!(config.max_start_distance_m > 0.0)) problem << "max_start_distance_m must be positive; ";
+  if (config.max_start_attempts < 1) problem << "max_start_attempts must be at least 1; ";
+  if (!(config.projection.f_tolerance > 0.0) || config.projection.max_iterations < 1 ||
+      !(config.projection.max_step_fraction > 0.0))
+    problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
+  return problem.str();
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+SurfacePoint projectFreePoint(const GpisModel& model, const Vector3& point, const ProjectionConfig& config) {
+  Points3 starts(3, 1);
+  starts.col(0) = point;
+  return projectAlongGradient(model, starts, config).front();
+}
+
+// SELECTSURFACEPOINT: the given start projected onto the surface, else a random surface
+// observation (they lie on the surface up to noise, so the projection is short).
+SurfacePoint selectSurfacePoint(const GpisModel& model, const std::optional<Vector3>& start,
+                                const AtlasPlanner::Config& config, std::mt19937_64& rng,
+                                std::string* error) {
+  if (start) {
+    if (!start->allFinite()) {
+      *error = "start point is not finite";
+      return {};
+    }
+    if (!model.inDomain(*start)) {
+      *error = "start point is outside the model's domain";
+      return {};
+    }
+    SurfacePoint root = projectFreePoint(model, *start, config.projection);
+    if (!root.ok) {
+      *error = std::string("start point could not be projected onto the surface: ") + toString(root.failure);
+      return {};
+    }
+    const double distance = (root.position - *start).norm();
+    if (distance > config.max_start_distance_m) {
+      std::ostringstream message;
+      message << "start point is " << distance << " m from the predicted surface (limit "
+              << config.max_start_distance_m << " m)";
+      *error = message.str();
+      return {};
+    }
+    return root;
+  }
+  std::vector<Vector3> surface_points;
+  for (const TrainingPoint& point : model.observations())
+    if (point.label == PointLabel::kSurface && point.position.allFinite()) surface_points.push_back(point.position);
+  if (surface_points.empty()) {
+    *error = "the model has no surface observations to start from";
+    return {};
+  }
+  std::uniform_int_distribution<std::size_t> pick(0, surface_points.size() - 1);
+  for (int attempt = 0; attempt < config.max_start_attempts; ++attempt) {
+    SurfacePoint root = projectFreePoint(model, surface_points[pick(rng)], config.projection);
+    if (root.ok) return root;
+  }
+  *error = "no surface observation could be projected onto the predicted surface";
+  return {};
+}
+
+}  // namespace
+
+AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const std::optional<Vector3>& start,
+                                   const Progress& progress) const {
+  const Clock::time_point started = Clock::now();
+  AtlasPlanResult result;
+  auto finish = [&](PlanStatus status, std::string message) {
+    result.status = status;
+    result.message = std::move(message);
+    result.elapsed_s = secondsSince(started);
+    for (const Chart& chart : result.atlas.charts())
+      result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
+    return result;
+  };
+
+  if (!model.isFitted()) return finish(PlanStatus::kError, "no model: the GP is not fitted");
+  if (!(v_max > 0.0) || !std::isfinite(v_max))
+    return finish(PlanStatus::kError, "V_max must be a positive finite number");
+  if (const std::string problem = validate(config_); !problem.empty())
+    return finish(PlanStatus::kError, "invalid planner config: " + problem);
+
+  std::mt19937_64 rng(config_.seed);
+  std::string error;
+  const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
+  if (!root_point.ok) return finish(PlanStatus::kError, error);
+  ChartCreation root = createChart(model, root_point, -1, config_.chart, rng);
+  if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
+  Atlas& atlas = result.atlas;
+  int continuation = atlas.addChart(std::move(root.chart));
+  if (progress) progress(atlas);
+
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  while (atlas.isExpandable()) {
+    if (static_cast<int>(atlas.size()) >= config_.max_charts)
+      return finish(PlanStatus::kCapReached, "chart cap reached without finding variance above V_max");
+    if (secondsSince(started) > config_.max_time_s)
+      return finish(PlanStatus::kCapReached, "time cap reached without finding variance above V_max");
+
+    // SELECTCHART.
+    int selected = continuation;
+    const bool continue_depth_first = unit(rng) < config_.depth_first_probability;
+    if (!continue_depth_first || !atlas.chart(selected).expandable()) {
+      const std::vector<int> expandable = atlas.expandableCharts();
+      selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng)];
+    }
+
+    // EXPANDCHART toward the highest-variance candidate (eq. 16). The candidate is consumed
+    // whatever happens next, which bounds the loop by the total number of candidates.
+    const Chart& parent = atlas.chart(selected);
+    const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
+                                       [](const ChartCandidate& a, const ChartCandidate& b) {
+                                         return a.variance < b.variance;
+                                       });
+    const std::size_t best_index = static_cast<std::size_t>(best - parent.candidates.begin());
+    Points3 start_point(3, 1), direction(3, 1);
+    start_point.col(0) = best->ambient;
+    direction.col(0) = parent.normal;
+    atlas.removeCandidate(selected, best_index);
+    ++result.expansions;
+    const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
+    if (!projected.ok) {
+      ++result.failed_projections;
+      continue;
+    }
+    ChartCreation created = createChart(model, projected, selected, config_.chart, rng);
+    if (!created.ok) {
+      ++result.failed_projections;
+      continue;
+    }
+    const double new_variance = created.chart.variance;
+    continuation = atlas.addChart(std::move(created.chart));
+    if (progress) progress(atlas);
+    if (new_variance > v_max) {
+      result.path = atlas.pathTo(continuation);
+      return finish(PlanStatus::kTouch, "found a chart with variance above V_max");
+    }
+  }
+  return finish(PlanStatus::kConverged, "no expandable chart left: the predicted surface is below V_max");
+}
+
+}  // namespace gpatlas_core

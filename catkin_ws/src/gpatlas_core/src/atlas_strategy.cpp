@@ -1,0 +1,39 @@
+#include "gpatlas_core/atlas_strategy.h"
+
+namespace gpatlas_core {
+
+AtlasStrategy::AtlasStrategy(Mode mode, AtlasPlanner::Config config, std::uint64_t seed)
+    : mode_(mode), config_(std::move(config)), seed_(seed) {}
+
+std::string AtlasStrategy::name() const { return mode_ == Mode::kPoke ? "atlas_poke" : "atlas_slide"; }
+
+PlanResult AtlasStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
+  if (auto error = checkPlanInput(model, request)) return *error;
+  AtlasPlanner::Config config = config_;
+  config.seed = mixSeeds(seed_, request.seed);
+  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start);
+
+  PlanResult result;
+  result.status = planned.status;
+  result.message = planned.message;
+  result.max_surface_variance = planned.max_chart_variance;
+  result.elapsed_s = planned.elapsed_s;
+  if (planned.status == PlanStatus::kTouch) {
+    Touch& touch = result.touch;
+    touch.strategy = name();
+    touch.kind = mode_ == Mode::kPoke ? Touch::Kind::kPoke : Touch::Kind::kSlide;
+    // Poke: only the uncertain end of the path. Slide: the whole path, root first, so the
+    // probe starts where the model is certain and slides toward the uncertainty.
+    const std::size_t first = mode_ == Mode::kPoke ? planned.path.size() - 1 : 0;
+    for (std::size_t k = first; k < planned.path.size(); ++k) {
+      const Chart& chart = planned.atlas.chart(planned.path[k]);
+      touch.points.push_back(chart.centre);
+      touch.normals.push_back(chart.normal);
+      touch.variances.push_back(chart.variance);
+    }
+  }
+  result.atlas = std::move(planned);
+  return result;
+}
+
+}  // namespace gpatlas_core

@@ -1,0 +1,139 @@
+#include "gpatlas_core/explorer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+namespace gpatlas_core {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double millisecondsSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+std::string validate(const Explorer::Config& config) {
+  std::ostringstream problem;
+  if (!(config.v_max > 0.0) || !std::isfinite(config.v_max)) problem << "v_max must be positive and finite; ";
+  if (config.max_actions < 0) problem << "max_actions must be >= 0; ";
+  if (config.max_consecutive_failures < 1) problem << "max_consecutive_failures must be >= 1; ";
+  if (!(config.contact_noise_sigma >= 0.0) || !(config.free_space_noise_sigma >= 0.0) ||
+      !std::isfinite(config.contact_noise_sigma) || !std::isfinite(config.free_space_noise_sigma))
+    problem << "noise sigmas must be finite and >= 0; ";
+  if (config.retune_every < 0) problem << "retune_every must be >= 0; ";
+  return problem.str();
+}
+
+}  // namespace
+
+ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+                                const Progress& progress) const {
+  ExplorationResult result;
+  if (const std::string problem = validate(config_); !problem.empty()) {
+    result.stop_reason = "invalid_config: " + problem;
+    return result;
+  }
+  if (!model.isFitted()) {
+    result.stop_reason = "planner_error: no model: the GP is not fitted";
+    return result;
+  }
+  const HyperparameterTuner tuner(config_.tuner);
+  int consecutive_failures = 0;
+  for (int action = 0;; ++action) {
+    ExplorationRecord record;
+    record.index = action;
+
+    PlanRequest request;
+    request.v_max = config_.v_max;
+    request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
+    const Clock::time_point plan_started = Clock::now();
+    PlanResult plan = strategy.plan(model, request);
+    record.plan_ms = millisecondsSince(plan_started);
+    record.plan_status = plan.status;
+    record.max_surface_variance = plan.max_surface_variance;
+    result.final_max_surface_variance = plan.max_surface_variance;
+
+    if (plan.status == PlanStatus::kConverged) {
+      result.stop_reason = "converged";
+      result.converged = true;
+      return result;
+    }
+    if (plan.status == PlanStatus::kCapReached) {
+      result.stop_reason = "planner_cap_reached";
+      return result;
+    }
+    if (plan.status == PlanStatus::kError) {
+      result.stop_reason = "planner_error: " + plan.message;
+      return result;
+    }
+    // Checked after planning so that a model that converges exactly at the cap says so.
+    if (action >= config_.max_actions) {
+      result.stop_reason = "max_actions";
+      return result;
+    }
+
+    record.touch = plan.touch;
+    const ProbeResult probed = prober.probe(plan.touch);
+    ++result.actions;
+    record.probe_success = probed.success;
+    record.probe_reason = probed.reason;
+
+    std::vector<TrainingPoint> new_points;
+    for (const Contact& contact : probed.contacts) {
+      if (!contact.position.allFinite()) continue;
+      TrainingPoint point;
+      point.position = contact.position;
+      point.label = PointLabel::kSurface;
+      point.noise_sigma = config_.contact_noise_sigma;
+      point.source = PointSource::kTouch;
+      new_points.push_back(point);
+    }
+    const std::size_t num_contacts = new_points.size();
+    for (const Vector3& free : probed.free_space) {
+      // Outside the domain the model has its own outside pseudo-points and would reject them.
+      if (!free.allFinite() || !model.inDomain(free)) continue;
+      TrainingPoint point;
+      point.position = free;
+      point.label = PointLabel::kOutside;
+      point.noise_sigma = config_.free_space_noise_sigma;
+      point.source = PointSource::kFreeSpace;
+      new_points.push_back(point);
+    }
+
+    const Clock::time_point update_started = Clock::now();
+    if (!new_points.empty()) {
+      const FitReport report = model.addPoints(new_points);
+      if (!report.ok) {
+        record.update_ms = millisecondsSince(update_started);
+        result.records.push_back(record);
+        if (progress) progress(record, model);
+        result.stop_reason = "update_failed: " + report.message;
+        return result;
+      }
+      // The model reports acceptance only as a total; attribute rejections to free-space
+      // points first, since duplicates and out-of-domain points are mostly among those.
+      const int accepted = static_cast<int>(report.num_added);
+      record.contacts_added = std::min(accepted, static_cast<int>(num_contacts));
+      record.free_points_added = accepted - record.contacts_added;
+    }
+    if (config_.retune_every > 0 && (action + 1) % config_.retune_every == 0) {
+      // A failed tuning keeps the previous hyperparameters, so exploration can go on.
+      record.retuned = tuner.tune(model).ok;
+    }
+    record.update_ms = millisecondsSince(update_started);
+
+    const bool touched = probed.success && record.contacts_added > 0;
+    consecutive_failures = touched ? 0 : consecutive_failures + 1;
+    result.records.push_back(record);
+    if (progress) progress(record, model);
+    if (consecutive_failures >= config_.max_consecutive_failures) {
+      result.stop_reason = "consecutive_failures";
+      return result;
+    }
+  }
+}
+
+}  // namespace gpatlas_core
