@@ -1,0 +1,57 @@
+#pragma once
+
+// Conversions between gpatlas_core types and ROS messages. Every function here is a pure
+// function of its arguments, round-trip tested in test/test_conversions.cpp.
+
+#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/prober.h>
+#include <gpatlas_core/types.h>
+
+#include <geometry_msgs/Point.h>
+#include <geometry_msgs/Vector3.h>
+#include <gpatlas_msgs/Observations.h>
+#include <gpatlas_msgs/Touch.h>
+#include <gpatlas_msgs/TrainingSet.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <string>
+#include <vector>
+
+namespace gpatlas_ros {
+
+geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p);
+geometry_msgs::Vector3 toVectorMsg(const Eigen::Vector3d& v);
+Eigen::Vector3d fromMsg(const geometry_msgs::Point& p);
+Eigen::Vector3d fromMsg(const geometry_msgs::Vector3& v);
+
+gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch);
+// Fails (returns false with a reason) on mismatched array lengths or an unknown kind.
+bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::string* error);
+
+gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result);
+// Contacts (with normals when given) and free-space points; success/reason are not part of it.
+bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* result, std::string* error);
+
+// The model's observations and hyperparameters (not the pseudo-points, which the model adds).
+gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model);
+struct TrainingSetContents {
+  std::string kernel;
+  Eigen::VectorXd kernel_log_params;
+  double noise_scale{1.0};
+  std::vector<gpatlas_core::TrainingPoint> points;
+};
+bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error);
+
+// XYZ of a PointCloud2 (any layout with float32 x, y, z fields). Points with NaN/Inf are
+// skipped and counted in *num_invalid. Returns false if the cloud has no x/y/z fields.
+bool cloudToPoints(const sensor_msgs::PointCloud2& cloud, std::vector<Eigen::Vector3d>* points,
+                   std::size_t* num_invalid, std::string* error);
+// XYZ + RGB (blue = low, red = high variance, saturating at variance_max) + a float32
+// "variance" field, so that rviz can colour either by RGB or by the variance channel.
+sensor_msgs::PointCloud2 pointsToCloud(const std::vector<Eigen::Vector3d>& points,
+                                       const std::vector<double>& variances, double variance_max,
+                                       const std::string& frame_id);
+// The colour map used everywhere for variance: blue (0) -> green -> red (>= variance_max).
+void varianceColour(double variance, double variance_max, float* r, float* g, float* b);
+
+}  // namespace gpatlas_ros

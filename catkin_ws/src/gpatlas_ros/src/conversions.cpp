@@ -1,0 +1,199 @@
+#include "gpatlas_ros/conversions.h"
+
+#include <sensor_msgs/point_cloud2_iterator.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace gpatlas_ros {
+
+geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
+  geometry_msgs::Point m;
+  m.x = p.x();
+  m.y = p.y();
+  m.z = p.z();
+  return m;
+}
+
+geometry_msgs::Vector3 toVectorMsg(const Eigen::Vector3d& v) {
+  geometry_msgs::Vector3 m;
+  m.x = v.x();
+  m.y = v.y();
+  m.z = v.z();
+  return m;
+}
+
+Eigen::Vector3d fromMsg(const geometry_msgs::Point& p) { return {p.x, p.y, p.z}; }
+Eigen::Vector3d fromMsg(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
+
+gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch) {
+  gpatlas_msgs::Touch msg;
+  msg.kind = touch.kind == gpatlas_core::Touch::Kind::kSlide ? gpatlas_msgs::Touch::SLIDE : gpatlas_msgs::Touch::POKE;
+  for (const auto& p : touch.points) msg.points.push_back(toPointMsg(p));
+  for (const auto& n : touch.normals) msg.normals.push_back(toVectorMsg(n));
+  msg.variances = touch.variances;
+  msg.strategy = touch.strategy;
+  return msg;
+}
+
+bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::string* error) {
+  if (msg.kind != gpatlas_msgs::Touch::POKE && msg.kind != gpatlas_msgs::Touch::SLIDE) {
+    *error = "touch kind " + std::to_string(msg.kind) + " is neither POKE (0) nor SLIDE (1)";
+    return false;
+  }
+  if (msg.normals.size() != msg.points.size()) {
+    *error = "touch has " + std::to_string(msg.points.size()) + " points but " + std::to_string(msg.normals.size()) +
+             " normals";
+    return false;
+  }
+  if (!msg.variances.empty() && msg.variances.size() != msg.points.size()) {
+    *error = "touch variances must be empty or one per point";
+    return false;
+  }
+  gpatlas_core::Touch out;
+  out.kind = msg.kind == gpatlas_msgs::Touch::SLIDE ? gpatlas_core::Touch::Kind::kSlide : gpatlas_core::Touch::Kind::kPoke;
+  for (const auto& p : msg.points) out.points.push_back(fromMsg(p));
+  for (const auto& n : msg.normals) out.normals.push_back(fromMsg(n));
+  out.variances = msg.variances;
+  out.strategy = msg.strategy;
+  *touch = std::move(out);
+  return true;
+}
+
+gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result) {
+  gpatlas_msgs::Observations msg;
+  for (const auto& c : result.contacts) {
+    msg.contacts.push_back(toPointMsg(c.position));
+    msg.contact_normals.push_back(toVectorMsg(c.normal));
+  }
+  for (const auto& p : result.free_space) msg.free_space.push_back(toPointMsg(p));
+  return msg;
+}
+
+bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* result, std::string* error) {
+  if (!msg.contact_normals.empty() && msg.contact_normals.size() != msg.contacts.size()) {
+    *error = "observations have " + std::to_string(msg.contacts.size()) + " contacts but " +
+             std::to_string(msg.contact_normals.size()) + " normals (must be 0 or equal)";
+    return false;
+  }
+  result->contacts.clear();
+  result->free_space.clear();
+  for (std::size_t i = 0; i < msg.contacts.size(); ++i) {
+    gpatlas_core::Contact c;
+    c.position = fromMsg(msg.contacts[i]);
+    if (!msg.contact_normals.empty()) c.normal = fromMsg(msg.contact_normals[i]);
+    result->contacts.push_back(c);
+  }
+  for (const auto& p : msg.free_space) result->free_space.push_back(fromMsg(p));
+  return true;
+}
+
+gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
+  gpatlas_msgs::TrainingSet msg;
+  msg.kernel = model.kernel().name();
+  const Eigen::VectorXd params = model.kernel().logParams();
+  msg.kernel_log_params.assign(params.data(), params.data() + params.size());
+  msg.noise_scale = model.noiseScale();
+  for (const auto& p : model.observations()) {
+    msg.points.push_back(toPointMsg(p.position));
+    msg.labels.push_back(static_cast<int8_t>(p.label));
+    msg.noise_sigmas.push_back(p.noise_sigma);
+    msg.sources.push_back(static_cast<uint8_t>(p.source));
+  }
+  return msg;
+}
+
+bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error) {
+  const std::size_t n = msg.points.size();
+  if (msg.labels.size() != n || msg.noise_sigmas.size() != n || msg.sources.size() != n) {
+    *error = "training set arrays differ in length";
+    return false;
+  }
+  TrainingSetContents out;
+  out.kernel = msg.kernel;
+  out.kernel_log_params = Eigen::Map<const Eigen::VectorXd>(msg.kernel_log_params.data(),
+                                                             static_cast<Eigen::Index>(msg.kernel_log_params.size()));
+  out.noise_scale = msg.noise_scale;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (msg.labels[i] < -1 || msg.labels[i] > 1 || msg.sources[i] > 3) {
+      *error = "training point " + std::to_string(i) + " has an invalid label or source";
+      return false;
+    }
+    gpatlas_core::TrainingPoint p;
+    p.position = fromMsg(msg.points[i]);
+    p.label = static_cast<gpatlas_core::PointLabel>(msg.labels[i]);
+    p.noise_sigma = msg.noise_sigmas[i];
+    p.source = static_cast<gpatlas_core::PointSource>(msg.sources[i]);
+    out.points.push_back(p);
+  }
+  *contents = std::move(out);
+  return true;
+}
+
+bool cloudToPoints(const sensor_msgs::PointCloud2& cloud, std::vector<Eigen::Vector3d>* points,
+                   std::size_t* num_invalid, std::string* error) {
+  bool has_x = false, has_y = false, has_z = false;
+  for (const auto& f : cloud.fields) {
+    const bool is_float = f.datatype == sensor_msgs::PointField::FLOAT32;
+    has_x |= f.name == "x" && is_float;
+    has_y |= f.name == "y" && is_float;
+    has_z |= f.name == "z" && is_float;
+  }
+  if (!(has_x && has_y && has_z)) {
+    *error = "point cloud has no float32 x, y, z fields";
+    return false;
+  }
+  const std::size_t total = static_cast<std::size_t>(cloud.width) * cloud.height;
+  if (cloud.data.size() < total * cloud.point_step) {
+    *error = "point cloud data is shorter than width * height * point_step";
+    return false;
+  }
+  points->clear();
+  points->reserve(total);
+  *num_invalid = 0;
+  sensor_msgs::PointCloud2ConstIterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z");
+  for (std::size_t i = 0; i < total; ++i, ++x, ++y, ++z) {
+    if (std::isfinite(*x) && std::isfinite(*y) && std::isfinite(*z)) points->emplace_back(*x, *y, *z);
+    else ++*num_invalid;
+  }
+  return true;
+}
+
+void varianceColour(double variance, double variance_max, float* r, float* g, float* b) {
+  const double t = variance_max > 0.0 && std::isfinite(variance) ? std::clamp(variance / variance_max, 0.0, 1.0) : 1.0;
+  // Blue -> green -> red.
+  *r = static_cast<float>(std::clamp(2.0 * t - 1.0, 0.0, 1.0));
+  *g = static_cast<float>(1.0 - std::abs(2.0 * t - 1.0));
+  *b = static_cast<float>(std::clamp(1.0 - 2.0 * t, 0.0, 1.0));
+}
+
+sensor_msgs::PointCloud2 pointsToCloud(const std::vector<Eigen::Vector3d>& points,
+                                       const std::vector<double>& variances, double variance_max,
+                                       const std::string& frame_id) {
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.frame_id = frame_id;
+  sensor_msgs::PointCloud2Modifier modifier(cloud);
+  modifier.setPointCloud2Fields(5, "x", 1, sensor_msgs::PointField::FLOAT32, "y", 1, sensor_msgs::PointField::FLOAT32,
+                                "z", 1, sensor_msgs::PointField::FLOAT32, "rgb", 1, sensor_msgs::PointField::FLOAT32,
+                                "variance", 1, sensor_msgs::PointField::FLOAT32);
+  modifier.resize(points.size());
+  sensor_msgs::PointCloud2Iterator<float> x(cloud, "x"), y(cloud, "y"), z(cloud, "z"), var(cloud, "variance");
+  sensor_msgs::PointCloud2Iterator<uint8_t> rgb(cloud, "rgb");
+  for (std::size_t i = 0; i < points.size(); ++i, ++x, ++y, ++z, ++var, ++rgb) {
+    *x = static_cast<float>(points[i].x());
+    *y = static_cast<float>(points[i].y());
+    *z = static_cast<float>(points[i].z());
+    const double v = i < variances.size() ? variances[i] : 0.0;
+    *var = static_cast<float>(v);
+    float r, g, b;
+    varianceColour(v, variance_max, &r, &g, &b);
+    // PCL's packed rgb layout: b, g, r, (unused) bytes in memory.
+    rgb[0] = static_cast<uint8_t>(b * 255.0f);
+    rgb[1] = static_cast<uint8_t>(g * 255.0f);
+    rgb[2] = static_cast<uint8_t>(r * 255.0f);
+    rgb[3] = 0;
+  }
+  return cloud;
+}
+
+}  // namespace gpatlas_ros

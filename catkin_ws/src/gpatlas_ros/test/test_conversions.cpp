@@ -1,0 +1,139 @@
+#include "gpatlas_ros/conversions.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+using namespace gpatlas_ros;
+
+namespace {
+
+TEST(Conversions, TouchRoundTrip) {
+  gpatlas_core::Touch touch;
+  touch.kind = gpatlas_core::Touch::Kind::kSlide;
+  touch.points = {{0.1, 0.2, 0.3}, {-1.0, 2.5, 1e-3}};
+  touch.normals = {{0.0, 0.0, 1.0}, {1.0, 0.0, 0.0}};
+  touch.variances = {0.05, 0.3};
+  touch.strategy = "atlas_slide";
+  gpatlas_core::Touch back;
+  std::string error;
+  ASSERT_TRUE(fromMsg(toMsg(touch), &back, &error)) << error;
+  EXPECT_EQ(back.kind, touch.kind);
+  ASSERT_EQ(back.points.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back.points[i], touch.points[i]);
+    EXPECT_EQ(back.normals[i], touch.normals[i]);
+    EXPECT_EQ(back.variances[i], touch.variances[i]);
+  }
+  EXPECT_EQ(back.strategy, "atlas_slide");
+}
+
+TEST(Conversions, MalformedTouchIsRefused) {
+  gpatlas_msgs::Touch msg;
+  msg.points.resize(2);
+  msg.normals.resize(1);
+  gpatlas_core::Touch touch;
+  std::string error;
+  EXPECT_FALSE(fromMsg(msg, &touch, &error));
+  EXPECT_NE(error.find("normals"), std::string::npos);
+  msg.normals.resize(2);
+  msg.kind = 7;
+  EXPECT_FALSE(fromMsg(msg, &touch, &error));
+}
+
+TEST(Conversions, ObservationsRoundTrip) {
+  gpatlas_core::ProbeResult result;
+  result.contacts.push_back({{1, 2, 3}, {0, 0, 1}});
+  result.contacts.push_back({{4, 5, 6}, {0, 1, 0}});
+  result.free_space = {{7, 8, 9}};
+  gpatlas_core::ProbeResult back;
+  std::string error;
+  ASSERT_TRUE(fromMsg(toMsg(result), &back, &error)) << error;
+  ASSERT_EQ(back.contacts.size(), 2u);
+  EXPECT_EQ(back.contacts[1].position, result.contacts[1].position);
+  EXPECT_EQ(back.contacts[1].normal, result.contacts[1].normal);
+  ASSERT_EQ(back.free_space.size(), 1u);
+  EXPECT_EQ(back.free_space[0], result.free_space[0]);
+}
+
+TEST(Conversions, TrainingSetRebuildsTheSameModel) {
+  std::mt19937 rng(1);
+  std::normal_distribution<double> g;
+  std::vector<gpatlas_core::TrainingPoint> pts;
+  for (int i = 0; i < 60; ++i) {
+    Eigen::Vector3d d(g(rng), g(rng), std::abs(g(rng)));
+    gpatlas_core::TrainingPoint p;
+    p.position = 0.1 * d.normalized();
+    p.noise_sigma = 0.05;
+    p.source = i % 2 ? gpatlas_core::PointSource::kTouch : gpatlas_core::PointSource::kVision;
+    pts.push_back(p);
+  }
+  gpatlas_core::TrainingPoint outside;
+  outside.position = {0, 0, 0.15};
+  outside.label = gpatlas_core::PointLabel::kOutside;
+  outside.source = gpatlas_core::PointSource::kFreeSpace;
+  outside.noise_sigma = 0.2;
+  pts.push_back(outside);
+  gpatlas_core::GpisModel model;
+  ASSERT_TRUE(model.fit(pts).ok);
+
+  TrainingSetContents contents;
+  std::string error;
+  ASSERT_TRUE(fromMsg(toMsg(model), &contents, &error)) << error;
+  ASSERT_EQ(contents.points.size(), model.observations().size());
+  for (std::size_t i = 0; i < contents.points.size(); ++i) {
+    EXPECT_EQ(contents.points[i].position, model.observations()[i].position);
+    EXPECT_EQ(contents.points[i].label, model.observations()[i].label);
+    EXPECT_EQ(contents.points[i].source, model.observations()[i].source);
+    EXPECT_EQ(contents.points[i].noise_sigma, model.observations()[i].noise_sigma);
+  }
+  gpatlas_core::GpisModel::Config config;
+  config.kernel = contents.kernel;
+  gpatlas_core::GpisModel rebuilt(config);
+  ASSERT_TRUE(rebuilt.setHyperparameters(contents.kernel_log_params, contents.noise_scale).ok);
+  ASSERT_TRUE(rebuilt.fit(contents.points).ok);
+  const Eigen::Vector3d q(0.02, -0.03, 0.08);
+  EXPECT_NEAR(rebuilt.mean(q), model.mean(q), 1e-12);
+  EXPECT_NEAR(rebuilt.variance(q), model.variance(q), 1e-12);
+}
+
+TEST(Conversions, CloudRoundTripSkipsNaN) {
+  std::vector<Eigen::Vector3d> pts = {{0.5, 0.25, -0.125}, {1, 2, 3}, {std::nan(""), 0, 0}};
+  const auto cloud = pointsToCloud(pts, {0.0, 0.2, 0.1}, 0.2, "world");
+  EXPECT_EQ(cloud.header.frame_id, "world");
+  std::vector<Eigen::Vector3d> back;
+  std::size_t invalid = 0;
+  std::string error;
+  ASSERT_TRUE(cloudToPoints(cloud, &back, &invalid, &error)) << error;
+  EXPECT_EQ(invalid, 1u);
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0], pts[0]);  // exactly representable in float32
+  EXPECT_EQ(back[1], pts[1]);
+}
+
+TEST(Conversions, CloudWithoutXyzIsRefused) {
+  sensor_msgs::PointCloud2 cloud;
+  cloud.width = 3;
+  cloud.height = 1;
+  std::vector<Eigen::Vector3d> back;
+  std::size_t invalid = 0;
+  std::string error;
+  EXPECT_FALSE(cloudToPoints(cloud, &back, &invalid, &error));
+  EXPECT_NE(error.find("x, y, z"), std::string::npos);
+}
+
+TEST(Conversions, VarianceColourGoesFromBlueToRed) {
+  float r, g, b;
+  varianceColour(0.0, 0.1, &r, &g, &b);
+  EXPECT_FLOAT_EQ(b, 1.0f);
+  EXPECT_FLOAT_EQ(r, 0.0f);
+  varianceColour(0.5, 0.1, &r, &g, &b);
+  EXPECT_FLOAT_EQ(r, 1.0f);
+  EXPECT_FLOAT_EQ(b, 0.0f);
+  varianceColour(std::numeric_limits<double>::quiet_NaN(), 0.1, &r, &g, &b);
+  EXPECT_FLOAT_EQ(r, 1.0f);
+}
+
+}  // namespace
