@@ -105,19 +105,24 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     const Clock::time_point update_started = Clock::now();
     if (!new_points.empty()) {
-      const FitReport report = model.addPoints(new_points);
-      if (!report.ok) {
-        record.update_ms = millisecondsSince(update_started);
-        result.records.push_back(record);
-        if (progress) progress(record, model);
-        result.stop_reason = "update_failed: " + report.message;
-        return result;
+      FitReport report = model.addPoints(new_points);
+      if (!report.ok && num_contacts > 0 && num_contacts < new_points.size()) {
+        // The model refuses a batch that makes its covariance numerically singular (e.g. a
+        // free-space point right next to a surface point). Contacts are what the touch was
+        // for, so they are retried alone rather than losing the action.
+        new_points.resize(num_contacts);
+        report = model.addPoints(new_points);
       }
-      // The model reports acceptance only as a total; attribute rejections to free-space
-      // points first, since duplicates and out-of-domain points are mostly among those.
-      const int accepted = static_cast<int>(report.num_added);
-      record.contacts_added = std::min(accepted, static_cast<int>(num_contacts));
-      record.free_points_added = accepted - record.contacts_added;
+      if (report.ok) {
+        // The model reports acceptance as a total; free-space points are the ones it drops
+        // (duplicates, out of domain), so rejections are attributed to them first.
+        const int accepted = static_cast<int>(report.num_added);
+        record.contacts_added = std::min(accepted, static_cast<int>(num_contacts));
+        record.free_points_added = accepted - record.contacts_added;
+      } else {
+        // The model is unchanged; the action counts as a failed touch and exploration goes on.
+        record.update_message = report.message;
+      }
     }
     if (config_.retune_every > 0 && (action + 1) % config_.retune_every == 0) {
       // A failed tuning keeps the previous hyperparameters, so exploration can go on.

@@ -26,12 +26,14 @@ struct ExplorationRecord {
   double plan_ms{0.0};
   double update_ms{0.0};         // model update (and re-tuning, when it happened)
   bool retuned{false};
+  std::string update_message;    // why the model refused the new points, if it did
   Touch touch;
 };
 
 struct ExplorationResult {
   // "converged", "max_actions", "consecutive_failures", "planner_cap_reached",
-  // "planner_error: ...", "update_failed: ...", "invalid_config: ...".
+  // "planner_error: ...", "invalid_config: ...". A touch whose points the model refuses
+  // counts as a failed touch (see ExplorationRecord::update_message).
   std::string stop_reason;
   bool converged{false};
   int actions{0};  // touches executed (probed), failed ones included
@@ -50,9 +52,12 @@ class Explorer {
     int max_actions{100};
     // The paper's extra stop on the real robot: this many failed touches in a row.
     int max_consecutive_failures{5};
-    // Noise standard deviations of the new observations, in the model's units of f.
-    double contact_noise_sigma{0.02};
-    double free_space_noise_sigma{0.05};
+    // Noise standard deviations of the new observations, in the model's units of f. The
+    // default is the paper's reference noise variance of 0.1. It is not only a sensor model:
+    // the thin-plate covariance is not positive definite for dense point sets in 3-D, and
+    // with much smaller noise the model starts refusing touches as singular.
+    double contact_noise_sigma{0.316};
+    double free_space_noise_sigma{0.316};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
     int retune_every{0};
     HyperparameterTuner::Config tuner;

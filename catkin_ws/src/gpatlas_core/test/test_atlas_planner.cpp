@@ -1,0 +1,163 @@
+#include "gpatlas_core/atlas_planner.h"
+#include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/surface_projection.h"
+
+#include "analytic_sphere.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+
+using namespace gpatlas_core;
+using gpatlas_core::testing::AnalyticSphere;
+
+namespace {
+
+// The paper's reference noise variance (0.1) on every observation.
+constexpr double kNoiseSigma = 0.316;
+constexpr double kVMax = 0.1;
+
+// A GP fit to the top of the sphere (directions with z >= 0.3, a third of its area).
+GpisModel capModel(const AnalyticSphere& sphere) {
+  GpisModel model;
+  const FitReport report = model.fit(sphere.view(200, 0.3, kNoiseSigma, 1));
+  EXPECT_TRUE(report.ok) << report.message;
+  return model;
+}
+
+AtlasPlanResult planOnCap(const GpisModel& model, std::uint64_t seed) {
+  AtlasPlanner::Config config;
+  config.seed = seed;
+  return AtlasPlanner(config).plan(model, kVMax);
+}
+
+TEST(AtlasPlanner, CapOfSphereChartsLieOnTheSurfaceAndPathReachesUncertainty) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const AtlasPlanResult result = planOnCap(model, seed);
+    ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
+    ASSERT_GE(result.path.size(), 2u);
+    const Atlas& atlas = result.atlas;
+
+    for (std::size_t i = 0; i < atlas.size(); ++i) {
+      const Chart& chart = atlas.chart(static_cast<int>(i));
+      const Prediction at_centre = model.predict(chart.centre);
+      // On the predicted surface (f is unitless: targets are 0 on the surface, +-1 off it).
+      EXPECT_LT(std::abs(at_centre.mean), 1e-3) << "chart " << i;
+      // On the true sphere within the GP's own error: the posterior standard deviation of f
+      // turned into metres by the slope of f, at three sigma, plus 1 mm. (Far from the data
+      // the thin-plate GP's mean is biased inward, by about 2.5 sigma on this cap.)
+      const double raw_sd = std::sqrt(at_centre.variance / model.varianceUnitFactor());
+      const double allowed = 3.0 * raw_sd / at_centre.gradient.norm() + 1e-3;
+      EXPECT_LT(std::abs(sphere.signedDistance(chart.centre)), allowed) << "chart " << i;
+      // Where the camera saw the sphere, the surface is known to a few millimetres.
+      if ((chart.centre - sphere.centre).normalized().z() > 0.45)
+        EXPECT_LT(std::abs(sphere.signedDistance(chart.centre)), 3e-3) << "chart " << i;
+      // Tangent basis (eq. 11): orthonormal and orthogonal to the gradient.
+      const Eigen::Matrix2d gram = chart.tangent_basis.transpose() * chart.tangent_basis;
+      EXPECT_LT((gram - Eigen::Matrix2d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+      const Vector3 gradient_direction = at_centre.gradient.normalized();
+      EXPECT_LT((gradient_direction.transpose() * chart.tangent_basis).cwiseAbs().maxCoeff(), 1e-9);
+      EXPECT_GT(chart.normal.dot(gradient_direction), 1.0 - 1e-9);
+      // Radius from the variance (eq. 14) within the configured bounds.
+      EXPECT_GE(chart.radius, AtlasPlanner::Config().chart.rho_min_m);
+      EXPECT_LE(chart.radius, AtlasPlanner::Config().chart.rho_max_m);
+    }
+
+    // Consecutive path charts: the child is the projection (eq. 13) of a parent's candidate, so
+    // its parent-chart coordinates lie in the annulus [0.8 rho, rho] of the parent.
+    EXPECT_EQ(atlas.chart(result.path.front()).parent, -1);
+    for (std::size_t k = 1; k < result.path.size(); ++k) {
+      const Chart& parent = atlas.chart(result.path[k - 1]);
+      const Chart& child = atlas.chart(result.path[k]);
+      EXPECT_EQ(child.parent, result.path[k - 1]);
+      const double tangent_distance = (parent.tangent_basis.transpose() * (child.centre - parent.centre)).norm();
+      EXPECT_LE(tangent_distance, parent.radius * (1.0 + 1e-9));
+      EXPECT_GE(tangent_distance, 0.8 * parent.radius * (1.0 - 1e-9));
+      // And in space it stays near: the normal offset of a projection is small at this scale.
+      EXPECT_LT((child.centre - parent.centre).norm(), 1.5 * parent.radius);
+    }
+    // Only the last chart of the path exceeds V_max (the planner stops at the first one).
+    EXPECT_GT(atlas.chart(result.path.back()).variance, kVMax);
+    for (std::size_t k = 1; k + 1 < result.path.size(); ++k)
+      EXPECT_LE(atlas.chart(result.path[k]).variance, kVMax);
+  }
+}
+
+TEST(AtlasPlanner, SameSeedGivesTheSamePath) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  const AtlasPlanResult first = planOnCap(model, 42);
+  const AtlasPlanResult second = planOnCap(model, 42);
+  ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
+  ASSERT_EQ(first.path, second.path);
+  ASSERT_EQ(first.atlas.size(), second.atlas.size());
+  for (int index : first.path) EXPECT_EQ(first.atlas.chart(index).centre, second.atlas.chart(index).centre);
+}
+
+TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(400, -1.0, kNoiseSigma, 2)).ok);
+  AtlasPlanner::Config config;
+  config.seed = 5;
+  const AtlasPlanResult result = AtlasPlanner(config).plan(model, kVMax);
+  EXPECT_EQ(result.status, PlanStatus::kConverged) << result.message;
+  EXPECT_TRUE(result.path.empty());
+  EXPECT_LE(result.max_chart_variance, kVMax);
+  // Converged means covered: the atlas spans the sphere, not just the root's neighbourhood.
+  Vector3 lowest = sphere.centre, highest = sphere.centre;
+  for (const Chart& chart : result.atlas.charts()) {
+    if (chart.centre.z() < lowest.z()) lowest = chart.centre;
+    if (chart.centre.z() > highest.z()) highest = chart.centre;
+  }
+  EXPECT_GT(highest.z() - lowest.z(), 1.5 * sphere.radius);
+  // The strategies agree, and a converged plan carries no touch.
+  for (const std::string name : {"atlas_poke", "max_variance"}) {
+    const PlanResult plan = makeStrategy(name)->plan(model, PlanRequest{});
+    EXPECT_EQ(plan.status, PlanStatus::kConverged) << name << ": " << plan.message;
+    EXPECT_TRUE(plan.touch.points.empty());
+  }
+}
+
+TEST(AtlasPlanner, BadInputGivesAnErrorStatus) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  const GpisModel unfitted;
+  const AtlasPlanner planner;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+
+  EXPECT_EQ(planner.plan(unfitted, kVMax).status, PlanStatus::kError);
+  EXPECT_NE(planner.plan(unfitted, kVMax).message.find("no model"), std::string::npos);
+  for (const double v_max : {0.0, -1.0, nan, std::numeric_limits<double>::infinity()})
+    EXPECT_EQ(planner.plan(model, v_max).status, PlanStatus::kError) << v_max;
+  EXPECT_EQ(planner.plan(model, kVMax, Vector3(nan, 0.0, 0.0)).status, PlanStatus::kError);
+  // 10 cm above the top of the sphere: still inside the domain, but far from the surface.
+  const AtlasPlanResult far = planner.plan(model, kVMax, Vector3(sphere.centre + Vector3(0, 0, 0.16)));
+  EXPECT_EQ(far.status, PlanStatus::kError);
+  EXPECT_FALSE(far.message.empty());
+  // A start just above the surface is accepted and becomes the root.
+  const Vector3 near = sphere.centre + Vector3(0, 0, sphere.radius + 0.004);
+  const AtlasPlanResult from_start = planner.plan(model, kVMax, near);
+  ASSERT_NE(from_start.status, PlanStatus::kError) << from_start.message;
+  EXPECT_LT((from_start.atlas.chart(0).centre - near).norm(), 0.01);
+
+  AtlasPlanner::Config broken;
+  broken.chart.rho_min_m = -1.0;
+  EXPECT_EQ(AtlasPlanner(broken).plan(model, kVMax).status, PlanStatus::kError);
+
+  for (const std::string& name : strategyNames()) {
+    const auto strategy = makeStrategy(name);
+    PlanRequest request;
+    EXPECT_EQ(strategy->plan(unfitted, request).status, PlanStatus::kError) << name;
+    request.v_max = nan;
+    EXPECT_EQ(strategy->plan(model, request).status, PlanStatus::kError) << name;
+    request.v_max = 0.0;
+    EXPECT_EQ(strategy->plan(model, request).status, PlanStatus::kError) << name;
+  }
+  EXPECT_THROW(makeStrategy("no_such_strategy"), std::invalid_argument);
+}
+
+}  // namespace
