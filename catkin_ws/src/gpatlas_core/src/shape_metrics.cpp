@@ -84,6 +84,8 @@ struct MeshDistanceIndex::Impl {
   int k_nearest{1};
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
   std::vector<int> owner_triangle;
+  // Triangles sharing a vertex with each triangle (itself included).
+  std::vector<std::vector<int>> vertex_neighbours;
   pcl::KdTreeFLANN<pcl::PointXYZ> tree;
 };
 
@@ -133,6 +135,22 @@ MeshDistanceIndex::MeshDistanceIndex(const TriangleMesh& mesh, Config config) : 
           static_cast<int>(t));
     }
   }
+  // A query on one triangle near its edge can have all its nearest samples on the
+  // neighbouring triangle; widening each proposal to the triangles around it catches that.
+  std::vector<std::vector<int>> triangles_of_vertex(mesh.vertices.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
+    for (int corner = 0; corner < 3; ++corner)
+      triangles_of_vertex[static_cast<std::size_t>(mesh.triangles[t][corner])].push_back(static_cast<int>(t));
+  m.vertex_neighbours.resize(mesh.triangles.size());
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    std::vector<int>& neighbours = m.vertex_neighbours[t];
+    for (int corner = 0; corner < 3; ++corner) {
+      const auto& around = triangles_of_vertex[static_cast<std::size_t>(mesh.triangles[t][corner])];
+      neighbours.insert(neighbours.end(), around.begin(), around.end());
+    }
+    std::sort(neighbours.begin(), neighbours.end());
+    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+  }
   m.tree.setInputCloud(m.cloud);
   m.ok = true;
 }
@@ -149,9 +167,16 @@ double MeshDistanceIndex::distance(const Vector3& query) const {
   const pcl::PointXYZ point(static_cast<float>(query.x()), static_cast<float>(query.y()), static_cast<float>(query.z()));
   if (m.tree.nearestKSearch(point, m.k_nearest, indices, squared_distances) <= 0)
     return std::numeric_limits<double>::quiet_NaN();
-  double best = std::numeric_limits<double>::infinity();
+  std::vector<int> candidates;
   for (const int sample : indices) {
-    const Eigen::Vector3i& tri = m.mesh.triangles[static_cast<std::size_t>(m.owner_triangle[static_cast<std::size_t>(sample)])];
+    const auto& around = m.vertex_neighbours[static_cast<std::size_t>(m.owner_triangle[static_cast<std::size_t>(sample)])];
+    candidates.insert(candidates.end(), around.begin(), around.end());
+  }
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  double best = std::numeric_limits<double>::infinity();
+  for (const int triangle : candidates) {
+    const Eigen::Vector3i& tri = m.mesh.triangles[static_cast<std::size_t>(triangle)];
     best = std::min(best, pointTriangleDistance(query, m.mesh.vertices[static_cast<std::size_t>(tri[0])],
                                                 m.mesh.vertices[static_cast<std::size_t>(tri[1])],
                                                 m.mesh.vertices[static_cast<std::size_t>(tri[2])]));

@@ -18,14 +18,15 @@ double pointTriangleDistance(const Vector3& p, const Vector3& a, const Vector3& 
 
 // Nearest-surface distance queries against one mesh. A PCL kd-tree over dense area-weighted
 // samples of the mesh (plus every triangle's centroid, so small triangles are never missed)
-// proposes the triangles owning the k nearest samples; the exact point-to-triangle distance
-// over those is returned. It is exact whenever the closest triangle owns one of the k samples,
-// which dense samples make the normal case; otherwise it errs by at most the sample spacing.
+// proposes the triangles owning the k nearest samples and every triangle sharing a vertex
+// with them; the exact point-to-triangle distance over those is returned. It is exact
+// whenever the closest triangle is among them, which dense samples make the normal case;
+// otherwise it errs by at most the sample spacing.
 class MeshDistanceIndex {
  public:
   struct Config {
     std::size_t index_samples{60000};
-    int k_nearest{12};
+    int k_nearest{8};
     std::uint64_t seed{11};
   };
   MeshDistanceIndex(const TriangleMesh& mesh, Config config);

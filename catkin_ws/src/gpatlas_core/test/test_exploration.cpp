@@ -1,0 +1,133 @@
+#include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/explorer.h"
+#include "gpatlas_core/shape_metrics.h"
+#include "gpatlas_core/surface_mesher.h"
+
+#include "analytic_sphere.h"
+
+#include <gtest/gtest.h>
+
+#include <numeric>
+
+using namespace gpatlas_core;
+using gpatlas_core::testing::AnalyticSphere;
+using gpatlas_core::testing::AnalyticSphereProber;
+
+namespace {
+
+constexpr double kNoiseSigma = 0.316;  // the paper's reference noise variance, 0.1
+
+// The initial "camera view": the top third of the sphere.
+GpisModel initialModel(const AnalyticSphere& sphere, unsigned seed) {
+  GpisModel model;
+  const FitReport report = model.fit(sphere.view(150, 0.3, kNoiseSigma, seed));
+  EXPECT_TRUE(report.ok) << report.message;
+  return model;
+}
+
+// RMSE of the predicted shape against the analytic sphere (an icosphere with 0.08 mm of
+// tessellation error), the larger of the two directions.
+double shapeRmse(const GpisModel& model, const AnalyticSphere& sphere) {
+  SurfaceMesher::Config mesher;
+  mesher.resolution_m = 0.008;
+  const SurfaceMeshResult meshed = SurfaceMesher(mesher).mesh(model);
+  EXPECT_TRUE(meshed.ok) << meshed.message;
+  if (!meshed.ok) return std::numeric_limits<double>::infinity();
+  ShapeMetrics::Config config;
+  config.samples_per_mesh = 5000;
+  const ShapeMetricsResult metrics =
+      ShapeMetrics(config).compare(meshed.mesh, makeIcosphere(sphere.centre, sphere.radius, 4));
+  EXPECT_TRUE(metrics.ok) << metrics.message;
+  return std::max(metrics.rmse_predicted_to_truth, metrics.rmse_truth_to_predicted);
+}
+
+ExplorationResult explore(const std::string& strategy_name, std::uint64_t seed, GpisModel& model,
+                          const Explorer::Progress& progress = {}) {
+  const AnalyticSphere sphere;
+  AnalyticSphereProber prober(sphere);
+  StrategyConfig strategy_config;
+  strategy_config.seed = seed;
+  const auto strategy = makeStrategy(strategy_name, strategy_config);
+  Explorer::Config config;
+  config.v_max = 0.1;
+  config.max_actions = 60;
+  config.seed = seed;
+  return Explorer(config).run(model, *strategy, prober, progress);
+}
+
+TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 1);
+  const double initial_rmse = shapeRmse(model, sphere);
+  std::vector<double> rmse_after_action;
+  const ExplorationResult result = explore("atlas_poke", 1, model, [&](const ExplorationRecord& record, const GpisModel& m) {
+    EXPECT_EQ(record.index, static_cast<int>(rmse_after_action.size()));
+    EXPECT_EQ(record.plan_status, PlanStatus::kTouch);
+    EXPECT_GT(record.max_surface_variance, 0.1);  // a touch is only planned above V_max
+    rmse_after_action.push_back(shapeRmse(m, sphere));
+  });
+  ASSERT_EQ(result.stop_reason, "converged");
+  EXPECT_TRUE(result.converged);
+  ASSERT_GE(result.actions, 1);
+  ASSERT_EQ(result.records.size(), static_cast<std::size_t>(result.actions));
+  EXPECT_LE(result.final_max_surface_variance, 0.1);
+  const int contacts = std::accumulate(result.records.begin(), result.records.end(), 0,
+                                       [](int sum, const ExplorationRecord& r) { return sum + r.contacts_added; });
+  EXPECT_GE(contacts, 1);
+
+  // The unseen bottom of the sphere is first extrapolated centimetres off; touches fix it.
+  EXPECT_GT(initial_rmse, 0.015);
+  EXPECT_LT(rmse_after_action.back(), 0.5 * initial_rmse);
+  EXPECT_LT(rmse_after_action.back(), 0.01);
+  // And the first touch already helps.
+  EXPECT_LT(rmse_after_action.front(), initial_rmse);
+  std::printf("shape RMSE: initial %.4f m, after each action:", initial_rmse);
+  for (double rmse : rmse_after_action) std::printf(" %.4f", rmse);
+  std::printf("\n");
+}
+
+TEST(Explorer, RandomNeedsMoreActionsThanAtlasPoke) {
+  int atlas_actions = 0, random_actions = 0;
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    const AnalyticSphere sphere;
+    GpisModel for_atlas = initialModel(sphere, static_cast<unsigned>(seed));
+    GpisModel for_random = for_atlas;
+    const ExplorationResult atlas = explore("atlas_poke", seed, for_atlas);
+    const ExplorationResult random = explore("random", seed, for_random);
+    EXPECT_EQ(atlas.stop_reason, "converged") << "seed " << seed;
+    atlas_actions += atlas.actions;
+    random_actions += random.actions;
+    std::printf("seed %d: atlas_poke %d actions (%s), random %d actions (%s)\n", static_cast<int>(seed),
+                atlas.actions, atlas.stop_reason.c_str(), random.actions, random.stop_reason.c_str());
+  }
+  EXPECT_GT(random_actions, atlas_actions);
+}
+
+TEST(Explorer, BadInputStopsWithAReason) {
+  const AnalyticSphere sphere;
+  AnalyticSphereProber prober(sphere);
+  const auto strategy = makeStrategy("atlas_poke");
+  GpisModel unfitted;
+  ExplorationResult result = Explorer().run(unfitted, *strategy, prober);
+  EXPECT_NE(result.stop_reason.find("no model"), std::string::npos) << result.stop_reason;
+  EXPECT_EQ(result.actions, 0);
+
+  GpisModel model = initialModel(sphere, 1);
+  Explorer::Config config;
+  config.v_max = std::numeric_limits<double>::quiet_NaN();
+  result = Explorer(config).run(model, *strategy, prober);
+  EXPECT_EQ(result.stop_reason.rfind("invalid_config", 0), 0u) << result.stop_reason;
+  EXPECT_EQ(prober.touches(), 0);
+
+  // A probe that never touches anything: the consecutive-failure stop ends the run.
+  struct MissingProber : Prober {
+    ProbeResult probe(const Touch&) override { return ProbeResult{false, "unreachable", {}, {}}; }
+  } missing;
+  config = Explorer::Config();
+  config.max_consecutive_failures = 3;
+  result = Explorer(config).run(model, *strategy, missing);
+  EXPECT_EQ(result.stop_reason, "consecutive_failures");
+  EXPECT_EQ(result.actions, 3);
+}
+
+}  // namespace
