@@ -1,0 +1,83 @@
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace probe_sim {
+
+// A triangle soup with shared vertices. Nothing here assumes the mesh is closed or consistently
+// wound: scanned objects have holes and loose fragments, and every consumer (ray casts, convex
+// sweeps) works on individual triangles.
+struct TriangleMesh {
+  std::vector<Eigen::Vector3d> vertices;  // metres
+  std::vector<Eigen::Vector3i> triangles;  // indices into vertices
+
+  bool empty() const { return triangles.empty(); }
+  // Axis-aligned bounds of the vertices referenced or not; empty box when there are none.
+  Eigen::AlignedBox3d boundingBox() const;
+  // Unit normal by the right-hand rule of the triangle's winding; zero for a degenerate one.
+  Eigen::Vector3d triangleNormal(std::size_t triangle_index) const;
+  void transform(const Eigen::Isometry3d& pose);
+  void scale(double factor);
+  void append(const TriangleMesh& other);
+};
+
+// Loaders. All throw std::runtime_error naming the file and the problem (missing, empty,
+// truncated, unparsable, no triangles, non-finite coordinates). The returned mesh is in the
+// file's own units; use loadMesh() to scale and place it.
+TriangleMesh loadStl(const std::string& path);  // binary or ASCII, detected from the content
+TriangleMesh loadPly(const std::string& path);  // ascii or binary_little_endian
+TriangleMesh loadObj(const std::string& path);  // v / f records, polygons fan-triangulated
+
+// Loads by extension (.stl, .ply, .obj, case-insensitive), multiplies coordinates by scale
+// (which must be finite and > 0: meshes in millimetres need 0.001) and then applies pose.
+TriangleMesh loadMesh(const std::string& path, double scale = 1.0,
+                      const Eigen::Isometry3d& pose = Eigen::Isometry3d::Identity());
+
+// Writes a binary STL with per-facet normals from the winding. Throws std::runtime_error when
+// the file cannot be written.
+void saveStl(const TriangleMesh& mesh, const std::string& path);
+
+// ---------------------------------------------------------------- procedural objects
+//
+// Every procedural object is scaled so that the largest side of its bounding box equals the
+// requested size, then placed with the bounding box centred on x = y = 0 and its bottom on z = 0.
+// Proportions (before that scaling, as fractions of the size):
+//   sphere    diameter 1 (a cube projected onto the sphere: near-uniform facets, no poles)
+//   box       cube of side 1
+//   cylinder  radius 0.3, height 1, closed by both caps
+//   torus     lying flat, tube radius 1/8, centre-line radius 3/8
+//   bowl      thick spherical shell (outer radius 0.5, wall 0.05) cut flat at the bottom, open top
+//   mug       thick-walled cup with a floor and a half-torus handle on the +x side
+//   funnel    thick-walled cone on top of a spout tube, open at both ends, standing on the spout
+struct ProceduralConfig {
+  int segments = 96;  // around the vertical axis; rounded up to a multiple of 4
+  // Subdivisions of a half circle (sphere) or of curved profiles (bowl arcs, half the torus
+  // tube, the mug handle); rounded up to a multiple of 4.
+  int rings = 48;
+};
+
+std::vector<std::string> proceduralObjectNames();
+// Throws std::runtime_error for an unknown name or a size that is not finite and > 0.
+TriangleMesh makeProceduralObject(const std::string& name, double size_m,
+                                  const ProceduralConfig& config = ProceduralConfig());
+
+// Signed distance (negative inside, metres) to the exact shape that makeProceduralObject(name,
+// size_m) tessellates, for the shapes with a closed form (sphere, box, cylinder); std::nullopt
+// for the others.
+std::optional<double> proceduralSignedDistance(const std::string& name, double size_m,
+                                               const Eigen::Vector3d& point);
+
+double sphereSignedDistance(const Eigen::Vector3d& centre, double radius,
+                            const Eigen::Vector3d& point);
+double boxSignedDistance(const Eigen::Vector3d& centre, const Eigen::Vector3d& half_extents,
+                         const Eigen::Vector3d& point);
+// Upright cylinder whose bottom cap is centred on base_centre.
+double cylinderSignedDistance(const Eigen::Vector3d& base_centre, double radius, double height,
+                              const Eigen::Vector3d& point);
+
+}  // namespace probe_sim

@@ -1,0 +1,143 @@
+#pragma once
+
+#include "probe_sim/arm.h"
+#include "probe_sim/scene.h"
+
+#include <gpatlas_core/prober.h>
+#include <gpatlas_core/types.h>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <memory>
+#include <random>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace probe_sim {
+
+// Outcome of one straight probing motion along -n through a waypoint.
+struct ProbeStroke {
+  SurfaceKind touched = SurfaceKind::kNone;  // what stopped the probe, if anything
+  gpatlas_core::Contact contact;             // valid when touched != kNone
+  std::vector<Eigen::Vector3d> free_space;   // positions the probe passed freely
+  std::string failure;                       // why the stroke could not be made at all
+};
+
+// A probe geometry. A stroke starts at waypoint + d * n and moves towards waypoint - d * n,
+// where n is the unit outward normal and d the model's start offset.
+class ProbeModel {
+ public:
+  virtual ~ProbeModel() = default;
+  virtual std::string name() const = 0;
+  virtual ProbeStroke stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                             const Eigen::Vector3d& outward_normal) = 0;
+  // Distance from the touched surface to the arm's tip frame while touching (0 for a ray,
+  // the radius for a sphere centred on the tip frame).
+  virtual double tipStandoff() const = 0;
+};
+
+struct RayProbeConfig {
+  double start_offset_m = 0.10;
+  double free_space_spacing_m = 0.01;
+  double free_space_margin_m = 0.005;  // no free-space sample closer than this to the hit
+  double position_noise_m = 0.0;       // Gaussian, per axis, on the contact position
+  std::uint32_t seed = 1;
+};
+
+// The paper's validation protocol: an infinitely thin ray through the waypoint.
+class RayProbe : public ProbeModel {
+ public:
+  using Config = RayProbeConfig;
+  explicit RayProbe(const Config& config = Config());
+  std::string name() const override { return "ray"; }
+  ProbeStroke stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                     const Eigen::Vector3d& outward_normal) override;
+  double tipStandoff() const override { return 0.0; }
+
+ private:
+  Config config_;
+  std::mt19937 rng_;
+};
+
+struct SphereProbeConfig {
+  double radius_m = 0.02;
+  double start_offset_m = 0.10;
+  double free_space_spacing_m = 0.01;
+  double free_space_margin_m = 0.005;  // between free-space centres and the contact centre
+  double position_noise_m = 0.0;
+  std::uint32_t seed = 1;
+};
+
+// A spherical fingertip swept along the stroke; the contact is Bullet's witness point on the
+// surface and free space is where the sphere centre went before contact.
+class SphereProbe : public ProbeModel {
+ public:
+  using Config = SphereProbeConfig;
+  explicit SphereProbe(const Config& config = Config());
+  std::string name() const override { return "sphere"; }
+  ProbeStroke stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                     const Eigen::Vector3d& outward_normal) override;
+  double tipStandoff() const override { return config_.radius_m; }
+
+ private:
+  Config config_;
+  std::mt19937 rng_;
+};
+
+struct ProbeModelConfig {
+  RayProbe::Config ray;
+  SphereProbe::Config sphere;
+};
+std::vector<std::string> probeModelNames();
+// "ray" or "sphere"; throws std::runtime_error for anything else.
+std::unique_ptr<ProbeModel> makeProbeModel(const std::string& name,
+                                           const ProbeModelConfig& config = ProbeModelConfig());
+
+// One probing attempt of a slide: where and along which (unit, outward) normal.
+struct ProbeAttempt {
+  Eigen::Vector3d point;
+  Eigen::Vector3d normal;
+};
+
+// Attempts spread evenly along the polyline, both ends included, at most step_m apart; normals
+// are linearly interpolated and renormalised. Inputs must already be validated (finite, same
+// sizes, non-zero normals).
+std::vector<ProbeAttempt> interpolateSlide(const std::vector<Eigen::Vector3d>& points,
+                                           const std::vector<Eigen::Vector3d>& normals,
+                                           double step_m);
+
+struct SimulatedProberConfig {
+  double slide_step_m = 0.005;
+  std::size_t max_slide_attempts = 20000;  // refuses absurd paths instead of looping for long
+};
+
+// gpatlas_core::Prober on the simulated scene: a poke probes the last waypoint of the touch, a
+// slide follows the path with an attempt every slide_step_m. With an arm, every waypoint must
+// have a collision-free inverse kinematics solution or the touch fails before probing.
+class SimulatedProber : public gpatlas_core::Prober {
+ public:
+  using Config = SimulatedProberConfig;
+
+  SimulatedProber(std::shared_ptr<const Scene> scene, std::unique_ptr<ProbeModel> model,
+                  const Config& config = Config());
+
+  void setArm(std::shared_ptr<const Arm> arm) { arm_ = std::move(arm); }
+  const ProbeModel& model() const { return *model_; }
+
+  gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override;
+
+ private:
+  // Empty when the touch is usable, else the reason it is not.
+  std::string validate(const gpatlas_core::Touch& touch) const;
+  // Empty when the arm can reach every waypoint without collision, else the reason.
+  std::string checkArm(const std::vector<ProbeAttempt>& waypoints) const;
+
+  std::shared_ptr<const Scene> scene_;
+  std::unique_ptr<ProbeModel> model_;
+  std::shared_ptr<const Arm> arm_;
+  Config config_;
+};
+
+}  // namespace probe_sim

@@ -1,0 +1,245 @@
+#include "probe_sim/probe.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace probe_sim {
+
+namespace {
+
+// Points start + k * spacing * direction for k = 0, 1, ... up to length (inclusive).
+void appendSamples(const Eigen::Vector3d& start, const Eigen::Vector3d& direction, double length,
+                   double spacing, std::vector<Eigen::Vector3d>& out) {
+  if (length < 0.0) return;
+  const auto count = static_cast<int>(std::floor(length / spacing + 1e-9));
+  for (int k = 0; k <= count; ++k) out.push_back(start + (k * spacing) * direction);
+}
+
+void checkStrokeConfig(double start_offset, double spacing, double margin, double noise,
+                       const char* model) {
+  if (!(start_offset > 0.0) || !(spacing > 0.0) || !(margin >= 0.0) || !(noise >= 0.0)) {
+    throw std::runtime_error(std::string(model) +
+                             " probe: start offset and free-space spacing must be > 0, margin "
+                             "and noise >= 0");
+  }
+}
+
+Eigen::Vector3d gaussianOffset(double sigma, std::mt19937& rng) {
+  if (sigma <= 0.0) return Eigen::Vector3d::Zero();
+  std::normal_distribution<double> noise(0.0, sigma);
+  const double x = noise(rng), y = noise(rng), z = noise(rng);
+  return Eigen::Vector3d(x, y, z);
+}
+
+std::string kindsToText(unsigned kinds) {
+  std::string text;
+  for (SurfaceKind kind : {SurfaceKind::kObject, SurfaceKind::kTable, SurfaceKind::kObstacle}) {
+    if (kinds & static_cast<unsigned>(kind)) {
+      text += (text.empty() ? "" : "/") + std::string(toString(kind));
+    }
+  }
+  return text;
+}
+
+}  // namespace
+
+// ================================================================ ray
+
+RayProbe::RayProbe(const Config& config) : config_(config), rng_(config.seed) {
+  checkStrokeConfig(config_.start_offset_m, config_.free_space_spacing_m,
+                    config_.free_space_margin_m, config_.position_noise_m, "ray");
+}
+
+ProbeStroke RayProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                             const Eigen::Vector3d& outward_normal) {
+  ProbeStroke result;
+  const Eigen::Vector3d n = outward_normal.normalized();
+  const double d = config_.start_offset_m;
+  const Eigen::Vector3d start = waypoint + d * n;
+  const RayHit hit = scene.castRay(start, waypoint - d * n);
+  if (!hit.hit) {
+    appendSamples(start, -n, 2.0 * d, config_.free_space_spacing_m, result.free_space);
+    return result;
+  }
+  appendSamples(start, -n, hit.distance - config_.free_space_margin_m,
+                config_.free_space_spacing_m, result.free_space);
+  result.touched = hit.kind;
+  result.contact.position = hit.point + gaussianOffset(config_.position_noise_m, rng_);
+  result.contact.normal = hit.normal;
+  return result;
+}
+
+// ================================================================ sphere
+
+SphereProbe::SphereProbe(const Config& config) : config_(config), rng_(config.seed) {
+  checkStrokeConfig(config_.start_offset_m, config_.free_space_spacing_m,
+                    config_.free_space_margin_m, config_.position_noise_m, "sphere");
+  if (!(config_.radius_m > 0.0)) throw std::runtime_error("sphere probe: radius must be > 0");
+}
+
+ProbeStroke SphereProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                                const Eigen::Vector3d& outward_normal) {
+  ProbeStroke result;
+  const Eigen::Vector3d n = outward_normal.normalized();
+  const double d = config_.start_offset_m;
+  const Eigen::Vector3d start = waypoint + d * n;
+  // A sweep that starts in contact has no meaningful first contact (Bullet reports fraction 0
+  // or nothing), and a real fingertip could not have got there.
+  const unsigned start_overlap = scene.sphereOverlaps(config_.radius_m, start);
+  if (start_overlap != 0) {
+    result.failure = "probe start position overlaps the " + kindsToText(start_overlap);
+    return result;
+  }
+  const SweepHit hit = scene.sweepSphere(config_.radius_m, start, waypoint - d * n);
+  if (!hit.hit) {
+    appendSamples(start, -n, 2.0 * d, config_.free_space_spacing_m, result.free_space);
+    return result;
+  }
+  appendSamples(start, -n, hit.fraction * 2.0 * d - config_.free_space_margin_m,
+                config_.free_space_spacing_m, result.free_space);
+  result.touched = hit.kind;
+  result.contact.position = hit.witness_point + gaussianOffset(config_.position_noise_m, rng_);
+  result.contact.normal = hit.normal;
+  return result;
+}
+
+// ================================================================ factory
+
+std::vector<std::string> probeModelNames() { return {"ray", "sphere"}; }
+
+std::unique_ptr<ProbeModel> makeProbeModel(const std::string& name,
+                                           const ProbeModelConfig& config) {
+  if (name == "ray") return std::make_unique<RayProbe>(config.ray);
+  if (name == "sphere") return std::make_unique<SphereProbe>(config.sphere);
+  throw std::runtime_error("unknown probe model '" + name + "' (known: ray, sphere)");
+}
+
+// ================================================================ slides
+
+std::vector<ProbeAttempt> interpolateSlide(const std::vector<Eigen::Vector3d>& points,
+                                           const std::vector<Eigen::Vector3d>& normals,
+                                           double step_m) {
+  std::vector<ProbeAttempt> attempts;
+  if (points.empty()) return attempts;
+  std::vector<double> arc_length = {0.0};
+  for (std::size_t i = 1; i < points.size(); ++i) {
+    arc_length.push_back(arc_length.back() + (points[i] - points[i - 1]).norm());
+  }
+  const double total = arc_length.back();
+  const auto intervals = static_cast<std::size_t>(std::ceil(total / step_m - 1e-9));
+  if (intervals == 0) return {{points.front(), normals.front().normalized()}};
+  std::size_t segment = 0;
+  for (std::size_t k = 0; k <= intervals; ++k) {
+    const double s = total * static_cast<double>(k) / static_cast<double>(intervals);
+    while (segment + 2 < points.size() && arc_length[segment + 1] < s) ++segment;
+    const double segment_length = arc_length[segment + 1] - arc_length[segment];
+    const double t =
+        segment_length > 0.0 ? std::clamp((s - arc_length[segment]) / segment_length, 0.0, 1.0)
+                             : 0.0;
+    const Eigen::Vector3d point = (1.0 - t) * points[segment] + t * points[segment + 1];
+    const Eigen::Vector3d n0 = normals[segment].normalized();
+    const Eigen::Vector3d n1 = normals[segment + 1].normalized();
+    Eigen::Vector3d normal = (1.0 - t) * n0 + t * n1;
+    // Opposite neighbouring normals blend to zero; keep the nearer waypoint's normal then.
+    normal = normal.norm() > 1e-9 ? Eigen::Vector3d(normal.normalized()) : (t < 0.5 ? n0 : n1);
+    attempts.push_back({point, normal});
+  }
+  return attempts;
+}
+
+// ================================================================ prober
+
+SimulatedProber::SimulatedProber(std::shared_ptr<const Scene> scene,
+                                 std::unique_ptr<ProbeModel> model, const Config& config)
+    : scene_(std::move(scene)), model_(std::move(model)), config_(config) {
+  if (!scene_ || !model_) throw std::runtime_error("SimulatedProber: scene and model are required");
+  if (!(config_.slide_step_m > 0.0)) {
+    throw std::runtime_error("SimulatedProber: slide_step_m must be > 0");
+  }
+}
+
+std::string SimulatedProber::validate(const gpatlas_core::Touch& touch) const {
+  if (touch.points.empty()) return "empty touch: no waypoints";
+  if (touch.normals.size() != touch.points.size()) {
+    return "touch has " + std::to_string(touch.points.size()) + " waypoints but " +
+           std::to_string(touch.normals.size()) + " normals";
+  }
+  for (std::size_t i = 0; i < touch.points.size(); ++i) {
+    if (!touch.points[i].allFinite()) return "waypoint " + std::to_string(i) + " is not finite";
+    if (!touch.normals[i].allFinite() || touch.normals[i].norm() < 1e-9) {
+      return "normal " + std::to_string(i) + " is zero or not finite";
+    }
+  }
+  if (touch.kind == gpatlas_core::Touch::Kind::kSlide) {
+    double length = 0.0;
+    for (std::size_t i = 1; i < touch.points.size(); ++i) {
+      length += (touch.points[i] - touch.points[i - 1]).norm();
+    }
+    if (length / config_.slide_step_m > static_cast<double>(config_.max_slide_attempts)) {
+      return "slide path of " + std::to_string(length) + " m needs more than " +
+             std::to_string(config_.max_slide_attempts) + " attempts";
+    }
+  }
+  return "";
+}
+
+std::string SimulatedProber::checkArm(const std::vector<ProbeAttempt>& waypoints) const {
+  Eigen::VectorXd previous;
+  for (std::size_t i = 0; i < waypoints.size(); ++i) {
+    const ProbeAttempt& w = waypoints[i];
+    const Arm::IkResult ik = arm_->solveApproach(w.point + model_->tipStandoff() * w.normal,
+                                                 -w.normal, scene_.get(),
+                                                 previous.size() ? &previous : nullptr);
+    const std::string where = waypoints.size() > 1 ? " at waypoint " + std::to_string(i) : "";
+    if (!ik.reached) return "unreachable" + where;
+    if (!ik.success) return "arm collides with " + kindsToText(ik.collision_kinds) + where;
+    previous = ik.joints;
+  }
+  return "";
+}
+
+gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touch) {
+  gpatlas_core::ProbeResult result;
+  result.reason = validate(touch);
+  if (!result.reason.empty()) return result;
+
+  const bool slide = touch.kind == gpatlas_core::Touch::Kind::kSlide;
+  std::vector<ProbeAttempt> waypoints;
+  for (std::size_t i = slide ? 0 : touch.points.size() - 1; i < touch.points.size(); ++i) {
+    waypoints.push_back({touch.points[i], touch.normals[i].normalized()});
+  }
+  if (arm_) {
+    result.reason = checkArm(waypoints);
+    if (!result.reason.empty()) return result;
+  }
+  const std::vector<ProbeAttempt> attempts =
+      slide ? interpolateSlide(touch.points, touch.normals, config_.slide_step_m) : waypoints;
+
+  unsigned other_surfaces = 0;
+  std::string stroke_failure;
+  for (const ProbeAttempt& attempt : attempts) {
+    ProbeStroke stroke = model_->stroke(*scene_, attempt.point, attempt.normal);
+    if (!stroke.failure.empty()) stroke_failure = stroke.failure;
+    result.free_space.insert(result.free_space.end(), stroke.free_space.begin(),
+                             stroke.free_space.end());
+    if (stroke.touched == SurfaceKind::kObject) {
+      result.contacts.push_back(stroke.contact);
+    } else if (stroke.touched != SurfaceKind::kNone) {
+      other_surfaces |= static_cast<unsigned>(stroke.touched);
+    }
+  }
+  result.success = !result.contacts.empty();
+  if (!result.success) {
+    if (!stroke_failure.empty()) {
+      result.reason = stroke_failure;
+    } else if (other_surfaces != 0) {
+      result.reason = "no contact with the object (touched the " + kindsToText(other_surfaces) + ")";
+    } else {
+      result.reason = "no contact";
+    }
+  }
+  return result;
+}
+
+}  // namespace probe_sim

@@ -1,0 +1,313 @@
+#include "probe_sim/probe.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+
+using gpatlas_core::ProbeResult;
+using gpatlas_core::Touch;
+using probe_sim::Scene;
+using probe_sim::SimulatedProber;
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDegree = kPi / 180.0;
+
+// Sphere of radius 5 cm resting on the table, tessellated at about 1 degree.
+constexpr double kSize = 0.10;
+constexpr double kRadius = kSize / 2;
+const Eigen::Vector3d kCentre(0.0, 0.0, kRadius);
+
+double angleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
+
+// Largest distance between the tessellated and the analytic sphere, measured on the mesh: the
+// flat triangles lie between their plane's distance from the centre and the radius.
+double sagittaBound(const probe_sim::TriangleMesh& mesh) {
+  double closest_plane = kRadius;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const Eigen::Vector3d on_plane = mesh.vertices[mesh.triangles[t][0]];
+    closest_plane =
+        std::min(closest_plane, std::abs(mesh.triangleNormal(t).dot(on_plane - kCentre)));
+  }
+  return kRadius - closest_plane;
+}
+
+// Largest angle between a facet's normal and the sphere's radial direction anywhere on the
+// facet (the largest is at a corner).
+double facetTilt(const probe_sim::TriangleMesh& mesh) {
+  double tilt = 0.0;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    for (int corner = 0; corner < 3; ++corner) {
+      const Eigen::Vector3d& v = mesh.vertices[mesh.triangles[t][corner]];
+      tilt = std::max(tilt, angleBetween(mesh.triangleNormal(t), v - kCentre));
+    }
+  }
+  return tilt;
+}
+
+Eigen::Vector3d direction(double azimuth, double elevation) {
+  return Eigen::Vector3d(std::cos(elevation) * std::cos(azimuth),
+                         std::cos(elevation) * std::sin(azimuth), std::sin(elevation));
+}
+
+// Outward normals over the part of the sphere a probe can approach (not from below the table).
+// The angles are off the 1-degree tessellation grid so that most rays land inside triangles,
+// where the facets deviate most from the sphere.
+std::vector<Eigen::Vector3d> testDirections() {
+  std::vector<Eigen::Vector3d> directions;
+  for (double elevation : {-9.61, 0.37, 17.29, 45.53, 71.71, 89.45}) {
+    for (double azimuth : {0.43, 37.38, 123.66, 200.5, 301.27}) {
+      directions.push_back(direction(azimuth * kDegree, elevation * kDegree));
+    }
+  }
+  return directions;
+}
+
+Touch poke(const Eigen::Vector3d& point, const Eigen::Vector3d& normal) {
+  Touch touch;
+  touch.kind = Touch::Kind::kPoke;
+  touch.points = {point};
+  touch.normals = {normal};
+  touch.variances = {1.0};
+  return touch;
+}
+
+class SphereObject : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    probe_sim::ProceduralConfig tessellation;
+    tessellation.segments = 360;
+    tessellation.rings = 180;
+    scene_ = std::make_shared<Scene>(probe_sim::makeProceduralObject("sphere", kSize, tessellation));
+    sagitta_ = sagittaBound(scene_->objectMesh());
+  }
+
+  std::shared_ptr<Scene> scene_;
+  double sagitta_ = 0.0;
+};
+
+}  // namespace
+
+TEST_F(SphereObject, TessellationIsFineEnoughForTheTolerances) {
+  // 1-degree cells put the deepest triangle point ~1e-5 m inside a 5 cm sphere, and no facet
+  // normal is more than a degree off the radial direction.
+  EXPECT_GT(sagitta_, 0.0);
+  EXPECT_LT(sagitta_, 1e-4);
+  EXPECT_LT(facetTilt(scene_->objectMesh()), 1.0 * kDegree);
+  RecordProperty("sagitta_um", std::to_string(sagitta_ * 1e6));
+  RecordProperty("facet_tilt_deg", std::to_string(facetTilt(scene_->objectMesh()) / kDegree));
+}
+
+TEST_F(SphereObject, RayProbeHitsTheAnalyticContactWithTheAnalyticNormal) {
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("ray"));
+  double worst_position = 0.0, worst_normal = 0.0;
+  for (const Eigen::Vector3d& n : testDirections()) {
+    SCOPED_TRACE(n.transpose());
+    for (double off_surface : {-0.03, 0.0, 0.04}) {
+      // The waypoint the planner predicted may be off the real surface; the stroke still finds it.
+      const ProbeResult result = prober.probe(poke(kCentre + (kRadius + off_surface) * n, n));
+      ASSERT_TRUE(result.success) << result.reason;
+      ASSERT_EQ(result.contacts.size(), 1u);
+      const Eigen::Vector3d expected = kCentre + kRadius * n;
+      worst_position = std::max(worst_position, (result.contacts[0].position - expected).norm());
+      worst_normal = std::max(worst_normal, angleBetween(result.contacts[0].normal, n));
+      EXPECT_LE((result.contacts[0].position - expected).norm(), sagitta_ + 1e-6);
+      EXPECT_LT(angleBetween(result.contacts[0].normal, n), 1.0 * kDegree);
+      // Free space: from 10 cm above the waypoint, 1 cm apart, outside the sphere with a margin.
+      ASSERT_FALSE(result.free_space.empty());
+      EXPECT_TRUE(result.free_space.front().isApprox(kCentre + (kRadius + off_surface + 0.1) * n));
+      for (std::size_t i = 0; i < result.free_space.size(); ++i) {
+        const double distance = (result.free_space[i] - kCentre).norm() - kRadius;
+        EXPECT_GE(distance, 0.005 - sagitta_ - 1e-9);
+        if (i > 0) {
+          EXPECT_NEAR((result.free_space[i] - result.free_space[i - 1]).norm(), 0.01, 1e-9);
+        }
+      }
+      // The last sample is the last one that fits before the margin.
+      const double last = (result.free_space.back() - kCentre).norm() - kRadius;
+      EXPECT_LT(last, 0.005 + 0.01 + sagitta_);
+    }
+  }
+  RecordProperty("worst_contact_error_um", std::to_string(worst_position * 1e6));
+  RecordProperty("worst_normal_error_deg", std::to_string(worst_normal / kDegree));
+}
+
+TEST_F(SphereObject, ObliqueRayMatchesTheAnalyticLineSphereIntersection) {
+  probe_sim::RayProbe ray;
+  const Eigen::Vector3d n = direction(0.4, 0.3);
+  const Eigen::Vector3d tangent = n.cross(Eigen::Vector3d::UnitZ()).normalized();
+  for (double lateral : {0.01, 0.025, 0.04}) {
+    const Eigen::Vector3d waypoint = kCentre + kRadius * n + lateral * tangent;
+    const probe_sim::ProbeStroke stroke = ray.stroke(*scene_, waypoint, n);
+    ASSERT_EQ(stroke.touched, probe_sim::SurfaceKind::kObject);
+    // Line p(s) = start - s n; |p - c| = R gives s = b - sqrt(b^2 - |start - c|^2 + R^2).
+    const Eigen::Vector3d start = waypoint + 0.1 * n;
+    const double b = (start - kCentre).dot(n);
+    const double s = b - std::sqrt(b * b - (start - kCentre).squaredNorm() + kRadius * kRadius);
+    const Eigen::Vector3d expected = start - s * n;
+    // A radial error e of the facets becomes e / cos(incidence) along an oblique ray.
+    const double incidence = angleBetween(expected - kCentre, n);
+    EXPECT_LE((stroke.contact.position - expected).norm(), sagitta_ / std::cos(incidence) + 1e-6);
+    EXPECT_LT(angleBetween(stroke.contact.normal, (expected - kCentre).normalized()), 1.0 * kDegree);
+  }
+}
+
+TEST_F(SphereObject, SphereProbeWitnessPointAndNormalMatchTheSphere) {
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("sphere"));
+  // A 2 cm sphere resting on a facet tilted by a against the radial direction touches it
+  // 2 cm * sin(a) to the side of the analytic contact; with the facets' sagitta that bounds
+  // the distance from the analytic point (about 0.25 mm at 1-degree facets).
+  const double tolerance = 0.02 * std::sin(facetTilt(scene_->objectMesh())) + sagitta_;
+  RecordProperty("tolerance_um", std::to_string(tolerance * 1e6));
+  double worst_position = 0.0, worst_normal = 0.0;
+  for (const Eigen::Vector3d& n : testDirections()) {
+    SCOPED_TRACE(n.transpose());
+    const ProbeResult result = prober.probe(poke(kCentre + kRadius * n, n));
+    ASSERT_TRUE(result.success) << result.reason;
+    ASSERT_EQ(result.contacts.size(), 1u);
+    const Eigen::Vector3d expected = kCentre + kRadius * n;
+    worst_position = std::max(worst_position, (result.contacts[0].position - expected).norm());
+    worst_normal = std::max(worst_normal, angleBetween(result.contacts[0].normal, n));
+    EXPECT_LE((result.contacts[0].position - expected).norm(), tolerance);
+    EXPECT_LT(angleBetween(result.contacts[0].normal, n), 1.0 * kDegree);
+    // Free space is where the probe centre was: never closer than the probe radius.
+    for (const Eigen::Vector3d& centre : result.free_space) {
+      EXPECT_GE((centre - kCentre).norm() - kRadius, 0.02 - 1e-4);
+    }
+  }
+  RecordProperty("worst_contact_error_um", std::to_string(worst_position * 1e6));
+  RecordProperty("worst_normal_error_deg", std::to_string(worst_normal / kDegree));
+}
+
+TEST_F(SphereObject, MissReturnsOnlyFreeSpaceOutsideTheObject) {
+  for (const std::string& model : probe_sim::probeModelNames()) {
+    SCOPED_TRACE(model);
+    SimulatedProber prober(scene_, probe_sim::makeProbeModel(model));
+    // Beside the sphere, moving horizontally: passes 0.15 m from its centre.
+    const ProbeResult result =
+        prober.probe(poke(kCentre + Eigen::Vector3d(0.15, 0.0, 0.0), Eigen::Vector3d::UnitY()));
+    EXPECT_FALSE(result.success);
+    EXPECT_EQ(result.reason, "no contact");
+    EXPECT_TRUE(result.contacts.empty());
+    EXPECT_EQ(result.free_space.size(), 21u);  // 0.2 m stroke sampled every 0.01 m, both ends
+    for (const Eigen::Vector3d& p : result.free_space) {
+      EXPECT_GT((p - kCentre).norm(), kRadius);
+    }
+  }
+}
+
+TEST_F(SphereObject, TableContactIsNotAnObjectContact) {
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("ray"));
+  const ProbeResult result =
+      prober.probe(poke(Eigen::Vector3d(0.3, 0.2, 0.0), Eigen::Vector3d::UnitZ()));
+  EXPECT_FALSE(result.success);
+  EXPECT_NE(result.reason.find("table"), std::string::npos) << result.reason;
+  EXPECT_EQ(result.free_space.size(), 10u);  // 0.1 m down to the table minus the 5 mm margin
+}
+
+TEST_F(SphereObject, SlideCollectsContactsEverySlideStep) {
+  SimulatedProber::Config config;
+  config.slide_step_m = 0.005;
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("ray"), config);
+  Touch slide;
+  slide.kind = Touch::Kind::kSlide;
+  // Four waypoints along a meridian from the equator up to 60 degrees.
+  for (double elevation : {0.0, 20.0, 40.0, 60.0}) {
+    const Eigen::Vector3d n = direction(0.3, elevation * kDegree);
+    slide.points.push_back(kCentre + kRadius * n);
+    slide.normals.push_back(n);
+  }
+  double path_length = 0.0;
+  for (std::size_t i = 1; i < slide.points.size(); ++i) {
+    path_length += (slide.points[i] - slide.points[i - 1]).norm();
+  }
+  const ProbeResult result = prober.probe(slide);
+  ASSERT_TRUE(result.success) << result.reason;
+  const auto expected_attempts = static_cast<std::size_t>(std::ceil(path_length / 0.005)) + 1;
+  EXPECT_EQ(result.contacts.size(), expected_attempts);
+  for (std::size_t i = 0; i < result.contacts.size(); ++i) {
+    const Eigen::Vector3d& p = result.contacts[i].position;
+    EXPECT_NEAR((p - kCentre).norm(), kRadius, sagitta_ + 1e-6);
+    if (i > 0) {
+      // Contacts on the arc are a little further apart than attempts on the chords.
+      const double gap = (p - result.contacts[i - 1].position).norm();
+      EXPECT_GT(gap, 0.004);
+      EXPECT_LT(gap, 0.0055);
+    }
+  }
+  EXPECT_TRUE(result.contacts.front().position.isApprox(slide.points.front(), 1e-3));
+  EXPECT_TRUE(result.contacts.back().position.isApprox(slide.points.back(), 1e-3));
+}
+
+TEST_F(SphereObject, BadTouchesFailWithAReason) {
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("sphere"));
+  const double nan = std::nan("");
+  struct Case {
+    Touch touch;
+    std::string reason_fragment;
+  };
+  Touch empty;
+  Touch mismatched = poke(kCentre, Eigen::Vector3d::UnitZ());
+  mismatched.normals.clear();
+  std::vector<Case> cases = {
+      {empty, "empty"},
+      {poke(Eigen::Vector3d(nan, 0, 0), Eigen::Vector3d::UnitZ()), "not finite"},
+      {poke(kCentre, Eigen::Vector3d(0, nan, 1)), "normal 0"},
+      {poke(kCentre, Eigen::Vector3d::Zero()), "zero"},
+      {mismatched, "normals"},
+  };
+  Touch slide = poke(kCentre + kRadius * Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitX());
+  slide.kind = Touch::Kind::kSlide;
+  slide.points.push_back(Eigen::Vector3d(0, 0, std::numeric_limits<double>::infinity()));
+  slide.normals.push_back(Eigen::Vector3d::UnitX());
+  cases.push_back({slide, "waypoint 1"});
+  for (const Case& c : cases) {
+    const ProbeResult result = prober.probe(c.touch);
+    EXPECT_FALSE(result.success);
+    EXPECT_NE(result.reason.find(c.reason_fragment), std::string::npos) << result.reason;
+    EXPECT_TRUE(result.contacts.empty());
+  }
+  // A sphere probe cannot start through the surface: here the stroke would start with the
+  // sphere centre 5 mm inside the object. (A start entirely inside a closed mesh is not
+  // detected: without a watertight mesh there is no reliable inside test.)
+  const ProbeResult inside = prober.probe(poke(kCentre - 0.055 * Eigen::Vector3d::UnitX(),
+                                               Eigen::Vector3d::UnitX()));
+  EXPECT_FALSE(inside.success);
+  EXPECT_NE(inside.reason.find("overlaps the object"), std::string::npos) << inside.reason;
+  EXPECT_THROW(probe_sim::makeProbeModel("laser"), std::runtime_error);
+}
+
+TEST(HollowObjects, OpenTopsLetARayReachTheFloorOrTheTable) {
+  const double size = 0.12;
+  for (const std::string name : {"bowl", "mug", "funnel"}) {
+    SCOPED_TRACE(name);
+    const Scene scene(probe_sim::makeProceduralObject(name, size));
+    // The cup's axis passes through the centre of the rim (the top ring of vertices).
+    Eigen::Vector3d rim_centre = Eigen::Vector3d::Zero();
+    int rim_count = 0;
+    const double top = scene.objectMesh().boundingBox().max().z();
+    for (const auto& v : scene.objectMesh().vertices) {
+      if (v.z() > top - 1e-9) {
+        rim_centre += v;
+        ++rim_count;
+      }
+    }
+    ASSERT_GT(rim_count, 0);
+    rim_centre /= rim_count;
+    const probe_sim::RayHit hit =
+        scene.castRay(rim_centre + Eigen::Vector3d(0, 0, 0.05), rim_centre - Eigen::Vector3d(0, 0, 0.3));
+    ASSERT_TRUE(hit.hit);
+    if (name == std::string("funnel")) {
+      EXPECT_EQ(hit.kind, probe_sim::SurfaceKind::kTable);  // straight through the spout
+    } else {
+      EXPECT_EQ(hit.kind, probe_sim::SurfaceKind::kObject);
+      EXPECT_GT(hit.point.z(), 0.0);  // a floor above the table ...
+      EXPECT_LT(hit.point.z(), 0.1 * size);  // ... near the bottom, not a lid
+      EXPECT_TRUE(hit.normal.isApprox(Eigen::Vector3d::UnitZ(), 1e-6));
+    }
+  }
+}
