@@ -30,7 +30,7 @@ class MeshDistanceIndex {
     std::uint64_t seed{11};
   };
   MeshDistanceIndex(const TriangleMesh& mesh, Config config);
-  MeshDistanceIndex(const TriangleMesh& mesh) : MeshDistanceIndex(mesh, Config()) {}
+  explicit MeshDistanceIndex(const TriangleMesh& mesh) : MeshDistanceIndex(mesh, Config()) {}
   ~MeshDistanceIndex();
   MeshDistanceIndex(const MeshDistanceIndex&) = delete;
   MeshDistanceIndex& operator=(const MeshDistanceIndex&) = delete;
