@@ -283,6 +283,14 @@ TriangleMesh parsePly(const std::string& path, const std::string& bytes) {
     fail(path, "unsupported PLY format '" + format + "' (ascii or binary_little_endian only)");
   }
 
+  for (const PlyElement& element : elements) {
+    // Every element with properties takes at least one byte, so a larger count is a corrupt
+    // header (and would otherwise make the reservation below fail).
+    if (!element.properties.empty() && element.count > bytes.size() - body_offset) {
+      fail(path, "PLY element '" + element.name + "' announces " + std::to_string(element.count) +
+                     " entries, more than the file can hold: truncated or corrupt");
+    }
+  }
   TriangleMesh mesh;
   PlyValueReader reader(path, bytes, body_offset, binary);
   for (const PlyElement& element : elements) {
@@ -430,6 +438,13 @@ TriangleMesh loadMesh(const std::string& path, double scale, const Eigen::Isomet
   mesh.scale(scale);
   mesh.transform(pose);
   return mesh;
+}
+
+void placeOnTable(TriangleMesh& mesh, const Eigen::Vector2d& xy) {
+  if (mesh.vertices.empty()) return;
+  const Eigen::AlignedBox3d box = mesh.boundingBox();
+  const Eigen::Vector3d shift(xy.x() - box.center().x(), xy.y() - box.center().y(), -box.min().z());
+  for (auto& v : mesh.vertices) v += shift;
 }
 
 void saveStl(const TriangleMesh& mesh, const std::string& path) {
@@ -687,12 +702,8 @@ TriangleMesh makeFunnelMesh(int segments) {
 // Uniform scale so that the largest bounding-box side is size_m, then bounding box centred on
 // x = y = 0 with its bottom on z = 0.
 void normalisePlacement(TriangleMesh& mesh, double size_m) {
-  const Eigen::AlignedBox3d box = mesh.boundingBox();
-  mesh.scale(size_m / box.sizes().maxCoeff());
-  const Eigen::AlignedBox3d scaled = mesh.boundingBox();
-  const Eigen::Vector3d centre = scaled.center();
-  const Eigen::Vector3d shift(-centre.x(), -centre.y(), -scaled.min().z());
-  for (auto& v : mesh.vertices) v += shift;
+  mesh.scale(size_m / mesh.boundingBox().sizes().maxCoeff());
+  placeOnTable(mesh);
 }
 
 constexpr double kCylinderRadiusFraction = 0.3;

@@ -161,6 +161,11 @@ TEST(MeshLoading, MissingEmptyTruncatedAndCorruptFilesGiveClearErrors) {
              "end_header\n0 0 0\n1 0 0\n");
   expectLoadError(dir.file("truncated.ply"), {"ends early"});
 
+  writeBytes(dir.file("huge_count.ply"),
+             "ply\nformat binary_little_endian 1.0\nelement vertex 4000000000\nproperty float x\n"
+             "end_header\n\x01\x02");
+  expectLoadError(dir.file("huge_count.ply"), {"more than the file can hold"});
+
   writeBytes(dir.file("bad_index.obj"), "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n");
   expectLoadError(dir.file("bad_index.obj"), {"vertex that does not exist"});
 
@@ -169,6 +174,18 @@ TEST(MeshLoading, MissingEmptyTruncatedAndCorruptFilesGiveClearErrors) {
 
   writeBytes(dir.file("mesh.xyz"), "0 0 0\n");
   expectLoadError(dir.file("mesh.xyz"), {"unknown mesh extension"});
+}
+
+TEST(MeshLoading, PlaceOnTableCentresAndGrounds) {
+  TriangleMesh mesh = unitTetrahedron();
+  mesh.scale(0.2);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() << 5.0, -3.0, 7.0;
+  mesh.transform(pose);
+  probe_sim::placeOnTable(mesh, Eigen::Vector2d(0.1, 0.2));
+  const Eigen::AlignedBox3d box = mesh.boundingBox();
+  EXPECT_TRUE(box.min().isApprox(Eigen::Vector3d(0.0, 0.1, 0.0), 1e-12)) << box.min().transpose();
+  EXPECT_TRUE(box.max().isApprox(Eigen::Vector3d(0.2, 0.3, 0.2), 1e-12)) << box.max().transpose();
 }
 
 TEST(MeshLoading, RejectsBadScale) {

@@ -311,3 +311,27 @@ TEST(HollowObjects, OpenTopsLetARayReachTheFloorOrTheTable) {
     }
   }
 }
+
+TEST(HollowObjects, MugHandleStandsOutOnThePlusXSide) {
+  const double size = 0.12;
+  const Scene scene(probe_sim::makeProceduralObject("mug", size));
+  const Eigen::AlignedBox3d box = scene.objectMesh().boundingBox();
+  // At half height the handle is the outermost part on +x: a ray coming from +x first hits it
+  // at the bounding box's +x face ...
+  const double mid = box.center().z();
+  const probe_sim::RayHit handle =
+      scene.castRay(Eigen::Vector3d(0.5, 0.0, mid), Eigen::Vector3d(-0.5, 0.0, mid));
+  ASSERT_TRUE(handle.hit);
+  EXPECT_NEAR(handle.point.x(), box.max().x(), 1e-3 * size);
+  // ... while near the rim (above the handle) the same ray reaches the cup wall, further in.
+  const double high = box.max().z() - 0.02 * size;
+  const probe_sim::RayHit wall =
+      scene.castRay(Eigen::Vector3d(0.5, 0.0, high), Eigen::Vector3d(-0.5, 0.0, high));
+  ASSERT_TRUE(wall.hit);
+  EXPECT_LT(wall.point.x(), box.max().x() - 0.15 * size);
+  // The far side (-x) has no handle: the cup wall is the bounding box there.
+  const probe_sim::RayHit back =
+      scene.castRay(Eigen::Vector3d(-0.5, 0.0, mid), Eigen::Vector3d(0.5, 0.0, mid));
+  ASSERT_TRUE(back.hit);
+  EXPECT_NEAR(back.point.x(), box.min().x(), 1e-3 * size);
+}

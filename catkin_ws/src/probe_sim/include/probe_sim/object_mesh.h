@@ -38,6 +38,10 @@ TriangleMesh loadObj(const std::string& path);  // v / f records, polygons fan-t
 TriangleMesh loadMesh(const std::string& path, double scale = 1.0,
                       const Eigen::Isometry3d& pose = Eigen::Isometry3d::Identity());
 
+// Moves the mesh so that its bounding box is centred on (x, y) and its bottom is on z = 0,
+// i.e. standing on the table. Scanned meshes come in their scanner's coordinates.
+void placeOnTable(TriangleMesh& mesh, const Eigen::Vector2d& xy = Eigen::Vector2d::Zero());
+
 // Writes a binary STL with per-facet normals from the winding. Throws std::runtime_error when
 // the file cannot be written.
 void saveStl(const TriangleMesh& mesh, const std::string& path);

@@ -60,8 +60,9 @@ struct SceneConfig {
 };
 
 // The static world the probe and the camera see: the object mesh, a table box whose top is the
-// plane z = 0, and optional obstacles. Queries are read-only on the world, so one Scene can
-// serve the camera and the probe.
+// plane z = 0, and optional obstacles. One Scene can serve the camera, the probe and the arm,
+// but not from several threads at once: Bullet's broadphase and dispatcher keep scratch state
+// even in queries that do not change the world. Use one Scene per thread.
 class Scene {
  public:
   using Config = SceneConfig;
