@@ -489,7 +489,7 @@ double GpisModel::noiseScale() const { return impl_->noise_scale; }
 double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
 
 BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
-                                        bool with_variance_gradient) const {
+                                        bool with_variance_gradient, bool with_variance) const {
   const Impl& m = *impl_;
   if (!m.fitted) throw std::logic_error("GpisModel: query before the model was fitted");
   const Eigen::Index q = x_world.cols();
@@ -510,6 +510,24 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
     for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.kernel->value((train.col(i) - xq.col(j)).norm());
   }
   out.mean.noalias() = cross.transpose() * m.alpha;
+
+  if (!with_variance && !with_variance_gradient) {
+    out.variance.setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (with_gradient) {
+      const double inv_scale = 1.0 / m.scale;
+      for (Eigen::Index j = 0; j < q; ++j) {
+        Vector3 grad_mean = Vector3::Zero();
+        const Vector3 xj = xq.col(j);
+        for (Eigen::Index i = 0; i < n; ++i) {
+          const Vector3 d = xj - train.col(i);
+          const double r = d.norm();
+          if (r > 0.0) grad_mean += (m.kernel->derivative(r) / r * m.alpha[i]) * d;
+        }
+        out.gradient.col(j) = grad_mean * inv_scale;
+      }
+    }
+    return out;
+  }
 
   // v = L^-1 k*, var = k(0) - |v|^2; K^-1 k* = L^-T v is needed only for the variance gradient.
   Eigen::MatrixXd solved = cross;

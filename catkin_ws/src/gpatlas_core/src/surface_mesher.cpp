@@ -20,12 +20,13 @@ namespace {
 
 // Evaluates the model in batches; `store` receives (column in `points`, prediction, row).
 template <typename Store>
-void predictInBatches(const GpisModel& model, const std::vector<Vector3>& points, int batch_size, Store store) {
+void predictInBatches(const GpisModel& model, const std::vector<Vector3>& points, int batch_size, bool with_variance,
+                      Store store) {
   for (std::size_t first = 0; first < points.size(); first += static_cast<std::size_t>(batch_size)) {
     const std::size_t count = std::min(points.size() - first, static_cast<std::size_t>(batch_size));
     Points3 batch(3, static_cast<Eigen::Index>(count));
     for (std::size_t k = 0; k < count; ++k) batch.col(static_cast<Eigen::Index>(k)) = points[first + k];
-    const BatchPrediction prediction = model.predictBatch(batch, false, false);
+    const BatchPrediction prediction = model.predictBatch(batch, false, false, with_variance);
     for (std::size_t k = 0; k < count; ++k) store(first + k, prediction, static_cast<Eigen::Index>(k));
   }
 }
@@ -79,7 +80,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const GpisModel& model) const {
                               (static_cast<std::size_t>(j) + static_cast<std::size_t>(size.y()) * k));
       }
   bool finite = true;
-  predictInBatches(model, query_points, config_.batch_size,
+  predictInBatches(model, query_points, config_.batch_size, /*with_variance=*/false,
                    [&](std::size_t n, const BatchPrediction& prediction, Eigen::Index row) {
                      const double mean = prediction.mean(row);
                      finite = finite && std::isfinite(mean);
@@ -133,7 +134,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const GpisModel& model) const {
     return result;
   }
   mesh.vertex_variances.assign(mesh.vertices.size(), 0.0);
-  predictInBatches(model, mesh.vertices, config_.batch_size,
+  predictInBatches(model, mesh.vertices, config_.batch_size, /*with_variance=*/true,
                    [&](std::size_t n, const BatchPrediction& prediction, Eigen::Index row) {
                      mesh.vertex_variances[n] = prediction.variance(row);
                    });

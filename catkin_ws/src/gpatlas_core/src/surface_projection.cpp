@@ -68,7 +68,8 @@ std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Point
     Points3 queries(3, static_cast<Eigen::Index>(active.size()));
     for (std::size_t k = 0; k < active.size(); ++k) queries.col(static_cast<Eigen::Index>(k)) = current.col(active[k]);
     const BatchPrediction prediction = model.predictBatch(queries, /*with_gradient=*/true,
-                                                          /*with_variance_gradient=*/false);
+                                                          /*with_variance_gradient=*/false,
+                                                          /*with_variance=*/false);
     std::vector<Eigen::Index> still_active;
     for (std::size_t k = 0; k < active.size(); ++k) {
       const Eigen::Index i = active[k];
@@ -81,7 +82,7 @@ std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Point
         result.failure = ProjectionFailure::kOutsideDomain;
         continue;
       }
-      if (!std::isfinite(f) || !gradient.allFinite() || !std::isfinite(prediction.variance(q))) {
+      if (!std::isfinite(f) || !gradient.allFinite()) {
         result.failure = ProjectionFailure::kInvalidPrediction;
         continue;
       }
@@ -91,7 +92,6 @@ std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Point
         result.position = current.col(i);
         result.gradient = gradient;
         result.mean = f;
-        result.variance = prediction.variance(q);
         continue;
       }
       if (iteration >= config.max_iterations) {
@@ -114,6 +114,25 @@ std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Point
     }
     active.swap(still_active);
   }
+  // The variance costs O(n^2) per point: evaluate it once, for the converged points only.
+  std::vector<std::size_t> converged;
+  for (std::size_t i = 0; i < results.size(); ++i)
+    if (results[i].ok) converged.push_back(i);
+  if (!converged.empty()) {
+    Points3 positions(3, static_cast<Eigen::Index>(converged.size()));
+    for (std::size_t k = 0; k < converged.size(); ++k)
+      positions.col(static_cast<Eigen::Index>(k)) = results[converged[k]].position;
+    const BatchPrediction at_surface = model.predictBatch(positions, false, false, true);
+    for (std::size_t k = 0; k < converged.size(); ++k) {
+      const double variance = at_surface.variance(static_cast<Eigen::Index>(k));
+      if (std::isfinite(variance)) {
+        results[converged[k]].variance = variance;
+      } else {
+        results[converged[k]].ok = false;
+        results[converged[k]].failure = ProjectionFailure::kInvalidPrediction;
+      }
+    }
+  }
   return results;
 }
 
@@ -127,7 +146,7 @@ std::vector<SurfacePoint> projectAlongGradient(const GpisModel& model, const Poi
   if (!valid.empty()) {
     Points3 valid_starts(3, static_cast<Eigen::Index>(valid.size()));
     for (std::size_t k = 0; k < valid.size(); ++k) valid_starts.col(static_cast<Eigen::Index>(k)) = starts.col(valid[k]);
-    const BatchPrediction prediction = model.predictBatch(valid_starts, true, false);
+    const BatchPrediction prediction = model.predictBatch(valid_starts, true, false, false);
     for (std::size_t k = 0; k < valid.size(); ++k)
       directions.col(valid[k]) = prediction.gradient.col(static_cast<Eigen::Index>(k));
   }

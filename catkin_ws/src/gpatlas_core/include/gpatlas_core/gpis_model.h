@@ -120,9 +120,11 @@ class GpisModel {
   Prediction predict(const Vector3& x_world) const;
   double mean(const Vector3& x_world) const;
   double variance(const Vector3& x_world) const;
-  // One matrix solve for the whole batch. Gradients are computed only when asked for.
+  // One matrix solve for the whole batch. Gradients are computed only when asked for; without
+  // `with_variance` (and without the variance gradient) the O(n^2) per point solve is skipped
+  // and `variance` is NaN: mean-only queries (meshing, projection) cost O(n) per point.
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
-                               bool with_variance_gradient = true) const;
+                               bool with_variance_gradient = true, bool with_variance = true) const;
 
   // Hyperparameters.
   const Kernel& kernel() const;
