@@ -2,6 +2,8 @@
 
 #include <btBulletCollisionCommon.h>
 
+#include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace probe_sim {
@@ -204,16 +206,27 @@ SweepHit Scene::sweepSphere(double radius, const Eigen::Vector3d& from, const Ei
   SweepHit result;
   result.sphere_centre = to;
   btSphereShape sphere(static_cast<btScalar>(radius));
-  btTransform start = btTransform::getIdentity(), end = btTransform::getIdentity();
-  start.setOrigin(toBullet(from));
-  end.setOrigin(toBullet(to));
-  btCollisionWorld::ClosestConvexResultCallback callback(start.getOrigin(), end.getOrigin());
-  callback.m_collisionFilterMask = static_cast<int>(kinds);
-  bullet_->world.convexSweepTest(&sphere, start, end, callback, 0);
+  // Bullet tests every triangle inside the bounding box of the whole sweep, which for a long
+  // diagonal stroke is most of the object. Pieces one radius long, stopping at the first
+  // contact, keep the box small (0.5 ms instead of 3.5 ms per 0.2 m stroke on a scanned kettle).
+  const double length = (to - from).norm();
+  const int pieces = std::max(1, static_cast<int>(std::ceil(length / radius)));
+  btCollisionWorld::ClosestConvexResultCallback callback(toBullet(from), toBullet(to));
+  double piece_start = 0.0;
+  for (int piece = 0; piece < pieces && !callback.hasHit(); ++piece) {
+    piece_start = static_cast<double>(piece) / pieces;
+    const double piece_end = static_cast<double>(piece + 1) / pieces;
+    btTransform start = btTransform::getIdentity(), end = btTransform::getIdentity();
+    start.setOrigin(toBullet(from + piece_start * (to - from)));
+    end.setOrigin(toBullet(from + piece_end * (to - from)));
+    callback = btCollisionWorld::ClosestConvexResultCallback(start.getOrigin(), end.getOrigin());
+    callback.m_collisionFilterMask = static_cast<int>(kinds);
+    bullet_->world.convexSweepTest(&sphere, start, end, callback, 0);
+  }
   if (!callback.hasHit()) return result;
   result.hit = true;
   result.kind = kindOf(callback.m_hitCollisionObject);
-  result.fraction = callback.m_closestHitFraction;
+  result.fraction = piece_start + callback.m_closestHitFraction / pieces;
   result.sphere_centre = from + result.fraction * (to - from);
   result.witness_point = toEigen(callback.m_hitPointWorld);
   // The sweep's own witness comes from GJK and often sits on a triangle corner (about half a

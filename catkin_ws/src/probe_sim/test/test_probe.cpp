@@ -212,7 +212,6 @@ TEST_F(SphereObject, TableContactIsNotAnObjectContact) {
 TEST_F(SphereObject, SlideCollectsContactsEverySlideStep) {
   SimulatedProber::Config config;
   config.slide_step_m = 0.005;
-  SimulatedProber prober(scene_, probe_sim::makeProbeModel("ray"), config);
   Touch slide;
   slide.kind = Touch::Kind::kSlide;
   // Four waypoints along a meridian from the equator up to 60 degrees.
@@ -225,22 +224,77 @@ TEST_F(SphereObject, SlideCollectsContactsEverySlideStep) {
   for (std::size_t i = 1; i < slide.points.size(); ++i) {
     path_length += (slide.points[i] - slide.points[i - 1]).norm();
   }
-  const ProbeResult result = prober.probe(slide);
-  ASSERT_TRUE(result.success) << result.reason;
-  const auto expected_attempts = static_cast<std::size_t>(std::ceil(path_length / 0.005)) + 1;
-  EXPECT_EQ(result.contacts.size(), expected_attempts);
-  for (std::size_t i = 0; i < result.contacts.size(); ++i) {
-    const Eigen::Vector3d& p = result.contacts[i].position;
-    EXPECT_NEAR((p - kCentre).norm(), kRadius, sagitta_ + 1e-6);
-    if (i > 0) {
-      // Contacts on the arc are a little further apart than attempts on the chords.
-      const double gap = (p - result.contacts[i - 1].position).norm();
-      EXPECT_GT(gap, 0.004);
-      EXPECT_LT(gap, 0.0055);
+  for (const std::string& model : probe_sim::probeModelNames()) {
+    SCOPED_TRACE(model);
+    SimulatedProber prober(scene_, probe_sim::makeProbeModel(model), config);
+    const ProbeResult result = prober.probe(slide);
+    ASSERT_TRUE(result.success) << result.reason;
+    const auto expected_attempts = static_cast<std::size_t>(std::ceil(path_length / 0.005)) + 1;
+    EXPECT_EQ(result.contacts.size(), expected_attempts);
+    for (std::size_t i = 0; i < result.contacts.size(); ++i) {
+      const Eigen::Vector3d& p = result.contacts[i].position;
+      EXPECT_NEAR((p - kCentre).norm(), kRadius, sagitta_ + 1e-6);  // on the mesh
+      if (i > 0) {
+        // Contacts on the arc are a little further apart than attempts on the chords.
+        const double gap = (p - result.contacts[i - 1].position).norm();
+        EXPECT_GT(gap, 0.004);
+        EXPECT_LT(gap, 0.0055);
+      }
+    }
+    EXPECT_LT((result.contacts.front().position - slide.points.front()).norm(), 1e-3);
+    EXPECT_LT((result.contacts.back().position - slide.points.back()).norm(), 1e-3);
+    // Each attempt samples its stroke every 1 cm from 10 cm out down to 5 mm before contact
+    // (of the ray, or of the probe sphere's 2 cm radius): 10 or 8 samples.
+    const std::size_t per_attempt = model == "ray" ? 10 : 8;
+    EXPECT_EQ(result.free_space.size(), per_attempt * expected_attempts);
+  }
+}
+
+TEST_F(SphereObject, ContactNoiseHasTheConfiguredSpreadAndIsSeeded) {
+  probe_sim::ProbeModelConfig config;
+  config.sphere.position_noise_m = 0.001;
+  config.sphere.seed = 5;
+  // The noise does not depend on the tessellation: a coarse sphere keeps this test fast.
+  auto coarse = std::make_shared<Scene>(probe_sim::makeProceduralObject("sphere", kSize));
+  SimulatedProber noisy(coarse, probe_sim::makeProbeModel("sphere", config));
+  SimulatedProber same_seed(coarse, probe_sim::makeProbeModel("sphere", config));
+  SimulatedProber exact(coarse, probe_sim::makeProbeModel("sphere"));
+  double squared_error = 0.0;
+  int samples = 0;
+  for (int repeat = 0; repeat < 10; ++repeat) {
+    for (const Eigen::Vector3d& n : testDirections()) {
+      const Touch touch = poke(kCentre + kRadius * n, n);
+      const ProbeResult a = noisy.probe(touch);
+      const ProbeResult b = same_seed.probe(touch);
+      const ProbeResult truth = exact.probe(touch);
+      ASSERT_TRUE(a.success && b.success && truth.success);
+      EXPECT_EQ(a.contacts[0].position, b.contacts[0].position);
+      squared_error += (a.contacts[0].position - truth.contacts[0].position).squaredNorm();
+      samples += 3;
     }
   }
-  EXPECT_TRUE(result.contacts.front().position.isApprox(slide.points.front(), 1e-3));
-  EXPECT_TRUE(result.contacts.back().position.isApprox(slide.points.back(), 1e-3));
+  // 900 Gaussian samples: the estimated sigma is within a few percent of the truth.
+  EXPECT_NEAR(std::sqrt(squared_error / samples), 0.001, 0.0001);
+}
+
+TEST_F(SphereObject, ObstacleInTheWayStopsTheProbe) {
+  Scene scene(scene_->objectMesh());
+  // A thin plate 3 cm above the top of the sphere.
+  Eigen::Isometry3d plate = Eigen::Isometry3d::Identity();
+  plate.translation() = kCentre + Eigen::Vector3d(0, 0, kRadius + 0.03);
+  scene.addObstacleBox(Eigen::Vector3d(0.05, 0.05, 0.002), plate);
+  const probe_sim::ProbeStroke stroke =
+      probe_sim::RayProbe().stroke(scene, kCentre + kRadius * Eigen::Vector3d::UnitZ(),
+                                   Eigen::Vector3d::UnitZ());
+  EXPECT_EQ(stroke.touched, probe_sim::SurfaceKind::kObstacle);
+  EXPECT_NEAR(stroke.contact.position.z(), plate.translation().z() + 0.002, 1e-4);
+  // Only the object is returned when asked for it: the plate is skipped.
+  const probe_sim::RayHit object_only =
+      scene.castRay(kCentre + Eigen::Vector3d(0, 0, 0.2), kCentre,
+                    static_cast<unsigned>(probe_sim::SurfaceKind::kObject));
+  ASSERT_TRUE(object_only.hit);
+  EXPECT_EQ(object_only.kind, probe_sim::SurfaceKind::kObject);
+  EXPECT_NEAR(object_only.point.z(), kSize, sagitta_ + 1e-6);
 }
 
 TEST_F(SphereObject, BadTouchesFailWithAReason) {
