@@ -1,0 +1,66 @@
+#!/usr/bin/env python3
+"""Runs gpatlas_bench on a procedural object with two strategies and checks its outputs."""
+import csv
+import math
+import os
+import shutil
+import subprocess
+import tempfile
+import unittest
+
+COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,stop_reason,n_train,"
+           "rmse_pred_to_gt_m,rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,max_surface_variance,wall_s,"
+           "plan_ms_median,update_ms_median").split(",")
+
+
+class BenchSmokeTest(unittest.TestCase):
+    def setUp(self):
+        self.out = tempfile.mkdtemp(prefix="gpatlas_bench_test_")
+
+    def tearDown(self):
+        shutil.rmtree(self.out, ignore_errors=True)
+
+    def run_bench(self, *args):
+        return subprocess.run(["rosrun", "probe_sim", "gpatlas_bench", *args], capture_output=True, text=True,
+                              timeout=600)
+
+    def test_small_run_writes_plausible_csv(self):
+        proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.12", "--strategy", "atlas_poke",
+                              "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--points", "200",
+                              "--curve-every", "2", "--jobs", "2", "--out", self.out, "--no-plot")
+        self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
+        self.assertIn("[2/2]", proc.stdout)
+        with open(os.path.join(self.out, "runs.csv")) as f:
+            reader = csv.DictReader(f)
+            self.assertEqual(reader.fieldnames, COLUMNS)
+            rows = list(reader)
+        self.assertEqual(sorted(r["strategy"] for r in rows), ["atlas_poke", "random"])
+        for r in rows:
+            self.assertEqual(r["object"], "sphere")
+            actions = int(r["actions"])
+            self.assertTrue(0 <= actions <= 4, r)
+            self.assertIn(r["stop_reason"], ("converged", "max_actions", "consecutive_failures",
+                                             "planner_cap_reached"), r)
+            self.assertGreaterEqual(int(r["n_train"]), 200)
+            for key in ("rmse_pred_to_gt_m", "rmse_gt_to_pred_m", "chamfer_l1_m"):
+                value = float(r[key])
+                # A 12 cm sphere: the predicted surface is within a few centimetres of it.
+                self.assertTrue(math.isfinite(value) and 0.0 <= value < 0.03, (key, value))
+            fscore = float(r["fscore_5mm"])
+            self.assertTrue(0.0 <= fscore <= 1.0)
+            self.assertGreater(float(r["wall_s"]), 0.0)
+        with open(os.path.join(self.out, "summary.md")) as f:
+            summary = f.read()
+        self.assertIn("| sphere |", summary)
+        self.assertIn("atlas_poke steps", summary)
+
+    def test_bad_arguments_are_refused(self):
+        for args in (["--vmax", "0"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],
+                     ["--probe", "laser"]):
+            proc = self.run_bench(*args, "--out", self.out)
+            self.assertEqual(proc.returncode, 2, args)
+            self.assertIn("gpatlas_bench:", proc.stderr)
+
+
+if __name__ == "__main__":
+    unittest.main()

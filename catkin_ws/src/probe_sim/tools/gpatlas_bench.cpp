@@ -1,0 +1,560 @@
+// gpatlas_bench: the paper's simulated exploration protocol without ROS.
+//
+// For every (object, strategy, seed): place the object on the table, take one simulated depth
+// view from a fixed camera pose (a partial view), downsample it to the initial training set,
+// fit the GPIS, then run the exploration loop (Algorithm 2) with the chosen strategy against the
+// simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
+// Writes runs.csv, history.csv, summary.md and one PNG per object into --out.
+
+#include <gpatlas_core/exploration_strategy.h>
+#include <gpatlas_core/explorer.h>
+#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/hyperparameter_tuner.h>
+#include <gpatlas_core/shape_metrics.h>
+#include <gpatlas_core/surface_mesher.h>
+#include <probe_sim/depth_camera.h>
+#include <probe_sim/object_mesh.h>
+#include <probe_sim/probe.h>
+#include <probe_sim/scene.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <mutex>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using gpatlas_core::Vector3;
+
+struct Options {
+  std::vector<std::string> objects;
+  double scale{1.0};
+  double procedural_size_m{0.15};
+  std::vector<std::string> strategies;
+  std::string probe{"ray"};
+  double v_max{0.1};
+  std::vector<int> seeds{0};
+  int max_actions{100};
+  int jobs{1};
+  std::string out{"bench_out"};
+  int initial_points{400};
+  double vision_noise_sigma{0.1};
+  double camera_noise_m{0.001};
+  bool tune{true};
+  int retune_every{0};
+  int curve_every{5};
+  double mesh_resolution_m{0.005};
+  bool verbose{false};
+  bool plot{true};
+  gpatlas_core::GpisModel::Config gpis;
+};
+
+void printUsage() {
+  std::cout <<
+      R"(usage: gpatlas_bench [options]
+  --object FILE|procedural:NAME  object to explore (repeatable); procedural names: sphere box
+                                 cylinder torus bowl mug funnel
+  --scale S                      scale applied to mesh files (0.001 for millimetres) [1]
+  --size-m S                     size of procedural objects in metres [0.15]
+  --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
+                                 [atlas_poke]
+  --probe ray|sphere             simulated probe model [ray]
+  --vmax V                       variance threshold, paper-equivalent units, > 0 [0.1]
+  --seeds 0,1,2                  seeds (camera noise, subsampling, planner) [0]
+  --max-actions N                cap on tactile actions per run [100]
+  --jobs N                       runs in parallel [1]
+  --out DIR                      output folder [bench_out]
+  --points N                     initial on-surface points taken from the depth view [400]
+  --vision-sigma S               noise sigma of the vision points (units of f) [0.1]
+  --no-tune                      do not tune hyperparameters after the initial fit
+  --retune-every K               re-tune every K actions (0: never) [0]
+  --curve-every K                measure the shape error every K actions (0: only at the end) [5]
+  --mesh-res-m R                 marching-cubes resolution in metres [0.005]
+  --kernel NAME                  GPIS kernel: thin_plate | squared_exponential | matern32 |
+                                 matern52 [thin_plate]
+  --data-radius D                normalised radius of the initial surface data [0.6]
+  --renormalise-radius D         normalised radius beyond which a contact renormalises [0.85]
+  --verbose                      one line per action
+  --no-plot                      skip the PNG plots
+)";
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+double parseDouble(const std::string& flag, const std::string& value) {
+  char* end = nullptr;
+  const double v = std::strtod(value.c_str(), &end);
+  if (end == value.c_str() || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument(flag + " needs a number, got '" + value + "'");
+  return v;
+}
+
+int parseInt(const std::string& flag, const std::string& value) {
+  const double v = parseDouble(flag, value);
+  if (v != std::floor(v)) throw std::invalid_argument(flag + " needs an integer, got '" + value + "'");
+  return static_cast<int>(v);
+}
+
+Options parseArgs(int argc, char** argv) {
+  Options o;
+  bool seeds_given = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      printUsage();
+      std::exit(0);
+    } else if (a == "--object") o.objects.push_back(next());
+    else if (a == "--scale") o.scale = parseDouble(a, next());
+    else if (a == "--size-m") o.procedural_size_m = parseDouble(a, next());
+    else if (a == "--strategy") {
+      for (const auto& s : splitList(next())) o.strategies.push_back(s);
+    } else if (a == "--probe") o.probe = next();
+    else if (a == "--vmax") o.v_max = parseDouble(a, next());
+    else if (a == "--seeds") {
+      o.seeds.clear();
+      for (const auto& s : splitList(next())) o.seeds.push_back(parseInt(a, s));
+      seeds_given = true;
+    } else if (a == "--max-actions") o.max_actions = parseInt(a, next());
+    else if (a == "--jobs") o.jobs = parseInt(a, next());
+    else if (a == "--out") o.out = next();
+    else if (a == "--points") o.initial_points = parseInt(a, next());
+    else if (a == "--vision-sigma") o.vision_noise_sigma = parseDouble(a, next());
+    else if (a == "--no-tune") o.tune = false;
+    else if (a == "--retune-every") o.retune_every = parseInt(a, next());
+    else if (a == "--curve-every") o.curve_every = parseInt(a, next());
+    else if (a == "--mesh-res-m") o.mesh_resolution_m = parseDouble(a, next());
+    else if (a == "--data-radius") o.gpis.data_radius = parseDouble(a, next());
+    else if (a == "--renormalise-radius") o.gpis.renormalise_radius = parseDouble(a, next());
+    else if (a == "--kernel") o.gpis.kernel = next();
+    else if (a == "--pseudo-sigma") o.gpis.pseudo_point_sigma = parseDouble(a, next());
+    else if (a == "--verbose") o.verbose = true;
+    else if (a == "--no-plot") o.plot = false;
+    else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
+  }
+  if (o.objects.empty()) o.objects.push_back("procedural:mug");
+  if (o.strategies.empty()) o.strategies.push_back("atlas_poke");
+  if (!(o.v_max > 0.0)) throw std::invalid_argument("--vmax must be > 0");
+  if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
+  if (!(o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
+  if (o.max_actions < 0) throw std::invalid_argument("--max-actions must be >= 0");
+  if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
+  if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
+  if (!seeds_given && o.seeds.empty()) o.seeds = {0};
+  const auto probes = probe_sim::probeModelNames();
+  if (std::find(probes.begin(), probes.end(), o.probe) == probes.end())
+    throw std::invalid_argument("unknown probe '" + o.probe + "' (ray or sphere)");
+  const auto known = gpatlas_core::strategyNames();
+  for (const auto& s : o.strategies)
+    if (std::find(known.begin(), known.end(), s) == known.end()) {
+      std::string list;
+      for (const auto& k : known) list += " " + k;
+      throw std::invalid_argument("unknown strategy '" + s + "'; known:" + list);
+    }
+  return o;
+}
+
+// A ground-truth object placed on the table: bounding box centred on x = y = 0, bottom on z = 0.
+struct GroundTruth {
+  std::string name;
+  probe_sim::TriangleMesh mesh;
+  gpatlas_core::TriangleMesh core_mesh;
+};
+
+gpatlas_core::TriangleMesh toCoreMesh(const probe_sim::TriangleMesh& mesh) {
+  gpatlas_core::TriangleMesh out;
+  out.vertices = mesh.vertices;
+  out.triangles = mesh.triangles;
+  return out;
+}
+
+GroundTruth loadObject(const std::string& spec, const Options& o) {
+  GroundTruth gt;
+  const std::string prefix = "procedural:";
+  if (spec.rfind(prefix, 0) == 0) {
+    gt.name = spec.substr(prefix.size());
+    gt.mesh = probe_sim::makeProceduralObject(gt.name, o.procedural_size_m);
+  } else {
+    gt.name = fs::path(spec).stem().string();
+    gt.mesh = probe_sim::loadMesh(spec, o.scale);
+  }
+  probe_sim::placeOnTable(gt.mesh);
+  gt.core_mesh = toCoreMesh(gt.mesh);
+  return gt;
+}
+
+struct HistoryRow {
+  int action{0};
+  int contacts_total{0};
+  double max_surface_variance{0.0};
+  double rmse_pred_to_gt{std::nan("")};
+  double rmse_gt_to_pred{std::nan("")};
+  double plan_ms{0.0};
+  double update_ms{0.0};
+};
+
+struct RunResult {
+  std::string object, strategy, probe, stop_reason;
+  int seed{0};
+  double v_max{0.0};
+  int actions{0};
+  int contacts{0};
+  bool converged{false};
+  std::size_t n_train{0};
+  gpatlas_core::ShapeMetricsResult metrics;
+  double max_surface_variance{0.0};
+  double wall_s{0.0};
+  double plan_ms_median{0.0};
+  double update_ms_median{0.0};
+  std::vector<HistoryRow> history;
+  std::string error;
+};
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
+                                         const Options& o) {
+  gpatlas_core::SurfaceMesher::Config mesher_config;
+  mesher_config.resolution_m = o.mesh_resolution_m;
+  const auto surface = gpatlas_core::SurfaceMesher(mesher_config).mesh(model);
+  if (!surface.ok || surface.mesh.empty()) {
+    gpatlas_core::ShapeMetricsResult failed;
+    failed.message = "no predicted surface: " + surface.message;
+    return failed;
+  }
+  return gpatlas_core::ShapeMetrics().compare(surface.mesh, gt.core_mesh);
+}
+
+RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
+                 std::mutex& print_mutex) {
+  const auto start = std::chrono::steady_clock::now();
+  RunResult r;
+  r.object = gt.name;
+  r.strategy = strategy_name;
+  r.probe = o.probe;
+  r.seed = seed;
+  r.v_max = o.v_max;
+
+  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh);
+  // The fixed camera: in front of and above the object, looking at its centre, so the back
+  // and the underside stay unseen.
+  const Eigen::AlignedBox3d box = gt.mesh.boundingBox();
+  const Eigen::Vector3d target = box.center();
+  const double extent = box.sizes().maxCoeff();
+  const Eigen::Vector3d eye = target + Eigen::Vector3d(3.0 * extent + 0.3, 0.0, 1.5 * extent + 0.15);
+  probe_sim::DepthCamera::Config cam_config;
+  cam_config.depth_noise_sigma_m = o.camera_noise_m;
+  cam_config.seed = static_cast<std::uint32_t>(seed + 1);
+  probe_sim::DepthCamera camera(cam_config, probe_sim::lookAt(eye, target));
+  const probe_sim::DepthCloud cloud = camera.capture(*scene);
+
+  std::vector<int> order(static_cast<std::size_t>(cloud.points_world.cols()));
+  std::iota(order.begin(), order.end(), 0);
+  std::mt19937 rng(static_cast<std::uint32_t>(seed) * 7919u + 17u);
+  std::shuffle(order.begin(), order.end(), rng);
+  order.resize(std::min<std::size_t>(order.size(), static_cast<std::size_t>(o.initial_points)));
+  std::vector<gpatlas_core::TrainingPoint> initial;
+  for (int idx : order) {
+    gpatlas_core::TrainingPoint p;
+    p.position = cloud.points_world.col(idx);
+    p.noise_sigma = o.vision_noise_sigma;
+    p.source = gpatlas_core::PointSource::kVision;
+    initial.push_back(p);
+  }
+
+  gpatlas_core::GpisModel model(o.gpis);
+  const auto fit = model.fit(initial);
+  if (!fit.ok) {
+    r.error = "initial fit failed: " + fit.message;
+    r.stop_reason = "error";
+    return r;
+  }
+  if (o.tune) gpatlas_core::HyperparameterTuner().tune(model);
+
+  gpatlas_core::StrategyConfig strategy_config;
+  strategy_config.seed = static_cast<std::uint64_t>(seed) + 1;
+  const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
+  probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(o.probe));
+
+  gpatlas_core::Explorer::Config explorer_config;
+  explorer_config.v_max = o.v_max;
+  explorer_config.max_actions = o.max_actions;
+  explorer_config.retune_every = o.retune_every;
+  explorer_config.seed = static_cast<std::uint64_t>(seed) + 1;
+  const gpatlas_core::Explorer explorer(explorer_config);
+
+  int contacts_total = 0;
+  if (o.curve_every > 0) {
+    const auto m0 = measure(model, gt, o);
+    HistoryRow row;
+    row.action = 0;
+    row.rmse_pred_to_gt = m0.ok ? m0.rmse_predicted_to_truth : std::nan("");
+    row.rmse_gt_to_pred = m0.ok ? m0.rmse_truth_to_predicted : std::nan("");
+    row.max_surface_variance = std::nan("");
+    r.history.push_back(row);
+  }
+  const auto progress = [&](const gpatlas_core::ExplorationRecord& rec, const gpatlas_core::GpisModel& m) {
+    contacts_total += rec.contacts_added;
+    HistoryRow row;
+    row.action = rec.index + 1;
+    row.contacts_total = contacts_total;
+    row.max_surface_variance = rec.max_surface_variance;
+    row.plan_ms = rec.plan_ms;
+    row.update_ms = rec.update_ms;
+    if (o.curve_every > 0 && row.action % o.curve_every == 0) {
+      const auto mk = measure(m, gt, o);
+      if (mk.ok) {
+        row.rmse_pred_to_gt = mk.rmse_predicted_to_truth;
+        row.rmse_gt_to_pred = mk.rmse_truth_to_predicted;
+      }
+    }
+    r.history.push_back(row);
+    if (o.verbose) {
+      std::lock_guard<std::mutex> lock(print_mutex);
+      std::cout << "  [" << gt.name << " " << strategy_name << " seed " << seed << "] action " << row.action
+                << ": " << (rec.probe_success ? "contact" : "no contact") << ", +" << rec.contacts_added
+                << " contacts (" << contacts_total << " total), max surface variance " << std::setprecision(3)
+                << rec.max_surface_variance << ", plan " << std::fixed << std::setprecision(0) << rec.plan_ms
+                << " ms, update " << rec.update_ms << " ms" << std::defaultfloat << std::endl;
+    }
+  };
+  const gpatlas_core::ExplorationResult result = explorer.run(model, *strategy, prober, progress);
+
+  r.actions = result.actions;
+  r.contacts = contacts_total;
+  r.converged = result.converged;
+  r.stop_reason = result.stop_reason;
+  r.n_train = model.size();
+  r.max_surface_variance = result.final_max_surface_variance;
+  std::vector<double> plan_ms, update_ms;
+  for (const auto& rec : result.records) {
+    plan_ms.push_back(rec.plan_ms);
+    update_ms.push_back(rec.update_ms);
+  }
+  r.plan_ms_median = median(plan_ms);
+  r.update_ms_median = median(update_ms);
+  r.metrics = measure(model, gt, o);
+  if (!r.metrics.ok) r.error = r.metrics.message;
+  if (!r.history.empty() && r.history.back().action == r.actions && r.metrics.ok) {
+    r.history.back().rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
+    r.history.back().rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
+  } else if (r.metrics.ok) {
+    HistoryRow last;
+    last.action = r.actions;
+    last.contacts_total = contacts_total;
+    last.max_surface_variance = r.max_surface_variance;
+    last.rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
+    last.rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
+    r.history.push_back(last);
+  }
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+std::string num(double v, int precision = 6) {
+  if (!std::isfinite(v)) return "nan";
+  std::ostringstream s;
+  s << std::setprecision(precision) << v;
+  return s.str();
+}
+
+void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
+  std::ofstream f(path);
+  f << "object,strategy,probe,seed,vmax,actions,contacts,converged,stop_reason,n_train,rmse_pred_to_gt_m,"
+       "rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,max_surface_variance,wall_s,plan_ms_median,update_ms_median\n";
+  for (const auto& r : runs) {
+    const bool ok = r.metrics.ok;
+    f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
+      << ',' << r.contacts << ',' << (r.converged ? 1 : 0) << ',' << r.stop_reason << ',' << r.n_train << ','
+      << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','
+      << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
+      << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.max_surface_variance) << ','
+      << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << '\n';
+  }
+}
+
+void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
+  std::ofstream f(path);
+  f << "object,strategy,seed,action,contacts_total,max_surface_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
+       "plan_ms,update_ms\n";
+  for (const auto& r : runs)
+    for (const auto& h : r.history)
+      f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.action << ',' << h.contacts_total << ','
+        << num(h.max_surface_variance) << ',' << num(h.rmse_pred_to_gt) << ',' << num(h.rmse_gt_to_pred) << ','
+        << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << '\n';
+}
+
+void writeSummary(const std::vector<RunResult>& runs, const Options& o, const fs::path& path) {
+  std::vector<std::string> objects, strategies;
+  for (const auto& r : runs) {
+    if (std::find(objects.begin(), objects.end(), r.object) == objects.end()) objects.push_back(r.object);
+    if (std::find(strategies.begin(), strategies.end(), r.strategy) == strategies.end())
+      strategies.push_back(r.strategy);
+  }
+  struct Acc {
+    double actions = 0, rmse_p = 0, rmse_g = 0, conv = 0;
+    int n = 0, n_metrics = 0;
+  };
+  std::map<std::pair<std::string, std::string>, Acc> acc;
+  std::map<std::string, Acc> mean_of_strategy;
+  for (const auto& r : runs) {
+    for (Acc* a : {&acc[{r.object, r.strategy}], &mean_of_strategy[r.strategy]}) {
+      a->actions += r.actions;
+      a->conv += r.converged ? 1 : 0;
+      ++a->n;
+      if (r.metrics.ok) {
+        a->rmse_p += r.metrics.rmse_predicted_to_truth;
+        a->rmse_g += r.metrics.rmse_truth_to_predicted;
+        ++a->n_metrics;
+      }
+    }
+  }
+  std::ofstream f(path);
+  f << "# gpatlas_bench summary\n\n";
+  f << "probe `" << o.probe << "`, V_max " << o.v_max << ", seeds";
+  for (int s : o.seeds) f << ' ' << s;
+  f << ", max actions " << o.max_actions << ", initial points " << o.initial_points << ".\n";
+  f << "Per cell: mean actions, mean RMSE predicted->truth / truth->predicted (m), converged runs.\n\n";
+  f << "| object |";
+  for (const auto& s : strategies) f << ' ' << s << " steps | " << s << " RMSE p->g / g->p | " << s << " conv |";
+  f << "\n|---|";
+  for (std::size_t i = 0; i < strategies.size(); ++i) f << "---|---|---|";
+  f << '\n';
+  auto cells = [&](const Acc& a) {
+    std::ostringstream s;
+    const double n = std::max(1, a.n), nm = std::max(1, a.n_metrics);
+    s << ' ' << std::fixed << std::setprecision(1) << a.actions / n << " | " << std::setprecision(4)
+      << a.rmse_p / nm << " / " << a.rmse_g / nm << " | " << static_cast<int>(a.conv) << '/' << a.n << " |";
+    return s.str();
+  };
+  for (const auto& obj : objects) {
+    f << "| " << obj << " |";
+    for (const auto& s : strategies) f << cells(acc[{obj, s}]);
+    f << '\n';
+  }
+  f << "| **mean** |";
+  for (const auto& s : strategies) f << cells(mean_of_strategy[s]);
+  f << '\n';
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  Options o;
+  try {
+    o = parseArgs(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "gpatlas_bench: " << e.what() << std::endl;
+    return 2;
+  }
+  std::vector<GroundTruth> objects;
+  for (const auto& spec : o.objects) {
+    try {
+      objects.push_back(loadObject(spec, o));
+    } catch (const std::exception& e) {
+      std::cerr << "gpatlas_bench: cannot load object '" << spec << "': " << e.what() << std::endl;
+      return 2;
+    }
+  }
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (ec) {
+    std::cerr << "gpatlas_bench: cannot create output folder '" << o.out << "': " << ec.message() << std::endl;
+    return 2;
+  }
+
+  struct Job {
+    std::size_t object;
+    std::string strategy;
+    int seed;
+  };
+  std::vector<Job> jobs;
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    for (const auto& s : o.strategies)
+      for (int seed : o.seeds) jobs.push_back({i, s, seed});
+  std::vector<RunResult> runs(jobs.size());
+  std::atomic<std::size_t> next{0};
+  std::atomic<std::size_t> done{0};
+  std::mutex print_mutex;
+  const auto bench_start = std::chrono::steady_clock::now();
+  std::cout << "gpatlas_bench: " << jobs.size() << " run(s) on " << o.jobs << " worker(s), output in " << o.out
+            << std::endl;
+
+  auto worker = [&] {
+    for (std::size_t j = next++; j < jobs.size(); j = next++) {
+      RunResult r;
+      try {
+        r = runOne(objects[jobs[j].object], jobs[j].strategy, jobs[j].seed, o, print_mutex);
+      } catch (const std::exception& e) {
+        r.object = objects[jobs[j].object].name;
+        r.strategy = jobs[j].strategy;
+        r.probe = o.probe;
+        r.seed = jobs[j].seed;
+        r.v_max = o.v_max;
+        r.stop_reason = "error";
+        r.error = e.what();
+      }
+      runs[j] = r;
+      std::lock_guard<std::mutex> lock(print_mutex);
+      const std::size_t finished = ++done;
+      std::cout << "[" << finished << "/" << jobs.size() << "] " << r.object << " " << r.strategy << " seed "
+                << r.seed << ": " << r.actions << " actions, " << r.contacts << " contacts, " << r.stop_reason;
+      if (r.metrics.ok)
+        std::cout << ", RMSE " << std::setprecision(3) << r.metrics.rmse_predicted_to_truth * 1000 << " / "
+                  << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;
+      std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
+                << r.wall_s << " s";
+      if (!r.error.empty()) std::cout << " (" << r.error << ")";
+      std::cout << std::defaultfloat << std::endl;
+    }
+  };
+  std::vector<std::thread> threads;
+  for (int t = 0; t < std::min<int>(o.jobs, static_cast<int>(jobs.size())); ++t) threads.emplace_back(worker);
+  for (auto& t : threads) t.join();
+
+  const fs::path out(o.out);
+  writeRunsCsv(runs, out / "runs.csv");
+  writeHistoryCsv(runs, out / "history.csv");
+  writeSummary(runs, o, out / "summary.md");
+  const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count();
+  std::cout << "gpatlas_bench: done in " << std::setprecision(4) << total_s << " s; wrote " << (out / "runs.csv").string()
+            << ", " << (out / "history.csv").string() << ", " << (out / "summary.md").string() << std::endl;
+#ifdef GPATLAS_PLOT_SCRIPT
+  if (o.plot) {
+    const std::string cmd = "/usr/bin/python3 \"" GPATLAS_PLOT_SCRIPT "\" \"" + out.string() + "\"";
+    if (std::system(cmd.c_str()) != 0) std::cerr << "gpatlas_bench: plotting failed (" << cmd << ")" << std::endl;
+  }
+#endif
+  int errors = 0;
+  for (const auto& r : runs) errors += r.stop_reason == "error" ? 1 : 0;
+  if (errors > 0) std::cerr << "gpatlas_bench: " << errors << " run(s) ended in an error" << std::endl;
+  return errors > 0 ? 1 : 0;
+}
