@@ -1,0 +1,96 @@
+#include "gpatlas_core/segmentation.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+using gpatlas_core::ObjectSegmenter;
+using gpatlas_core::Vector3;
+
+namespace {
+
+const Vector3 kSphereCentre(0.6, 0.0, 0.05);
+constexpr double kSphereRadius = 0.05;
+const Vector3 kBoxCentre(0.3, 0.3, 0.015);  // a smaller distractor object, 3 cm cube
+
+// A table (z = 0, with millimetre noise), the upper half of a sphere resting on it, a small
+// cube, a few far outliers and NaN points: what a depth camera sees of a table-top scene.
+std::vector<Vector3> tableTopScene(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> noise(0.0, 0.001);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::vector<Vector3> pts;
+  for (double x = 0.0; x <= 1.0; x += 0.005)
+    for (double y = -0.5; y <= 0.5; y += 0.005) {
+      const Vector3 p(x, y, noise(rng));
+      if ((Vector3(p.x(), p.y(), kSphereCentre.z()) - kSphereCentre).norm() > kSphereRadius) pts.push_back(p);
+    }
+  for (int i = 0; i < 3000; ++i) {
+    const double z = u(rng), phi = 2 * M_PI * u(rng);
+    const double r = std::sqrt(1 - z * z);
+    pts.push_back(kSphereCentre + kSphereRadius * Vector3(r * std::cos(phi), r * std::sin(phi), z));
+  }
+  for (int i = 0; i < 800; ++i) {
+    Vector3 p(u(rng) - 0.5, u(rng) - 0.5, 1.0);  // top face of the cube
+    p = kBoxCentre + 0.03 * Vector3(p.x(), p.y(), 0.5);
+    pts.push_back(p);
+  }
+  for (int i = 0; i < 5; ++i) pts.emplace_back(u(rng), u(rng) - 0.5, 0.3 + 0.5 * u(rng));
+  pts.emplace_back(std::numeric_limits<double>::quiet_NaN(), 0.0, 0.0);
+  pts.emplace_back(0.0, std::numeric_limits<double>::infinity(), 0.0);
+  return pts;
+}
+
+TEST(ObjectSegmenter, KeepsTheSphereAndDropsTableAndOutliers) {
+  const auto scene = tableTopScene(1);
+  const auto result = ObjectSegmenter().segment(scene);
+  ASSERT_TRUE(result.ok) << result.message;
+  EXPECT_TRUE(result.plane_found);
+  EXPECT_GT(result.plane_normal.z(), 0.999);
+  EXPECT_NEAR(result.plane_offset, 0.0, 0.002);
+  EXPECT_EQ(result.stats.finite, scene.size() - 2);
+  EXPECT_GE(result.stats.clusters, 2u);
+  ASSERT_GT(result.object_points.size(), 300u);
+  for (const auto& p : result.object_points) {
+    // Voxel centroids of sphere points lie within half a voxel diagonal of the surface.
+    EXPECT_NEAR((p - kSphereCentre).norm(), kSphereRadius, 0.003);
+    EXPECT_GT(p.z(), 0.005);
+  }
+}
+
+TEST(ObjectSegmenter, HintSelectsTheClosestCluster) {
+  ObjectSegmenter::Config config;
+  config.object_hint_m = kBoxCentre;
+  config.cluster_min_points = 10;
+  const auto result = ObjectSegmenter(config).segment(tableTopScene(2));
+  ASSERT_TRUE(result.ok) << result.message;
+  for (const auto& p : result.object_points) EXPECT_LT((p - kBoxCentre).norm(), 0.03);
+}
+
+TEST(ObjectSegmenter, BadInputGivesClearErrors) {
+  ObjectSegmenter segmenter;
+  auto r = segmenter.segment({});
+  EXPECT_FALSE(r.ok);
+  EXPECT_EQ(r.message, "empty cloud");
+  r = segmenter.segment({Vector3::Constant(std::numeric_limits<double>::quiet_NaN())});
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("no finite point"), std::string::npos);
+
+  // Only a table: nothing is left once the plane is removed.
+  std::vector<Vector3> table;
+  for (double x = 0.0; x <= 0.5; x += 0.005)
+    for (double y = 0.0; y <= 0.5; y += 0.005) table.emplace_back(x, y, 0.0);
+  r = segmenter.segment(table);
+  EXPECT_FALSE(r.ok);
+  EXPECT_FALSE(r.message.empty());
+
+  ObjectSegmenter::Config broken;
+  broken.cluster_tolerance_m = 0.0;
+  r = ObjectSegmenter(broken).segment(tableTopScene(3));
+  EXPECT_FALSE(r.ok);
+  EXPECT_NE(r.message.find("cluster_tolerance_m"), std::string::npos);
+}
+
+}  // namespace
