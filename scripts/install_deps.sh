@@ -15,9 +15,9 @@ PACKAGES=(
   # algorithms
   libpcl-dev libpcl-conversions-dev liboctomap-dev libbullet-dev libceres-dev libeigen3-dev
   liborocos-kdl-dev libkdl-parser-dev liburdf-dev liburdfdom-tools
-  ros-robot-state-publisher joint-state-publisher
+  ros-robot-state-publisher joint-state-publisher joint-state-publisher-gui
   # tests and benchmarks
-  librostest-dev python3-rostest libgtest-dev googletest libbenchmark-dev
+  librostest-dev python3-rostest libgtest-dev googletest libbenchmark-dev python3-nose python3-yaml
   # messages (the .msg definitions are needed by message generation)
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-shape-msgs
   ros-pcl-msgs ros-tf2-msgs ros-std-srvs libstd-msgs-dev libgeometry-msgs-dev
