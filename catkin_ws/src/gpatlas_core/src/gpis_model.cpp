@@ -46,6 +46,7 @@ struct GpisModel::Impl {
 
   // Derived state, rebuilt from `observations` whenever the normalisation changes.
   bool fitted{false};
+  bool frame_preset{false};  // fitInFrame: the next refit keeps centroid/scale
   Vector3 centroid{Vector3::Zero()};
   double scale{1.0};
   Eigen::Index n{0};              // training-set size (pseudo-points first)
@@ -194,7 +195,18 @@ std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points
 
 }  // namespace
 
-FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) {
+FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) { return fitFrom(points, nullptr, 0.0); }
+
+FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) {
+  if (!centroid.allFinite() || !(scale > 0.0) || !std::isfinite(scale)) {
+    FitReport report;
+    report.message = "invalid normalisation frame (centroid must be finite, scale > 0)";
+    return report;
+  }
+  return fitFrom(points, &centroid, scale);
+}
+
+FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale) {
   FitReport report;
   std::vector<TrainingPoint> accepted = screenPoints(points, &report);
   // A full fit starts from an empty set: the existing observations are replaced.
@@ -203,6 +215,11 @@ FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) {
   trial.kernel = impl_->kernel->clone();
   trial.noise_scale = impl_->noise_scale;
   trial.observations = std::move(accepted);
+  if (centroid) {
+    trial.centroid = *centroid;
+    trial.scale = scale;
+    trial.frame_preset = true;
+  }
   std::swap(*impl_, trial);  // `trial` now holds the previous state
   report.num_added = impl_->observations.size();
   FitReport fit_report = refit();
@@ -233,11 +250,12 @@ FitReport GpisModel::refit(bool renormalise) {
     report.message = "need at least 4 valid surface points to fit, got " + std::to_string(num_surface);
     return report;
   }
-  if (m.fitted && !renormalise) {
+  if ((m.fitted || m.frame_preset) && !renormalise) {
     for (const auto& p : m.observations)
       if (p.label == PointLabel::kSurface && m.normalise(p.position).norm() > c.renormalise_radius) renormalise = true;
   }
-  renormalise = renormalise || !m.fitted;
+  renormalise = renormalise || !(m.fitted || m.frame_preset);
+  m.frame_preset = false;
   Vector3 centroid = m.centroid;
   double scale = m.scale;
   if (renormalise) {

@@ -219,6 +219,28 @@ TEST(GpisModel, FarSurfacePointRenormalisesConsistently) {
   EXPECT_LT(std::abs(model.mean(far.position)), 0.05);
 }
 
+TEST(GpisModel, FitInFrameReplicatesAnIncrementallyUpdatedModel) {
+  GpisModel original;
+  ASSERT_TRUE(original.fit(sphereCap(120, 0.0, 21)).ok);
+  auto touches = surfacePoints(capDirections(8, -0.2, 22), Vector3d::Constant(kRadius));
+  for (auto& t : touches) t.source = PointSource::kTouch;
+  ASSERT_TRUE(original.addPoints(touches).ok);
+
+  GpisModel fresh;  // a fresh fit recomputes the centroid from all surface points
+  ASSERT_TRUE(fresh.fit(original.observations()).ok);
+  EXPECT_GT((fresh.centroid() - original.centroid()).norm(), 1e-6);
+
+  GpisModel replica;
+  const FitReport r = replica.fitInFrame(original.observations(), original.centroid(), original.scale());
+  ASSERT_TRUE(r.ok) << r.message;
+  EXPECT_FALSE(r.renormalised);
+  EXPECT_EQ(replica.centroid(), original.centroid());
+  const Vector3d q = kCentre + Vector3d(0.02, 0.01, -0.07);
+  EXPECT_NEAR(replica.mean(q), original.mean(q), 1e-9);
+  EXPECT_NEAR(replica.variance(q), original.variance(q), 1e-9);
+  EXPECT_FALSE(replica.fitInFrame(original.observations(), original.centroid(), -1.0).ok);
+}
+
 TEST(GpisModel, RejectsBadInputWithClearMessages) {
   GpisModel model;
   EXPECT_FALSE(model.isFitted());

@@ -93,6 +93,10 @@ class GpisModel {
 
   // Replaces the data and fits from scratch. Needs at least 4 valid surface points.
   FitReport fit(const std::vector<TrainingPoint>& points);
+  // Fits in a given normalisation frame (e.g. to replicate another process's model exactly:
+  // the GP node's frame is sticky under incremental updates, so it can differ from the one a
+  // fresh fit() would compute from the same data).
+  FitReport fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale);
   // Adds points to a fitted model by extending the Cholesky factor (O(n^2 k)); falls back to
   // a full refit when the normalisation must change.
   FitReport addPoints(const std::vector<TrainingPoint>& points);
@@ -142,6 +146,8 @@ class GpisModel {
   double varianceUnitFactor() const;
 
  private:
+  FitReport fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
