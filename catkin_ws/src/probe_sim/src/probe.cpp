@@ -184,7 +184,9 @@ std::string SimulatedProber::validate(const gpatlas_core::Touch& touch) const {
   return "";
 }
 
-std::string SimulatedProber::checkArm(const std::vector<ProbeAttempt>& waypoints) const {
+std::string SimulatedProber::checkArm(const std::vector<ProbeAttempt>& waypoints,
+                                      std::vector<Eigen::VectorXd>* solutions) const {
+  solutions->clear();
   Eigen::VectorXd previous;
   for (std::size_t i = 0; i < waypoints.size(); ++i) {
     const ProbeAttempt& w = waypoints[i];
@@ -195,12 +197,14 @@ std::string SimulatedProber::checkArm(const std::vector<ProbeAttempt>& waypoints
     if (!ik.reached) return "unreachable" + where;
     if (!ik.success) return "arm collides with " + kindsToText(ik.collision_kinds) + where;
     previous = ik.joints;
+    solutions->push_back(ik.joints);
   }
   return "";
 }
 
 gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touch) {
   gpatlas_core::ProbeResult result;
+  last_arm_solutions_.clear();
   result.reason = validate(touch);
   if (!result.reason.empty()) return result;
 
@@ -210,8 +214,10 @@ gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touc
     waypoints.push_back({touch.points[i], touch.normals[i].normalized()});
   }
   if (arm_) {
-    result.reason = checkArm(waypoints);
+    std::vector<Eigen::VectorXd> solutions;
+    result.reason = checkArm(waypoints, &solutions);
     if (!result.reason.empty()) return result;
+    last_arm_solutions_ = std::move(solutions);
   }
   const std::vector<ProbeAttempt> attempts =
       slide ? interpolateSlide(touch.points, touch.normals, config_.slide_step_m) : waypoints;

@@ -160,11 +160,18 @@ TEST(SimulatedProberWithArm, ReportsUnreachableAndArmCollisions) {
   touch.normals = {Eigen::Vector3d::UnitZ()};
   const gpatlas_core::ProbeResult top = prober.probe(touch);
   EXPECT_TRUE(top.success) << top.reason;
+  // The configuration the prober used puts the tip on the poked point, approaching along -z.
+  ASSERT_EQ(prober.lastArmSolutions().size(), 1u);
+  const Arm arm = Arm::fromUrdfFile(testUrdf());
+  const Eigen::Isometry3d tip = arm.forwardKinematics(prober.lastArmSolutions()[0]);
+  EXPECT_LT((tip.translation() - touch.points[0]).norm(), 2e-3);
+  EXPECT_GT(tip.linear().col(2).dot(-Eigen::Vector3d::UnitZ()), 0.999);
 
   touch.points = {Eigen::Vector3d(2.5, 0.0, 0.1)};
   const gpatlas_core::ProbeResult far = prober.probe(touch);
   EXPECT_FALSE(far.success);
   EXPECT_EQ(far.reason, "unreachable");
+  EXPECT_TRUE(prober.lastArmSolutions().empty());
 
   // The box's side facing away from the robot at the table height: the arm must reach around
   // and down to the table top on the far side.

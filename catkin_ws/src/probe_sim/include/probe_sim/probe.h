@@ -128,16 +128,24 @@ class SimulatedProber : public gpatlas_core::Prober {
 
   gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override;
 
+  // The arm's joint positions at each waypoint of the last touch, in waypoint order (for a poke,
+  // the one probed waypoint), so that a caller can show the motion. Empty when there is no arm
+  // or the last touch failed before every waypoint had a solution.
+  const std::vector<Eigen::VectorXd>& lastArmSolutions() const { return last_arm_solutions_; }
+
  private:
   // Empty when the touch is usable, else the reason it is not.
   std::string validate(const gpatlas_core::Touch& touch) const;
-  // Empty when the arm can reach every waypoint without collision, else the reason.
-  std::string checkArm(const std::vector<ProbeAttempt>& waypoints) const;
+  // Empty when the arm can reach every waypoint without collision, else the reason. The joint
+  // solutions go to *solutions (one per waypoint when it succeeds).
+  std::string checkArm(const std::vector<ProbeAttempt>& waypoints,
+                       std::vector<Eigen::VectorXd>* solutions) const;
 
   std::shared_ptr<const Scene> scene_;
   std::unique_ptr<ProbeModel> model_;
   std::shared_ptr<const Arm> arm_;
   Config config_;
+  std::vector<Eigen::VectorXd> last_arm_solutions_;
 };
 
 }  // namespace probe_sim

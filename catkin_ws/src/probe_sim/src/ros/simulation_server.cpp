@@ -1,0 +1,615 @@
+#include "simulation_server.h"
+
+#include "probe_sim/object_mesh.h"
+
+#include <gpatlas_ros/conversions.h>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <kdl/chain.hpp>
+#include <kdl/tree.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <sensor_msgs/JointState.h>
+#include <urdf/model.h>
+#include <visualization_msgs/Marker.h>
+
+#include <algorithm>
+#include <cmath>
+#include <exception>
+#include <sstream>
+#include <utility>
+
+namespace probe_sim {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+const std::string kProceduralPrefix = "procedural:";
+
+std::string describe(const Eigen::Vector3d& v) {
+  std::ostringstream out;
+  out << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  return out.str();
+}
+
+// Reads optional private parameters. Unlike NodeHandle::param, a parameter of the wrong type is
+// reported instead of silently replaced by the default, and every problem names the parameter.
+class ParameterReader {
+ public:
+  explicit ParameterReader(const ros::NodeHandle& pnh) : pnh_(pnh) {}
+
+  void read(const std::string& name, std::string* value) {
+    XmlRpc::XmlRpcValue raw;
+    if (!get(name, &raw)) return;
+    if (raw.getType() != XmlRpc::XmlRpcValue::TypeString) return wrongType(name, "a string");
+    *value = static_cast<std::string>(raw);
+  }
+
+  void read(const std::string& name, bool* value) {
+    XmlRpc::XmlRpcValue raw;
+    if (!get(name, &raw)) return;
+    if (raw.getType() != XmlRpc::XmlRpcValue::TypeBoolean) return wrongType(name, "true or false");
+    *value = static_cast<bool>(raw);
+  }
+
+  void read(const std::string& name, int* value) {
+    XmlRpc::XmlRpcValue raw;
+    if (!get(name, &raw)) return;
+    if (raw.getType() != XmlRpc::XmlRpcValue::TypeInt) return wrongType(name, "an integer");
+    *value = static_cast<int>(raw);
+  }
+
+  void read(const std::string& name, double* value) {
+    XmlRpc::XmlRpcValue raw;
+    if (!get(name, &raw)) return;
+    std::optional<double> number = toNumber(raw);
+    if (!number) return wrongType(name, "a number");
+    *value = *number;
+    require(std::isfinite(*value), name, "must be finite");
+  }
+
+  template <int N>
+  void read(const std::string& name, Eigen::Matrix<double, N, 1>* value) {
+    XmlRpc::XmlRpcValue raw;
+    if (!get(name, &raw)) return;
+    const std::string expected = "a list of " + std::to_string(N) + " numbers";
+    if (raw.getType() != XmlRpc::XmlRpcValue::TypeArray || raw.size() != N) {
+      return wrongType(name, expected);
+    }
+    Eigen::Matrix<double, N, 1> parsed;
+    for (int i = 0; i < N; ++i) {
+      std::optional<double> number = toNumber(raw[i]);
+      if (!number) return wrongType(name, expected);
+      parsed[i] = *number;
+    }
+    *value = parsed;
+    require(parsed.allFinite(), name, "must be finite");
+  }
+
+  template <int N>
+  void read(const std::string& name, std::optional<Eigen::Matrix<double, N, 1>>* value) {
+    if (!pnh_.hasParam(name)) return;
+    Eigen::Matrix<double, N, 1> parsed = Eigen::Matrix<double, N, 1>::Zero();
+    read(name, &parsed);
+    *value = parsed;
+  }
+
+  // Records "~name <requirement>" when the condition does not hold.
+  void require(bool condition, const std::string& name, const std::string& requirement) {
+    if (!condition) errors_.push_back(pnh_.resolveName(name) + " " + requirement);
+  }
+
+  std::string errors() const {
+    std::string joined;
+    for (const std::string& e : errors_) joined += (joined.empty() ? "" : "; ") + e;
+    return joined;
+  }
+
+ private:
+  bool get(const std::string& name, XmlRpc::XmlRpcValue* raw) {
+    return pnh_.hasParam(name) && pnh_.getParam(name, *raw);
+  }
+  static std::optional<double> toNumber(XmlRpc::XmlRpcValue& raw) {
+    if (raw.getType() == XmlRpc::XmlRpcValue::TypeDouble) return static_cast<double>(raw);
+    if (raw.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(raw);
+    return std::nullopt;
+  }
+  void wrongType(const std::string& name, const std::string& expected) {
+    errors_.push_back(pnh_.resolveName(name) + " must be " + expected);
+  }
+
+  ros::NodeHandle pnh_;
+  std::vector<std::string> errors_;
+};
+
+// Empty when every waypoint and normal is finite, else which one is not and how. The prober
+// checks this too, but a NaN deserves to be called by its name: it usually means a planner bug.
+std::string findNonFinite(const gpatlas_core::Touch& touch) {
+  auto check = [](const Eigen::Vector3d& v, const std::string& what) -> std::string {
+    if (v.allFinite()) return "";
+    const bool nan = v.array().isNaN().any();
+    return what + " has " + (nan ? "a NaN" : "an infinite") + " coordinate " + describe(v);
+  };
+  for (std::size_t i = 0; i < touch.points.size(); ++i) {
+    std::string problem = check(touch.points[i], "waypoint " + std::to_string(i));
+    if (!problem.empty()) return problem;
+  }
+  for (std::size_t i = 0; i < touch.normals.size(); ++i) {
+    std::string problem = check(touch.normals[i], "normal " + std::to_string(i));
+    if (!problem.empty()) return problem;
+  }
+  return "";
+}
+
+geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& pose,
+                                               const std::string& parent,
+                                               const std::string& child) {
+  geometry_msgs::TransformStamped msg;
+  msg.header.stamp = ros::Time::now();
+  msg.header.frame_id = parent;
+  msg.child_frame_id = child;
+  msg.transform.translation.x = pose.translation().x();
+  msg.transform.translation.y = pose.translation().y();
+  msg.transform.translation.z = pose.translation().z();
+  const Eigen::Quaterniond q(pose.linear());
+  msg.transform.rotation.x = q.x();
+  msg.transform.rotation.y = q.y();
+  msg.transform.rotation.z = q.z();
+  msg.transform.rotation.w = q.w();
+  return msg;
+}
+
+}  // namespace
+
+SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(std::move(nh)), pnh_(std::move(pnh)) {
+  // Each step needs the previous ones; the first failure is the reason every service gives.
+  for (auto step : {&SimulationServer::readSettings, &SimulationServer::loadRobot,
+                    &SimulationServer::loadObject, &SimulationServer::setUpCamera,
+                    &SimulationServer::setUpProber}) {
+    try {
+      unavailable_reason_ = (this->*step)();
+    } catch (const std::exception& e) {
+      unavailable_reason_ = std::string("unexpected error while starting: ") + e.what();
+    }
+    if (!unavailable_reason_.empty()) break;
+  }
+
+  probe_service_ = pnh_.advertiseService("probe", &SimulationServer::onProbe, this);
+  capture_service_ = pnh_.advertiseService("capture", &SimulationServer::onCapture, this);
+  cloud_publisher_ = pnh_.advertise<sensor_msgs::PointCloud2>("points", 1);
+  marker_publisher_ = pnh_.advertise<visualization_msgs::Marker>("object_marker", 1, true);
+
+  // The robot is shown (joint_states) even when the object failed to load, so that rviz still
+  // displays something while the user fixes the object parameter.
+  if (!joint_names_.empty()) {
+    joint_state_publisher_ = nh_.advertise<sensor_msgs::JointState>("joint_states", 10);
+    joint_state_timer_ = nh_.createTimer(ros::Duration(1.0 / settings_.joint_states_rate_hz),
+                                         &SimulationServer::onJointStateTimer, this);
+  }
+
+  if (!unavailable_reason_.empty()) {
+    ROS_ERROR_STREAM("probe_sim: simulation unavailable, every service will answer with the "
+                     "reason: " << unavailable_reason_);
+    return;
+  }
+  publishObjectMarker();
+  if (settings_.publish_cloud_rate_hz > 0.0) {
+    cloud_timer_ = nh_.createTimer(ros::Duration(1.0 / settings_.publish_cloud_rate_hz),
+                                   &SimulationServer::onCloudTimer, this);
+  }
+  ROS_INFO_STREAM("probe_sim: ready: object '" << settings_.object << "' ("
+                  << scene_->objectMesh().triangles.size() << " triangles) at "
+                  << settings_.object_position_xy_m.transpose() << " in '" << settings_.world_frame
+                  << "', " << settings_.probe << " probe, "
+                  << (arm_ ? "left arm (IK and link collisions checked)" : "free-floating probe")
+                  << ", camera '" << settings_.camera_frame << "' at "
+                  << describe(camera_->pose().translation()));
+}
+
+std::string SimulationServer::readSettings() {
+  SimulationSettings& s = settings_;
+  ParameterReader p(pnh_);
+  p.read("object", &s.object);
+  p.read("object_scale", &s.object_scale);
+  p.read("procedural_size_m", &s.procedural_size_m);
+  p.read("object_position_xy_m", &s.object_position_xy_m);
+  p.read("world_frame", &s.world_frame);
+  p.read("table_size_xy_m", &s.table_size_xy_m);
+  p.read("table_centre_xy_m", &s.table_centre_xy_m);
+  p.read("table_thickness_m", &s.table_thickness_m);
+  p.read("probe", &s.probe);
+  p.read("probe_radius_m", &s.probe_radius_m);
+  p.read("slide_step_m", &s.slide_step_m);
+  p.read("use_arm", &s.use_arm);
+  p.read("tip_frame", &s.tip_frame);
+  p.read("joint_states_rate_hz", &s.joint_states_rate_hz);
+  p.read("arm_max_joint_speed_rad_s", &s.arm_max_joint_speed_rad_s);
+  p.read("camera_frame", &s.camera_frame);
+  p.read("camera_eye_m", &s.camera_eye_m);
+  p.read("camera_target_m", &s.camera_target_m);
+  p.read("camera_width_px", &s.camera_width_px);
+  p.read("camera_height_px", &s.camera_height_px);
+  p.read("camera_fov_deg", &s.camera_fov_deg);
+  p.read("camera_depth_noise_m", &s.camera_depth_noise_m);
+  p.read("publish_cloud_rate_hz", &s.publish_cloud_rate_hz);
+
+  p.require(!s.object.empty(), "object", "must name a mesh file or procedural:NAME");
+  p.require(s.object_scale > 0.0, "object_scale", "must be > 0 (0.001 for a mesh in mm)");
+  p.require(s.procedural_size_m > 0.0, "procedural_size_m", "must be > 0");
+  p.require(!s.world_frame.empty(), "world_frame", "must not be empty");
+  p.require((s.table_size_xy_m.array() > 0.0).all(), "table_size_xy_m", "must be > 0");
+  p.require(s.table_thickness_m > 0.0, "table_thickness_m", "must be > 0");
+  const std::vector<std::string> probes = probeModelNames();
+  p.require(std::find(probes.begin(), probes.end(), s.probe) != probes.end(), "probe",
+            "must be 'ray' or 'sphere', got '" + s.probe + "'");
+  p.require(s.probe_radius_m > 0.0, "probe_radius_m", "must be > 0");
+  p.require(s.slide_step_m > 0.0, "slide_step_m", "must be > 0");
+  p.require(!s.tip_frame.empty(), "tip_frame", "must not be empty");
+  p.require(s.joint_states_rate_hz > 0.0, "joint_states_rate_hz", "must be > 0");
+  p.require(s.arm_max_joint_speed_rad_s > 0.0, "arm_max_joint_speed_rad_s", "must be > 0");
+  p.require(!s.camera_frame.empty(), "camera_frame", "must not be empty");
+  p.require(s.camera_eye_m.has_value() == s.camera_target_m.has_value(), "camera_eye_m",
+            "and camera_target_m must be given together (or neither: pose from the URDF)");
+  p.require(!s.camera_eye_m || !s.camera_target_m ||
+                (*s.camera_eye_m - *s.camera_target_m).norm() > 1e-6,
+            "camera_eye_m", "must differ from camera_target_m");
+  p.require(s.camera_width_px >= 1 && s.camera_width_px <= 4096, "camera_width_px",
+            "must be in [1, 4096]");
+  p.require(s.camera_height_px >= 1 && s.camera_height_px <= 4096, "camera_height_px",
+            "must be in [1, 4096]");
+  p.require(s.camera_fov_deg > 0.0 && s.camera_fov_deg < 180.0, "camera_fov_deg",
+            "must be in (0, 180)");
+  p.require(s.camera_depth_noise_m >= 0.0, "camera_depth_noise_m", "must be >= 0");
+  p.require(s.publish_cloud_rate_hz >= 0.0, "publish_cloud_rate_hz",
+            "must be >= 0 (0: only on ~capture)");
+  const std::string errors = p.errors();
+  return errors.empty() ? "" : "invalid parameters: " + errors;
+}
+
+std::string SimulationServer::loadRobot() {
+  if (!nh_.getParam("robot_description", urdf_xml_) || urdf_xml_.empty()) {
+    urdf_xml_.clear();
+    // Without a robot the probe floats freely, but the camera then needs an explicit pose.
+    if (settings_.use_arm) {
+      return "use_arm is true but the parameter " + nh_.resolveName("robot_description") +
+             " is not set (load the URDF, or set ~use_arm false)";
+    }
+    return "";
+  }
+  urdf::Model model;
+  if (!model.initString(urdf_xml_)) {
+    return "the parameter " + nh_.resolveName("robot_description") + " is not a valid URDF";
+  }
+
+  std::vector<double> lower, upper;
+  for (const auto& [name, joint] : model.joints_) {  // std::map: sorted by name
+    if (joint->type != urdf::Joint::REVOLUTE && joint->type != urdf::Joint::CONTINUOUS &&
+        joint->type != urdf::Joint::PRISMATIC) {
+      continue;
+    }
+    joint_names_.push_back(name);
+    const bool limited = joint->type != urdf::Joint::CONTINUOUS && joint->limits;
+    lower.push_back(limited ? joint->limits->lower : -kPi);
+    upper.push_back(limited ? joint->limits->upper : kPi);
+  }
+  // ~zeros has the name and format of joint_state_publisher's, so vito_description's
+  // config/ready_pose.yaml loads into this node unchanged.
+  ready_positions_ = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(joint_names_.size()));
+  std::map<std::string, double> zeros;
+  if (pnh_.hasParam("zeros") && !pnh_.getParam("zeros", zeros)) {
+    return "invalid parameters: " + pnh_.resolveName("zeros") +
+           " must map joint names to positions (rad)";
+  }
+  for (std::size_t j = 0; j < joint_names_.size(); ++j) {
+    const auto given = zeros.find(joint_names_[j]);
+    const double position = given != zeros.end() ? given->second : 0.0;
+    ready_positions_[static_cast<Eigen::Index>(j)] = std::clamp(position, lower[j], upper[j]);
+  }
+  for (const auto& [name, position] : zeros) {
+    if (std::find(joint_names_.begin(), joint_names_.end(), name) == joint_names_.end()) {
+      ROS_WARN_STREAM("probe_sim: " << pnh_.resolveName("zeros") << " names joint '" << name
+                      << "', which robot_description does not have as a movable joint");
+    }
+  }
+  displayed_positions_ = ready_positions_;
+
+  if (!settings_.use_arm) return "";
+  ArmConfig arm_config;
+  arm_config.base_link = settings_.world_frame;
+  arm_config.tip_link = settings_.tip_frame;
+  try {
+    arm_ = std::make_shared<const Arm>(Arm::fromUrdfString(urdf_xml_, arm_config));
+  } catch (const std::exception& e) {
+    return "use_arm is true but no arm from '" + settings_.world_frame + "' to '" +
+           settings_.tip_frame + "' in robot_description: " + e.what();
+  }
+  for (const std::string& name : arm_->jointNames()) {
+    const auto it = std::find(joint_names_.begin(), joint_names_.end(), name);
+    if (it == joint_names_.end()) return "arm joint '" + name + "' is not a movable URDF joint";
+    arm_joint_indices_.push_back(static_cast<int>(it - joint_names_.begin()));
+  }
+  return "";
+}
+
+std::string SimulationServer::loadObject() {
+  const SimulationSettings& s = settings_;
+  TriangleMesh mesh;
+  try {
+    if (s.object.rfind(kProceduralPrefix, 0) == 0) {
+      mesh = makeProceduralObject(s.object.substr(kProceduralPrefix.size()), s.procedural_size_m);
+    } else {
+      mesh = loadMesh(s.object, s.object_scale);
+    }
+  } catch (const std::exception& e) {
+    return std::string("no object loaded: ") + e.what();
+  }
+  placeOnTable(mesh, s.object_position_xy_m);
+
+  SceneConfig scene_config;
+  scene_config.table_size_xy = s.table_size_xy_m;
+  scene_config.table_centre_xy = s.table_centre_xy_m;
+  scene_config.table_thickness = s.table_thickness_m;
+  const Eigen::AlignedBox3d bounds = mesh.boundingBox();
+  const Eigen::Vector2d table_min = s.table_centre_xy_m - 0.5 * s.table_size_xy_m;
+  const Eigen::Vector2d table_max = s.table_centre_xy_m + 0.5 * s.table_size_xy_m;
+  if ((bounds.min().head<2>().array() < table_min.array()).any() ||
+      (bounds.max().head<2>().array() > table_max.array()).any()) {
+    ROS_WARN_STREAM("probe_sim: the object's footprint (" << bounds.min().head<2>().transpose()
+                    << ") to (" << bounds.max().head<2>().transpose()
+                    << ") overhangs the table; check ~object_position_xy_m and ~object_scale");
+  }
+  const double largest_side_m = bounds.sizes().maxCoeff();
+  if (largest_side_m > 2.0 || largest_side_m < 0.005) {
+    ROS_WARN_STREAM("probe_sim: the object is " << largest_side_m
+                    << " m across; is ~object_scale right (0.001 for a mesh in mm)?");
+  }
+  scene_ = std::make_shared<Scene>(mesh, scene_config);
+  return "";
+}
+
+std::string SimulationServer::setUpCamera() {
+  const SimulationSettings& s = settings_;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  if (s.camera_eye_m) {
+    // A camera placed by parameters has no frame in the robot; a URDF frame of the same name
+    // would get two conflicting poses in tf.
+    urdf::Model model;
+    if (!urdf_xml_.empty() && model.initString(urdf_xml_) && model.getLink(s.camera_frame)) {
+      return "invalid parameters: " + pnh_.resolveName("camera_frame") + " '" + s.camera_frame +
+             "' is a frame of robot_description, so it cannot be placed by camera_eye_m and "
+             "camera_target_m: choose another frame name, or drop them to use the URDF's pose";
+    }
+    pose = lookAt(*s.camera_eye_m, *s.camera_target_m);
+    static_broadcaster_.sendTransform(toTransformMsg(pose, s.world_frame, s.camera_frame));
+  } else {
+    // The camera frame's pose from the URDF's fixed joints: the same transform that
+    // robot_state_publisher puts on /tf_static, without waiting for tf at start-up.
+    const std::string use_params = "; or set ~camera_eye_m and ~camera_target_m";
+    if (urdf_xml_.empty()) {
+      return "no camera pose: robot_description is not set" + use_params;
+    }
+    KDL::Tree tree;
+    KDL::Chain chain;
+    if (!kdl_parser::treeFromString(urdf_xml_, tree) ||
+        !tree.getChain(s.world_frame, s.camera_frame, chain)) {
+      return "no camera pose: robot_description has no chain from '" + s.world_frame + "' to '" +
+             s.camera_frame + "'" + use_params;
+    }
+    if (chain.getNrOfJoints() != 0) {
+      return "no camera pose: '" + s.camera_frame + "' moves with " +
+             std::to_string(chain.getNrOfJoints()) + " joint(s), a fixed camera is expected" +
+             use_params;
+    }
+    KDL::Frame frame = KDL::Frame::Identity();
+    for (const KDL::Segment& segment : chain.segments) frame = frame * segment.pose(0.0);
+    for (int r = 0; r < 3; ++r) {
+      pose.translation()[r] = frame.p(r);
+      for (int c = 0; c < 3; ++c) pose.linear()(r, c) = frame.M(r, c);
+    }
+  }
+
+  DepthCamera::Config config;
+  config.width = s.camera_width_px;
+  config.height = s.camera_height_px;
+  config.horizontal_fov_rad = s.camera_fov_deg * kPi / 180.0;
+  config.depth_noise_sigma_m = s.camera_depth_noise_m;
+  config.include_table = false;  // the object's points only, as if already segmented
+  config.include_obstacles = false;
+  camera_ = std::make_unique<DepthCamera>(config, pose);
+  return "";
+}
+
+std::string SimulationServer::setUpProber() {
+  ProbeModelConfig model_config;
+  model_config.sphere.radius_m = settings_.probe_radius_m;
+  SimulatedProber::Config prober_config;
+  prober_config.slide_step_m = settings_.slide_step_m;
+  prober_ = std::make_unique<SimulatedProber>(
+      scene_, makeProbeModel(settings_.probe, model_config), prober_config);
+  if (arm_) prober_->setArm(arm_);
+
+  // Not an error (the camera may be meant to see only part of the scene), but a blank view is
+  // almost always a misplaced object or camera.
+  sensor_msgs::PointCloud2 cloud;
+  std::string message;
+  if (!renderCloud(&cloud, &message)) ROS_WARN_STREAM("probe_sim: " << message);
+  return "";
+}
+
+bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
+                               gpatlas_msgs::Probe::Response& response) {
+  response.success = false;
+  response.observations.header.frame_id = settings_.world_frame;
+  response.observations.header.stamp = ros::Time::now();
+  try {
+    if (!unavailable_reason_.empty()) {
+      response.reason = unavailable_reason_;
+      return true;
+    }
+    const std::string& frame = request.touch.header.frame_id;
+    if (!frame.empty() && frame != settings_.world_frame) {
+      response.reason = "touch is in frame '" + frame + "' but the simulation works in '" +
+                        settings_.world_frame + "'";
+      return true;
+    }
+    gpatlas_core::Touch touch;
+    std::string error;
+    if (!gpatlas_ros::fromMsg(request.touch, &touch, &error)) {
+      response.reason = "invalid touch: " + error;
+      return true;
+    }
+    error = findNonFinite(touch);
+    if (!error.empty()) {
+      response.reason = "invalid touch: " + error;
+      return true;
+    }
+
+    gpatlas_core::ProbeResult result;
+    std::vector<Eigen::VectorXd> arm_solutions;
+    {
+      std::lock_guard<std::mutex> lock(simulation_mutex_);
+      result = prober_->probe(touch);
+      arm_solutions = prober_->lastArmSolutions();
+    }
+    response.success = result.success;
+    response.reason = result.reason;
+    response.observations = gpatlas_ros::toMsg(result);
+    response.observations.header.frame_id = settings_.world_frame;
+    response.observations.header.stamp = ros::Time::now();
+    if (!arm_solutions.empty()) animateArm(arm_solutions);
+    ROS_DEBUG_STREAM("probe_sim: touch with " << touch.points.size() << " waypoint(s): "
+                     << (result.success ? "success" : "failed: " + result.reason) << ", "
+                     << result.contacts.size() << " contacts");
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.reason = std::string("probe failed: ") + e.what();
+    ROS_ERROR_STREAM("probe_sim: ~probe: " << response.reason);
+  }
+  return true;
+}
+
+bool SimulationServer::onCapture(gpatlas_msgs::Capture::Request& /*request*/,
+                                 gpatlas_msgs::Capture::Response& response) {
+  response.success = false;
+  try {
+    if (!unavailable_reason_.empty()) {
+      response.message = unavailable_reason_;
+      return true;
+    }
+    response.success = renderCloud(&response.cloud, &response.message);
+    if (response.success) cloud_publisher_.publish(response.cloud);
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = std::string("capture failed: ") + e.what();
+    ROS_ERROR_STREAM("probe_sim: ~capture: " << response.message);
+  }
+  return true;
+}
+
+void SimulationServer::onCloudTimer(const ros::TimerEvent& /*event*/) {
+  try {
+    sensor_msgs::PointCloud2 cloud;
+    std::string message;
+    if (renderCloud(&cloud, &message)) {
+      cloud_publisher_.publish(cloud);
+    } else {
+      ROS_WARN_STREAM_THROTTLE(10.0, "probe_sim: " << message);
+    }
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM_THROTTLE(10.0, "probe_sim: rendering the depth cloud failed: " << e.what());
+  }
+}
+
+bool SimulationServer::renderCloud(sensor_msgs::PointCloud2* cloud, std::string* message) {
+  DepthCloud depth;
+  {
+    std::lock_guard<std::mutex> lock(simulation_mutex_);
+    depth = camera_->capture(*scene_);
+  }
+  if (depth.points_camera.cols() == 0) {
+    *message = "the object is not in the camera's view (0 points); camera '" +
+               settings_.camera_frame + "' at " + describe(camera_->pose().translation()) +
+               " looking along " + describe(camera_->pose().linear().col(2));
+    return false;
+  }
+  std::vector<Eigen::Vector3d> points(static_cast<std::size_t>(depth.points_camera.cols()));
+  for (Eigen::Index i = 0; i < depth.points_camera.cols(); ++i) {
+    points[static_cast<std::size_t>(i)] = depth.points_camera.col(i);
+  }
+  // Camera points carry no model variance: the cloud's variance channel is 0 throughout.
+  *cloud = gpatlas_ros::pointsToCloud(points, {}, 1.0, settings_.camera_frame);
+  cloud->header.stamp = ros::Time::now();
+  *message = std::to_string(points.size()) + " points";
+  return true;
+}
+
+void SimulationServer::publishObjectMarker() {
+  const TriangleMesh& mesh = scene_->objectMesh();
+  visualization_msgs::Marker marker;
+  marker.header.frame_id = settings_.world_frame;
+  marker.header.stamp = ros::Time::now();
+  marker.ns = "ground_truth_object";
+  marker.id = 0;
+  marker.type = visualization_msgs::Marker::TRIANGLE_LIST;
+  marker.action = visualization_msgs::Marker::ADD;
+  marker.pose.orientation.w = 1.0;
+  marker.scale.x = marker.scale.y = marker.scale.z = 1.0;
+  marker.color.r = 0.55f;
+  marker.color.g = 0.75f;
+  marker.color.b = 0.55f;
+  marker.color.a = 0.5f;  // see-through, so the learned surface can be compared inside it
+  marker.points.reserve(3 * mesh.triangles.size());
+  for (const Eigen::Vector3i& triangle : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      marker.points.push_back(gpatlas_ros::toPointMsg(mesh.vertices[triangle[k]]));
+    }
+  }
+  marker_publisher_.publish(marker);
+}
+
+void SimulationServer::animateArm(const std::vector<Eigen::VectorXd>& arm_solutions) {
+  const double max_step_rad = settings_.arm_max_joint_speed_rad_s / settings_.joint_states_rate_hz;
+  std::lock_guard<std::mutex> lock(joint_state_mutex_);
+  std::vector<Eigen::VectorXd> keyframes;
+  for (const Eigen::VectorXd& arm_joints : arm_solutions) {
+    Eigen::VectorXd full = ready_positions_;
+    for (std::size_t i = 0; i < arm_joint_indices_.size(); ++i) {
+      full[arm_joint_indices_[i]] = arm_joints[static_cast<Eigen::Index>(i)];
+    }
+    keyframes.push_back(full);
+  }
+  // Rest on the last waypoint for a quarter of a second so the touch itself is visible.
+  const int dwell_ticks = static_cast<int>(std::ceil(0.25 * settings_.joint_states_rate_hz));
+  keyframes.insert(keyframes.end(), dwell_ticks, keyframes.back());
+  keyframes.push_back(ready_positions_);
+
+  // A new touch replaces whatever motion is still queued, starting from what is shown now.
+  pending_positions_.clear();
+  Eigen::VectorXd from = displayed_positions_;
+  for (const Eigen::VectorXd& to : keyframes) {
+    const double largest_change = (to - from).cwiseAbs().maxCoeff();
+    const int steps = std::max(1, static_cast<int>(std::ceil(largest_change / max_step_rad)));
+    for (int k = 1; k < steps; ++k) {
+      pending_positions_.push_back(from + (to - from) * (static_cast<double>(k) / steps));
+    }
+    pending_positions_.push_back(to);  // exactly, so that the arm comes back to rest exactly
+    from = to;
+  }
+}
+
+void SimulationServer::onJointStateTimer(const ros::TimerEvent& /*event*/) {
+  sensor_msgs::JointState msg;
+  {
+    std::lock_guard<std::mutex> lock(joint_state_mutex_);
+    if (!pending_positions_.empty()) {
+      displayed_positions_ = pending_positions_.front();
+      pending_positions_.pop_front();
+    }
+    msg.position.assign(displayed_positions_.data(),
+                        displayed_positions_.data() + displayed_positions_.size());
+  }
+  msg.header.stamp = ros::Time::now();
+  msg.name = joint_names_;
+  joint_state_publisher_.publish(msg);
+}
+
+}  // namespace probe_sim
