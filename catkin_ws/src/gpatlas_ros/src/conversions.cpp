@@ -94,6 +94,8 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
   const Eigen::VectorXd params = model.kernel().logParams();
   msg.kernel_log_params.assign(params.data(), params.data() + params.size());
   msg.noise_scale = model.noiseScale();
+  msg.centroid = toPointMsg(model.centroid());
+  msg.scale = model.scale();
   for (const auto& p : model.observations()) {
     msg.points.push_back(toPointMsg(p.position));
     msg.labels.push_back(static_cast<int8_t>(p.label));
@@ -114,6 +116,8 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents
   out.kernel_log_params = Eigen::Map<const Eigen::VectorXd>(msg.kernel_log_params.data(),
                                                              static_cast<Eigen::Index>(msg.kernel_log_params.size()));
   out.noise_scale = msg.noise_scale;
+  out.centroid = fromMsg(msg.centroid);
+  out.scale = msg.scale;
   for (std::size_t i = 0; i < n; ++i) {
     if (msg.labels[i] < -1 || msg.labels[i] > 1 || msg.sources[i] > 3) {
       *error = "training point " + std::to_string(i) + " has an invalid label or source";
@@ -127,6 +131,29 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents
     out.points.push_back(p);
   }
   *contents = std::move(out);
+  return true;
+}
+
+bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::GpisModel::Config config,
+                  gpatlas_core::GpisModel* model, std::string* error) {
+  TrainingSetContents contents;
+  if (!fromMsg(msg, &contents, error)) return false;
+  config.kernel = contents.kernel;
+  config.initial_params.assign(contents.kernel_log_params.data(),
+                               contents.kernel_log_params.data() + contents.kernel_log_params.size());
+  config.noise_scale = contents.noise_scale;
+  try {
+    gpatlas_core::GpisModel rebuilt(config);
+    const gpatlas_core::FitReport report = rebuilt.fitInFrame(contents.points, contents.centroid, contents.scale);
+    if (!report.ok) {
+      *error = "cannot fit the received training set: " + report.message;
+      return false;
+    }
+    *model = std::move(rebuilt);
+  } catch (const std::exception& e) {
+    *error = std::string("cannot build the model: ") + e.what();
+    return false;
+  }
   return true;
 }
 

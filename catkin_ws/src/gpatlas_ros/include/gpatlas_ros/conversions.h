@@ -38,9 +38,15 @@ struct TrainingSetContents {
   std::string kernel;
   Eigen::VectorXd kernel_log_params;
   double noise_scale{1.0};
+  Eigen::Vector3d centroid{Eigen::Vector3d::Zero()};
+  double scale{1.0};
   std::vector<gpatlas_core::TrainingPoint> points;
 };
 bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error);
+// Rebuilds the sender's model: same kernel, hyperparameters, data and normalisation frame.
+// `config` supplies the remaining settings (they must match the sender's for an exact copy).
+bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::GpisModel::Config config,
+                  gpatlas_core::GpisModel* model, std::string* error);
 
 // XYZ of a PointCloud2 (any layout with float32 x, y, z fields). Points with NaN/Inf are
 // skipped and counted in *num_invalid. Returns false if the cloud has no x/y/z fields.

@@ -1,0 +1,25 @@
+#pragma once
+
+// rviz markers for the model, the atlas and the collision map (pure functions).
+
+#include <gpatlas_core/atlas.h>
+#include <gpatlas_core/triangle_mesh.h>
+
+#include <shape_msgs/Mesh.h>
+#include <visualization_msgs/Marker.h>
+#include <visualization_msgs/MarkerArray.h>
+
+#include <string>
+#include <vector>
+
+namespace gpatlas_ros {
+
+// Triangle list with per-vertex colours from the vertex variances (blue low, red >= v_max).
+visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame);
+shape_msgs::Mesh toShapeMsg(const gpatlas_core::TriangleMesh& mesh);
+
+// Chart disks (coloured by variance), tree edges, and the chosen path (thick, yellow).
+visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, const std::vector<int>& path,
+                                             double v_max, const std::string& frame);
+
+}  // namespace gpatlas_ros

@@ -1,0 +1,150 @@
+#pragma once
+
+// Plain ROS server classes, one per pipeline stage. The nodelets (src/nodelets.cpp) only
+// construct them from (nh, pnh); tests and custom executables can do the same.
+
+#include <gpatlas_core/exploration_strategy.h>
+#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/hyperparameter_tuner.h>
+#include <gpatlas_core/occupancy_grid.h>
+#include <gpatlas_core/segmentation.h>
+#include <gpatlas_core/surface_mesher.h>
+#include <gpatlas_msgs/AddObservations.h>
+#include <gpatlas_msgs/GetNextTouch.h>
+#include <gpatlas_msgs/Observations.h>
+#include <gpatlas_msgs/SaveMap.h>
+#include <gpatlas_msgs/TrainingSet.h>
+#include <gpatlas_ros/ros_params.h>
+
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace gpatlas_ros {
+
+// Transforms points stamped in `frame` into `world_frame` with tf2 (waiting up to timeout_s).
+bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_frame, const std::string& frame,
+                      const ros::Time& stamp, double timeout_s, std::vector<Eigen::Vector3d>* points,
+                      std::string* error);
+
+// PCL segmentation of the camera cloud: `points` (sensor_msgs/PointCloud2, any frame) in,
+// `~object_points` (world_frame) out.
+class SegmentationServer {
+ public:
+  SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string world_frame_;
+  double tf_timeout_s_{0.5};
+  gpatlas_core::ObjectSegmenter segmenter_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  ros::Subscriber points_sub_;
+  ros::Publisher object_pub_;
+};
+
+// The GPIS: fitted to the object points (`points`), updated with touch observations
+// (`contacts` topic and `~add_observations` service). Publishes the training set for the
+// planner and the collision map (`~training_set`, latched), and the predicted surface
+// (`~surface` cloud coloured by variance, `~surface_mesh` marker, `~surface_shape` mesh).
+class GpModelServer {
+ public:
+  GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
+  bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
+  bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  // Adds observations; false with a message when nothing could be used.
+  bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added);
+  void publishModel();
+
+  ros::NodeHandle nh_, pnh_;
+  std::string world_frame_;
+  double tf_timeout_s_{0.5};
+  int max_vision_points_{600};
+  bool tune_{true};
+  double display_v_max_{0.1};
+  gpatlas_core::GpisModel::Config gpis_config_;
+  ObservationNoise noise_;
+  gpatlas_core::HyperparameterTuner::Config tuner_config_;
+  gpatlas_core::SurfaceMesher::Config mesher_config_;
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+
+  std::mutex mutex_;  // guards model_ (callbacks may run concurrently in a multi-threaded manager)
+  gpatlas_core::GpisModel model_;
+
+  ros::Subscriber points_sub_, contacts_sub_;
+  ros::ServiceServer add_srv_, reset_srv_;
+  ros::Publisher training_pub_, surface_pub_, mesh_marker_pub_, mesh_shape_pub_;
+};
+
+// GPAtlasRRT: `~next_touch` plans on a replica of the GP model (from `training_set`) and
+// publishes the grown atlas (`~atlas` markers, `~atlas_charts`) and the touch (`~touch`).
+class AtlasPlannerServer {
+ public:
+  AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
+  bool onNextTouch(gpatlas_msgs::GetNextTouch::Request& req, gpatlas_msgs::GetNextTouch::Response& res);
+  const gpatlas_core::ExplorationStrategy* strategy(const std::string& name, std::string* error);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string world_frame_;
+  std::string default_strategy_;
+  double default_v_max_{0.1};
+  gpatlas_core::GpisModel::Config gpis_config_;
+  gpatlas_core::StrategyConfig strategy_config_;
+
+  std::mutex mutex_;
+  std::unique_ptr<gpatlas_core::GpisModel> model_;
+  std::string model_error_;
+  std::map<std::string, std::unique_ptr<gpatlas_core::ExplorationStrategy>> strategies_;
+  std::uint64_t plan_count_{0};
+
+  ros::Subscriber training_sub_;
+  ros::ServiceServer next_touch_srv_;
+  ros::Publisher atlas_marker_pub_, atlas_pub_, touch_pub_;
+};
+
+// Probabilistic collision map (paper section 4.1): P(occupied) = Phi(-mean / sqrt(variance))
+// from the GP on a coarse grid, stored in an OctoMap octree. Publishes `~octomap_binary`
+// (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
+class CollisionMapServer {
+ public:
+  CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+
+ private:
+  void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
+  bool onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res);
+
+  ros::NodeHandle nh_, pnh_;
+  std::string world_frame_;
+  double occupied_probability_{0.5};
+  gpatlas_core::GpisModel::Config gpis_config_;
+  gpatlas_core::OccupancyGridBuilder::Config grid_config_;
+
+  std::mutex mutex_;
+  struct Map;
+  std::shared_ptr<Map> map_;
+
+  ros::Subscriber training_sub_;
+  ros::ServiceServer save_srv_;
+  ros::Publisher octomap_pub_, voxels_pub_;
+};
+
+}  // namespace gpatlas_ros

@@ -1,0 +1,108 @@
+#include "gpatlas_ros/markers.h"
+
+#include "gpatlas_ros/conversions.h"
+
+#include <Eigen/Geometry>
+
+namespace gpatlas_ros {
+
+namespace {
+
+std_msgs::ColorRGBA colour(double variance, double v_max, float alpha = 1.0f) {
+  std_msgs::ColorRGBA c;
+  varianceColour(variance, v_max, &c.r, &c.g, &c.b);
+  c.a = alpha;
+  return c;
+}
+
+visualization_msgs::Marker baseMarker(const std::string& frame, const std::string& ns, int id, int type) {
+  visualization_msgs::Marker m;
+  m.header.frame_id = frame;
+  m.ns = ns;
+  m.id = id;
+  m.type = type;
+  m.action = visualization_msgs::Marker::ADD;
+  m.pose.orientation.w = 1.0;
+  m.scale.x = m.scale.y = m.scale.z = 1.0;
+  m.color.a = 1.0f;
+  return m;
+}
+
+}  // namespace
+
+visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame) {
+  auto m = baseMarker(frame, "predicted_surface", 0, visualization_msgs::Marker::TRIANGLE_LIST);
+  const bool has_variance = mesh.vertex_variances.size() == mesh.vertices.size();
+  for (const auto& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) {
+      const auto v = static_cast<std::size_t>(t[k]);
+      m.points.push_back(toPointMsg(mesh.vertices[v]));
+      m.colors.push_back(colour(has_variance ? mesh.vertex_variances[v] : 0.0, v_max));
+    }
+  }
+  return m;
+}
+
+shape_msgs::Mesh toShapeMsg(const gpatlas_core::TriangleMesh& mesh) {
+  shape_msgs::Mesh out;
+  for (const auto& v : mesh.vertices) out.vertices.push_back(toPointMsg(v));
+  for (const auto& t : mesh.triangles) {
+    shape_msgs::MeshTriangle tri;
+    for (int k = 0; k < 3; ++k) tri.vertex_indices[static_cast<std::size_t>(k)] = static_cast<uint32_t>(t[k]);
+    out.triangles.push_back(tri);
+  }
+  return out;
+}
+
+visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, const std::vector<int>& path,
+                                             double v_max, const std::string& frame) {
+  visualization_msgs::MarkerArray array;
+  auto clear = baseMarker(frame, "atlas", 0, visualization_msgs::Marker::CUBE);
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  array.markers.push_back(clear);
+
+  int id = 0;
+  for (const auto& chart : atlas.charts()) {
+    // A disk: a flat cylinder whose axis is the chart's normal.
+    auto disk = baseMarker(frame, "atlas_charts", id++, visualization_msgs::Marker::CYLINDER);
+    disk.pose.position = toPointMsg(chart.centre);
+    const Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), chart.normal);
+    disk.pose.orientation.x = q.x();
+    disk.pose.orientation.y = q.y();
+    disk.pose.orientation.z = q.z();
+    disk.pose.orientation.w = q.w();
+    disk.scale.x = disk.scale.y = 2.0 * chart.radius;
+    disk.scale.z = 0.0005;
+    disk.color = colour(chart.variance, v_max, 0.6f);
+    array.markers.push_back(disk);
+  }
+
+  auto edges = baseMarker(frame, "atlas_tree", 0, visualization_msgs::Marker::LINE_LIST);
+  edges.scale.x = 0.0015;
+  edges.color.r = edges.color.g = edges.color.b = 0.85f;
+  for (const auto& chart : atlas.charts()) {
+    if (chart.parent < 0) continue;
+    edges.points.push_back(toPointMsg(atlas.chart(chart.parent).centre));
+    edges.points.push_back(toPointMsg(chart.centre));
+  }
+  if (!edges.points.empty()) array.markers.push_back(edges);
+
+  if (path.size() >= 1) {
+    auto line = baseMarker(frame, "atlas_path", 0, visualization_msgs::Marker::LINE_STRIP);
+    line.scale.x = 0.004;
+    line.color.r = 1.0f;
+    line.color.g = 0.85f;
+    line.color.b = 0.0f;
+    for (int index : path) line.points.push_back(toPointMsg(atlas.chart(index).centre));
+    if (line.points.size() == 1) line.points.push_back(line.points.front());
+    array.markers.push_back(line);
+    auto end = baseMarker(frame, "atlas_path", 1, visualization_msgs::Marker::SPHERE);
+    end.pose.position = toPointMsg(atlas.chart(path.back()).centre);
+    end.scale.x = end.scale.y = end.scale.z = 0.012;
+    end.color = line.color;
+    array.markers.push_back(end);
+  }
+  return array;
+}
+
+}  // namespace gpatlas_ros

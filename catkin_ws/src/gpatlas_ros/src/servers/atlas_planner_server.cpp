@@ -1,0 +1,138 @@
+#include "gpatlas_ros/conversions.h"
+#include "gpatlas_ros/markers.h"
+#include "gpatlas_ros/servers.h"
+
+#include <gpatlas_msgs/Atlas.h>
+#include <gpatlas_msgs/Touch.h>
+
+#include <cmath>
+
+namespace gpatlas_ros {
+
+AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
+  ParamReader reader(pnh_);
+  world_frame_ = reader.text("world_frame", "world");
+  default_v_max_ = reader.number("v_max", default_v_max_, 1e-12, 1e12);
+  default_strategy_ = reader.text("strategy", "atlas_poke");
+  readGpis(reader, &gpis_config_);
+  readStrategy(reader, &strategy_config_);
+  std::string error;
+  if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
+  if (!reader.ok()) ROS_ERROR_STREAM("atlas_planner: invalid parameters (defaults used for them): " << reader.errors());
+
+  atlas_marker_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("atlas", 1, true);
+  atlas_pub_ = pnh_.advertise<gpatlas_msgs::Atlas>("atlas_charts", 1, true);
+  touch_pub_ = pnh_.advertise<gpatlas_msgs::Touch>("touch", 1, true);
+  next_touch_srv_ = pnh_.advertiseService("next_touch", &AtlasPlannerServer::onNextTouch, this);
+  training_sub_ = nh_.subscribe("training_set", 1, &AtlasPlannerServer::onTrainingSet, this);
+  ROS_INFO_STREAM("atlas_planner: strategy " << default_strategy_ << ", V_max " << default_v_max_ << "; call "
+                                             << next_touch_srv_.getService());
+}
+
+const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std::string& name, std::string* error) {
+  auto it = strategies_.find(name);
+  if (it != strategies_.end()) return it->second.get();
+  try {
+    auto created = gpatlas_core::makeStrategy(name, strategy_config_);
+    const auto* raw = created.get();
+    strategies_.emplace(name, std::move(created));
+    return raw;
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return nullptr;
+  }
+}
+
+void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
+  auto model = std::make_unique<gpatlas_core::GpisModel>();
+  std::string error;
+  const bool ok = modelFromMsg(*msg, gpis_config_, model.get(), &error);
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!ok) {
+    model_error_ = error;
+    ROS_ERROR_STREAM("atlas_planner: " << error);
+    return;
+  }
+  model_ = std::move(model);
+  model_error_.clear();
+  ROS_DEBUG_STREAM("atlas_planner: model with " << model_->size() << " training points");
+}
+
+bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
+                                     gpatlas_msgs::GetNextTouch::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime start = ros::WallTime::now();
+  res.touch.header.frame_id = world_frame_;
+  res.touch.header.stamp = ros::Time::now();
+  if (!model_) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::NO_MODEL;
+    res.message = model_error_.empty() ? "no model yet: the GP has not published a training set"
+                                       : "no usable model: " + model_error_;
+    return true;
+  }
+  const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
+  if (!(v_max > 0.0) || !std::isfinite(v_max)) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+    res.message = "v_max must be > 0 (0 uses the parameter ~v_max), got " + std::to_string(req.v_max);
+    return true;
+  }
+  const std::string name = req.strategy.empty() ? default_strategy_ : req.strategy;
+  std::string error;
+  const gpatlas_core::ExplorationStrategy* chosen = strategy(name, &error);
+  if (!chosen) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+    res.message = error;
+    return true;
+  }
+  gpatlas_core::PlanRequest request;
+  request.v_max = v_max;
+  if (req.use_start) request.start = fromMsg(req.start);
+  request.seed = ++plan_count_;
+  const gpatlas_core::PlanResult plan = chosen->plan(*model_, request);
+  res.plan_time_s = (ros::WallTime::now() - start).toSec();
+  res.message = plan.message;
+  switch (plan.status) {
+    case gpatlas_core::PlanStatus::kTouch:
+      res.status = gpatlas_msgs::GetNextTouch::Response::TOUCH;
+      break;
+    case gpatlas_core::PlanStatus::kConverged:
+      res.status = gpatlas_msgs::GetNextTouch::Response::CONVERGED;
+      break;
+    case gpatlas_core::PlanStatus::kCapReached:
+      // Not a proof of convergence, and no touch either: report it as an error with the reason.
+      res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+      res.message = "planner budget reached without a touch: " + plan.message;
+      break;
+    case gpatlas_core::PlanStatus::kError:
+      res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+      break;
+  }
+  if (plan.status == gpatlas_core::PlanStatus::kTouch) {
+    const std_msgs::Header header = res.touch.header;
+    res.touch = toMsg(plan.touch);
+    res.touch.header = header;
+    touch_pub_.publish(res.touch);
+  }
+  if (plan.atlas) {
+    visualization_msgs::MarkerArray markers = atlasMarkers(plan.atlas->atlas, plan.atlas->path, v_max, world_frame_);
+    atlas_marker_pub_.publish(markers);
+    gpatlas_msgs::Atlas atlas;
+    atlas.header = res.touch.header;
+    for (const auto& chart : plan.atlas->atlas.charts()) {
+      gpatlas_msgs::Chart c;
+      c.centre = toPointMsg(chart.centre);
+      c.normal = toVectorMsg(chart.normal);
+      c.radius_m = chart.radius;
+      c.variance = chart.variance;
+      c.parent = chart.parent;
+      atlas.charts.push_back(c);
+    }
+    atlas.path = plan.atlas->path;
+    atlas_pub_.publish(atlas);
+  }
+  ROS_INFO_STREAM("atlas_planner: " << name << " -> " << gpatlas_core::toString(plan.status) << " in "
+                                    << res.plan_time_s * 1000.0 << " ms (" << plan.message << ")");
+  return true;
+}
+
+}  // namespace gpatlas_ros

@@ -1,0 +1,187 @@
+#include "gpatlas_ros/conversions.h"
+#include "gpatlas_ros/markers.h"
+#include "gpatlas_ros/servers.h"
+
+#include <shape_msgs/Mesh.h>
+#include <visualization_msgs/Marker.h>
+
+#include <algorithm>
+#include <random>
+
+namespace gpatlas_ros {
+
+GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
+  ParamReader reader(pnh_);
+  world_frame_ = reader.text("world_frame", "world");
+  tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
+  max_vision_points_ = reader.integer("max_vision_points", max_vision_points_, 4, 100000);
+  tune_ = reader.flag("tuning/enabled", tune_);
+  display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
+  readGpis(reader, &gpis_config_);
+  readNoise(reader, &noise_);
+  readTuner(reader, &tuner_config_);
+  readMesher(reader, &mesher_config_);
+  if (!reader.ok()) ROS_ERROR_STREAM("gp_model: invalid parameters (defaults used for them): " << reader.errors());
+  try {
+    model_ = gpatlas_core::GpisModel(gpis_config_);
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("gp_model: invalid GPIS configuration (" << e.what() << "); using the defaults");
+    gpis_config_ = gpatlas_core::GpisModel::Config();
+    model_ = gpatlas_core::GpisModel(gpis_config_);
+  }
+
+  training_pub_ = pnh_.advertise<gpatlas_msgs::TrainingSet>("training_set", 1, true);
+  surface_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("surface", 1, true);
+  mesh_marker_pub_ = pnh_.advertise<visualization_msgs::Marker>("surface_mesh", 1, true);
+  mesh_shape_pub_ = pnh_.advertise<shape_msgs::Mesh>("surface_shape", 1, true);
+  add_srv_ = pnh_.advertiseService("add_observations", &GpModelServer::onAddObservations, this);
+  reset_srv_ = pnh_.advertiseService("reset", &GpModelServer::onReset, this);
+  points_sub_ = nh_.subscribe("points", 1, &GpModelServer::onPoints, this);
+  contacts_sub_ = nh_.subscribe("contacts", 10, &GpModelServer::onContacts, this);
+  ROS_INFO_STREAM("gp_model: kernel " << gpis_config_.kernel << ", waiting for object points on "
+                                      << points_sub_.getTopic());
+}
+
+void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  std::vector<Eigen::Vector3d> points;
+  std::size_t invalid = 0;
+  std::string error;
+  if (!cloudToPoints(*msg, &points, &invalid, &error) ||
+      !transformToWorld(tf_buffer_, world_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_, &points,
+                        &error)) {
+    ROS_WARN_STREAM("gp_model: object cloud ignored: " << error);
+    return;
+  }
+  if (points.size() < 4) {
+    ROS_WARN_STREAM("gp_model: object cloud ignored: " << points.size() << " valid points (" << invalid
+                                                       << " NaN), need at least 4");
+    return;
+  }
+  // The GP costs O(n^3): keep a random, seeded subset of the view.
+  std::mt19937 rng(7);
+  std::shuffle(points.begin(), points.end(), rng);
+  if (points.size() > static_cast<std::size_t>(max_vision_points_)) points.resize(static_cast<std::size_t>(max_vision_points_));
+
+  std::lock_guard<std::mutex> lock(mutex_);
+  // A new view replaces the previous vision points; touches and free space are kept.
+  std::vector<gpatlas_core::TrainingPoint> data;
+  for (const auto& p : points) {
+    gpatlas_core::TrainingPoint t;
+    t.position = p;
+    t.noise_sigma = noise_.vision_sigma;
+    t.source = gpatlas_core::PointSource::kVision;
+    data.push_back(t);
+  }
+  for (const auto& t : model_.observations())
+    if (t.source != gpatlas_core::PointSource::kVision) data.push_back(t);
+  const ros::WallTime start = ros::WallTime::now();
+  const gpatlas_core::FitReport report = model_.fit(data);
+  if (!report.ok) {
+    ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << report.message);
+    return;
+  }
+  for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
+  std::string tuned;
+  if (tune_) {
+    const gpatlas_core::TuneReport tune = gpatlas_core::HyperparameterTuner(tuner_config_).tune(model_);
+    tuned = tune.ok ? ", tuned: " + tune.message : ", tuning kept the previous hyperparameters: " + tune.message;
+  }
+  ROS_INFO_STREAM("gp_model: " << report.message << " in " << (ros::WallTime::now() - start).toSec() << " s" << tuned);
+  publishModel();
+}
+
+void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
+  std::string message;
+  std::uint32_t added = 0;
+  if (addObservations(*msg, &message, &added)) ROS_INFO_STREAM("gp_model: " << message);
+  else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
+}
+
+bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& req,
+                                      gpatlas_msgs::AddObservations::Response& res) {
+  res.success = addObservations(req.observations, &res.message, &res.num_added);
+  return true;
+}
+
+bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  model_ = gpatlas_core::GpisModel(gpis_config_);
+  res.success = true;
+  res.message = "model cleared; waiting for a new object cloud";
+  return true;
+}
+
+bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::string* message,
+                                    std::uint32_t* num_added) {
+  *num_added = 0;
+  gpatlas_core::ProbeResult observed;
+  if (!fromMsg(msg, &observed, message)) return false;
+  std::vector<Eigen::Vector3d> contacts, free_space;
+  for (const auto& c : observed.contacts) contacts.push_back(c.position);
+  free_space = observed.free_space;
+  if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &contacts,
+                        message) ||
+      !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &free_space,
+                        message))
+    return false;
+  std::vector<gpatlas_core::TrainingPoint> points;
+  for (const auto& p : contacts) {
+    gpatlas_core::TrainingPoint t;
+    t.position = p;
+    t.noise_sigma = noise_.touch_sigma;
+    t.source = gpatlas_core::PointSource::kTouch;
+    points.push_back(t);
+  }
+  for (const auto& p : free_space) {
+    gpatlas_core::TrainingPoint t;
+    t.position = p;
+    t.label = gpatlas_core::PointLabel::kOutside;
+    t.noise_sigma = noise_.free_space_sigma;
+    t.source = gpatlas_core::PointSource::kFreeSpace;
+    points.push_back(t);
+  }
+  if (points.empty()) {
+    *message = "no observation in the message";
+    return false;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!model_.isFitted()) {
+    *message = "no model yet: the object points have not arrived";
+    return false;
+  }
+  const gpatlas_core::FitReport report = model_.addPoints(points);
+  *num_added = static_cast<std::uint32_t>(report.num_added);
+  *message = report.message;
+  for (const auto& w : report.warnings) *message += "; " + w;
+  if (!report.ok) return false;
+  publishModel();
+  return true;
+}
+
+void GpModelServer::publishModel() {
+  // Called with mutex_ held.
+  gpatlas_msgs::TrainingSet training = toMsg(model_);
+  training.header.frame_id = world_frame_;
+  training.header.stamp = ros::Time::now();
+  training_pub_.publish(training);
+
+  if (surface_pub_.getNumSubscribers() == 0 && mesh_marker_pub_.getNumSubscribers() == 0 &&
+      mesh_shape_pub_.getNumSubscribers() == 0)
+    return;
+  const gpatlas_core::SurfaceMeshResult surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model_);
+  if (!surface.ok) {
+    ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
+    return;
+  }
+  visualization_msgs::Marker marker = meshMarker(surface.mesh, display_v_max_, world_frame_);
+  marker.header.stamp = training.header.stamp;
+  mesh_marker_pub_.publish(marker);
+  mesh_shape_pub_.publish(toShapeMsg(surface.mesh));
+  sensor_msgs::PointCloud2 cloud =
+      pointsToCloud(surface.mesh.vertices, surface.mesh.vertex_variances, display_v_max_, world_frame_);
+  cloud.header.stamp = training.header.stamp;
+  surface_pub_.publish(cloud);
+}
+
+}  // namespace gpatlas_ros

@@ -1,0 +1,66 @@
+#include "gpatlas_ros/conversions.h"
+#include "gpatlas_ros/servers.h"
+
+#include <tf2_eigen/tf2_eigen.h>
+
+namespace gpatlas_ros {
+
+bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_frame, const std::string& frame,
+                      const ros::Time& stamp, double timeout_s, std::vector<Eigen::Vector3d>* points,
+                      std::string* error) {
+  if (frame.empty() || frame == world_frame) return true;
+  try {
+    const geometry_msgs::TransformStamped tf =
+        buffer.lookupTransform(world_frame, frame, stamp, ros::Duration(timeout_s));
+    const Eigen::Isometry3d pose = tf2::transformToEigen(tf);
+    for (auto& p : *points) p = pose * p;
+    return true;
+  } catch (const tf2::TransformException& e) {
+    *error = "no transform from '" + frame + "' to '" + world_frame + "': " + e.what();
+    return false;
+  }
+}
+
+SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
+  ParamReader reader(pnh_);
+  world_frame_ = reader.text("world_frame", "world");
+  tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
+  gpatlas_core::ObjectSegmenter::Config config;
+  readSegmenter(reader, &config);
+  const std::string invalid = gpatlas_core::validate(config);
+  if (!reader.ok() || !invalid.empty()) {
+    ROS_ERROR_STREAM("segmentation: invalid parameters, using defaults where invalid: " << reader.errors() << invalid);
+    if (!invalid.empty()) config = gpatlas_core::ObjectSegmenter::Config();
+  }
+  segmenter_ = gpatlas_core::ObjectSegmenter(config);
+  object_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("object_points", 1, true);
+  points_sub_ = nh_.subscribe("points", 1, &SegmentationServer::onPoints, this);
+  ROS_INFO_STREAM("segmentation: listening on " << points_sub_.getTopic() << ", publishing "
+                                                << object_pub_.getTopic() << " in '" << world_frame_ << "'");
+}
+
+void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  std::vector<Eigen::Vector3d> points;
+  std::size_t invalid = 0;
+  std::string error;
+  if (!cloudToPoints(*msg, &points, &invalid, &error) ||
+      !transformToWorld(tf_buffer_, world_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_, &points,
+                        &error)) {
+    ROS_WARN_STREAM("segmentation: cloud ignored: " << error);
+    return;
+  }
+  const gpatlas_core::SegmentationResult result = segmenter_.segment(points);
+  if (!result.ok) {
+    ROS_WARN_STREAM("segmentation: " << result.message << " (" << msg->width * msg->height << " points in, "
+                                     << invalid << " NaN)");
+    return;
+  }
+  ROS_INFO_STREAM("segmentation: " << result.message << " from " << result.stats.input << " points ("
+                                   << result.stats.plane_inliers << " on the table)");
+  sensor_msgs::PointCloud2 out = pointsToCloud(result.object_points, {}, 1.0, world_frame_);
+  out.header.stamp = msg->header.stamp;
+  object_pub_.publish(out);
+}
+
+}  // namespace gpatlas_ros
