@@ -39,6 +39,45 @@ void ThinPlateKernel::paramGradient(double r, double* out) const {
   out[0] = 3.0 * radius_ * (radius_ * radius_ - r * r);
 }
 
+// ------------------------------------------------------------------ Wendland psi_{3,1}
+Eigen::VectorXd WendlandKernel::logParams() const {
+  Eigen::VectorXd p(1);
+  p << std::log(radius_);
+  return p;
+}
+
+void WendlandKernel::setLogParams(const Eigen::VectorXd& log_params) {
+  if (log_params.size() != 1) throw std::invalid_argument("wendland kernel takes 1 parameter (log R)");
+  radius_ = std::exp(log_params[0]);
+}
+
+double WendlandKernel::value(double r) const {
+  const double t = r / radius_;
+  if (t >= 1.0) return 0.0;
+  const double u = 1.0 - t;
+  return radius_ * radius_ * radius_ * u * u * u * u * (4.0 * t + 1.0);
+}
+
+double WendlandKernel::derivative(double r) const {
+  // d/dt [(1 - t)^4 (4t + 1)] = -20 t (1 - t)^3, dt/dr = 1/R
+  const double t = r / radius_;
+  if (t >= 1.0) return 0.0;
+  const double u = 1.0 - t;
+  return -20.0 * radius_ * radius_ * t * u * u * u;
+}
+
+void WendlandKernel::paramGradient(double r, double* out) const {
+  // k = R^3 g(r/R): dk/dlogR = R^3 (3 g(t) - t g'(t)) = R^3 (3 g(t) + 20 t^2 (1 - t)^3)
+  const double t = r / radius_;
+  if (t >= 1.0) {
+    out[0] = 0.0;
+    return;
+  }
+  const double u = 1.0 - t;
+  const double g = u * u * u * u * (4.0 * t + 1.0);
+  out[0] = radius_ * radius_ * radius_ * (3.0 * g + 20.0 * t * t * u * u * u);
+}
+
 // ------------------------------------------------------------------ scaled kernels
 Eigen::VectorXd ScaledKernel::logParams() const {
   Eigen::VectorXd p(2);
@@ -112,6 +151,7 @@ using KernelFactory = std::function<std::unique_ptr<Kernel>()>;
 std::map<std::string, KernelFactory>& registry() {
   static std::map<std::string, KernelFactory> factories = {
       {"thin_plate", [] { return std::make_unique<ThinPlateKernel>(); }},
+      {"wendland", [] { return std::make_unique<WendlandKernel>(); }},
       {"squared_exponential", [] { return std::make_unique<SquaredExponentialKernel>(); }},
       {"matern32", [] { return std::make_unique<Matern32Kernel>(); }},
       {"matern52", [] { return std::make_unique<Matern52Kernel>(); }},

@@ -97,9 +97,33 @@ Eigen::VectorXd gramEigenvalues(const Kernel& k, const std::vector<Eigen::Vector
 
 TEST(Kernel, StationaryKernelsArePositiveDefinite) {
   const auto pts = pointsInUnitBall(300, 3);
-  for (const std::string name : {"squared_exponential", "matern32", "matern52"}) {
+  for (const std::string name : {"squared_exponential", "matern32", "matern52", "wendland"}) {
     const Eigen::VectorXd eig = gramEigenvalues(*makeKernel(name), pts);
     EXPECT_GT(eig.minCoeff(), -1e-9 * eig.maxCoeff()) << name;
+  }
+}
+
+TEST(Kernel, WendlandMatchesClosedFormAndThinPlateCurvature) {
+  gpatlas_core::WendlandKernel k(2.0);
+  for (double r : {0.0, 0.3, 1.0, 1.7}) {
+    const double t = r / 2.0;
+    EXPECT_NEAR(k.value(r), 8.0 * std::pow(1 - t, 4) * (4 * t + 1), 1e-12);
+  }
+  EXPECT_DOUBLE_EQ(k.value(2.0), 0.0);
+  EXPECT_DOUBLE_EQ(k.value(3.0), 0.0);
+  // The default R gives the correlation k(r)/k(0) the thin-plate's (R = 2) curvature at the
+  // origin: 1 - 3 r^2 / R_tp^2 = 1 - 10 r^2 / R_w^2.
+  gpatlas_core::WendlandKernel d;
+  gpatlas_core::ThinPlateKernel tp(2.0);
+  const double h = 1e-3;
+  EXPECT_NEAR((d.value(h) / d.value(0.0) - 1.0) / (h * h), (tp.value(h) / tp.value(0.0) - 1.0) / (h * h), 0.01);
+}
+
+TEST(Kernel, WendlandIsPositiveDefiniteInThreeDimensionsAtAnyRadius) {
+  const auto pts = pointsInUnitBall(400, 3);
+  for (double radius : {0.5, 2.0, 3.65, 10.0}) {
+    const Eigen::VectorXd eig = gramEigenvalues(gpatlas_core::WendlandKernel(radius), pts);
+    EXPECT_GT(eig.minCoeff(), -1e-9 * eig.maxCoeff()) << "R=" << radius;
   }
 }
 
