@@ -24,9 +24,12 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 const std::string kProceduralPrefix = "procedural:";
 
-std::string describe(const Eigen::Vector3d& v) {
+template <typename Vector>
+std::string describe(const Vector& v) {
   std::ostringstream out;
-  out << "(" << v.x() << ", " << v.y() << ", " << v.z() << ")";
+  out << "(";
+  for (Eigen::Index i = 0; i < v.size(); ++i) out << (i ? ", " : "") << v[i];
+  out << ")";
   return out.str();
 }
 
@@ -198,7 +201,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   }
   ROS_INFO_STREAM("probe_sim: ready: object '" << settings_.object << "' ("
                   << scene_->objectMesh().triangles.size() << " triangles) at "
-                  << settings_.object_position_xy_m.transpose() << " in '" << settings_.world_frame
+                  << describe(settings_.object_position_xy_m) << " in '" << settings_.world_frame
                   << "', " << settings_.probe << " probe, "
                   << (arm_ ? "left arm (IK and link collisions checked)" : "free-floating probe")
                   << ", camera '" << settings_.camera_frame << "' at "
@@ -353,9 +356,9 @@ std::string SimulationServer::loadObject() {
   const Eigen::Vector2d table_max = s.table_centre_xy_m + 0.5 * s.table_size_xy_m;
   if ((bounds.min().head<2>().array() < table_min.array()).any() ||
       (bounds.max().head<2>().array() > table_max.array()).any()) {
-    ROS_WARN_STREAM("probe_sim: the object's footprint (" << bounds.min().head<2>().transpose()
-                    << ") to (" << bounds.max().head<2>().transpose()
-                    << ") overhangs the table; check ~object_position_xy_m and ~object_scale");
+    ROS_WARN_STREAM("probe_sim: the object's footprint " << describe(bounds.min().head<2>())
+                    << " to " << describe(bounds.max().head<2>())
+                    << " overhangs the table; check ~object_position_xy_m and ~object_scale");
   }
   const double largest_side_m = bounds.sizes().maxCoeff();
   if (largest_side_m > 2.0 || largest_side_m < 0.005) {
