@@ -26,6 +26,8 @@ std::string validate(const ObjectSegmenter::Config& c) {
   if (c.remove_plane && !(c.plane_distance_m > 0.0)) return "plane_distance_m must be > 0";
   if (c.remove_plane && c.plane_max_iterations < 1) return "plane_max_iterations must be >= 1";
   if (!(c.plane_max_tilt_deg > 0.0 && c.plane_max_tilt_deg <= 90.0)) return "plane_max_tilt_deg must be in (0, 90]";
+  if (!(c.plane_max_fraction_below >= 0.0 && c.plane_max_fraction_below <= 1.0))
+    return "plane_max_fraction_below must be in [0, 1]";
   if (c.outlier_mean_k < 0 || !(c.outlier_stddev_multiplier > 0.0)) return "outlier removal settings must be positive";
   if (!(c.cluster_tolerance_m > 0.0)) return "cluster_tolerance_m must be > 0";
   if (c.cluster_min_points < 1 || c.cluster_max_points < c.cluster_min_points)
@@ -92,22 +94,30 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
     sac.segment(*inliers, coefficients);
     result.stats.plane_inliers = inliers->indices.size();
     if (inliers->indices.size() >= c.plane_min_inliers && coefficients.values.size() == 4) {
-      result.plane_found = true;
       Vector3 n(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
       double d = coefficients.values[3];
       if (n.z() < 0.0) {
         n = -n;
         d = -d;
       }
-      result.plane_normal = n.normalized();
-      result.plane_offset = d / n.norm();
-      // Drop the plane and everything below it (the table's underside, reflections).
+      const double norm = n.norm();
+      n /= norm;
+      d /= norm;
       Cloud::Ptr above(new Cloud);
+      std::size_t below = 0;
       for (const auto& p : downsampled->points) {
-        const double height = result.plane_normal.dot(Vector3(p.x, p.y, p.z)) + result.plane_offset;
+        const double height = n.dot(Vector3(p.x, p.y, p.z)) + d;
         if (height > c.plane_distance_m) above->push_back(p);
+        else if (height < -c.plane_distance_m) ++below;
       }
-      without_plane = above;
+      // A support plane has (almost) nothing under it. A horizontal face of the object itself,
+      // e.g. a mug's rim in an object-only cloud, has the object below: keep everything then.
+      if (static_cast<double>(below) <= c.plane_max_fraction_below * static_cast<double>(downsampled->size())) {
+        result.plane_found = true;
+        result.plane_normal = n;
+        result.plane_offset = d;
+        without_plane = above;
+      }
     }
   }
   result.stats.after_plane = without_plane->size();

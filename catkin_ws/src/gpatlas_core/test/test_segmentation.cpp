@@ -69,6 +69,24 @@ TEST(ObjectSegmenter, HintSelectsTheClosestCluster) {
   for (const auto& p : result.object_points) EXPECT_LT((p - kBoxCentre).norm(), 0.03);
 }
 
+TEST(ObjectSegmenter, ObjectOnlyCloudKeepsItsHorizontalFaces) {
+  // A cube seen from above without a table: its top face is a large horizontal plane, but the
+  // rest of the cube lies below it, so it is not a support plane and nothing is removed.
+  std::vector<Vector3> cube;
+  for (double u = -0.05; u <= 0.05; u += 0.004)
+    for (double v = -0.05; v <= 0.05; v += 0.004) {
+      cube.emplace_back(0.6 + u, v, 0.1);         // top
+      cube.emplace_back(0.65, v, 0.05 + u);       // front side
+      cube.emplace_back(0.6 + u, -0.05, 0.05 + v);  // left side
+    }
+  const auto result = ObjectSegmenter().segment(cube);
+  ASSERT_TRUE(result.ok) << result.message;
+  EXPECT_FALSE(result.plane_found);
+  double min_z = 1.0;
+  for (const auto& p : result.object_points) min_z = std::min(min_z, p.z());
+  EXPECT_LT(min_z, 0.01);  // the lower part of the sides survived
+}
+
 TEST(ObjectSegmenter, BadInputGivesClearErrors) {
   ObjectSegmenter segmenter;
   auto r = segmenter.segment({});

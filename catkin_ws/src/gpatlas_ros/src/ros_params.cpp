@@ -138,6 +138,8 @@ void readSegmenter(ParamReader& r, gpatlas_core::ObjectSegmenter::Config* c) {
   c->remove_plane = r.flag("segmentation/remove_plane", c->remove_plane);
   c->plane_distance_m = r.number("segmentation/plane_distance_m", c->plane_distance_m, 1e-5, 1.0);
   c->plane_max_tilt_deg = r.number("segmentation/plane_max_tilt_deg", c->plane_max_tilt_deg, 0.1, 90.0);
+  c->plane_max_fraction_below =
+      r.number("segmentation/plane_max_fraction_below", c->plane_max_fraction_below, 0.0, 1.0);
   c->plane_min_inliers = static_cast<std::size_t>(
       r.integer("segmentation/plane_min_inliers", static_cast<int>(c->plane_min_inliers), 1, 100000000));
   c->outlier_mean_k = r.integer("segmentation/outlier_mean_k", c->outlier_mean_k, 0, 1000);

@@ -47,6 +47,8 @@ class ObjectSegmenter {
     int plane_max_iterations{300};
     double plane_max_tilt_deg{20.0};  // only planes whose normal is this close to world z
     std::size_t plane_min_inliers{200};
+    // The plane is a support only if at most this fraction of the points lies below it.
+    double plane_max_fraction_below{0.05};
     int outlier_mean_k{20};           // 0 disables statistical outlier removal
     double outlier_stddev_multiplier{2.5};
     double cluster_tolerance_m{0.012};

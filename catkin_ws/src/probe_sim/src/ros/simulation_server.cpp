@@ -178,6 +178,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 
   probe_service_ = pnh_.advertiseService("probe", &SimulationServer::onProbe, this);
   capture_service_ = pnh_.advertiseService("capture", &SimulationServer::onCapture, this);
+  ground_truth_service_ = pnh_.advertiseService("ground_truth", &SimulationServer::onGroundTruth, this);
   cloud_publisher_ = pnh_.advertise<sensor_msgs::PointCloud2>("points", 1);
   marker_publisher_ = pnh_.advertise<visualization_msgs::Marker>("object_marker", 1, true);
 
@@ -233,6 +234,7 @@ std::string SimulationServer::readSettings() {
   p.read("camera_height_px", &s.camera_height_px);
   p.read("camera_fov_deg", &s.camera_fov_deg);
   p.read("camera_depth_noise_m", &s.camera_depth_noise_m);
+  p.read("camera_include_table", &s.camera_include_table);
   p.read("publish_cloud_rate_hz", &s.publish_cloud_rate_hz);
 
   p.require(!s.object.empty(), "object", "must name a mesh file or procedural:NAME");
@@ -415,7 +417,7 @@ std::string SimulationServer::setUpCamera() {
   config.height = s.camera_height_px;
   config.horizontal_fov_rad = s.camera_fov_deg * kPi / 180.0;
   config.depth_noise_sigma_m = s.camera_depth_noise_m;
-  config.include_table = false;  // the object's points only, as if already segmented
+  config.include_table = s.camera_include_table;
   config.include_obstacles = false;
   camera_ = std::make_unique<DepthCamera>(config, pose);
   return "";
@@ -487,6 +489,29 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
     response.reason = std::string("probe failed: ") + e.what();
     ROS_ERROR_STREAM("probe_sim: ~probe: " << response.reason);
   }
+  return true;
+}
+
+bool SimulationServer::onGroundTruth(gpatlas_msgs::GetMesh::Request& /*request*/,
+                                     gpatlas_msgs::GetMesh::Response& response) {
+  response.success = false;
+  if (!unavailable_reason_.empty()) {
+    response.message = unavailable_reason_;
+    return true;
+  }
+  const TriangleMesh& mesh = scene_->objectMesh();
+  response.header.frame_id = settings_.world_frame;
+  response.header.stamp = ros::Time::now();
+  response.mesh.vertices.reserve(mesh.vertices.size());
+  for (const auto& v : mesh.vertices) response.mesh.vertices.push_back(gpatlas_ros::toPointMsg(v));
+  response.mesh.triangles.reserve(mesh.triangles.size());
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    shape_msgs::MeshTriangle triangle;
+    for (int k = 0; k < 3; ++k) triangle.vertex_indices[static_cast<std::size_t>(k)] = static_cast<uint32_t>(t[k]);
+    response.mesh.triangles.push_back(triangle);
+  }
+  response.success = true;
+  response.message = std::to_string(mesh.triangles.size()) + " triangles in " + settings_.world_frame;
   return true;
 }
 

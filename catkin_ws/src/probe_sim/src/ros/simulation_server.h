@@ -10,6 +10,7 @@
 #include "probe_sim/scene.h"
 
 #include <gpatlas_msgs/Capture.h>
+#include <gpatlas_msgs/GetMesh.h>
 #include <gpatlas_msgs/Probe.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -59,6 +60,9 @@ struct SimulationSettings {
   int camera_height_px = 240;
   double camera_fov_deg = 58.6;  // horizontal
   double camera_depth_noise_m = 0.001;
+  // The table in the depth cloud too, as a real camera sees it (the pipeline segments it away);
+  // false gives the object's points only.
+  bool camera_include_table = true;
   double publish_cloud_rate_hz = 0.0;  // 0: only on ~capture
 };
 
@@ -81,6 +85,7 @@ class SimulationServer {
   std::string setUpProber();
 
   bool onProbe(gpatlas_msgs::Probe::Request& request, gpatlas_msgs::Probe::Response& response);
+  bool onGroundTruth(gpatlas_msgs::GetMesh::Request& request, gpatlas_msgs::GetMesh::Response& response);
   bool onCapture(gpatlas_msgs::Capture::Request& request,
                  gpatlas_msgs::Capture::Response& response);
   void onCloudTimer(const ros::TimerEvent& event);
@@ -118,6 +123,7 @@ class SimulationServer {
 
   ros::ServiceServer probe_service_;
   ros::ServiceServer capture_service_;
+  ros::ServiceServer ground_truth_service_;
   ros::Publisher cloud_publisher_;
   ros::Publisher marker_publisher_;
   ros::Publisher joint_state_publisher_;
