@@ -1,7 +1,8 @@
 # GPAtlasRRT: one-command set-up, build, test, demo and benchmarks.
 #   make test    install what is missing, build (Release, ccache), run every test
 #   make demo    install, build, run the headless simulated exploration
-#   make bench   the exploration benchmark (BENCH_ARGS="...")
+#   make bench   the exploration benchmark without ROS (BENCH_ARGS="...")
+#   make demo OBJECT=path/to/mesh.stl SCALE=0.001   the demo on your own mesh
 SHELL := /bin/bash
 # Debian's ROS python modules live in /usr/bin/python3, not in a pyenv/venv python on PATH.
 export PATH := /usr/bin:$(PATH)
@@ -12,7 +13,11 @@ WS := catkin_ws
 CATKIN_ARGS := -DCMAKE_BUILD_TYPE=Release -DPYTHON_EXECUTABLE=/usr/bin/python3 \
   -DCMAKE_C_COMPILER_LAUNCHER=ccache -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCATKIN_ENABLE_TESTING=ON
 
-.PHONY: deps build test lint bench-core clean
+OBJECT ?= procedural:mug
+SCALE ?= 1.0
+BENCH_ARGS ?= --object procedural:mug --strategy atlas_poke --strategy random --seeds 0
+
+.PHONY: deps build test demo bench lint bench-core clean
 
 deps:
 	@bash scripts/install_deps.sh
@@ -26,6 +31,12 @@ lint: deps
 
 test: build
 	@bash scripts/run_tests.sh $(JOBS)
+
+demo: build
+	@bash scripts/run_demo.sh "$(OBJECT)" "$(SCALE)" $(DEMO_ARGS)
+
+bench: build
+	$(WS)/devel/lib/probe_sim/gpatlas_bench $(BENCH_ARGS)
 
 bench-core: build
 	$(WS)/devel/lib/gpatlas_core/gpatlas_core_benchmark $(BENCH_CORE_ARGS)

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Headless simulated tactile exploration: probe_sim + the GPAtlasRRT pipeline + the exploration
+# node, on a procedural object by default. Usage: run_demo.sh [OBJECT] [SCALE] [extra roslaunch args]
+set -eo pipefail
+export PATH=/usr/bin:$PATH
+root=$(cd "$(dirname "$0")/.." && pwd)
+object=${1:-procedural:mug}
+scale=${2:-1.0}
+shift 2 || true
+
+# roslaunch runs nodes in ROS_HOME, so a mesh path must be absolute.
+if [[ "$object" != procedural:* ]]; then
+  if [[ ! -f "$object" ]]; then
+    echo "demo: mesh file '$object' not found" >&2
+    exit 2
+  fi
+  object=$(realpath "$object")
+fi
+
+results="$root/results/demo_$(date +%Y%m%d_%H%M%S)"
+# A private master port, so the demo neither needs nor disturbs a running roscore.
+export ROS_MASTER_URI=http://localhost:${DEMO_ROS_PORT:-11511}
+# shellcheck disable=SC1091
+source "$root/catkin_ws/devel/setup.bash"
+echo "[demo] exploring '$object' (scale $scale); results in $results"
+roslaunch --screen gpatlas_ros sim_exploration.launch object:="$object" scale:="$scale" results_dir:="$results" "$@" 2>&1 \
+  | grep --line-buffered -E "exploration:|segmentation: object|gp_model: fitted|probe_sim: ready|ERROR|FATAL" \
+  | sed -u -e 's/\x1b\[[0-9;]*m//g' -e 's/^\[ *\([A-Z]*\)\] \[[0-9.]*\]: /[\1] /'
+
+if [[ ! -f "$results/report.json" ]]; then
+  echo "[demo] no report was written: the exploration did not run (see the errors above)" >&2
+  exit 1
+fi
+/usr/bin/python3 - "$results" <<'PY'
+import json, sys
+d = sys.argv[1]
+r = json.load(open(f"{d}/report.json"))
+m = r.get("final_metrics") or {}
+print("[demo] ---------------------------------------------------------------")
+print(f"[demo] stop reason: {r['stop_reason']}  (converged: {r['converged']})")
+print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['settings']['strategy']}, V_max {r['settings']['v_max']}")
+if m:
+    print(f"[demo] shape RMSE predicted->truth {1000*m['rmse_pred_to_gt_m']:.1f} mm, truth->predicted "
+          f"{1000*m['rmse_gt_to_pred_m']:.1f} mm, F-score@5mm {m['fscore_5mm']:.2f}")
+print(f"[demo] results: {d}/ (report.json, surface.ply, collision_map.bt, exploration.png)")
+PY
