@@ -1,0 +1,44 @@
+#!/usr/bin/env python3
+"""Waits for the exploration node's report and checks the results folder it writes."""
+import json
+import os
+import shutil
+import time
+import unittest
+
+import rospy
+import rostest
+
+
+class SimExplorationTest(unittest.TestCase):
+    def test_results_folder(self):
+        results = rospy.get_param("~results_dir")
+        report_path = os.path.join(results, "report.json")
+        deadline = time.time() + 200.0
+        while not os.path.exists(report_path) and time.time() < deadline and not rospy.is_shutdown():
+            time.sleep(0.5)
+        self.assertTrue(os.path.exists(report_path), "no report.json after 200 s")
+        time.sleep(2.0)  # the plot is written right after the report
+        with open(report_path) as f:
+            report = json.load(f)
+        self.assertIn(report["stop_reason"], ("converged", "max_actions", "consecutive_failures"), report["stop_reason"])
+        self.assertLessEqual(report["actions"], 3)
+        self.assertEqual(len(report["history"]), report["actions"])
+        self.assertEqual(report["contacts"], sum(h["contacts"] for h in report["history"]))
+        metrics = report["final_metrics"]
+        self.assertIsNotNone(metrics, "the simulator's ground truth should give shape metrics")
+        # A 12 cm sphere seen from one side: the predicted shape is within a few centimetres.
+        for key in ("rmse_pred_to_gt_m", "rmse_gt_to_pred_m"):
+            self.assertTrue(0.0 <= metrics[key] < 0.05, (key, metrics[key]))
+        for name in ("surface.ply", "collision_map.bt", "exploration.png"):
+            path = os.path.join(results, name)
+            self.assertTrue(os.path.exists(path) and os.path.getsize(path) > 0, path)
+        with open(os.path.join(results, "surface.ply")) as f:
+            header = f.read(400)
+        self.assertIn("property float variance", header.replace("double", "float"))
+        shutil.rmtree(results, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    rospy.init_node("test_sim_exploration")
+    rostest.rosrun("gpatlas_ros", "sim_exploration_test", SimExplorationTest)
