@@ -77,9 +77,16 @@ struct GpisModel::Impl {
 
   Vector3 normalise(const Vector3& p) const { return (p - centroid) / scale; }
 
-  double diagonal(Eigen::Index i) const { return kernel->value(0.0) + noise_scale * noise_var[i] + jitter; }
+  double diagonal(Eigen::Index i) const {
+    return kernel->value(0.0) + noise_scale * noise_var[i] * noiseUnit(*kernel) + jitter;
+  }
 
   double varianceUnitFactor() const { return config.reference_prior_variance / kernel->value(0.0); }
+  // Factor turning a noise variance given in reported units into units of f (the inverse of
+  // varianceUnitFactor), so that the noise-to-prior ratio does not depend on the kernel's scale.
+  double noiseUnit(const Kernel& k) const {
+    return config.noise_in_reported_units ? k.value(0.0) / config.reference_prior_variance : 1.0;
+  }
 
   // A pivot that is tiny relative to the prior variance means a numerically rank-deficient
   // matrix: LLT may still "succeed" on rounding noise, but its solution would be garbage.
@@ -290,7 +297,18 @@ FitReport GpisModel::refit(bool renormalise) {
   m.scale = scale;
 
   const std::vector<Vector3> outside = fibonacciSphere(c.num_outside_points);
-  const Eigen::Index num_pseudo = static_cast<Eigen::Index>(outside.size()) + (c.inside_point_at_centroid ? 1 : 0);
+  // The inside point goes at the centroid only when that is surely inside the object: no
+  // surface observation within inside_point_min_clearance (normalised) of it. The centroid of a
+  // partial view of a cup or bowl lies in its cavity, a few centimetres from the wall; a -1
+  // there tells the model the air in the cavity is material.
+  bool use_inside_point = c.inside_point_at_centroid;
+  if (use_inside_point && c.inside_point_min_clearance > 0.0) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& p : m.observations)
+      if (p.label == PointLabel::kSurface) nearest = std::min(nearest, ((p.position - centroid) / scale).norm());
+    use_inside_point = nearest >= c.inside_point_min_clearance;
+  }
+  const Eigen::Index num_pseudo = static_cast<Eigen::Index>(outside.size()) + (use_inside_point ? 1 : 0);
   m.n = 0;
   m.num_pseudo = num_pseudo;
   m.chol.resize(0, 0);
@@ -306,7 +324,7 @@ FitReport GpisModel::refit(bool renormalise) {
     m.noise_var[m.n] = pseudo_var;
     ++m.n;
   }
-  if (c.inside_point_at_centroid) {
+  if (use_inside_point) {
     m.x.col(m.n).setZero();
     m.y[m.n] = -1.0;
     m.noise_var[m.n] = pseudo_var;
@@ -613,6 +631,10 @@ double GpisModel::logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params
   const int p = kernel->numParams();
   const auto train = m.x.leftCols(n);
 
+  const double noise_unit = m.noiseUnit(*kernel);
+  const bool noise_unit_gradient = m.config.noise_in_reported_units;
+  std::vector<double> dk0(static_cast<std::size_t>(p));
+  kernel->paramGradient(0.0, dk0.data());
   Eigen::MatrixXd cov(n, n);
   std::vector<Eigen::MatrixXd> dcov;
   if (gradient) dcov.assign(static_cast<std::size_t>(p), Eigen::MatrixXd(n, n));
@@ -626,7 +648,13 @@ double GpisModel::logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params
         for (int t = 0; t < p; ++t) dcov[static_cast<std::size_t>(t)](i, j) = dk[static_cast<std::size_t>(t)];
       }
     }
-    cov(j, j) += noise_scale * m.noise_var[j] + m.jitter;
+    cov(j, j) += noise_scale * m.noise_var[j] * noise_unit + m.jitter;
+    if (gradient && noise_unit_gradient) {
+      // The noise variance is proportional to k(0) (noise_in_reported_units).
+      for (int t = 0; t < p; ++t)
+        dcov[static_cast<std::size_t>(t)](j, j) += noise_scale * m.noise_var[j] * dk0[static_cast<std::size_t>(t)] /
+                                                   m.config.reference_prior_variance;
+    }
   }
   Eigen::LLT<Eigen::MatrixXd> llt(cov.selfadjointView<Eigen::Lower>());
   if (llt.info() != Eigen::Success) return nan;
@@ -649,7 +677,7 @@ double GpisModel::logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params
       (*gradient)[t] = acc;
     }
     double acc = 0.0;
-    for (Eigen::Index i = 0; i < n; ++i) acc += 0.5 * weight(i, i) * noise_scale * m.noise_var[i];
+    for (Eigen::Index i = 0; i < n; ++i) acc += 0.5 * weight(i, i) * noise_scale * m.noise_var[i] * noise_unit;
     (*gradient)[p] = acc;
   }
   return lml;

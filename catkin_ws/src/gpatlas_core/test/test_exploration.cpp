@@ -19,7 +19,7 @@ constexpr double kNoiseSigma = 0.316;  // the paper's reference noise variance, 
 
 // The initial "camera view": the top third of the sphere.
 GpisModel initialModel(const AnalyticSphere& sphere, unsigned seed) {
-  GpisModel model;
+  GpisModel model(GpisModel::Config::thinPlateReference());
   const FitReport report = model.fit(sphere.view(150, 0.3, kNoiseSigma, seed));
   EXPECT_TRUE(report.ok) << report.message;
   return model;

@@ -306,7 +306,7 @@ TEST(GpisModel, ContradictoryPointsEscalateJitterThenFailClearly) {
 }
 
 TEST(GpisModel, InvalidConfigurationIsRefused) {
-  GpisModel::Config config;
+  GpisModel::Config config = GpisModel::Config::thinPlateReference();
   config.domain_radius = 1.5;  // diameter 3 > thin-plate R = 2
   config.renormalise_radius = 1.2;
   EXPECT_THROW(GpisModel{config}, std::invalid_argument);
@@ -316,18 +316,73 @@ TEST(GpisModel, InvalidConfigurationIsRefused) {
 }
 
 TEST(GpisModel, DomainAndUnits) {
-  GpisModel model;
+  GpisModel model(GpisModel::Config::thinPlateReference());
   ASSERT_TRUE(model.fit(sphereCap(100, -0.3, 19)).ok);
   EXPECT_TRUE(model.inDomain(kCentre));
   EXPECT_FALSE(model.inDomain(kCentre + Vector3d(10, 0, 0)));
   const Vector3d x = kCentre + Vector3d(0.01, 0.02, 0.03);
   EXPECT_LT((model.toWorld(model.toNormalised(x)) - x).norm(), 1e-12);
-  // Reported variance equals the raw variance for the default kernel (k(0) = 8).
+  // Reported variance equals the raw variance for the paper's kernel (k(0) = 8).
   EXPECT_DOUBLE_EQ(model.varianceUnitFactor(), 1.0);
   // Far from any data the posterior approaches the prior (reported units: 8).
   const auto batch = model.predictBatch(gpatlas_core::Points3(kCentre + Vector3d(0, 0, -0.5 * model.domainRadiusWorld())), false, false);
   EXPECT_LE(batch.variance[0], 8.0 + 1e-9);
   EXPECT_TRUE(batch.in_domain[0]);
+}
+
+TEST(GpisModel, DefaultIsWendlandInTheUnitBallFrameWithADomainTwiceAsLarge) {
+  GpisModel model;
+  EXPECT_EQ(model.kernel().name(), "wendland");
+  ASSERT_TRUE(model.fit(sphereCap(100, -0.3, 19)).ok);
+  double farthest = 0.0;
+  for (const auto& p : model.observations()) farthest = std::max(farthest, model.toNormalised(p.position).norm());
+  EXPECT_NEAR(farthest, 1.0, 1e-9);
+  EXPECT_DOUBLE_EQ(model.domainRadiusWorld(), 2.0 * model.scale());
+  EXPECT_DOUBLE_EQ(model.varianceUnitFactor(), 8.0 / model.kernel().priorVariance());
+  // The whole sphere (the cap's unseen far side included) lies inside the domain.
+  EXPECT_TRUE(model.inDomain(kCentre - Vector3d(0, 0, kRadius)));
+}
+
+TEST(GpisModel, ScalingTheKernelChangesNeitherMeanNorReportedVariance) {
+  // Noise sigmas and variances are in reference units: a kernel scaled by c^2 (the signal
+  // sigma of a squared exponential) gives the same posterior mean and reported variance.
+  GpisModel::Config config;
+  config.kernel = "squared_exponential";
+  GpisModel a(config);
+  config.initial_params = {std::log(3.0), std::log(0.3)};
+  GpisModel b(config);
+  const auto pts = sphereCap(80, -0.3, 5);
+  ASSERT_TRUE(a.fit(pts).ok);
+  ASSERT_TRUE(b.fit(pts).ok);
+  const gpatlas_core::Points3 q = (gpatlas_core::Points3(3, 2) << kCentre + Vector3d(0.02, 0.0, kRadius),
+                                   kCentre - Vector3d(0.0, 0.0, kRadius)).finished();
+  const auto pa = a.predictBatch(q, false, false);
+  const auto pb = b.predictBatch(q, false, false);
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_NEAR(pa.mean[j], pb.mean[j], 1e-6);
+    EXPECT_NEAR(pa.variance[j], pb.variance[j], 1e-6 * pa.variance[j] + 1e-9);
+  }
+  EXPECT_GT(pa.variance[1], 10.0 * pa.variance[0]);  // the far side is the uncertain one
+}
+
+TEST(GpisModel, InsidePointIsSkippedWhenTheCentroidIsCloseToTheSurfaceData) {
+  GpisModel::Config config;
+  config.inside_point_min_clearance = 0.3;
+  GpisModel far_enough(config);
+  ASSERT_TRUE(far_enough.fit(sphereCap(100, -0.3, 19)).ok);
+  // A flat patch: its centroid lies on the data.
+  std::vector<TrainingPoint> patch;
+  for (int i = 0; i < 10; ++i)
+    for (int j = 0; j < 10; ++j) {
+      TrainingPoint p;
+      p.position = Vector3d(0.01 * i, 0.01 * j, 0.0);
+      p.noise_sigma = 0.1;
+      patch.push_back(p);
+    }
+  GpisModel flat(config);
+  ASSERT_TRUE(flat.fit(patch).ok);
+  EXPECT_EQ(far_enough.size(), far_enough.observations().size() + 33u);
+  EXPECT_EQ(flat.size(), flat.observations().size() + 32u);
 }
 
 }  // namespace

@@ -58,9 +58,9 @@ struct Options {
   double camera_noise_m{0.001};
   // ML-II tuning after the first fit. Measured on a single view: it keeps the thin-plate R at
   // its lower bound and drives the noise scale to its lower bound (1 -> 0.01), which divides
-  // the surface variances by ~10 so that runs "converge" after 0 actions; --no-tune keeps the
-  // paper's fixed R and noise.
-  bool tune{true};
+  // the surface variances by ~10 so that runs "converge" after 0 actions. Off by default: the
+  // paper's fixed hyperparameters; --tune tunes the kernel's parameters with the noise fixed.
+  bool tune{false};
   // The paper simulates touches by ray casting on the object mesh alone (the object is held
   // in the air); a table under the object makes every touch aimed at the unseen underside hit
   // the table, which is no information about the object and ends runs by failed touches.
@@ -89,10 +89,11 @@ void printUsage() {
   --jobs N                       runs in parallel [1]
   --out DIR                      output folder [bench_out]
   --points N                     initial on-surface points taken from the depth view [400]
-  --vision-sigma S               noise sigma of the vision points (units of f) [0.1]
-  --tune                         tune hyperparameters (ML-II) after the initial fit [off: the
-                                 paper's fixed R and noise]
-  --touch-sigma S                noise sigma of contacts and free-space points (units of f)
+  --vision-sigma S               noise sigma of the vision points (reference units, see
+                                 GpisModelConfig) [0.1]
+  --tune                         tune the kernel's parameters (ML-II, noise fixed) after the
+                                 initial fit [off: the paper's fixed hyperparameters]
+  --touch-sigma S                noise sigma of contacts and free-space points (reference units)
                                  [the explorer's default]
   --no-tune                      do not tune (the default)
   --table                        put a table under the object (touches can hit it) [off: the
@@ -100,10 +101,16 @@ void printUsage() {
   --retune-every K               re-tune every K actions (0: never) [0]
   --curve-every K                measure the shape error every K actions (0: only at the end) [5]
   --mesh-res-m R                 marching-cubes resolution in metres [0.005]
-  --kernel NAME                  GPIS kernel: thin_plate | squared_exponential | matern32 |
-                                 matern52 [thin_plate]
-  --data-radius D                normalised radius of the initial surface data [0.6]
-  --renormalise-radius D         normalised radius beyond which a contact renormalises [0.85]
+  --kernel NAME                  GPIS kernel: wendland | thin_plate | squared_exponential |
+                                 matern32 | matern52 [wendland]; thin_plate selects its own
+                                 frame (data radius 0.6, domain radius 1) unless given
+  --kernel-params P1[,P2]        kernel parameters in natural units (wendland/thin_plate: R)
+  --data-radius D                normalised radius of the initial surface data [1]
+  --renormalise-radius D         normalised radius beyond which a contact renormalises [1.5]
+  --domain-radius D              normalised radius of the model's domain [2]
+  --no-inside-point              no inside (-1) pseudo-point at the centroid
+  --inside-clearance C           place the inside point only if no surface point is within
+                                 C (normalised) of the centroid [GpisModelConfig's default]
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
 )";
@@ -134,6 +141,7 @@ int parseInt(const std::string& flag, const std::string& value) {
 Options parseArgs(int argc, char** argv) {
   Options o;
   bool seeds_given = false;
+  bool frame_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -166,13 +174,29 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--retune-every") o.retune_every = parseInt(a, next());
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
     else if (a == "--mesh-res-m") o.mesh_resolution_m = parseDouble(a, next());
-    else if (a == "--data-radius") o.gpis.data_radius = parseDouble(a, next());
-    else if (a == "--renormalise-radius") o.gpis.renormalise_radius = parseDouble(a, next());
+    else if (a == "--data-radius") o.gpis.data_radius = parseDouble(a, next()), frame_given = true;
+    else if (a == "--renormalise-radius") o.gpis.renormalise_radius = parseDouble(a, next()), frame_given = true;
     else if (a == "--kernel") o.gpis.kernel = next();
     else if (a == "--pseudo-sigma") o.gpis.pseudo_point_sigma = parseDouble(a, next());
+    else if (a == "--kernel-params") {
+      o.gpis.initial_params.clear();
+      for (const auto& v : splitList(next())) {
+        const double x = parseDouble(a, v);
+        if (!(x > 0.0)) throw std::invalid_argument("--kernel-params needs positive values");
+        o.gpis.initial_params.push_back(std::log(x));
+      }
+    } else if (a == "--domain-radius") o.gpis.domain_radius = parseDouble(a, next()), frame_given = true;
+    else if (a == "--inside-clearance") o.gpis.inside_point_min_clearance = parseDouble(a, next());
+    else if (a == "--no-inside-point") o.gpis.inside_point_at_centroid = false;
     else if (a == "--verbose") o.verbose = true;
     else if (a == "--no-plot") o.plot = false;
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
+  }
+  if (o.gpis.kernel == "thin_plate" && !frame_given) {
+    const auto reference = gpatlas_core::GpisModelConfig::thinPlateReference();
+    o.gpis.data_radius = reference.data_radius;
+    o.gpis.renormalise_radius = reference.renormalise_radius;
+    o.gpis.domain_radius = reference.domain_radius;
   }
   if (o.objects.empty()) o.objects.push_back("procedural:mug");
   if (o.strategies.empty()) o.strategies.push_back("atlas_poke");
@@ -318,7 +342,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     r.stop_reason = "error";
     return r;
   }
-  if (o.tune) gpatlas_core::HyperparameterTuner().tune(model);
+  if (o.tune) gpatlas_core::HyperparameterTuner().tune(model);  // kernel parameters only: noise fixed
 
   gpatlas_core::StrategyConfig strategy_config;
   strategy_config.seed = static_cast<std::uint64_t>(seed) + 1;

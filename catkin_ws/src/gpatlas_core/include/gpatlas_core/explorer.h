@@ -52,10 +52,11 @@ class Explorer {
     int max_actions{100};
     // The paper's extra stop on the real robot: this many failed touches in a row.
     int max_consecutive_failures{5};
-    // Noise standard deviations of the new observations, in the model's units of f. The
-    // default is the paper's reference noise variance of 0.1. It is not only a sensor model:
-    // the thin-plate covariance is not positive definite for dense point sets in 3-D, and
-    // with much smaller noise the model starts refusing touches as singular.
+    // Noise standard deviations of the new observations, in the model's reference units
+    // (GpisModelConfig). The default is the paper's noise variance of 0.1 on every point.
+    // With the paper's thin-plate kernel it must not be much smaller: that covariance is not
+    // positive definite for dense point sets in 3-D, and the model would refuse touches as
+    // singular.
     double contact_noise_sigma{0.316};
     double free_space_noise_sigma{0.316};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.

@@ -43,33 +43,71 @@ struct BatchPrediction {
 };
 
 // Settings of GpisModel (declared outside the class so it can be a default argument).
+//
+// Frame and units (the paper's, section 3.1): surface data are centred on their centroid and
+// scaled so that the farthest surface point is at data_radius = 1 (the paper's unit ball). A
+// partial view sees only the front of the object, and the visible centroid sits in front of the
+// true centre, so the unseen back can lie up to about one visible width beyond the data: the
+// model's domain (where queries are valid and the outside pseudo-points sit) is therefore the
+// ball of radius 2, which contains a back as deep as the visible extent.
+//
+// Variance convention: every variance the model reports, and every noise sigma it is given, is
+// in "reference units", those of the paper's reference model (thin-plate R = 2, prior variance
+// k(0) = 8, in the unit-ball frame): reported = raw * reference_prior_variance / k(0), and a
+// noise sigma s adds s^2 * k(0) / reference_prior_variance to the raw diagonal. Scaling the
+// kernel (R, sigma) or re-tuning it then changes neither the posterior mean nor the reported
+// variance, only the kernel's shape matters. The default Wendland R = 3.65 has the reference
+// thin-plate's correlation curvature at the origin, so a gap between data of a given size (as
+// a fraction of the object) has the same reported variance as in the paper to second order,
+// and V_max = 0.1 is the paper's threshold: the variance of one point observed with the paper's
+// noise variance 0.1, i.e. 1/80 of the prior.
 struct GpisModelConfig {
-  std::string kernel{"thin_plate"};
+  // "wendland" (positive definite in 3-D at any R); "thin_plate" is the paper's kernel, valid
+  // only for a domain diameter <= R: use thinPlateReference() for its settings.
+  std::string kernel{"wendland"};
   // Kernel log-parameters at construction; empty keeps the kernel's defaults.
   std::vector<double> initial_params;
   // Surface data are scaled into a ball of this radius around their centroid.
-  double data_radius{0.6};
+  double data_radius{1.0};
   // A new surface point beyond this normalised radius triggers renormalisation + full refit.
-  double renormalise_radius{0.85};
-  // Every training point and query must lie within this normalised radius; the thin-plate
-  // kernel needs R >= 2 * domain_radius, which is checked at construction and fit.
-  double domain_radius{1.0};
+  double renormalise_radius{1.5};
+  // Every training point and query must lie within this normalised radius (see above); the
+  // thin-plate kernel needs R >= 2 * domain_radius, which is checked at construction and fit.
+  double domain_radius{2.0};
   // Pseudo-points (paper 3.1): outside points (+1) on the domain sphere, and one inside
   // point (-1) at the centroid of the surface data.
   int num_outside_points{32};
   bool inside_point_at_centroid{true};
+  // ... but only if no surface observation lies within this normalised distance of the
+  // centroid (0 always places it): the centroid of a partial view of a cup or a bowl lies in
+  // its cavity, close to the wall, and a -1 there would declare the cavity's air inside. The
+  // centroid of a convex view lies about half the object's radius behind the visible surface
+  // (~0.45 in the unit-ball frame), that of a cup's about 0.25 (measured on the bench's mug).
+  double inside_point_min_clearance{0.35};
   double pseudo_point_sigma{0.0};
-  // Multiplies every point's noise variance; tuned with the kernel's parameters.
+  // Multiplies every point's noise variance; tuned with the kernel's parameters if asked.
   double noise_scale{1.0};
+  // Noise sigmas are in reference units (see above); false: in units of f.
+  bool noise_in_reported_units{true};
   // Diagonal jitter first tried, escalated x10 up to max_jitter on a failed factorisation.
   double jitter{1e-9};
   double max_jitter{1e-4};
   // Two points closer than this (normalised) with the same label are duplicates.
   double duplicate_distance{1e-6};
-  // Reported variance = posterior variance * reference_prior_variance / k(0). With the
-  // default thin-plate kernel (R = 2, k(0) = 8) it is the paper's variance; when tuning
-  // changes k(0), thresholds such as V_max keep their meaning (a fraction of the prior).
+  // Prior variance of the reference model (see above): reported = raw * this / k(0).
   double reference_prior_variance{8.0};
+
+  // The previous defaults with the paper's thin-plate kernel (R = 2): data in a ball of radius
+  // 0.6, domain radius 1 (the largest the kernel allows). Its Gram matrices are indefinite in
+  // 3-D, so its points need a noise sigma of about 0.3.
+  static GpisModelConfig thinPlateReference() {
+    GpisModelConfig c;
+    c.kernel = "thin_plate";
+    c.data_radius = 0.6;
+    c.renormalise_radius = 0.85;
+    c.domain_radius = 1.0;
+    return c;
+  }
 };
 
 // Gaussian Process Implicit Surface (paper section 3.1): a GP with zero prior mean fit to
