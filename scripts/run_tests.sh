@@ -9,8 +9,11 @@ ws="$root/catkin_ws"
 results="$ws/build/test_results"
 
 rm -rf "$results"
+# ROS's setup scripts read unset variables: source them without -u.
+set +u
 # shellcheck disable=SC1091
 source "$ws/devel/setup.bash"
+set -u
 (cd "$ws" && catkin_make run_tests -j"$JOBS" -DPYTHON_EXECUTABLE=/usr/bin/python3) 2>&1 | tee /tmp/gpatlas_run_tests.log \
   | grep -E "^\[ *(RUN|OK|FAILED|PASSED|SKIPPED)|^\[==========\]|Error|error:|FAILURE|ERROR" || true
 build_status=${PIPESTATUS[0]}
