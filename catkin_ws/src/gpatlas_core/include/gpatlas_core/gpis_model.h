@@ -98,7 +98,8 @@ struct GpisModelConfig {
   double reference_prior_variance{8.0};
 
   // The previous defaults with the paper's thin-plate kernel (R = 2): data in a ball of radius
-  // 0.6, domain radius 1 (the largest the kernel allows). Its Gram matrices are indefinite in
+  // 0.6, domain radius 1 (the largest the kernel allows), inside point always placed. Its Gram
+  // matrices are indefinite in
   // 3-D, so its points need a noise sigma of about 0.3.
   static GpisModelConfig thinPlateReference() {
     GpisModelConfig c;
@@ -106,6 +107,7 @@ struct GpisModelConfig {
     c.data_radius = 0.6;
     c.renormalise_radius = 0.85;
     c.domain_radius = 1.0;
+    c.inside_point_min_clearance = 0.0;
     return c;
   }
 };
