@@ -80,11 +80,15 @@ Eigen::Vector3d ParamReader::vector3(const std::string& name, const Eigen::Vecto
 
 void readGpis(ParamReader& r, gpatlas_core::GpisModel::Config* c) {
   c->kernel = r.text("gpis/kernel", c->kernel);
-  c->data_radius = r.number("gpis/data_radius", c->data_radius, 1e-3, 1.0);
-  c->renormalise_radius = r.number("gpis/renormalise_radius", c->renormalise_radius, 1e-3, 1.0);
-  c->domain_radius = r.number("gpis/domain_radius", c->domain_radius, 1e-3, 10.0);
+  // Their ordering (data < renormalise <= domain) and the kernel's range are checked by the model.
+  c->data_radius = r.number("gpis/data_radius", c->data_radius, 1e-3, 100.0);
+  c->renormalise_radius = r.number("gpis/renormalise_radius", c->renormalise_radius, 1e-3, 100.0);
+  c->domain_radius = r.number("gpis/domain_radius", c->domain_radius, 1e-3, 100.0);
   c->num_outside_points = r.integer("gpis/num_outside_points", c->num_outside_points, 0, 10000);
   c->inside_point_at_centroid = r.flag("gpis/inside_point_at_centroid", c->inside_point_at_centroid);
+  c->inside_point_min_clearance =
+      r.number("gpis/inside_point_min_clearance", c->inside_point_min_clearance, 0.0, 100.0);
+  c->noise_in_reported_units = r.flag("gpis/noise_in_reported_units", c->noise_in_reported_units);
   c->pseudo_point_sigma = r.number("gpis/pseudo_point_sigma", c->pseudo_point_sigma, 0.0, 10.0);
   c->reference_prior_variance = r.number("gpis/reference_prior_variance", c->reference_prior_variance, 1e-9, 1e9);
   const auto names = gpatlas_core::kernelNames();

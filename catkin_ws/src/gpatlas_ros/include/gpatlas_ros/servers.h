@@ -35,6 +35,11 @@ bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_fr
                       const ros::Time& stamp, double timeout_s, std::vector<Eigen::Vector3d>* points,
                       std::string* error);
 
+// The finite points of a cloud, in world_frame; false with the reason when the cloud has no
+// x/y/z or there is no transform.
+bool cloudToWorld(const sensor_msgs::PointCloud2& cloud, const tf2_ros::Buffer& buffer, const std::string& world_frame,
+                  double timeout_s, std::vector<Eigen::Vector3d>* points, std::size_t* num_invalid, std::string* error);
+
 // PCL segmentation of the camera cloud: `points` (sensor_msgs/PointCloud2, any frame) in,
 // `~object_points` (world_frame) out.
 class SegmentationServer {

@@ -10,6 +10,20 @@
 
 namespace gpatlas_ros {
 
+namespace {
+void appendTrainingPoints(const std::vector<Eigen::Vector3d>& positions, gpatlas_core::PointLabel label, double sigma,
+                          gpatlas_core::PointSource source, std::vector<gpatlas_core::TrainingPoint>* out) {
+  for (const auto& p : positions) {
+    gpatlas_core::TrainingPoint t;
+    t.position = p;
+    t.label = label;
+    t.noise_sigma = sigma;
+    t.source = source;
+    out->push_back(t);
+  }
+}
+}  // namespace
+
 GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
@@ -47,9 +61,7 @@ void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   std::vector<Eigen::Vector3d> points;
   std::size_t invalid = 0;
   std::string error;
-  if (!cloudToPoints(*msg, &points, &invalid, &error) ||
-      !transformToWorld(tf_buffer_, world_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_, &points,
-                        &error)) {
+  if (!cloudToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &points, &invalid, &error)) {
     ROS_WARN_STREAM("gp_model: object cloud ignored: " << error);
     return;
   }
@@ -66,13 +78,8 @@ void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   std::lock_guard<std::mutex> lock(mutex_);
   // A new view replaces the previous vision points; touches and free space are kept.
   std::vector<gpatlas_core::TrainingPoint> data;
-  for (const auto& p : points) {
-    gpatlas_core::TrainingPoint t;
-    t.position = p;
-    t.noise_sigma = noise_.vision_sigma;
-    t.source = gpatlas_core::PointSource::kVision;
-    data.push_back(t);
-  }
+  appendTrainingPoints(points, gpatlas_core::PointLabel::kSurface, noise_.vision_sigma,
+                       gpatlas_core::PointSource::kVision, &data);
   for (const auto& t : model_.observations())
     if (t.source != gpatlas_core::PointSource::kVision) data.push_back(t);
   const ros::WallTime start = ros::WallTime::now();
@@ -126,21 +133,10 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
                         message))
     return false;
   std::vector<gpatlas_core::TrainingPoint> points;
-  for (const auto& p : contacts) {
-    gpatlas_core::TrainingPoint t;
-    t.position = p;
-    t.noise_sigma = noise_.touch_sigma;
-    t.source = gpatlas_core::PointSource::kTouch;
-    points.push_back(t);
-  }
-  for (const auto& p : free_space) {
-    gpatlas_core::TrainingPoint t;
-    t.position = p;
-    t.label = gpatlas_core::PointLabel::kOutside;
-    t.noise_sigma = noise_.free_space_sigma;
-    t.source = gpatlas_core::PointSource::kFreeSpace;
-    points.push_back(t);
-  }
+  appendTrainingPoints(contacts, gpatlas_core::PointLabel::kSurface, noise_.touch_sigma,
+                       gpatlas_core::PointSource::kTouch, &points);
+  appendTrainingPoints(free_space, gpatlas_core::PointLabel::kOutside, noise_.free_space_sigma,
+                       gpatlas_core::PointSource::kFreeSpace, &points);
   if (points.empty()) {
     *message = "no observation in the message";
     return false;

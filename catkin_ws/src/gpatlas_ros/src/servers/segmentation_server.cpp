@@ -21,6 +21,12 @@ bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_fr
   }
 }
 
+bool cloudToWorld(const sensor_msgs::PointCloud2& cloud, const tf2_ros::Buffer& buffer, const std::string& world_frame,
+                  double timeout_s, std::vector<Eigen::Vector3d>* points, std::size_t* num_invalid, std::string* error) {
+  return cloudToPoints(cloud, points, num_invalid, error) &&
+         transformToWorld(buffer, world_frame, cloud.header.frame_id, cloud.header.stamp, timeout_s, points, error);
+}
+
 SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
@@ -44,9 +50,7 @@ void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg)
   std::vector<Eigen::Vector3d> points;
   std::size_t invalid = 0;
   std::string error;
-  if (!cloudToPoints(*msg, &points, &invalid, &error) ||
-      !transformToWorld(tf_buffer_, world_frame_, msg->header.frame_id, msg->header.stamp, tf_timeout_s_, &points,
-                        &error)) {
+  if (!cloudToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &points, &invalid, &error)) {
     ROS_WARN_STREAM("segmentation: cloud ignored: " << error);
     return;
   }
