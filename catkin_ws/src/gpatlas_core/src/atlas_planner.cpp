@@ -123,53 +123,92 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   int continuation = atlas.addChart(std::move(root.chart));
   if (progress) progress(atlas);
 
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
-  while (atlas.isExpandable()) {
-    if (static_cast<int>(atlas.size()) >= config_.max_charts)
-      return finish(PlanStatus::kCapReached, "chart cap reached without finding variance above V_max");
-    if (secondsSince(started) > config_.max_time_s)
-      return finish(PlanStatus::kCapReached, "time cap reached without finding variance above V_max");
-
-    // SELECTCHART.
-    int selected = continuation;
-    const bool continue_depth_first = unit(rng) < config_.depth_first_probability;
-    if (!continue_depth_first || !atlas.chart(selected).expandable()) {
-      const std::vector<int> expandable = atlas.expandableCharts();
-      selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng)];
-    }
-
-    // EXPANDCHART toward the highest-variance candidate (eq. 16). The candidate is consumed
-    // whatever happens next, which bounds the loop by the total number of candidates.
-    const Chart& parent = atlas.chart(selected);
-    const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
-                                       [](const ChartCandidate& a, const ChartCandidate& b) {
-                                         return a.variance < b.variance;
-                                       });
-    const std::size_t best_index = static_cast<std::size_t>(best - parent.candidates.begin());
-    Points3 start_point(3, 1), direction(3, 1);
-    start_point.col(0) = best->ambient;
-    direction.col(0) = parent.normal;
-    atlas.removeCandidate(selected, best_index);
-    ++result.expansions;
-    const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
-    if (!projected.ok) {
-      ++result.failed_projections;
-      continue;
-    }
-    ChartCreation created = createChart(model, projected, selected, config_.chart, rng);
-    if (!created.ok) {
-      ++result.failed_projections;
-      continue;
-    }
-    const double new_variance = created.chart.variance;
-    continuation = atlas.addChart(std::move(created.chart));
-    if (progress) progress(atlas);
-    if (new_variance > v_max) {
-      result.path = atlas.pathTo(continuation);
-      return finish(PlanStatus::kTouch, "found a chart with variance above V_max");
-    }
+  // Surface observations in random order: when the tree runs out of candidates, a new tree
+  // starts from one that no chart covers, so that a predicted surface in several pieces (or a
+  // piece the first tree cannot reach) is explored too before "converged" is declared. The
+  // paper notes that, in theory, the atlas could start from all surface points.
+  std::vector<Vector3> uncovered_candidates;
+  if (config_.cover_all_observations) {
+    for (const TrainingPoint& point : model.observations())
+      if (point.label == PointLabel::kSurface && point.position.allFinite())
+        uncovered_candidates.push_back(point.position);
+    std::shuffle(uncovered_candidates.begin(), uncovered_candidates.end(), rng);
   }
-  return finish(PlanStatus::kConverged, "no expandable chart left: the predicted surface is below V_max");
+  std::size_t next_candidate = 0;
+  int trees = 1;
+
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (;;) {
+    while (atlas.isExpandable()) {
+      if (static_cast<int>(atlas.size()) >= config_.max_charts)
+        return finish(PlanStatus::kCapReached, "chart cap reached without finding variance above V_max");
+      if (secondsSince(started) > config_.max_time_s)
+        return finish(PlanStatus::kCapReached, "time cap reached without finding variance above V_max");
+
+      // SELECTCHART.
+      int selected = continuation;
+      const bool continue_depth_first = unit(rng) < config_.depth_first_probability;
+      if (!continue_depth_first || !atlas.chart(selected).expandable()) {
+        const std::vector<int> expandable = atlas.expandableCharts();
+        selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng)];
+      }
+
+      // EXPANDCHART toward the highest-variance candidate (eq. 16). The candidate is consumed
+      // whatever happens next, which bounds the loop by the total number of candidates.
+      const Chart& parent = atlas.chart(selected);
+      const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
+                                         [](const ChartCandidate& a, const ChartCandidate& b) {
+                                           return a.variance < b.variance;
+                                         });
+      const std::size_t best_index = static_cast<std::size_t>(best - parent.candidates.begin());
+      Points3 start_point(3, 1), direction(3, 1);
+      start_point.col(0) = best->ambient;
+      direction.col(0) = parent.normal;
+      atlas.removeCandidate(selected, best_index);
+      ++result.expansions;
+      const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
+      if (!projected.ok) {
+        ++result.failed_projections;
+        continue;
+      }
+      ChartCreation created = createChart(model, projected, selected, config_.chart, rng);
+      if (!created.ok) {
+        ++result.failed_projections;
+        continue;
+      }
+      const double new_variance = created.chart.variance;
+      continuation = atlas.addChart(std::move(created.chart));
+      if (progress) progress(atlas);
+      if (new_variance > v_max) {
+        result.path = atlas.pathTo(continuation);
+        return finish(PlanStatus::kTouch, "found a chart with variance above V_max");
+      }
+    }
+    // The current tree is exhausted: root a new one at an uncovered surface observation.
+    bool rooted = false;
+    while (!rooted && next_candidate < uncovered_candidates.size()) {
+      if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s)
+        return finish(PlanStatus::kCapReached, "cap reached while covering the remaining surface observations");
+      const Vector3& observation = uncovered_candidates[next_candidate++];
+      if (atlas.coveredByOtherChart(observation, -1)) continue;
+      const SurfacePoint projected = projectFreePoint(model, observation, config_.projection);
+      if (!projected.ok || atlas.coveredByOtherChart(projected.position, -1)) continue;
+      ChartCreation created = createChart(model, projected, -1, config_.chart, rng);
+      if (!created.ok) continue;
+      const double new_variance = created.chart.variance;
+      continuation = atlas.addChart(std::move(created.chart));
+      ++trees;
+      if (progress) progress(atlas);
+      if (new_variance > v_max) {
+        result.path = atlas.pathTo(continuation);
+        return finish(PlanStatus::kTouch, "a new tree's root has variance above V_max");
+      }
+      rooted = true;
+    }
+    if (!rooted) break;
+  }
+  return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(trees) +
+                                            " tree(s) covering the surface observations: the predicted surface is below V_max");
 }
 
 }  // namespace gpatlas_core

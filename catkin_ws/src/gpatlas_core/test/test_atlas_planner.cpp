@@ -122,6 +122,39 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   }
 }
 
+// Two separate objects: one seen all over (certain everywhere), one seen from above only. A
+// tree rooted on the first cannot reach the second; covering every surface observation must.
+TEST(AtlasPlanner, ConvergenceCoversEveryPieceOfThePredictedSurface) {
+  AnalyticSphere known, partly_seen;
+  known.centre = Vector3(0.5, -0.2, 0.1);
+  known.radius = 0.06;
+  partly_seen.centre = Vector3(0.5, 0.2, 0.1);
+  partly_seen.radius = 0.06;
+  std::vector<TrainingPoint> points = known.view(300, -1.0, kNoiseSigma, 3);
+  const auto cap = partly_seen.view(80, 0.5, kNoiseSigma, 4);
+  points.insert(points.end(), cap.begin(), cap.end());
+  GpisModel::Config gp;
+  gp.inside_point_at_centroid = false;  // the centroid of the pair lies in the air between them
+  GpisModel model(gp);
+  ASSERT_TRUE(model.fit(points).ok);
+  // Both pieces exist in the prediction and do not touch.
+  ASSERT_LT(model.mean(known.centre), 0.0);
+  ASSERT_LT(model.mean(partly_seen.centre), 0.0);
+  ASSERT_GT(model.mean(Vector3(0.5, 0.0, 0.1)), 0.0);
+
+  const Vector3 start = known.centre + known.radius * Vector3(0, 0, 1);
+  AtlasPlanner::Config one_tree;
+  one_tree.cover_all_observations = false;
+  const AtlasPlanResult single = AtlasPlanner(one_tree).plan(model, kVMax, start);
+  EXPECT_EQ(single.status, PlanStatus::kConverged) << single.message;
+
+  const AtlasPlanResult covering = AtlasPlanner(AtlasPlanner::Config()).plan(model, kVMax, start);
+  ASSERT_EQ(covering.status, PlanStatus::kTouch) << covering.message;
+  const Vector3 end = covering.atlas.chart(covering.path.back()).centre;
+  EXPECT_LT((end - partly_seen.centre).norm(), (end - known.centre).norm());
+  EXPECT_GT(covering.atlas.chart(covering.path.back()).variance, kVMax);
+}
+
 TEST(AtlasPlanner, BadInputGivesAnErrorStatus) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);

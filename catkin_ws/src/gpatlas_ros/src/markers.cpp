@@ -72,8 +72,8 @@ visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, c
     disk.pose.orientation.z = q.z();
     disk.pose.orientation.w = q.w();
     disk.scale.x = disk.scale.y = 2.0 * chart.radius;
-    disk.scale.z = 0.0005;
-    disk.color = colour(chart.variance, v_max, 0.6f);
+    disk.scale.z = 0.0015;
+    disk.color = colour(chart.variance, v_max, 0.85f);
     array.markers.push_back(disk);
   }
 
@@ -89,7 +89,7 @@ visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, c
 
   if (path.size() >= 1) {
     auto line = baseMarker(frame, "atlas_path", 0, visualization_msgs::Marker::LINE_STRIP);
-    line.scale.x = 0.004;
+    line.scale.x = 0.006;
     line.color.r = 1.0f;
     line.color.g = 0.85f;
     line.color.b = 0.0f;
@@ -98,7 +98,7 @@ visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, c
     array.markers.push_back(line);
     auto end = baseMarker(frame, "atlas_path", 1, visualization_msgs::Marker::SPHERE);
     end.pose.position = toPointMsg(atlas.chart(path.back()).centre);
-    end.scale.x = end.scale.y = end.scale.z = 0.012;
+    end.scale.x = end.scale.y = end.scale.z = 0.016;
     end.color = line.color;
     array.markers.push_back(end);
   }

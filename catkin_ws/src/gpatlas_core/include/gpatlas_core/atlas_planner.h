@@ -49,6 +49,10 @@ class AtlasPlanner {
     double max_start_distance_m{0.03};
     // Random training points tried as the root before giving up.
     int max_start_attempts{25};
+    // Before reporting convergence, start new trees from surface observations that no chart
+    // covers (a predicted surface in several pieces); false: only the root's tree (Algorithm 1
+    // verbatim).
+    bool cover_all_observations{true};
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.
