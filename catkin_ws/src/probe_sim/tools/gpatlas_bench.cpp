@@ -42,7 +42,11 @@ namespace fs = std::filesystem;
 using gpatlas_core::Vector3;
 
 struct Options {
-  std::vector<std::string> objects;
+  struct ObjectSpec {
+    std::string spec;
+    double scale;  // the --scale in force when the --object was given
+  };
+  std::vector<ObjectSpec> objects;
   double scale{1.0};
   double procedural_size_m{0.15};
   std::vector<std::string> strategies;
@@ -78,7 +82,7 @@ void printUsage() {
       R"(usage: gpatlas_bench [options]
   --object FILE|procedural:NAME  object to explore (repeatable); procedural names: sphere box
                                  cylinder torus bowl mug funnel
-  --scale S                      scale applied to mesh files (0.001 for millimetres) [1]
+  --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
   --size-m S                     size of procedural objects in metres [0.15]
   --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
                                  [atlas_poke]
@@ -151,8 +155,11 @@ Options parseArgs(int argc, char** argv) {
     if (a == "-h" || a == "--help") {
       printUsage();
       std::exit(0);
-    } else if (a == "--object") o.objects.push_back(next());
-    else if (a == "--scale") o.scale = parseDouble(a, next());
+    } else if (a == "--object") o.objects.push_back({next(), o.scale});
+    else if (a == "--scale") {
+      o.scale = parseDouble(a, next());
+      if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
+    }
     else if (a == "--size-m") o.procedural_size_m = parseDouble(a, next());
     else if (a == "--strategy") {
       for (const auto& s : splitList(next())) o.strategies.push_back(s);
@@ -198,7 +205,7 @@ Options parseArgs(int argc, char** argv) {
     o.gpis.renormalise_radius = reference.renormalise_radius;
     o.gpis.domain_radius = reference.domain_radius;
   }
-  if (o.objects.empty()) o.objects.push_back("procedural:mug");
+  if (o.objects.empty()) o.objects.push_back({"procedural:mug", 1.0});
   if (o.strategies.empty()) o.strategies.push_back("atlas_poke");
   if (!(o.v_max > 0.0)) throw std::invalid_argument("--vmax must be > 0");
   if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
@@ -234,7 +241,7 @@ gpatlas_core::TriangleMesh toCoreMesh(const probe_sim::TriangleMesh& mesh) {
   return out;
 }
 
-GroundTruth loadObject(const std::string& spec, const Options& o) {
+GroundTruth loadObject(const std::string& spec, double scale, const Options& o) {
   GroundTruth gt;
   const std::string prefix = "procedural:";
   if (spec.rfind(prefix, 0) == 0) {
@@ -242,7 +249,7 @@ GroundTruth loadObject(const std::string& spec, const Options& o) {
     gt.mesh = probe_sim::makeProceduralObject(gt.name, o.procedural_size_m);
   } else {
     gt.name = fs::path(spec).stem().string();
-    gt.mesh = probe_sim::loadMesh(spec, o.scale);
+    gt.mesh = probe_sim::loadMesh(spec, scale);
   }
   probe_sim::placeOnTable(gt.mesh);
   gt.core_mesh = toCoreMesh(gt.mesh);
@@ -538,11 +545,11 @@ int main(int argc, char** argv) {
     return 2;
   }
   std::vector<GroundTruth> objects;
-  for (const auto& spec : o.objects) {
+  for (const auto& object : o.objects) {
     try {
-      objects.push_back(loadObject(spec, o));
+      objects.push_back(loadObject(object.spec, object.scale, o));
     } catch (const std::exception& e) {
-      std::cerr << "gpatlas_bench: cannot load object '" << spec << "': " << e.what() << std::endl;
+      std::cerr << "gpatlas_bench: cannot load object '" << object.spec << "': " << e.what() << std::endl;
       return 2;
     }
   }
