@@ -49,6 +49,9 @@ struct ActionRecord {
   std::size_t n_train{0};
   double rmse_pred_to_gt_m{std::nan("")};
   double rmse_gt_to_pred_m{std::nan("")};
+  // Largest variance over the predicted mesh's vertices after the action (independent of the
+  // planner's own estimate, which depends on the tree it grew).
+  double mesh_max_variance{std::nan("")};
 };
 
 std::string jsonNumber(double v) {
@@ -87,6 +90,7 @@ class ExplorationNode {
     readGpis(r, &gpis_config_);
     readMesher(r, &mesher_config_);
     if (!r.ok()) throw std::runtime_error("invalid parameters: " + r.errors());
+    r.report("exploration");
     if (results_dir_.empty()) {
       std::time_t now = std::time(nullptr);
       char stamp[32];
@@ -109,6 +113,10 @@ class ExplorationNode {
     loadGroundTruth();
     if (capture_ && !captureView()) return 1;
     if (!waitForModel()) return 1;
+    measure(initial_, 0);
+    ROS_INFO_STREAM("exploration: initial model: max surface variance " << initial_.mesh_max_variance
+                                                                         << ", RMSE " << 1000 * initial_.rmse_pred_to_gt_m
+                                                                         << "/" << 1000 * initial_.rmse_gt_to_pred_m << " mm");
 
     int failures_in_row = 0;
     int contacts_total = 0;
@@ -255,17 +263,20 @@ class ExplorationNode {
     }
   }
 
-  // Rebuilds the GP from the latest training set; meshes it and, with a ground truth, measures it.
+  // Rebuilds the GP from the latest training set, meshes it and, with a ground truth, measures it.
   void measure(ActionRecord& record, int action) {
     const auto training = latestTraining();
     if (!training) return;
     record.n_train = training->points.size();
-    if (ground_truth_.empty() || metrics_every_ <= 0 || action % metrics_every_ != 0) return;
+    if (metrics_every_ <= 0 || action % metrics_every_ != 0) return;
     gpatlas_core::GpisModel model;
     std::string error;
     if (!modelFromMsg(*training, gpis_config_, &model, &error)) return;
     const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model);
     if (!surface.ok) return;
+    for (double v : surface.mesh.vertex_variances)
+      if (!(record.mesh_max_variance >= v)) record.mesh_max_variance = v;
+    if (ground_truth_.empty()) return;
     const auto metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
     if (!metrics.ok) return;
     record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
@@ -314,6 +325,10 @@ class ExplorationNode {
            << ", \"fscore_5mm\": " << jsonNumber(final_metrics.f_score) << "}";
     else
       json << "null";
+    json << ",\n  \"initial\": {\"n_train\": " << initial_.n_train
+         << ", \"mesh_max_variance\": " << jsonNumber(initial_.mesh_max_variance)
+         << ", \"rmse_pred_to_gt_m\": " << jsonNumber(initial_.rmse_pred_to_gt_m)
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(initial_.rmse_gt_to_pred_m) << "}";
     json << ",\n  \"history\": [\n";
     for (std::size_t i = 0; i < records_.size(); ++i) {
       const auto& r = records_[i];
@@ -324,7 +339,8 @@ class ExplorationNode {
            << ", \"plan_ms\": " << jsonNumber(r.plan_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
            << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"n_train\": " << r.n_train
            << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
-           << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m) << "}"
+           << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m)
+           << ", \"mesh_max_variance\": " << jsonNumber(r.mesh_max_variance) << "}"
            << (i + 1 < records_.size() ? ",\n" : "\n");
     }
     json << "  ]\n}\n";
@@ -357,6 +373,7 @@ class ExplorationNode {
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   gpatlas_core::TriangleMesh ground_truth_;
+  ActionRecord initial_;
   std::vector<ActionRecord> records_;
   double final_max_variance_{std::nan("")};
 

@@ -12,6 +12,23 @@ void ParamReader::invalid(const std::string& name, const std::string& why) {
   errors_.push_back(nh_.resolveName(name) + ": " + why);
 }
 
+bool ParamReader::present(const std::string& name) {
+  if (nh_.hasParam(name)) return true;
+  defaulted_.push_back(name);
+  return false;
+}
+
+std::string ParamReader::defaulted() const {
+  std::ostringstream out;
+  for (std::size_t i = 0; i < defaulted_.size(); ++i) out << (i ? ", " : "") << defaulted_[i];
+  return out.str();
+}
+
+void ParamReader::report(const std::string& who) const {
+  if (!errors_.empty()) ROS_ERROR_STREAM(who << ": invalid parameters, defaults used instead: " << errors());
+  if (!defaulted_.empty()) ROS_INFO_STREAM(who << ": parameters not set in " << nh_.getNamespace() << ", defaults used: " << defaulted());
+}
+
 std::string ParamReader::errors() const {
   std::ostringstream out;
   for (std::size_t i = 0; i < errors_.size(); ++i) out << (i ? "; " : "") << errors_[i];
@@ -20,7 +37,7 @@ std::string ParamReader::errors() const {
 
 double ParamReader::number(const std::string& name, double fallback, double min, double max) {
   double value = fallback;
-  if (nh_.hasParam(name) && !nh_.getParam(name, value)) {
+  if (present(name) && !nh_.getParam(name, value)) {
     int as_int = 0;
     if (nh_.getParam(name, as_int)) value = as_int;
     else {
@@ -40,7 +57,7 @@ double ParamReader::number(const std::string& name, double fallback, double min,
 
 int ParamReader::integer(const std::string& name, int fallback, int min, int max) {
   int value = fallback;
-  if (nh_.hasParam(name) && !nh_.getParam(name, value)) {
+  if (present(name) && !nh_.getParam(name, value)) {
     invalid(name, "is not an integer");
     return fallback;
   }
@@ -53,18 +70,18 @@ int ParamReader::integer(const std::string& name, int fallback, int min, int max
 
 bool ParamReader::flag(const std::string& name, bool fallback) {
   bool value = fallback;
-  if (nh_.hasParam(name) && !nh_.getParam(name, value)) invalid(name, "is not a boolean");
+  if (present(name) && !nh_.getParam(name, value)) invalid(name, "is not a boolean");
   return value;
 }
 
 std::string ParamReader::text(const std::string& name, const std::string& fallback) {
   std::string value = fallback;
-  if (nh_.hasParam(name) && !nh_.getParam(name, value)) invalid(name, "is not a string");
+  if (present(name) && !nh_.getParam(name, value)) invalid(name, "is not a string");
   return value;
 }
 
 Eigen::Vector3d ParamReader::vector3(const std::string& name, const Eigen::Vector3d& fallback) {
-  if (!nh_.hasParam(name)) return fallback;
+  if (!present(name)) return fallback;
   std::vector<double> values;
   if (!nh_.getParam(name, values) || values.size() != 3) {
     invalid(name, "must be a list of 3 numbers");

@@ -9,6 +9,7 @@
 
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
+#include <nodelet/NodeletList.h>
 #include <ros/ros.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -73,6 +74,33 @@ bool call(const std::string& name, Srv& srv) {
   return ros::service::call(name, srv);
 }
 
+// Bad clouds are refused without a model appearing and without taking the manager down.
+TEST(Pipeline, BadCloudsLeaveNoModelAndTheManagerAlive) {
+  ros::NodeHandle nh;
+  ros::Publisher pub = nh.advertise<sensor_msgs::PointCloud2>("/test/camera_points", 1, true);
+  std::vector<Eigen::Vector3d> nan_points(50, Eigen::Vector3d::Constant(std::nan("")));
+  for (const auto& points : {std::vector<Eigen::Vector3d>{}, nan_points,
+                             // a table alone: no object cluster
+                             [] {
+                               std::vector<Eigen::Vector3d> table;
+                               for (double x = 0.4; x <= 1.0; x += 0.01)
+                                 for (double y = -0.3; y <= 0.3; y += 0.01) table.emplace_back(x, y, 0.0);
+                               return table;
+                             }()}) {
+    auto cloud = gpatlas_ros::pointsToCloud(points, {}, 1.0, "world");
+    cloud.header.stamp = ros::Time::now();
+    pub.publish(cloud);
+    ros::Duration(1.0).sleep();
+  }
+  gpatlas_msgs::GetNextTouch touch;
+  touch.request.v_max = 0.1;
+  ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", touch));
+  EXPECT_EQ(touch.response.status, gpatlas_msgs::GetNextTouch::Response::NO_MODEL);
+  nodelet::NodeletList list;
+  ASSERT_TRUE(call("/gpatlas/gpatlas_manager/list", list));
+  EXPECT_EQ(list.response.nodelets.size(), 4u);
+}
+
 TEST(Pipeline, AnswersBeforeTheModelExists) {
   gpatlas_msgs::GetNextTouch touch;
   touch.request.v_max = 0.1;
@@ -130,8 +158,12 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
     ros::Duration(1.0).sleep();
   }
   ASSERT_TRUE(training) << "the GP never published a training set";
-  // Only object points reach the GP: every training point is on the sphere (the table is gone).
-  for (const auto& p : training->points) EXPECT_LT(sphereError(p), 0.004);
+  // Only object points reach the GP: every training point is on the sphere, none on or under
+  // the table top (z = 0).
+  for (const auto& p : training->points) {
+    EXPECT_LT(sphereError(p), 0.004);
+    EXPECT_GT(p.z, 0.0);
+  }
 
   // The planner needs the latched training set too; retry while it reports no model.
   gpatlas_msgs::GetNextTouch touch;
@@ -192,6 +224,11 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   std::ifstream written(save.request.path, std::ios::binary | std::ios::ate);
   EXPECT_GT(static_cast<long>(written.tellg()), 100L);
   std::remove(save.request.path.c_str());
+
+  // After all of this the manager still runs every nodelet.
+  nodelet::NodeletList list;
+  ASSERT_TRUE(call("/gpatlas/gpatlas_manager/list", list));
+  EXPECT_EQ(list.response.nodelets.size(), 4u);
 }
 
 }  // namespace

@@ -34,11 +34,18 @@ class ParamReader {
 
   bool ok() const { return errors_.empty(); }
   std::string errors() const;
+  // The parameters that were not set, so their defaults apply (reported at start).
+  std::string defaulted() const;
+  // Logs the invalid parameters (error) and the defaulted ones (info) under `who`.
+  void report(const std::string& who) const;
   const std::string& ns() const { return nh_.getNamespace(); }
 
  private:
+  bool present(const std::string& name);
+
   ros::NodeHandle nh_;
   std::vector<std::string> errors_;
+  std::vector<std::string> defaulted_;
 };
 
 // Noise sigmas (units of f) given to each kind of observation.

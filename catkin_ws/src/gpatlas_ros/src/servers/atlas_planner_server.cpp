@@ -18,7 +18,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   readStrategy(reader, &strategy_config_);
   std::string error;
   if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
-  if (!reader.ok()) ROS_ERROR_STREAM("atlas_planner: invalid parameters (defaults used for them): " << reader.errors());
+  reader.report("atlas_planner");
 
   atlas_marker_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("atlas", 1, true);
   atlas_pub_ = pnh_.advertise<gpatlas_msgs::Atlas>("atlas_charts", 1, true);

@@ -22,7 +22,7 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   occupied_probability_ = reader.number("occupied_probability", occupied_probability_, 0.01, 0.99);
   readGpis(reader, &gpis_config_);
   readOccupancy(reader, &grid_config_);
-  if (!reader.ok()) ROS_ERROR_STREAM("collision_map: invalid parameters (defaults used for them): " << reader.errors());
+  reader.report("collision_map");
   octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);
   voxels_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_voxels", 1, true);
   save_srv_ = pnh_.advertiseService("save_map", &CollisionMapServer::onSaveMap, this);

@@ -36,7 +36,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readNoise(reader, &noise_);
   readTuner(reader, &tuner_config_);
   readMesher(reader, &mesher_config_);
-  if (!reader.ok()) ROS_ERROR_STREAM("gp_model: invalid parameters (defaults used for them): " << reader.errors());
+  reader.report("gp_model");
   try {
     model_ = gpatlas_core::GpisModel(gpis_config_);
   } catch (const std::exception& e) {

@@ -35,9 +35,10 @@ SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   gpatlas_core::ObjectSegmenter::Config config;
   readSegmenter(reader, &config);
   const std::string invalid = gpatlas_core::validate(config);
-  if (!reader.ok() || !invalid.empty()) {
-    ROS_ERROR_STREAM("segmentation: invalid parameters, using defaults where invalid: " << reader.errors() << invalid);
-    if (!invalid.empty()) config = gpatlas_core::ObjectSegmenter::Config();
+  reader.report("segmentation");
+  if (!invalid.empty()) {
+    ROS_ERROR_STREAM("segmentation: inconsistent parameters (" << invalid << "); all segmentation defaults used");
+    config = gpatlas_core::ObjectSegmenter::Config();
   }
   segmenter_ = gpatlas_core::ObjectSegmenter(config);
   object_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("object_points", 1, true);
