@@ -6,7 +6,7 @@ export PATH=/usr/bin:$PATH
 root=$(cd "$(dirname "$0")/.." && pwd)
 object=${1:-procedural:mug}
 scale=${2:-1.0}
-shift 2 || true
+shift $(( $# < 2 ? $# : 2 ))
 
 # roslaunch runs nodes in ROS_HOME, so a mesh path must be absolute.
 if [[ "$object" != procedural:* ]]; then

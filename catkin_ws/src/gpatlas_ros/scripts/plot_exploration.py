@@ -14,23 +14,32 @@ import matplotlib.pyplot as plt  # noqa: E402
 def main(results_dir):
     report = json.load(open(os.path.join(results_dir, "report.json")))
     history = report["history"]
-    actions = [h["action"] for h in history]
+    initial = report.get("initial") or {}
+    rows = ([dict(initial, action=0)] if initial else []) + history
+
+    def series(key, scale=1.0):
+        return [(r["action"], scale * r[key]) for r in rows if r.get(key) is not None]
+
     fig, ax_var = plt.subplots(figsize=(7, 4))
-    variances = [h["max_surface_variance"] for h in history]
-    ax_var.plot(actions, [v if v is not None else float("nan") for v in variances], "b.-", label="max surface variance")
+    mesh_var = series("mesh_max_variance")
+    if mesh_var:
+        ax_var.plot(*zip(*mesh_var), "b.-", label="max variance on the predicted surface")
+    planner_var = series("max_surface_variance")
+    if planner_var:
+        ax_var.plot(*zip(*planner_var), "c.:", lw=0.8, label="planner's estimate before the action")
     ax_var.axhline(report["settings"]["v_max"], color="b", ls="--", lw=0.8, label="V_max")
     ax_var.set_xlabel("actions")
-    ax_var.set_ylabel("max surface variance", color="b")
+    ax_var.set_ylabel("variance", color="b")
     ax_var.set_yscale("log")
-    errors = [(h["action"], h["rmse_pred_to_gt_m"], h["rmse_gt_to_pred_m"]) for h in history
-              if h["rmse_pred_to_gt_m"] is not None]
-    if errors:
+    to_truth = series("rmse_pred_to_gt_m", 1000.0)
+    from_truth = series("rmse_gt_to_pred_m", 1000.0)
+    if to_truth:
         ax_err = ax_var.twinx()
-        ax_err.plot([e[0] for e in errors], [1000 * e[1] for e in errors], "r.-", label="RMSE pred->truth")
-        ax_err.plot([e[0] for e in errors], [1000 * e[2] for e in errors], "m.-", label="RMSE truth->pred")
+        ax_err.plot(*zip(*to_truth), "r.-", label="RMSE pred->truth")
+        ax_err.plot(*zip(*from_truth), "m.-", label="RMSE truth->pred")
         ax_err.set_ylabel("shape RMSE (mm)", color="r")
-        ax_err.legend(loc="upper right")
-    ax_var.legend(loc="upper left")
+        ax_err.legend(loc="upper right", fontsize=8)
+    ax_var.legend(loc="upper left", fontsize=8)
     ax_var.set_title(f"{report['settings']['strategy']}: {report['stop_reason']} after {report['actions']} actions")
     fig.tight_layout()
     out = os.path.join(results_dir, "exploration.png")
