@@ -231,15 +231,8 @@ Options parseArgs(int argc, char** argv) {
 struct GroundTruth {
   std::string name;
   probe_sim::TriangleMesh mesh;
-  gpatlas_core::TriangleMesh core_mesh;
 };
 
-gpatlas_core::TriangleMesh toCoreMesh(const probe_sim::TriangleMesh& mesh) {
-  gpatlas_core::TriangleMesh out;
-  out.vertices = mesh.vertices;
-  out.triangles = mesh.triangles;
-  return out;
-}
 
 GroundTruth loadObject(const std::string& spec, double scale, const Options& o) {
   GroundTruth gt;
@@ -252,7 +245,6 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
     gt.mesh = probe_sim::loadMesh(spec, scale);
   }
   probe_sim::placeOnTable(gt.mesh);
-  gt.core_mesh = toCoreMesh(gt.mesh);
   return gt;
 }
 
@@ -300,7 +292,7 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, c
     failed.message = "no predicted surface: " + surface.message;
     return failed;
   }
-  return gpatlas_core::ShapeMetrics().compare(surface.mesh, gt.core_mesh);
+  return gpatlas_core::ShapeMetrics().compare(surface.mesh, gt.mesh);
 }
 
 RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
@@ -369,7 +361,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
 
   int contacts_total = 0;
   std::unique_ptr<gpatlas_core::MeshDistanceIndex> gt_index;
-  if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.core_mesh);
+  if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.mesh);
   if (o.curve_every > 0) {
     const auto m0 = measure(model, gt, o);
     HistoryRow row;

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <gpatlas_core/triangle_mesh.h>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -11,12 +13,10 @@ namespace probe_sim {
 
 // A triangle soup with shared vertices. Nothing here assumes the mesh is closed or consistently
 // wound: scanned objects have holes and loose fragments, and every consumer (ray casts, convex
-// sweeps) works on individual triangles.
-struct TriangleMesh {
-  std::vector<Eigen::Vector3d> vertices;  // metres
-  std::vector<Eigen::Vector3i> triangles;  // indices into vertices
-
-  bool empty() const { return triangles.empty(); }
+// sweeps) works on individual triangles. It is gpatlas_core's mesh (vertices in metres,
+// triangles as vertex indices), so the ground truth goes straight into the shape metrics, plus
+// the geometry the simulation needs.
+struct TriangleMesh : gpatlas_core::TriangleMesh {
   // Axis-aligned bounds of the vertices referenced or not; empty box when there are none.
   Eigen::AlignedBox3d boundingBox() const;
   // Unit normal by the right-hand rule of the triangle's winding; zero for a degenerate one.
