@@ -48,41 +48,43 @@ PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::str
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
+// The baselines share everything but the choice of the sampled point they poke.
+template <typename Pick>
+PlanResult planOnSample(const GpisModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
+                        std::uint64_t seed, const std::string& name, Pick pick) {
+  const Clock::time_point started = Clock::now();
+  SurfaceSample sample;
+  if (auto finished = sampleOrFinish(model, request, config, seed, &sample)) {
+    finished->elapsed_s = secondsSince(started);
+    return *finished;
+  }
+  PlanResult result = pokeAt(sample, pick(sample, seed), name);
+  result.elapsed_s = secondsSince(started);
+  return result;
+}
+
 }  // namespace
 
 RandomStrategy::RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed)
     : config_(std::move(config)), seed_(seed) {}
 
 PlanResult RandomStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
-  const Clock::time_point started = Clock::now();
-  const std::uint64_t seed = mixSeeds(mixSeeds(seed_, config_.seed), request.seed);
-  SurfaceSample sample;
-  if (auto finished = sampleOrFinish(model, request, config_, seed, &sample)) {
-    finished->elapsed_s = secondsSince(started);
-    return *finished;
-  }
-  std::mt19937_64 rng(mixSeeds(seed, 1));
-  const std::size_t index = std::uniform_int_distribution<std::size_t>(0, sample.points.size() - 1)(rng);
-  PlanResult result = pokeAt(sample, index, name());
-  result.elapsed_s = secondsSince(started);
-  return result;
+  return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+                      [](const SurfaceSample& sample, std::uint64_t seed) {
+                        std::mt19937_64 rng(mixSeeds(seed, 1));
+                        return std::uniform_int_distribution<std::size_t>(0, sample.points.size() - 1)(rng);
+                      });
 }
 
 MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed)
     : config_(std::move(config)), seed_(seed) {}
 
 PlanResult MaxVarianceStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
-  const Clock::time_point started = Clock::now();
-  const std::uint64_t seed = mixSeeds(mixSeeds(seed_, config_.seed), request.seed);
-  SurfaceSample sample;
-  if (auto finished = sampleOrFinish(model, request, config_, seed, &sample)) {
-    finished->elapsed_s = secondsSince(started);
-    return *finished;
-  }
-  const auto best = std::max_element(sample.variances.begin(), sample.variances.end());
-  PlanResult result = pokeAt(sample, static_cast<std::size_t>(best - sample.variances.begin()), name());
-  result.elapsed_s = secondsSince(started);
-  return result;
+  return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+                      [](const SurfaceSample& sample, std::uint64_t) {
+                        const auto best = std::max_element(sample.variances.begin(), sample.variances.end());
+                        return static_cast<std::size_t>(best - sample.variances.begin());
+                      });
 }
 
 }  // namespace gpatlas_core

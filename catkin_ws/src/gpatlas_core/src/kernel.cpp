@@ -19,14 +19,14 @@ Eigen::Vector3d Kernel::gradient(const Eigen::Vector3d& x, const Eigen::Vector3d
 }
 
 // ------------------------------------------------------------------ thin plate
-Eigen::VectorXd ThinPlateKernel::logParams() const {
+Eigen::VectorXd RadiusKernel::logParams() const {
   Eigen::VectorXd p(1);
   p << std::log(radius_);
   return p;
 }
 
-void ThinPlateKernel::setLogParams(const Eigen::VectorXd& log_params) {
-  if (log_params.size() != 1) throw std::invalid_argument("thin_plate kernel takes 1 parameter (log R)");
+void RadiusKernel::setLogParams(const Eigen::VectorXd& log_params) {
+  if (log_params.size() != 1) throw std::invalid_argument(name() + " kernel takes 1 parameter (log R)");
   radius_ = std::exp(log_params[0]);
 }
 
@@ -40,16 +40,6 @@ void ThinPlateKernel::paramGradient(double r, double* out) const {
 }
 
 // ------------------------------------------------------------------ Wendland psi_{3,1}
-Eigen::VectorXd WendlandKernel::logParams() const {
-  Eigen::VectorXd p(1);
-  p << std::log(radius_);
-  return p;
-}
-
-void WendlandKernel::setLogParams(const Eigen::VectorXd& log_params) {
-  if (log_params.size() != 1) throw std::invalid_argument("wendland kernel takes 1 parameter (log R)");
-  radius_ = std::exp(log_params[0]);
-}
 
 double WendlandKernel::value(double r) const {
   const double t = r / radius_;

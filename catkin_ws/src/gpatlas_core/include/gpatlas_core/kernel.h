@@ -48,25 +48,31 @@ std::vector<std::string> kernelNames();
 // Adds a kernel to the registry so that configs can name it; returns false if the name is taken.
 bool registerKernel(const std::string& name, std::function<std::unique_ptr<Kernel>()> factory);
 
-// Thin-plate covariance of Williams and Fitzgibbon (paper eq. 6):
-// k(r) = 2 r^3 - 3 R r^2 + R^3, a valid covariance for r <= R.
-class ThinPlateKernel : public Kernel {
+// Shared base of the kernels whose single parameter is a radius R (prior variance R^3).
+class RadiusKernel : public Kernel {
  public:
-  explicit ThinPlateKernel(double radius = 2.0) : radius_(radius) {}
-  std::string name() const override { return "thin_plate"; }
-  std::unique_ptr<Kernel> clone() const override { return std::make_unique<ThinPlateKernel>(*this); }
+  explicit RadiusKernel(double radius) : radius_(radius) {}
   int numParams() const override { return 1; }
   std::vector<std::string> paramNames() const override { return {"R"}; }
   Eigen::VectorXd logParams() const override;
   void setLogParams(const Eigen::VectorXd& log_params) override;
+  double radius() const { return radius_; }
+
+ protected:
+  double radius_;
+};
+
+// Thin-plate covariance of Williams and Fitzgibbon (paper eq. 6):
+// k(r) = 2 r^3 - 3 R r^2 + R^3, a valid covariance for r <= R.
+class ThinPlateKernel : public RadiusKernel {
+ public:
+  explicit ThinPlateKernel(double radius = 2.0) : RadiusKernel(radius) {}
+  std::string name() const override { return "thin_plate"; }
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<ThinPlateKernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
   void paramGradient(double r, double* out) const override;
   double maxValidDistance() const override { return radius_; }
-  double radius() const { return radius_; }
-
- private:
-  double radius_;
 };
 
 // Wendland's compactly supported C2 function for three dimensions (psi_{3,1}), scaled like the
@@ -80,22 +86,14 @@ class ThinPlateKernel : public Kernel {
 // it is a valid covariance at any distance (no domain limit), with the same single parameter
 // and prior variance R^3. Near 0 it falls as R^3 (1 - 10 t^2): with R = 2 sqrt(10/3) = 3.65 (the
 // default) its correlation k(r)/k(0) has the thin-plate's (R = 2) curvature at the origin.
-class WendlandKernel : public Kernel {
+class WendlandKernel : public RadiusKernel {
  public:
-  explicit WendlandKernel(double radius = 3.65) : radius_(radius) {}
+  explicit WendlandKernel(double radius = 3.65) : RadiusKernel(radius) {}
   std::string name() const override { return "wendland"; }
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<WendlandKernel>(*this); }
-  int numParams() const override { return 1; }
-  std::vector<std::string> paramNames() const override { return {"R"}; }
-  Eigen::VectorXd logParams() const override;
-  void setLogParams(const Eigen::VectorXd& log_params) override;
   double value(double r) const override;
   double derivative(double r) const override;
   void paramGradient(double r, double* out) const override;
-  double radius() const { return radius_; }
-
- private:
-  double radius_;
 };
 
 // Shared base of the kernels with a signal standard deviation and a length scale.
