@@ -92,6 +92,8 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
       new_points.push_back(point);
     }
     const std::size_t num_contacts = new_points.size();
+    std::vector<Vector3> contact_positions;
+    for (const TrainingPoint& contact : new_points) contact_positions.push_back(contact.position);
     for (const Vector3& free : probed.free_space) {
       // Outside the domain the model has its own outside pseudo-points and would reject them.
       if (!free.allFinite() || !model.inDomain(free)) continue;
@@ -100,6 +102,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
       point.label = PointLabel::kOutside;
       point.noise_sigma = config_.free_space_noise_sigma;
       point.source = PointSource::kFreeSpace;
+      if (config_.free_space_distance_targets) point.target_override = model.freeSpaceTarget(free, contact_positions);
       new_points.push_back(point);
     }
 

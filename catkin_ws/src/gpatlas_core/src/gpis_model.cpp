@@ -524,6 +524,15 @@ const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
 double GpisModel::noiseScale() const { return impl_->noise_scale; }
 double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
 
+double GpisModel::freeSpaceTarget(const Vector3& point_world, const std::vector<Vector3>& new_surface_points) const {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const auto& p : impl_->observations)
+    if (p.label == PointLabel::kSurface) nearest = std::min(nearest, (p.position - point_world).squaredNorm());
+  for (const auto& p : new_surface_points) nearest = std::min(nearest, (p - point_world).squaredNorm());
+  if (!std::isfinite(nearest) || !(impl_->scale > 0.0)) return 1.0;
+  return std::min(1.0, std::sqrt(nearest) / impl_->scale);
+}
+
 BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
                                         bool with_variance_gradient, bool with_variance) const {
   const Impl& m = *impl_;

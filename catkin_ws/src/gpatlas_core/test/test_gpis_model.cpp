@@ -241,6 +241,23 @@ TEST(GpisModel, FitInFrameReplicatesAnIncrementallyUpdatedModel) {
   EXPECT_FALSE(replica.fitInFrame(original.observations(), original.centroid(), -1.0).ok);
 }
 
+TEST(GpisModel, FreeSpaceTargetGrowsWithTheDistanceToTheSurfaceAndSaturates) {
+  GpisModel model;
+  const auto cap = sphereCap(150, 0.0, 23);
+  ASSERT_TRUE(model.fit(cap).ok);
+  // Right above an observation, 5 mm out: the target is that distance in normalised units
+  // (no other observation is closer for a point on the normal of a convex cap).
+  const Vector3d top = cap[0].position;
+  const Vector3d out = top + 0.005 * (top - kCentre).normalized();
+  double nearest = 1e9;
+  for (const auto& p : cap) nearest = std::min(nearest, (p.position - out).norm());
+  EXPECT_NEAR(model.freeSpaceTarget(out), nearest / model.scale(), 1e-12);
+  EXPECT_LE(nearest, 0.005 + 1e-12);
+  // A new contact next to the point counts too, and far away the target is +1.
+  EXPECT_NEAR(model.freeSpaceTarget(out, {out + Vector3d(0.001, 0, 0)}), 0.001 / model.scale(), 1e-12);
+  EXPECT_DOUBLE_EQ(model.freeSpaceTarget(kCentre + Vector3d(0, 0, 10 * kRadius)), 1.0);
+}
+
 TEST(GpisModel, RejectsBadInputWithClearMessages) {
   GpisModel model;
   EXPECT_FALSE(model.isFitted());

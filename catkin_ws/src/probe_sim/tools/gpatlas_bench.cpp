@@ -74,6 +74,7 @@ struct Options {
   double mesh_resolution_m{0.005};
   bool verbose{false};
   bool plot{true};
+  bool free_space_distance_targets{true};
   gpatlas_core::GpisModel::Config gpis;
 };
 
@@ -115,6 +116,8 @@ void printUsage() {
   --no-inside-point              no inside (-1) pseudo-point at the centroid
   --inside-clearance C           place the inside point only if no surface point is within
                                  C (normalised) of the centroid [GpisModelConfig's default]
+  --free-space-plus-one          label free-space points +1 (default: their normalised
+                                 distance to the nearest surface point, at most 1)
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
 )";
@@ -196,6 +199,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--inside-clearance") o.gpis.inside_point_min_clearance = parseDouble(a, next());
     else if (a == "--no-inside-point") o.gpis.inside_point_at_centroid = false;
     else if (a == "--verbose") o.verbose = true;
+    else if (a == "--free-space-plus-one") o.free_space_distance_targets = false;
     else if (a == "--no-plot") o.plot = false;
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
   }
@@ -352,6 +356,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.v_max = o.v_max;
   explorer_config.max_actions = o.max_actions;
   explorer_config.retune_every = o.retune_every;
+  explorer_config.free_space_distance_targets = o.free_space_distance_targets;
   if (o.touch_noise_sigma >= 0.0) {
     explorer_config.contact_noise_sigma = o.touch_noise_sigma;
     explorer_config.free_space_noise_sigma = o.touch_noise_sigma;

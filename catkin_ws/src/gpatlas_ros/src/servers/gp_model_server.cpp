@@ -135,6 +135,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   std::vector<gpatlas_core::TrainingPoint> points;
   appendTrainingPoints(contacts, gpatlas_core::PointLabel::kSurface, noise_.touch_sigma,
                        gpatlas_core::PointSource::kTouch, &points);
+  const std::size_t first_free = points.size();
   appendTrainingPoints(free_space, gpatlas_core::PointLabel::kOutside, noise_.free_space_sigma,
                        gpatlas_core::PointSource::kFreeSpace, &points);
   if (points.empty()) {
@@ -146,6 +147,9 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     *message = "no model yet: the object points have not arrived";
     return false;
   }
+  // Free space gets the distance-like target (see GpisModel::freeSpaceTarget), not a flat +1.
+  for (std::size_t i = first_free; i < points.size(); ++i)
+    points[i].target_override = model_.freeSpaceTarget(points[i].position, contacts);
   const gpatlas_core::FitReport report = model_.addPoints(points);
   *num_added = static_cast<std::uint32_t>(report.num_added);
   *message = report.message;
