@@ -102,7 +102,8 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
       point.label = PointLabel::kOutside;
       point.noise_sigma = config_.free_space_noise_sigma;
       point.source = PointSource::kFreeSpace;
-      if (config_.free_space_distance_targets) point.target_override = model.freeSpaceTarget(free, contact_positions);
+      if (config_.free_space_distance_targets)
+        point.surface_distance_m = model.nearestSurfaceDistance(free, contact_positions);
       new_points.push_back(point);
     }
 

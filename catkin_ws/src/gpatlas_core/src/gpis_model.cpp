@@ -16,8 +16,13 @@ constexpr double kLog2Pi = 1.8378770664093453;
 
 bool isFinite(const Vector3& v) { return v.allFinite(); }
 
-double targetOf(const TrainingPoint& p) {
-  return std::isfinite(p.target_override) ? p.target_override : static_cast<double>(static_cast<int>(p.label));
+// The frame's scale matters for outside points with a known distance to the surface: their
+// target is that distance in normalised units, so it follows every renormalisation.
+double targetOf(const TrainingPoint& p, double scale) {
+  if (std::isfinite(p.target_override)) return p.target_override;
+  if (p.label == PointLabel::kOutside && std::isfinite(p.surface_distance_m) && scale > 0.0)
+    return std::min(1.0, std::max(0.0, p.surface_distance_m) / scale);
+  return static_cast<double>(static_cast<int>(p.label));
 }
 
 // Evenly spread directions on the unit sphere (Fibonacci lattice): a deterministic, isotropic
@@ -343,7 +348,7 @@ FitReport GpisModel::refit(bool renormalise) {
       continue;
     }
     bool duplicate = false;
-    const double target = targetOf(p);
+    const double target = targetOf(p, m.scale);
     for (Eigen::Index j = num_pseudo; j < m.n && !duplicate; ++j)
       duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
     if (duplicate) {
@@ -431,12 +436,12 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
       ++out_of_domain;
       continue;
     }
-    const double target = targetOf(p);
+    const double target = targetOf(p, m.scale);
     bool duplicate = false;
     for (Eigen::Index j = m.num_pseudo; j < m.n && !duplicate; ++j)
       duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = targetOf(kept[j]) == target && (kept_x[j] - xn).squaredNorm() <= dup2;
+      duplicate = targetOf(kept[j], m.scale) == target && (kept_x[j] - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
@@ -459,7 +464,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   m.reserve(n + k);
   for (Eigen::Index j = 0; j < k; ++j) {
     m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
-    m.y[n + j] = targetOf(kept[static_cast<std::size_t>(j)]);
+    m.y[n + j] = targetOf(kept[static_cast<std::size_t>(j)], m.scale);
     const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
     m.noise_var[n + j] = s * s;
   }
@@ -524,15 +529,14 @@ const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
 double GpisModel::noiseScale() const { return impl_->noise_scale; }
 double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
 
-double GpisModel::freeSpaceTarget(const Vector3& point_world, const std::vector<Vector3>& new_surface_points) const {
+double GpisModel::nearestSurfaceDistance(const Vector3& point_world,
+                                         const std::vector<Vector3>& new_surface_points) const {
   double nearest = std::numeric_limits<double>::infinity();
   for (const auto& p : impl_->observations)
     if (p.label == PointLabel::kSurface) nearest = std::min(nearest, (p.position - point_world).squaredNorm());
   for (const auto& p : new_surface_points) nearest = std::min(nearest, (p - point_world).squaredNorm());
-  if (!std::isfinite(nearest) || !(impl_->scale > 0.0)) return 1.0;
-  return std::min(1.0, std::sqrt(nearest) / impl_->scale);
+  return std::sqrt(nearest);
 }
-
 BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
                                         bool with_variance_gradient, bool with_variance) const {
   const Impl& m = *impl_;

@@ -241,21 +241,42 @@ TEST(GpisModel, FitInFrameReplicatesAnIncrementallyUpdatedModel) {
   EXPECT_FALSE(replica.fitInFrame(original.observations(), original.centroid(), -1.0).ok);
 }
 
-TEST(GpisModel, FreeSpaceTargetGrowsWithTheDistanceToTheSurfaceAndSaturates) {
+TEST(GpisModel, FreeSpaceDistanceTargetsFollowTheFrame) {
   GpisModel model;
   const auto cap = sphereCap(150, 0.0, 23);
   ASSERT_TRUE(model.fit(cap).ok);
-  // Right above an observation, 5 mm out: the target is that distance in normalised units
-  // (no other observation is closer for a point on the normal of a convex cap).
+  // Right above an observation, 5 mm out: the nearest surface observation is at most 5 mm away;
+  // a new contact 1 mm away is nearer; far away the distance is large.
   const Vector3d top = cap[0].position;
   const Vector3d out = top + 0.005 * (top - kCentre).normalized();
   double nearest = 1e9;
   for (const auto& p : cap) nearest = std::min(nearest, (p.position - out).norm());
-  EXPECT_NEAR(model.freeSpaceTarget(out), nearest / model.scale(), 1e-12);
+  EXPECT_NEAR(model.nearestSurfaceDistance(out), nearest, 1e-12);
   EXPECT_LE(nearest, 0.005 + 1e-12);
-  // A new contact next to the point counts too, and far away the target is +1.
-  EXPECT_NEAR(model.freeSpaceTarget(out, {out + Vector3d(0.001, 0, 0)}), 0.001 / model.scale(), 1e-12);
-  EXPECT_DOUBLE_EQ(model.freeSpaceTarget(kCentre + Vector3d(0, 0, 10 * kRadius)), 1.0);
+  EXPECT_NEAR(model.nearestSurfaceDistance(out, {out + Vector3d(0.001, 0, 0)}), 0.001, 1e-12);
+
+  // A free point with its distance: the model behaves as with target d / scale (< 1) ...
+  TrainingPoint free_point;
+  free_point.position = out;
+  free_point.label = PointLabel::kOutside;
+  free_point.noise_sigma = 0.05;
+  free_point.surface_distance_m = nearest;
+  TrainingPoint explicit_target = free_point;
+  explicit_target.surface_distance_m = std::numeric_limits<double>::quiet_NaN();
+  explicit_target.target_override = nearest / model.scale();
+  GpisModel with_distance(model), with_target(model);
+  ASSERT_TRUE(with_distance.addPoints({free_point}).ok);
+  ASSERT_TRUE(with_target.addPoints({explicit_target}).ok);
+  EXPECT_NEAR(with_distance.mean(out), with_target.mean(out), 1e-12);
+  // ... and after a renormalisation the target follows the new scale (a fresh fit of the same
+  // observations in the new frame gives the same model).
+  TrainingPoint far_contact;
+  far_contact.position = kCentre + Vector3d(0, 0, -kRadius);
+  far_contact.noise_sigma = 0.05;
+  ASSERT_TRUE(with_distance.addPoints({far_contact}).ok);
+  GpisModel fresh;
+  ASSERT_TRUE(fresh.fitInFrame(with_distance.observations(), with_distance.centroid(), with_distance.scale()).ok);
+  EXPECT_NEAR(fresh.mean(out), with_distance.mean(out), 1e-9);
 }
 
 TEST(GpisModel, RejectsBadInputWithClearMessages) {

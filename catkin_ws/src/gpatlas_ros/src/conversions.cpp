@@ -101,13 +101,15 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
     msg.labels.push_back(static_cast<int8_t>(p.label));
     msg.noise_sigmas.push_back(p.noise_sigma);
     msg.sources.push_back(static_cast<uint8_t>(p.source));
+    msg.surface_distances_m.push_back(p.surface_distance_m);
   }
   return msg;
 }
 
 bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error) {
   const std::size_t n = msg.points.size();
-  if (msg.labels.size() != n || msg.noise_sigmas.size() != n || msg.sources.size() != n) {
+  if (msg.labels.size() != n || msg.noise_sigmas.size() != n || msg.sources.size() != n ||
+      (!msg.surface_distances_m.empty() && msg.surface_distances_m.size() != n)) {
     *error = "training set arrays differ in length";
     return false;
   }
@@ -128,6 +130,7 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents
     p.label = static_cast<gpatlas_core::PointLabel>(msg.labels[i]);
     p.noise_sigma = msg.noise_sigmas[i];
     p.source = static_cast<gpatlas_core::PointSource>(msg.sources[i]);
+    if (!msg.surface_distances_m.empty()) p.surface_distance_m = msg.surface_distances_m[i];
     out.points.push_back(p);
   }
   *contents = std::move(out);

@@ -75,6 +75,7 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   outside.label = gpatlas_core::PointLabel::kOutside;
   outside.source = gpatlas_core::PointSource::kFreeSpace;
   outside.noise_sigma = 0.2;
+  outside.surface_distance_m = 0.04;  // its target follows the frame: must survive the trip
   pts.push_back(outside);
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(pts).ok);
@@ -88,6 +89,8 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
     EXPECT_EQ(contents.points[i].label, model.observations()[i].label);
     EXPECT_EQ(contents.points[i].source, model.observations()[i].source);
     EXPECT_EQ(contents.points[i].noise_sigma, model.observations()[i].noise_sigma);
+    const double a = contents.points[i].surface_distance_m, b = model.observations()[i].surface_distance_m;
+    EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b)));
   }
   EXPECT_EQ(contents.centroid, model.centroid());
   EXPECT_EQ(contents.scale, model.scale());

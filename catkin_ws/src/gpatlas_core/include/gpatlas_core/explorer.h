@@ -59,8 +59,8 @@ class Explorer {
     // singular.
     double contact_noise_sigma{0.316};
     double free_space_noise_sigma{0.316};
-    // Free-space points get the target GpisModel::freeSpaceTarget (about their normalised
-    // distance to the surface, at most +1) instead of +1.
+    // Free-space points carry their distance to the nearest surface point, so their target is
+    // about their normalised distance to the surface (at most +1) instead of +1.
     bool free_space_distance_targets{true};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
     int retune_every{0};

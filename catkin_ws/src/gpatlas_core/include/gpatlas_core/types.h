@@ -31,6 +31,10 @@ struct TrainingPoint {
   // When finite, replaces the label's target (-1/0/+1): plain GP regression on other data,
   // e.g. samples drawn from a known kernel in the tuner's tests.
   double target_override{std::numeric_limits<double>::quiet_NaN()};
+  // For an outside point: the distance (metres) to the nearest known surface point. The model
+  // then uses min(1, distance / scale) as the target, in its current frame (see
+  // GpisModel::nearestSurfaceDistance); NaN keeps the label's +1.
+  double surface_distance_m{std::numeric_limits<double>::quiet_NaN()};
 };
 
 // A contact measured by a probe: a point on the surface and, if the probe can tell, the

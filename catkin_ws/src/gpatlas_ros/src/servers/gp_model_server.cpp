@@ -147,9 +147,9 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     *message = "no model yet: the object points have not arrived";
     return false;
   }
-  // Free space gets the distance-like target (see GpisModel::freeSpaceTarget), not a flat +1.
+  // Free space gets a distance-like target (see GpisModel::nearestSurfaceDistance), not +1.
   for (std::size_t i = first_free; i < points.size(); ++i)
-    points[i].target_override = model_.freeSpaceTarget(points[i].position, contacts);
+    points[i].surface_distance_m = model_.nearestSurfaceDistance(points[i].position, contacts);
   const gpatlas_core::FitReport report = model_.addPoints(points);
   *num_added = static_cast<std::uint32_t>(report.num_added);
   *message = report.message;
