@@ -14,16 +14,19 @@ set +u
 # shellcheck disable=SC1091
 source "$ws/devel/setup.bash"
 set -u
-(cd "$ws" && catkin_make run_tests -j"$JOBS" -DPYTHON_EXECUTABLE=/usr/bin/python3) 2>&1 | tee /tmp/gpatlas_run_tests.log \
-  | grep -E "^\[ *(RUN|OK|FAILED|PASSED|SKIPPED)|^\[==========\]|Error|error:|FAILURE|ERROR" || true
+log_dir=$(mktemp -d)
+# Progress as it comes (the gtest lines and errors); the full log stays in $log_dir.
+(cd "$ws" && catkin_make run_tests -j"$JOBS" -DPYTHON_EXECUTABLE=/usr/bin/python3) 2>&1 | tee "$log_dir/run_tests.log" \
+  | grep --line-buffered -E "^\[ *(RUN|OK|FAILED|PASSED|SKIPPED)|^\[==========\]|Error|error:|FAILURE|ERROR"
 build_status=${PIPESTATUS[0]}
+echo "[test] full log: $log_dir/run_tests.log"
 
 lint_failed=0
-if catkin_lint -W1 --strict "$ws/src" >/tmp/gpatlas_catkin_lint.log 2>&1; then
+if catkin_lint -W1 --strict "$ws/src" >"$log_dir/catkin_lint.log" 2>&1; then
   echo "[lint] catkin_lint clean"
 else
   echo "[lint] catkin_lint reported problems:"
-  cat /tmp/gpatlas_catkin_lint.log
+  cat "$log_dir/catkin_lint.log"
   lint_failed=1
 fi
 

@@ -120,8 +120,15 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   ChartCreation root = createChart(model, root_point, -1, config_.chart, rng);
   if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
   Atlas& atlas = result.atlas;
+  const double root_variance = root.chart.variance;
   int continuation = atlas.addChart(std::move(root.chart));
   if (progress) progress(atlas);
+  // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
+  // (its candidates may all be covered or out of the domain).
+  if (root_variance > v_max) {
+    result.path = atlas.pathTo(continuation);
+    return finish(PlanStatus::kTouch, "the root chart's variance is above V_max");
+  }
 
   // Surface observations in random order: when the tree runs out of candidates, a new tree
   // starts from one that no chart covers, so that a predicted surface in several pieces (or a

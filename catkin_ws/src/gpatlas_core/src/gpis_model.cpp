@@ -459,6 +459,24 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     return report;
   }
 
+  // A contact near the centroid invalidates the inside pseudo-point there (refit() drops it
+  // when a surface point is that close, e.g. in a cup's cavity): refit rather than extend, so
+  // the incremental model stays the one a refit or a replica builds.
+  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
+  if (has_inside_point && c.inside_point_min_clearance > 0.0) {
+    for (std::size_t j = 0; j < kept.size(); ++j) {
+      if (kept[j].label != PointLabel::kSurface || kept_x[j].norm() >= c.inside_point_min_clearance) continue;
+      const auto previous = m.observations;
+      m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+      FitReport refit_report = refit(false);
+      if (!refit_report.ok) m.observations = previous;
+      refit_report.num_added = refit_report.ok ? kept.size() : 0;
+      refit_report.num_rejected += report.num_rejected;
+      refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+      return refit_report;
+    }
+  }
+
   const Eigen::Index n = m.n;
   const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
   m.reserve(n + k);
@@ -720,9 +738,9 @@ FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& kernel_log_params
   }
   report = refit();
   if (!report.ok) {
+    // refit() already restored the previous factorisation; only the parameters remain.
     impl_->kernel = std::move(previous);
     impl_->noise_scale = previous_noise;
-    refit();
   }
   return report;
 }

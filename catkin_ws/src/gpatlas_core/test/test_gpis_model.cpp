@@ -279,6 +279,21 @@ TEST(GpisModel, FreeSpaceDistanceTargetsFollowTheFrame) {
   EXPECT_NEAR(fresh.mean(out), with_distance.mean(out), 1e-9);
 }
 
+TEST(GpisModel, ContactNearTheCentroidDropsTheInsidePointAsARefitWould) {
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphereCap(200, -0.5, 24)).ok);
+  ASSERT_LT(model.mean(model.centroid()), -0.5);  // the inside point (-1) is there
+  TrainingPoint wall;  // a surface observation right at the centroid, as in a cup's cavity
+  wall.position = model.centroid() + Vector3d(0.001, 0, 0);
+  wall.noise_sigma = 0.05;
+  ASSERT_TRUE(model.addPoints({wall}).ok);
+  GpisModel replica;
+  ASSERT_TRUE(replica.fitInFrame(model.observations(), model.centroid(), model.scale()).ok);
+  for (const Vector3d& q : {model.centroid(), Vector3d(kCentre + Vector3d(0.02, -0.01, 0.03))})
+    EXPECT_NEAR(model.mean(q), replica.mean(q), 1e-9);
+  EXPECT_GT(model.mean(model.centroid()), -0.5);
+}
+
 TEST(GpisModel, RejectsBadInputWithClearMessages) {
   GpisModel model;
   EXPECT_FALSE(model.isFitted());

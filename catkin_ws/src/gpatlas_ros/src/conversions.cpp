@@ -165,6 +165,12 @@ bool cloudToPoints(const sensor_msgs::PointCloud2& cloud, std::vector<Eigen::Vec
   bool has_x = false, has_y = false, has_z = false;
   for (const auto& f : cloud.fields) {
     const bool is_float = f.datatype == sensor_msgs::PointField::FLOAT32;
+    const bool is_xyz = f.name == "x" || f.name == "y" || f.name == "z";
+    // A field that does not fit in a point would make the iterators read past the buffer.
+    if (is_xyz && is_float && static_cast<std::size_t>(f.offset) + sizeof(float) > cloud.point_step) {
+      *error = "point cloud field '" + f.name + "' lies outside point_step";
+      return false;
+    }
     has_x |= f.name == "x" && is_float;
     has_y |= f.name == "y" && is_float;
     has_z |= f.name == "z" && is_float;
@@ -174,6 +180,12 @@ bool cloudToPoints(const sensor_msgs::PointCloud2& cloud, std::vector<Eigen::Vec
     return false;
   }
   const std::size_t total = static_cast<std::size_t>(cloud.width) * cloud.height;
+  const std::size_t packed_row = static_cast<std::size_t>(cloud.width) * cloud.point_step;
+  if (cloud.height > 1 && cloud.row_step != packed_row) {
+    // The iterators walk the data as one packed array: padded rows would be misread.
+    *error = "point cloud rows are padded (row_step != width * point_step): not supported";
+    return false;
+  }
   if (cloud.data.size() < total * cloud.point_step) {
     *error = "point cloud data is shorter than width * height * point_step";
     return false;

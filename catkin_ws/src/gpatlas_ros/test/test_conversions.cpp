@@ -126,6 +126,27 @@ TEST(Conversions, CloudWithoutXyzIsRefused) {
   EXPECT_NE(error.find("x, y, z"), std::string::npos);
 }
 
+TEST(Conversions, MalformedCloudsAreRefusedBeforeAnyRead) {
+  std::vector<Eigen::Vector3d> pts = {{1, 2, 3}, {4, 5, 6}};
+  std::vector<Eigen::Vector3d> back;
+  std::size_t invalid = 0;
+  std::string error;
+  auto narrow = pointsToCloud(pts, {}, 1.0, "world");
+  narrow.point_step = 4;  // z (offset 8) no longer fits in a point
+  EXPECT_FALSE(cloudToPoints(narrow, &back, &invalid, &error));
+  EXPECT_NE(error.find("point_step"), std::string::npos) << error;
+  auto padded = pointsToCloud(pts, {}, 1.0, "world");
+  padded.height = 2;
+  padded.width = 1;
+  padded.row_step = padded.point_step + 8;
+  padded.data.resize(2 * padded.row_step);
+  EXPECT_FALSE(cloudToPoints(padded, &back, &invalid, &error));
+  EXPECT_NE(error.find("padded"), std::string::npos) << error;
+  auto short_data = pointsToCloud(pts, {}, 1.0, "world");
+  short_data.data.resize(short_data.point_step);
+  EXPECT_FALSE(cloudToPoints(short_data, &back, &invalid, &error));
+}
+
 TEST(Conversions, VarianceColourGoesFromBlueToRed) {
   float r, g, b;
   varianceColour(0.0, 0.1, &r, &g, &b);

@@ -69,6 +69,7 @@ class GpModelServer {
 
  private:
   void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void fitCloud(const sensor_msgs::PointCloud2& cloud);
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);

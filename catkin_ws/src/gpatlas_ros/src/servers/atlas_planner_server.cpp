@@ -44,18 +44,32 @@ const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std:
 }
 
 void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
-  auto model = std::make_unique<gpatlas_core::GpisModel>();
-  std::string error;
-  const bool ok = modelFromMsg(*msg, gpis_config_, model.get(), &error);
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!ok) {
-    model_error_ = error;
-    ROS_ERROR_STREAM("atlas_planner: " << error);
-    return;
+  // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
+  // nodelet manager.
+  try {
+    if (msg->points.empty()) {  // the GP node was reset
+      std::lock_guard<std::mutex> lock(mutex_);
+      model_.reset();
+      model_error_.clear();
+      return;
+    }
+    auto model = std::make_unique<gpatlas_core::GpisModel>();
+    std::string error;
+    const bool ok = modelFromMsg(*msg, gpis_config_, model.get(), &error);
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!ok) {
+      // Planning on the previous model would plan on data the GP no longer has.
+      model_.reset();
+      model_error_ = error;
+      ROS_ERROR_STREAM("atlas_planner: " << error);
+      return;
+    }
+    model_ = std::move(model);
+    model_error_.clear();
+    ROS_DEBUG_STREAM("atlas_planner: model with " << model_->size() << " training points");
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("atlas_planner: message ignored: " << e.what());
   }
-  model_ = std::move(model);
-  model_error_.clear();
-  ROS_DEBUG_STREAM("atlas_planner: model with " << model_->size() << " training points");
 }
 
 bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,

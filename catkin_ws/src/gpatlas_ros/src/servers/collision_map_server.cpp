@@ -30,74 +30,85 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
 }
 
 void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
-  gpatlas_core::GpisModel model;
-  std::string error;
-  if (!modelFromMsg(*msg, gpis_config_, &model, &error)) {
-    ROS_ERROR_STREAM("collision_map: " << error);
-    return;
-  }
-  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_config_).build(model);
-  if (!grid.ok) {
-    ROS_ERROR_STREAM("collision_map: " << grid.message);
-    return;
-  }
-  auto map = std::make_shared<Map>(grid.resolution);
-  map->tree.setOccupancyThres(occupied_probability_);
-  std::size_t occupied = 0;
-  for (int k = 0; k < grid.size.z(); ++k)
-    for (int j = 0; j < grid.size.y(); ++j)
-      for (int i = 0; i < grid.size.x(); ++i) {
-        const double p = std::clamp(static_cast<double>(grid.probabilities[grid.index(i, j, k)]), 1e-3, 1.0 - 1e-3);
-        const Eigen::Vector3d x = grid.position(i, j, k);
-        map->tree.setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
-                               static_cast<float>(std::log(p / (1.0 - p))));
-        occupied += p > occupied_probability_ ? 1 : 0;
-      }
-  map->tree.updateInnerOccupancy();
-  map->tree.prune();
+  // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
+  // nodelet manager.
+  try {
+    if (msg->points.empty()) {  // the GP node was reset
+      std::lock_guard<std::mutex> lock(mutex_);
+      map_.reset();
+      return;
+    }
+    gpatlas_core::GpisModel model;
+    std::string error;
+    if (!modelFromMsg(*msg, gpis_config_, &model, &error)) {
+      ROS_ERROR_STREAM("collision_map: " << error);
+      return;
+    }
+    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_config_).build(model);
+    if (!grid.ok) {
+      ROS_ERROR_STREAM("collision_map: " << grid.message);
+      return;
+    }
+    auto map = std::make_shared<Map>(grid.resolution);
+    map->tree.setOccupancyThres(occupied_probability_);
+    std::size_t occupied = 0;
+    for (int k = 0; k < grid.size.z(); ++k)
+      for (int j = 0; j < grid.size.y(); ++j)
+        for (int i = 0; i < grid.size.x(); ++i) {
+          const double p = std::clamp(static_cast<double>(grid.probabilities[grid.index(i, j, k)]), 1e-3, 1.0 - 1e-3);
+          const Eigen::Vector3d x = grid.position(i, j, k);
+          map->tree.setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
+                                 static_cast<float>(std::log(p / (1.0 - p))));
+          occupied += p > occupied_probability_ ? 1 : 0;
+        }
+    map->tree.updateInnerOccupancy();
+    map->tree.prune();
 
-  gpatlas_msgs::OctomapBinary out;
-  out.header.frame_id = world_frame_;
-  out.header.stamp = msg->header.stamp;
-  out.id = map->tree.getTreeType();
-  out.resolution = map->tree.getResolution();
-  out.binary = true;
-  std::stringstream stream;
-  map->tree.writeBinaryData(stream);
-  const std::string bytes = stream.str();
-  out.data.assign(bytes.begin(), bytes.end());
-  octomap_pub_.publish(out);
+    gpatlas_msgs::OctomapBinary out;
+    out.header.frame_id = world_frame_;
+    out.header.stamp = msg->header.stamp;
+    out.id = map->tree.getTreeType();
+    out.resolution = map->tree.getResolution();
+    out.binary = true;
+    std::stringstream stream;
+    map->tree.writeBinaryData(stream);
+    const std::string bytes = stream.str();
+    out.data.assign(bytes.begin(), bytes.end());
+    octomap_pub_.publish(out);
 
-  visualization_msgs::MarkerArray markers;
-  visualization_msgs::Marker cubes;
-  cubes.header = out.header;
-  cubes.ns = "occupied_voxels";
-  cubes.type = visualization_msgs::Marker::CUBE_LIST;
-  cubes.action = visualization_msgs::Marker::ADD;
-  cubes.pose.orientation.w = 1.0;
-  cubes.scale.x = cubes.scale.y = cubes.scale.z = map->tree.getResolution();
-  for (auto it = map->tree.begin_leafs(); it != map->tree.end_leafs(); ++it) {
-    if (!map->tree.isNodeOccupied(*it)) continue;
-    geometry_msgs::Point p;
-    p.x = it.getX();
-    p.y = it.getY();
-    p.z = it.getZ();
-    cubes.points.push_back(p);
-    std_msgs::ColorRGBA c;
-    const double probability = it->getOccupancy();
-    c.r = static_cast<float>(probability);
-    c.g = 0.3f;
-    c.b = static_cast<float>(1.0 - probability);
-    c.a = 0.5f;
-    cubes.colors.push_back(c);
+    visualization_msgs::MarkerArray markers;
+    visualization_msgs::Marker cubes;
+    cubes.header = out.header;
+    cubes.ns = "occupied_voxels";
+    cubes.type = visualization_msgs::Marker::CUBE_LIST;
+    cubes.action = visualization_msgs::Marker::ADD;
+    cubes.pose.orientation.w = 1.0;
+    cubes.scale.x = cubes.scale.y = cubes.scale.z = map->tree.getResolution();
+    for (auto it = map->tree.begin_leafs(); it != map->tree.end_leafs(); ++it) {
+      if (!map->tree.isNodeOccupied(*it)) continue;
+      geometry_msgs::Point p;
+      p.x = it.getX();
+      p.y = it.getY();
+      p.z = it.getZ();
+      cubes.points.push_back(p);
+      std_msgs::ColorRGBA c;
+      const double probability = it->getOccupancy();
+      c.r = static_cast<float>(probability);
+      c.g = 0.3f;
+      c.b = static_cast<float>(1.0 - probability);
+      c.a = 0.5f;
+      cubes.colors.push_back(c);
+    }
+    markers.markers.push_back(cubes);
+    voxels_pub_.publish(markers);
+
+    std::lock_guard<std::mutex> lock(mutex_);
+    map_ = map;
+    ROS_INFO_STREAM("collision_map: " << occupied << " of " << grid.probabilities.size() << " cells occupied (P > "
+                                      << occupied_probability_ << ") at " << grid.resolution << " m");
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("collision_map: message ignored: " << e.what());
   }
-  markers.markers.push_back(cubes);
-  voxels_pub_.publish(markers);
-
-  std::lock_guard<std::mutex> lock(mutex_);
-  map_ = map;
-  ROS_INFO_STREAM("collision_map: " << occupied << " of " << grid.probabilities.size() << " cells occupied (P > "
-                                    << occupied_probability_ << ") at " << grid.resolution << " m");
 }
 
 bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res) {

@@ -29,7 +29,8 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   ParamReader reader(pnh_);
   world_frame_ = reader.text("world_frame", "world");
   tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
-  max_vision_points_ = reader.integer("max_vision_points", max_vision_points_, 4, 100000);
+  // The fit is O(n^3) in time and O(n^2) in memory: a few thousand points is the useful range.
+  max_vision_points_ = reader.integer("max_vision_points", max_vision_points_, 4, 5000);
   tune_ = reader.flag("tuning/enabled", tune_);
   display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
   readGpis(reader, &gpis_config_);
@@ -58,6 +59,17 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
+  // nodelet manager. Report it and keep the previous model.
+  try {
+    fitCloud(*msg);
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("gp_model: object cloud ignored: " << e.what());
+  }
+}
+
+void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
+  const sensor_msgs::PointCloud2* msg = &cloud;
   std::vector<Eigen::Vector3d> points;
   std::size_t invalid = 0;
   std::string error;
@@ -99,10 +111,14 @@ void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
 }
 
 void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
-  std::string message;
-  std::uint32_t added = 0;
-  if (addObservations(*msg, &message, &added)) ROS_INFO_STREAM("gp_model: " << message);
-  else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
+  try {
+    std::string message;
+    std::uint32_t added = 0;
+    if (addObservations(*msg, &message, &added)) ROS_INFO_STREAM("gp_model: " << message);
+    else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("gp_model: observations ignored: " << e.what());
+  }
 }
 
 bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& req,
@@ -114,6 +130,11 @@ bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& re
 bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   std::lock_guard<std::mutex> lock(mutex_);
   model_ = gpatlas_core::GpisModel(gpis_config_);
+  // An empty training set tells the planner and the collision map to drop their copies.
+  gpatlas_msgs::TrainingSet empty;
+  empty.header.frame_id = world_frame_;
+  empty.header.stamp = ros::Time::now();
+  training_pub_.publish(empty);
   res.success = true;
   res.message = "model cleared; waiting for a new object cloud";
   return true;

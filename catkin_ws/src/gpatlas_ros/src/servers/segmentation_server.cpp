@@ -48,24 +48,30 @@ SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
-  std::vector<Eigen::Vector3d> points;
-  std::size_t invalid = 0;
-  std::string error;
-  if (!cloudToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &points, &invalid, &error)) {
-    ROS_WARN_STREAM("segmentation: cloud ignored: " << error);
-    return;
+  // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
+  // nodelet manager.
+  try {
+    std::vector<Eigen::Vector3d> points;
+    std::size_t invalid = 0;
+    std::string error;
+    if (!cloudToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &points, &invalid, &error)) {
+      ROS_WARN_STREAM("segmentation: cloud ignored: " << error);
+      return;
+    }
+    const gpatlas_core::SegmentationResult result = segmenter_.segment(points);
+    if (!result.ok) {
+      ROS_WARN_STREAM("segmentation: " << result.message << " (" << msg->width * msg->height << " points in, "
+                                       << invalid << " NaN)");
+      return;
+    }
+    ROS_INFO_STREAM("segmentation: " << result.message << " from " << result.stats.input << " points ("
+                                     << result.stats.plane_inliers << " on the table)");
+    sensor_msgs::PointCloud2 out = pointsToCloud(result.object_points, {}, 1.0, world_frame_);
+    out.header.stamp = msg->header.stamp;
+    object_pub_.publish(out);
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("segmentation: message ignored: " << e.what());
   }
-  const gpatlas_core::SegmentationResult result = segmenter_.segment(points);
-  if (!result.ok) {
-    ROS_WARN_STREAM("segmentation: " << result.message << " (" << msg->width * msg->height << " points in, "
-                                     << invalid << " NaN)");
-    return;
-  }
-  ROS_INFO_STREAM("segmentation: " << result.message << " from " << result.stats.input << " points ("
-                                   << result.stats.plane_inliers << " on the table)");
-  sensor_msgs::PointCloud2 out = pointsToCloud(result.object_points, {}, 1.0, world_frame_);
-  out.header.stamp = msg->header.stamp;
-  object_pub_.publish(out);
 }
 
 }  // namespace gpatlas_ros
