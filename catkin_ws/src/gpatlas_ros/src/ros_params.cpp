@@ -108,11 +108,13 @@ void readGpis(ParamReader& r, gpatlas_core::GpisModel::Config* c) {
   c->noise_in_reported_units = r.flag("gpis/noise_in_reported_units", c->noise_in_reported_units);
   c->pseudo_point_sigma = r.number("gpis/pseudo_point_sigma", c->pseudo_point_sigma, 0.0, 10.0);
   c->reference_prior_variance = r.number("gpis/reference_prior_variance", c->reference_prior_variance, 1e-9, 1e9);
-  const auto names = gpatlas_core::kernelNames();
-  if (std::find(names.begin(), names.end(), c->kernel) == names.end()) {
-    std::string list;
-    for (const auto& n : names) list += " " + n;
-    r.invalid("gpis/kernel", "unknown kernel '" + c->kernel + "'; known:" + list);
+  // The model checks what no single parameter can (kernel name, radii ordering, the kernel's
+  // valid range): every node falls back to the same defaults, so replicas stay exact.
+  try {
+    gpatlas_core::GpisModel check(*c);
+  } catch (const std::exception& e) {
+    r.invalid("gpis", std::string(e.what()) + " (all gpis/ defaults used)");
+    *c = gpatlas_core::GpisModel::Config();
   }
 }
 

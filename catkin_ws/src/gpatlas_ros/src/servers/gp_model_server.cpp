@@ -38,13 +38,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readTuner(reader, &tuner_config_);
   readMesher(reader, &mesher_config_);
   reader.report("gp_model");
-  try {
-    model_ = gpatlas_core::GpisModel(gpis_config_);
-  } catch (const std::exception& e) {
-    ROS_ERROR_STREAM("gp_model: invalid GPIS configuration (" << e.what() << "); using the defaults");
-    gpis_config_ = gpatlas_core::GpisModel::Config();
-    model_ = gpatlas_core::GpisModel(gpis_config_);
-  }
+  model_ = gpatlas_core::GpisModel(gpis_config_);  // readGpis() validated the config
 
   training_pub_ = pnh_.advertise<gpatlas_msgs::TrainingSet>("training_set", 1, true);
   surface_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("surface", 1, true);
