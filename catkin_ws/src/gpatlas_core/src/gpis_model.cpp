@@ -43,6 +43,28 @@ std::vector<Vector3> fibonacciSphere(int count) {
 }  // namespace
 
 struct GpisModel::Impl {
+  Impl() = default;
+  Impl(Impl&&) = default;
+  Impl& operator=(Impl&&) = default;
+  // Deep copy (the kernel is cloned); the one place that lists the members.
+  Impl(const Impl& o)
+      : config(o.config),
+        kernel(o.kernel ? o.kernel->clone() : nullptr),
+        noise_scale(o.noise_scale),
+        observations(o.observations),
+        fitted(o.fitted),
+        frame_preset(o.frame_preset),
+        centroid(o.centroid),
+        scale(o.scale),
+        n(o.n),
+        num_pseudo(o.num_pseudo),
+        x(o.x),
+        y(o.y),
+        noise_var(o.noise_var),
+        chol(o.chol),
+        alpha(o.alpha),
+        jitter(o.jitter) {}
+
   Config config;
   std::unique_ptr<Kernel> kernel;
   double noise_scale{1.0};
@@ -149,28 +171,10 @@ GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
   if (!(c.noise_scale > 0.0)) throw std::invalid_argument("GpisModel: noise_scale must be > 0");
 }
 
-GpisModel::GpisModel(const GpisModel& other) : impl_(std::make_unique<Impl>()) { *this = other; }
+GpisModel::GpisModel(const GpisModel& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
 
 GpisModel& GpisModel::operator=(const GpisModel& other) {
-  if (this == &other) return *this;
-  auto copy = std::make_unique<Impl>();
-  const Impl& o = *other.impl_;
-  copy->config = o.config;
-  copy->kernel = o.kernel->clone();
-  copy->noise_scale = o.noise_scale;
-  copy->observations = o.observations;
-  copy->fitted = o.fitted;
-  copy->centroid = o.centroid;
-  copy->scale = o.scale;
-  copy->n = o.n;
-  copy->num_pseudo = o.num_pseudo;
-  copy->x = o.x;
-  copy->y = o.y;
-  copy->noise_var = o.noise_var;
-  copy->chol = o.chol;
-  copy->alpha = o.alpha;
-  copy->jitter = o.jitter;
-  impl_ = std::move(copy);
+  if (this != &other) impl_ = std::make_unique<Impl>(*other.impl_);
   return *this;
 }
 
@@ -283,20 +287,8 @@ FitReport GpisModel::refit(bool renormalise) {
   }
   report.renormalised = renormalise;
 
-  // Keep the old derived state so that a failed factorisation leaves the model untouched.
-  Impl backup;
-  backup.centroid = m.centroid;
-  backup.scale = m.scale;
-  backup.n = m.n;
-  backup.num_pseudo = m.num_pseudo;
-  backup.x = m.x;
-  backup.y = m.y;
-  backup.noise_var = m.noise_var;
-  backup.chol = m.chol;
-  backup.alpha = m.alpha;
-  backup.jitter = m.jitter;
-  const bool was_fitted = m.fitted;
-  const std::vector<TrainingPoint> old_observations = m.observations;
+  // Keep the old state so that a failed factorisation leaves the model untouched.
+  Impl backup(m);
 
   m.centroid = centroid;
   m.scale = scale;
@@ -369,18 +361,7 @@ FitReport GpisModel::refit(bool renormalise) {
 
   std::string error;
   if (!m.factorise(&error)) {
-    m.centroid = backup.centroid;
-    m.scale = backup.scale;
-    m.n = backup.n;
-    m.num_pseudo = backup.num_pseudo;
-    m.x = std::move(backup.x);
-    m.y = std::move(backup.y);
-    m.noise_var = std::move(backup.noise_var);
-    m.chol = std::move(backup.chol);
-    m.alpha = std::move(backup.alpha);
-    m.jitter = backup.jitter;
-    m.fitted = was_fitted;
-    m.observations = old_observations;
+    m = std::move(backup);
     report.message = error;
     return report;
   }

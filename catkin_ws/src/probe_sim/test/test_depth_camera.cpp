@@ -1,5 +1,7 @@
 #include "probe_sim/depth_camera.h"
 
+#include "tessellated_sphere.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,27 +12,16 @@ using probe_sim::SurfaceKind;
 
 namespace {
 
-constexpr double kSize = 0.1;
-constexpr double kRadius = kSize / 2;
-const Eigen::Vector3d kCentre(0.0, 0.0, kRadius);
+using probe_sim_test::kCentre;
+using probe_sim_test::kRadius;
+using probe_sim_test::kSize;
+using probe_sim_test::sagittaBound;
 
 Scene sphereScene() {
   probe_sim::ProceduralConfig tessellation;
   tessellation.segments = 180;
   tessellation.rings = 90;
   return Scene(probe_sim::makeProceduralObject("sphere", kSize, tessellation));
-}
-
-// Largest distance between the tessellated and the analytic sphere, from the mesh itself: every
-// triangle lies between its plane's distance from the centre and the radius.
-double sagittaBound(const probe_sim::TriangleMesh& mesh) {
-  double closest_plane = kRadius;
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const Eigen::Vector3d on_plane = mesh.vertices[mesh.triangles[t][0]];
-    closest_plane =
-        std::min(closest_plane, std::abs(mesh.triangleNormal(t).dot(on_plane - kCentre)));
-  }
-  return kRadius - closest_plane;
 }
 
 }  // namespace

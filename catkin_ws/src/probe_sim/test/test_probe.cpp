@@ -1,5 +1,7 @@
 #include "probe_sim/probe.h"
 
+#include "tessellated_sphere.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,25 +17,13 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDegree = kPi / 180.0;
 
-// Sphere of radius 5 cm resting on the table, tessellated at about 1 degree.
-constexpr double kSize = 0.10;
-constexpr double kRadius = kSize / 2;
-const Eigen::Vector3d kCentre(0.0, 0.0, kRadius);
+using probe_sim_test::kCentre;
+using probe_sim_test::kRadius;
+using probe_sim_test::kSize;
+using probe_sim_test::sagittaBound;
 
 double angleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
-}
-
-// Largest distance between the tessellated and the analytic sphere, measured on the mesh: the
-// flat triangles lie between their plane's distance from the centre and the radius.
-double sagittaBound(const probe_sim::TriangleMesh& mesh) {
-  double closest_plane = kRadius;
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const Eigen::Vector3d on_plane = mesh.vertices[mesh.triangles[t][0]];
-    closest_plane =
-        std::min(closest_plane, std::abs(mesh.triangleNormal(t).dot(on_plane - kCentre)));
-  }
-  return kRadius - closest_plane;
 }
 
 // Largest angle between a facet's normal and the sphere's radial direction anywhere on the
