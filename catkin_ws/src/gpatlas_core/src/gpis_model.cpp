@@ -295,14 +295,14 @@ FitReport GpisModel::refit(bool renormalise) {
 
   const std::vector<Vector3> outside = fibonacciSphere(c.num_outside_points);
   // The inside point goes at the centroid only when that is surely inside the object: no
-  // surface observation within inside_point_min_clearance (normalised) of it. The centroid of a
-  // partial view of a cup or bowl lies in its cavity, a few centimetres from the wall; a -1
-  // there tells the model the air in the cavity is material.
+  // surface or free-space observation within inside_point_min_clearance (normalised) of it. The
+  // centroid of a partial view of a cup or bowl lies in its cavity, a few centimetres from the
+  // wall, where the camera saw free space; a -1 there tells the model the air is material.
   bool use_inside_point = c.inside_point_at_centroid;
   if (use_inside_point && c.inside_point_min_clearance > 0.0) {
     double nearest = std::numeric_limits<double>::infinity();
     for (const auto& p : m.observations)
-      if (p.label == PointLabel::kSurface) nearest = std::min(nearest, ((p.position - centroid) / scale).norm());
+      if (p.label != PointLabel::kInside) nearest = std::min(nearest, ((p.position - centroid) / scale).norm());
     use_inside_point = nearest >= c.inside_point_min_clearance;
   }
   const Eigen::Index num_pseudo = static_cast<Eigen::Index>(outside.size()) + (use_inside_point ? 1 : 0);
@@ -440,13 +440,13 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     return report;
   }
 
-  // A contact near the centroid invalidates the inside pseudo-point there (refit() drops it
-  // when a surface point is that close, e.g. in a cup's cavity): refit rather than extend, so
-  // the incremental model stays the one a refit or a replica builds.
+  // A contact or free-space point near the centroid invalidates the inside pseudo-point there
+  // (refit() drops it when such a point is that close, e.g. in a cup's cavity): refit rather
+  // than extend, so the incremental model stays the one a refit or a replica builds.
   const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
   if (has_inside_point && c.inside_point_min_clearance > 0.0) {
     for (std::size_t j = 0; j < kept.size(); ++j) {
-      if (kept[j].label != PointLabel::kSurface || kept_x[j].norm() >= c.inside_point_min_clearance) continue;
+      if (kept[j].label == PointLabel::kInside || kept_x[j].norm() >= c.inside_point_min_clearance) continue;
       const auto previous = m.observations;
       m.observations.insert(m.observations.end(), kept.begin(), kept.end());
       FitReport refit_report = refit(false);

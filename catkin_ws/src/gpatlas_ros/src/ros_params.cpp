@@ -154,6 +154,20 @@ void readOccupancy(ParamReader& r, gpatlas_core::OccupancyGridBuilder::Config* c
   c->resolution_m = r.number("collision_map/resolution_m", c->resolution_m, 1e-3, 1.0);
 }
 
+void readViewFreeSpace(ParamReader& r, gpatlas_core::ViewFreeSpaceConfig* c, std::string* sensor_frame) {
+  *sensor_frame = r.text("view_free_space/sensor_frame", *sensor_frame);
+  c->max_rays = r.integer("view_free_space/max_rays", c->max_rays, 0, 100000);
+  c->samples_per_ray = r.integer("view_free_space/samples_per_ray", c->samples_per_ray, 0, 100);
+  c->min_offset_fraction = r.number("view_free_space/min_offset_fraction", c->min_offset_fraction, 1e-6, 10.0);
+  c->max_offset_fraction = r.number("view_free_space/max_offset_fraction", c->max_offset_fraction, 1e-6, 10.0);
+  if (c->max_offset_fraction < c->min_offset_fraction) {
+    r.invalid("view_free_space/max_offset_fraction", "must be >= min_offset_fraction (both defaults used)");
+    const gpatlas_core::ViewFreeSpaceConfig defaults;
+    c->min_offset_fraction = defaults.min_offset_fraction;
+    c->max_offset_fraction = defaults.max_offset_fraction;
+  }
+}
+
 void readSegmenter(ParamReader& r, gpatlas_core::ObjectSegmenter::Config* c) {
   c->crop_min_m = r.vector3("segmentation/crop_min_m", c->crop_min_m);
   c->crop_max_m = r.vector3("segmentation/crop_max_m", c->crop_max_m);

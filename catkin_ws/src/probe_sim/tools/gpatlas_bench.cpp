@@ -12,6 +12,8 @@
 #include <gpatlas_core/hyperparameter_tuner.h>
 #include <gpatlas_core/shape_metrics.h>
 #include <gpatlas_core/surface_mesher.h>
+#include <gpatlas_core/triangle_mesh.h>
+#include <gpatlas_core/view_free_space.h>
 #include <probe_sim/depth_camera.h>
 #include <probe_sim/object_mesh.h>
 #include <probe_sim/probe.h>
@@ -74,6 +76,8 @@ struct Options {
   double mesh_resolution_m{0.005};
   bool verbose{false};
   bool plot{true};
+  bool save_meshes{false};
+  int view_free_rays{300};
   bool free_space_distance_targets{true};
   gpatlas_core::GpisModel::Config gpis;
 };
@@ -94,6 +98,7 @@ void printUsage() {
   --jobs N                       runs in parallel [1]
   --out DIR                      output folder [bench_out]
   --points N                     initial on-surface points taken from the depth view [400]
+  --view-free-rays N             camera rays whose free space (2 samples each) joins the initial data; 0: none [300]
   --vision-sigma S               noise sigma of the vision points (reference units, see
                                  GpisModelConfig) [0.1]
   --tune                         tune the kernel's parameters (ML-II, noise fixed) after the
@@ -120,6 +125,7 @@ void printUsage() {
                                  distance to the nearest surface point, at most 1)
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
+  --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
 )";
 }
 
@@ -201,6 +207,8 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--verbose") o.verbose = true;
     else if (a == "--free-space-plus-one") o.free_space_distance_targets = false;
     else if (a == "--no-plot") o.plot = false;
+    else if (a == "--save-meshes") o.save_meshes = true;
+    else if (a == "--view-free-rays") o.view_free_rays = parseInt(a, next());
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
   }
   if (o.gpis.kernel == "thin_plate" && !frame_given) {
@@ -217,6 +225,7 @@ Options parseArgs(int argc, char** argv) {
   if (o.max_actions < 0) throw std::invalid_argument("--max-actions must be >= 0");
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
+  if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
   if (!seeds_given && o.seeds.empty()) o.seeds = {0};
   const auto probes = probe_sim::probeModelNames();
   if (std::find(probes.begin(), probes.end(), o.probe) == probes.end())
@@ -287,7 +296,7 @@ double median(std::vector<double> v) {
 }
 
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
-                                         const Options& o) {
+                                         const Options& o, const std::string& save_as = "") {
   gpatlas_core::SurfaceMesher::Config mesher_config;
   mesher_config.resolution_m = o.mesh_resolution_m;
   const auto surface = gpatlas_core::SurfaceMesher(mesher_config).mesh(model);
@@ -296,6 +305,7 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, c
     failed.message = "no predicted surface: " + surface.message;
     return failed;
   }
+  if (!save_as.empty()) gpatlas_core::writePly(surface.mesh, save_as);
   return gpatlas_core::ShapeMetrics().compare(surface.mesh, gt.mesh);
 }
 
@@ -338,6 +348,20 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     initial.push_back(p);
   }
 
+  if (o.view_free_rays > 0) {
+    std::vector<Vector3> view;
+    for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
+    gpatlas_core::ViewFreeSpaceConfig free_config;
+    free_config.max_rays = o.view_free_rays;
+    free_config.seed = static_cast<std::uint64_t>(seed) + 1;
+    const auto free = gpatlas_core::sampleViewFreeSpace(view, eye, free_config);
+    if (!free.ok) {
+      r.error = "view free space: " + free.message;
+      r.stop_reason = "error";
+      return r;
+    }
+    initial.insert(initial.end(), free.points.begin(), free.points.end());
+  }
   gpatlas_core::GpisModel model(o.gpis);
   const auto fit = model.fit(initial);
   if (!fit.ok) {
@@ -427,7 +451,10 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   }
   r.plan_ms_median = median(plan_ms);
   r.update_ms_median = median(update_ms);
-  r.metrics = measure(model, gt, o);
+  const std::string mesh_file =
+      o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
+                    : std::string();
+  r.metrics = measure(model, gt, o, mesh_file);
   if (!r.metrics.ok) r.error = r.metrics.message;
   if (!r.history.empty() && r.history.back().action == r.actions && r.metrics.ok) {
     r.history.back().rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;

@@ -78,8 +78,8 @@ struct GpisModelConfig {
   // point (-1) at the centroid of the surface data.
   int num_outside_points{32};
   bool inside_point_at_centroid{true};
-  // ... but only if no surface observation lies within this normalised distance of the
-  // centroid (0 always places it): the centroid of a partial view of a cup or a bowl lies in
+  // ... but only if no surface or outside observation lies within this normalised distance of
+  // the centroid (0 always places it): the centroid of a partial view of a cup or a bowl lies in
   // its cavity, close to the wall, and a -1 there would declare the cavity's air inside. The
   // centroid of a convex view lies about half the object's radius behind the visible surface
   // (~0.45 in the unit-ball frame), that of a cup's about 0.25 (measured on the bench's mug).

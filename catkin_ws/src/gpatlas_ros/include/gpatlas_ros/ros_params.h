@@ -10,6 +10,7 @@
 #include <gpatlas_core/occupancy_grid.h>
 #include <gpatlas_core/segmentation.h>
 #include <gpatlas_core/surface_mesher.h>
+#include <gpatlas_core/view_free_space.h>
 
 #include <ros/node_handle.h>
 
@@ -62,5 +63,8 @@ void readStrategy(ParamReader& reader, gpatlas_core::StrategyConfig* config);
 void readMesher(ParamReader& reader, gpatlas_core::SurfaceMesher::Config* config);
 void readOccupancy(ParamReader& reader, gpatlas_core::OccupancyGridBuilder::Config* config);
 void readSegmenter(ParamReader& reader, gpatlas_core::ObjectSegmenter::Config* config);
+// view_free_space/...: the camera's free space as outside points; `sensor_frame` is the depth
+// camera's optical frame (empty: the view's free space is not used).
+void readViewFreeSpace(ParamReader& reader, gpatlas_core::ViewFreeSpaceConfig* config, std::string* sensor_frame);
 
 }  // namespace gpatlas_ros

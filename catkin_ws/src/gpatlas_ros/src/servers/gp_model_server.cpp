@@ -37,6 +37,8 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readNoise(reader, &noise_);
   readTuner(reader, &tuner_config_);
   readMesher(reader, &mesher_config_);
+  readViewFreeSpace(reader, &view_free_config_, &sensor_frame_);
+  view_free_config_.noise_sigma = noise_.free_space_sigma;
   reader.report("gp_model");
   model_ = gpatlas_core::GpisModel(gpis_config_);  // readGpis() validated the config
 
@@ -76,6 +78,21 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
                                                        << " NaN), need at least 4");
     return;
   }
+  // The camera's rays crossed free space up to the object: outside points that keep the model
+  // from closing cavities the camera looked into. Labels use the whole view, before the subset.
+  std::vector<gpatlas_core::TrainingPoint> view_free;
+  if (!sensor_frame_.empty()) {
+    std::vector<Eigen::Vector3d> origin{Eigen::Vector3d::Zero()};
+    std::string tf_error;
+    if (!transformToWorld(tf_buffer_, world_frame_, sensor_frame_, msg->header.stamp, tf_timeout_s_, &origin,
+                          &tf_error)) {
+      ROS_WARN_STREAM_THROTTLE(10.0, "gp_model: no view free space (sensor_frame): " << tf_error);
+    } else {
+      auto free = gpatlas_core::sampleViewFreeSpace(points, origin.front(), view_free_config_);
+      if (free.ok) view_free = std::move(free.points);
+      else ROS_WARN_STREAM("gp_model: no view free space: " << free.message);
+    }
+  }
   // The GP costs O(n^3): keep a random, seeded subset of the view.
   std::mt19937 rng(7);
   std::shuffle(points.begin(), points.end(), rng);
@@ -86,6 +103,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   std::vector<gpatlas_core::TrainingPoint> data;
   appendTrainingPoints(points, gpatlas_core::PointLabel::kSurface, noise_.vision_sigma,
                        gpatlas_core::PointSource::kVision, &data);
+  data.insert(data.end(), view_free.begin(), view_free.end());
   for (const auto& t : model_.observations())
     if (t.source != gpatlas_core::PointSource::kVision) data.push_back(t);
   const ros::WallTime start = ros::WallTime::now();
