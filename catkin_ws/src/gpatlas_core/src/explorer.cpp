@@ -24,6 +24,8 @@ std::string validate(const Explorer::Config& config) {
       !std::isfinite(config.contact_noise_sigma) || !std::isfinite(config.free_space_noise_sigma))
     problem << "noise sigmas must be finite and >= 0; ";
   if (config.retune_every < 0) problem << "retune_every must be >= 0; ";
+  if (!(config.min_point_spacing_m >= 0.0) || !std::isfinite(config.min_point_spacing_m))
+    problem << "min_point_spacing_m must be finite and >= 0; ";
   return problem.str();
 }
 
@@ -81,9 +83,17 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     record.probe_success = probed.success;
     record.probe_reason = probed.reason;
 
+    const double spacing2 = config_.min_point_spacing_m * config_.min_point_spacing_m;
+    const auto crowded = [spacing2](const std::vector<Vector3>& kept, const Vector3& p) {
+      for (const Vector3& q : kept)
+        if ((q - p).squaredNorm() < spacing2) return true;
+      return false;
+    };
     std::vector<TrainingPoint> new_points;
+    std::vector<Vector3> kept_contacts, kept_free;
     for (const Contact& contact : probed.contacts) {
-      if (!contact.position.allFinite()) continue;
+      if (!contact.position.allFinite() || crowded(kept_contacts, contact.position)) continue;
+      kept_contacts.push_back(contact.position);
       TrainingPoint point;
       point.position = contact.position;
       point.label = PointLabel::kSurface;
@@ -96,7 +106,8 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     for (const TrainingPoint& contact : new_points) contact_positions.push_back(contact.position);
     for (const Vector3& free : probed.free_space) {
       // Outside the domain the model has its own outside pseudo-points and would reject them.
-      if (!free.allFinite() || !model.inDomain(free)) continue;
+      if (!free.allFinite() || !model.inDomain(free) || crowded(kept_free, free)) continue;
+      kept_free.push_back(free);
       TrainingPoint point;
       point.position = free;
       point.label = PointLabel::kOutside;

@@ -103,6 +103,60 @@ TEST(Explorer, RandomNeedsMoreActionsThanAtlasPoke) {
   EXPECT_GT(random_actions, atlas_actions);
 }
 
+// A slide reports a contact every millimetre; the explorer keeps them (and the free space) no
+// closer than min_point_spacing_m, and every dropped one lies within that spacing of a kept one.
+TEST(Explorer, DenseSlideContactsAreThinnedToTheConfiguredSpacing) {
+  const AnalyticSphere sphere;
+  struct DenseSlideProber : Prober {
+    AnalyticSphere sphere;
+    std::vector<Vector3> contacts, free;
+    ProbeResult probe(const Touch&) override {
+      ProbeResult result;
+      result.success = true;
+      // An arc of 60 mm on the sphere's equator, one contact per millimetre, and the free
+      // space 2 cm outside it.
+      for (int k = 0; k <= 60; ++k) {
+        const double angle = 0.001 * k / sphere.radius;
+        const Vector3 direction(std::cos(angle), std::sin(angle), 0.0);
+        contacts.push_back(sphere.centre + sphere.radius * direction);
+        free.push_back(sphere.centre + (sphere.radius + 0.02) * direction);
+        result.contacts.push_back({contacts.back(), direction});
+        result.free_space.push_back(free.back());
+      }
+      return result;
+    }
+  } prober;
+  prober.sphere = sphere;
+
+  GpisModel model = initialModel(sphere, 3);
+  const std::size_t before = model.observations().size();
+  Explorer::Config config;
+  config.max_actions = 1;
+  config.min_point_spacing_m = 0.004;
+  const auto strategy = makeStrategy("atlas_poke");
+  const ExplorationResult result = Explorer(config).run(model, *strategy, prober);
+  ASSERT_EQ(result.actions, 1) << result.stop_reason;
+
+  std::vector<Vector3> kept_contacts, kept_free;
+  for (std::size_t i = before; i < model.observations().size(); ++i) {
+    const TrainingPoint& p = model.observations()[i];
+    (p.source == PointSource::kTouch ? kept_contacts : kept_free).push_back(p.position);
+  }
+  for (const auto* kept : {&kept_contacts, &kept_free}) {
+    ASSERT_GE(kept->size(), 10u);  // 60 mm / 4 mm: about 15
+    ASSERT_LE(kept->size(), 16u);
+    for (std::size_t i = 0; i < kept->size(); ++i)
+      for (std::size_t j = i + 1; j < kept->size(); ++j) EXPECT_GE(((*kept)[i] - (*kept)[j]).norm(), 0.004 - 1e-12);
+  }
+  for (const auto& [all, kept] : {std::make_pair(&prober.contacts, &kept_contacts), std::make_pair(&prober.free, &kept_free)})
+    for (const Vector3& p : *all) {
+      double nearest = 1e9;
+      for (const Vector3& q : *kept) nearest = std::min(nearest, (p - q).norm());
+      EXPECT_LT(nearest, 0.004);
+    }
+  EXPECT_EQ(result.records.front().contacts_added, static_cast<int>(kept_contacts.size()));
+}
+
 TEST(Explorer, BadInputStopsWithAReason) {
   const AnalyticSphere sphere;
   AnalyticSphereProber prober(sphere);

@@ -62,6 +62,11 @@ class Explorer {
     // Free-space points carry their distance to the nearest surface point, so their target is
     // about their normalised distance to the surface (at most +1) instead of +1.
     bool free_space_distance_targets{true};
+    // New contacts (and, separately, new free-space points) closer than this to one already
+    // kept from the same touch are dropped: a slide reports a contact every few millimetres,
+    // and near-duplicates add O(n^2) cost to every later query for almost no information
+    // (the GP's correlation length is centimetres). 0 keeps every point.
+    double min_point_spacing_m{0.004};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
     int retune_every{0};
     HyperparameterTuner::Config tuner;
