@@ -294,6 +294,29 @@ TEST(GpisModel, ContactNearTheCentroidDropsTheInsidePointAsARefitWould) {
   EXPECT_GT(model.mean(model.centroid()), -0.5);
 }
 
+// Free space near the centroid (a camera ray or a probe's approach through a cup's cavity)
+// says the centroid is air: the inside point goes, incrementally exactly as in a refit.
+TEST(GpisModel, FreeSpaceNearTheCentroidDropsTheInsidePointAsARefitWould) {
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphereCap(200, -0.5, 24)).ok);
+  const std::size_t with_inside_point = model.size();
+  ASSERT_LT(model.mean(model.centroid()), -0.5);
+  TrainingPoint air;
+  air.position = model.centroid() + Vector3d(0.0, 0.002, 0.0);
+  air.label = PointLabel::kOutside;
+  air.source = PointSource::kFreeSpace;
+  air.noise_sigma = 0.3;
+  air.surface_distance_m = 0.03;
+  ASSERT_TRUE(model.addPoints({air}).ok);
+  EXPECT_EQ(model.size(), with_inside_point);  // one observation in, the -1 pseudo-point out
+  GpisModel replica;
+  ASSERT_TRUE(replica.fitInFrame(model.observations(), model.centroid(), model.scale()).ok);
+  EXPECT_EQ(replica.size(), model.size());
+  for (const Vector3d& q : {model.centroid(), Vector3d(kCentre + Vector3d(0.02, -0.01, 0.03))})
+    EXPECT_NEAR(model.mean(q), replica.mean(q), 1e-9);
+  EXPECT_GT(model.mean(model.centroid()), 0.0);
+}
+
 TEST(GpisModel, RejectsBadInputWithClearMessages) {
   GpisModel model;
   EXPECT_FALSE(model.isFitted());
