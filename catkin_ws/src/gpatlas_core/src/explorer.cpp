@@ -15,6 +15,26 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+}  // namespace
+
+std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double spacing_m) {
+  const double spacing2 = spacing_m > 0.0 ? spacing_m * spacing_m : 0.0;
+  std::vector<Vector3> kept;
+  for (const Vector3& p : points) {
+    if (!p.allFinite()) continue;
+    bool crowded = false;
+    for (const Vector3& q : kept)
+      if ((q - p).squaredNorm() < spacing2) {
+        crowded = true;
+        break;
+      }
+    if (!crowded) kept.push_back(p);
+  }
+  return kept;
+}
+
+namespace {
+
 std::string validate(const Explorer::Config& config) {
   std::ostringstream problem;
   if (!(config.v_max > 0.0) || !std::isfinite(config.v_max)) problem << "v_max must be positive and finite; ";
@@ -83,31 +103,22 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     record.probe_success = probed.success;
     record.probe_reason = probed.reason;
 
-    const double spacing2 = config_.min_point_spacing_m * config_.min_point_spacing_m;
-    const auto crowded = [spacing2](const std::vector<Vector3>& kept, const Vector3& p) {
-      for (const Vector3& q : kept)
-        if ((q - p).squaredNorm() < spacing2) return true;
-      return false;
-    };
+    std::vector<Vector3> contact_positions;
+    for (const Contact& contact : probed.contacts) contact_positions.push_back(contact.position);
+    contact_positions = thinToSpacing(contact_positions, config_.min_point_spacing_m);
     std::vector<TrainingPoint> new_points;
-    std::vector<Vector3> kept_contacts, kept_free;
-    for (const Contact& contact : probed.contacts) {
-      if (!contact.position.allFinite() || crowded(kept_contacts, contact.position)) continue;
-      kept_contacts.push_back(contact.position);
+    for (const Vector3& contact : contact_positions) {
       TrainingPoint point;
-      point.position = contact.position;
+      point.position = contact;
       point.label = PointLabel::kSurface;
       point.noise_sigma = config_.contact_noise_sigma;
       point.source = PointSource::kTouch;
       new_points.push_back(point);
     }
     const std::size_t num_contacts = new_points.size();
-    std::vector<Vector3> contact_positions;
-    for (const TrainingPoint& contact : new_points) contact_positions.push_back(contact.position);
-    for (const Vector3& free : probed.free_space) {
+    for (const Vector3& free : thinToSpacing(probed.free_space, config_.min_point_spacing_m)) {
       // Outside the domain the model has its own outside pseudo-points and would reject them.
-      if (!free.allFinite() || !model.inDomain(free) || crowded(kept_free, free)) continue;
-      kept_free.push_back(free);
+      if (!model.inDomain(free)) continue;
       TrainingPoint point;
       point.position = free;
       point.label = PointLabel::kOutside;

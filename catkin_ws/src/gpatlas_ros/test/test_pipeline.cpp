@@ -158,12 +158,26 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
     ros::Duration(1.0).sleep();
   }
   ASSERT_TRUE(training) << "the GP never published a training set";
-  // Only object points reach the GP: every training point is on the sphere, none on or under
-  // the table top (z = 0).
-  for (const auto& p : training->points) {
-    EXPECT_LT(sphereError(p), 0.004);
+  // Only object points reach the GP: every surface point is on the sphere, none on or under
+  // the table top (z = 0). The camera's free space (sensor_frame test_camera, see
+  // pipeline.test) adds outside points in front of the sphere, each labelled with a distance to
+  // the view that is at least its true distance to the sphere.
+  ASSERT_EQ(training->labels.size(), training->points.size());
+  ASSERT_EQ(training->surface_distances_m.size(), training->points.size());
+  std::size_t view_free_space = 0;
+  for (std::size_t i = 0; i < training->points.size(); ++i) {
+    const auto& p = training->points[i];
     EXPECT_GT(p.z, 0.0);
+    if (training->labels[i] == 0) {
+      EXPECT_LT(sphereError(p), 0.004);
+    } else if (training->labels[i] == 1) {
+      const double distance = (gpatlas_ros::fromMsg(p) - kCentre).norm() - kRadius;
+      EXPECT_GT(distance, 0.0);
+      EXPECT_GE(training->surface_distances_m[i] + 0.004, distance);
+      ++view_free_space;
+    }
   }
+  EXPECT_GT(view_free_space, 100u);
 
   // The planner needs the latched training set too; retry while it reports no model.
   gpatlas_msgs::GetNextTouch touch;

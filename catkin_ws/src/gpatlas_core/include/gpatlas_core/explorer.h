@@ -42,6 +42,10 @@ struct ExplorationResult {
   double final_max_surface_variance{0.0};
 };
 
+// Greedy thinning of one touch's contacts or free space: the finite points, in order, that lie at
+// least `spacing_m` from every point kept before them (spacing_m <= 0 keeps them all).
+std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double spacing_m);
+
 // Tactile exploration, paper Algorithm 2: plan a touch on the current model, probe it, add the
 // contacts as surface points and the free-space observations as outside points, update the
 // model incrementally, and repeat until the strategy reports convergence.

@@ -4,6 +4,7 @@
 // construct them from (nh, pnh); tests and custom executables can do the same.
 
 #include <gpatlas_core/exploration_strategy.h>
+#include <gpatlas_core/explorer.h>
 #include <gpatlas_core/gpis_model.h>
 #include <gpatlas_core/hyperparameter_tuner.h>
 #include <gpatlas_core/occupancy_grid.h>
@@ -81,6 +82,7 @@ class GpModelServer {
   std::string world_frame_;
   double tf_timeout_s_{0.5};
   int max_vision_points_{600};
+  double min_point_spacing_m_{gpatlas_core::Explorer::Config().min_point_spacing_m};
   bool tune_{true};
   double display_v_max_{0.1};
   gpatlas_core::GpisModel::Config gpis_config_;
