@@ -484,22 +484,27 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   auto factored = [&] {
     return llt.info() == Eigen::Success && m.wellConditioned(Eigen::MatrixXd(llt.matrixL()).diagonal());
   };
-  double extra = m.jitter;
-  while (!factored() && extra < c.max_jitter) {
-    extra = std::max(extra * 10.0, 1e-12);
-    Eigen::MatrixXd bumped = schur.selfadjointView<Eigen::Lower>();
-    bumped.diagonal().array() += extra - m.jitter;
-    llt.compute(bumped);
-  }
   if (!factored()) {
-    report.ok = false;
-    report.num_added = 0;
-    report.message = "adding " + std::to_string(k) +
-                     " point(s) makes the covariance singular (a point contradicts existing data); model unchanged";
-    return report;
+    // The new block needs more jitter than the model has: a full refit escalates the jitter on
+    // every point alike, so the model stays the one a refit or a replica builds (a larger
+    // jitter on the new block only would not be).
+    const auto previous = m.observations;
+    m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+    FitReport refit_report = refit(false);
+    if (!refit_report.ok) {
+      m.observations = previous;
+      refit_report.num_added = 0;
+      refit_report.message = "adding " + std::to_string(k) +
+                             " point(s) makes the covariance singular (a point contradicts existing data); model "
+                             "unchanged: " +
+                             refit_report.message;
+      return refit_report;
+    }
+    refit_report.num_added = kept.size();
+    refit_report.num_rejected += report.num_rejected;
+    refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+    return refit_report;
   }
-  if (extra > m.jitter)
-    report.warnings.push_back("new points needed extra jitter " + std::to_string(extra));
   m.chol.block(n, 0, k, n) = cross.transpose();
   m.chol.block(n, n, k, k) = llt.matrixL();
   m.n = n + k;

@@ -381,6 +381,33 @@ TEST(GpisModel, ContradictoryPointsEscalateJitterThenFailClearly) {
   EXPECT_FALSE(model.isFitted());
 }
 
+// A new point that needs more jitter than the model has: the update escalates it on every
+// point alike (a full refit), so the model equals a fresh fit of the same data in its frame.
+TEST(GpisModel, AnUpdateNeedingMoreJitterEqualsAFullRefit) {
+  auto pts = sphereCap(40, -0.3, 18);
+  for (auto& p : pts) p.noise_sigma = 0.0;
+  GpisModel::Config config;
+  config.jitter = 0.0;  // exact data fit without jitter; the ladder climbs from 1e-12
+  GpisModel model(config);
+  ASSERT_TRUE(model.fit(pts).ok);
+  ASSERT_EQ(model.fit(pts).jitter, 0.0);
+  TrainingPoint contradiction = pts[5];  // the same position, outside, no noise: K is singular
+  contradiction.label = PointLabel::kOutside;
+  const FitReport update = model.addPoints({contradiction});
+  ASSERT_TRUE(update.ok) << update.message;
+  EXPECT_TRUE(update.full_refit);
+  EXPECT_GT(update.jitter, 0.0);
+  EXPECT_EQ(update.num_added, 1u);
+  GpisModel replica(config);
+  const FitReport fresh = replica.fitInFrame(model.observations(), model.centroid(), model.scale());
+  ASSERT_TRUE(fresh.ok) << fresh.message;
+  EXPECT_EQ(fresh.jitter, update.jitter);
+  for (const Vector3d& q : {Vector3d(kCentre + Vector3d(0.02, -0.01, 0.03)), Vector3d(kCentre + Vector3d(0, 0, 0.2))}) {
+    EXPECT_NEAR(model.mean(q), replica.mean(q), 1e-9);
+    EXPECT_NEAR(model.variance(q), replica.variance(q), 1e-9);
+  }
+}
+
 TEST(GpisModel, InvalidConfigurationIsRefused) {
   GpisModel::Config config = GpisModel::Config::thinPlateReference();
   config.domain_radius = 1.5;  // diameter 3 > thin-plate R = 2
