@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
+#include <utility>
 #include <sstream>
 
 namespace gpatlas_core {
@@ -33,6 +35,24 @@ std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double sp
   return kept;
 }
 
+std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const std::vector<Vector3>& contacts,
+                                   double spacing_m) {
+  if (contacts.empty()) return thinToSpacing(free_space, spacing_m);
+  std::vector<std::pair<double, std::size_t>> order;
+  order.reserve(free_space.size());
+  for (std::size_t i = 0; i < free_space.size(); ++i) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vector3& c : contacts) nearest = std::min(nearest, (c - free_space[i]).squaredNorm());
+    order.emplace_back(nearest, i);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Vector3> sorted;
+  sorted.reserve(free_space.size());
+  for (const auto& entry : order) sorted.push_back(free_space[entry.second]);
+  return thinToSpacing(sorted, spacing_m);
+}
+
 namespace {
 
 std::string validate(const Explorer::Config& config) {
@@ -44,8 +64,9 @@ std::string validate(const Explorer::Config& config) {
       !std::isfinite(config.contact_noise_sigma) || !std::isfinite(config.free_space_noise_sigma))
     problem << "noise sigmas must be finite and >= 0; ";
   if (config.retune_every < 0) problem << "retune_every must be >= 0; ";
-  if (!(config.min_point_spacing_m >= 0.0) || !std::isfinite(config.min_point_spacing_m))
-    problem << "min_point_spacing_m must be finite and >= 0; ";
+  if (!(config.min_point_spacing_m >= 0.0) || !std::isfinite(config.min_point_spacing_m) ||
+      !(config.min_free_space_spacing_m >= 0.0) || !std::isfinite(config.min_free_space_spacing_m))
+    problem << "min_point_spacing_m and min_free_space_spacing_m must be finite and >= 0; ";
   return problem.str();
 }
 
@@ -116,7 +137,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
       new_points.push_back(point);
     }
     const std::size_t num_contacts = new_points.size();
-    for (const Vector3& free : thinToSpacing(probed.free_space, config_.min_point_spacing_m)) {
+    for (const Vector3& free : thinFreeSpace(probed.free_space, contact_positions, config_.min_free_space_spacing_m)) {
       // Outside the domain the model has its own outside pseudo-points and would reject them.
       if (!model.inDomain(free)) continue;
       TrainingPoint point;

@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <numeric>
 
 using namespace gpatlas_core;
@@ -103,9 +104,11 @@ TEST(Explorer, RandomNeedsMoreActionsThanAtlasPoke) {
   EXPECT_GT(random_actions, atlas_actions);
 }
 
-// A slide reports a contact every millimetre; the explorer keeps them (and the free space) no
-// closer than min_point_spacing_m, and every dropped one lies within that spacing of a kept one.
-TEST(Explorer, DenseSlideContactsAreThinnedToTheConfiguredSpacing) {
+// A slide reports a contact every millimetre and free space all along its approach rays; the
+// explorer keeps contacts no closer than min_point_spacing_m and free space no closer than
+// min_free_space_spacing_m (nearest the contacts first), and every dropped point lies within
+// that spacing of a kept one.
+TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
   const AnalyticSphere sphere;
   struct DenseSlideProber : Prober {
     AnalyticSphere sphere;
@@ -113,16 +116,17 @@ TEST(Explorer, DenseSlideContactsAreThinnedToTheConfiguredSpacing) {
     ProbeResult probe(const Touch&) override {
       ProbeResult result;
       result.success = true;
-      // An arc of 60 mm on the sphere's equator, one contact per millimetre, and the free
-      // space 2 cm outside it.
+      // An arc of 60 mm on the sphere's equator, one contact per millimetre; the approach to
+      // its first contact sampled every millimetre from 5 cm out (inside the model's domain)
+      // down to 1 mm.
       for (int k = 0; k <= 60; ++k) {
         const double angle = 0.001 * k / sphere.radius;
         const Vector3 direction(std::cos(angle), std::sin(angle), 0.0);
         contacts.push_back(sphere.centre + sphere.radius * direction);
-        free.push_back(sphere.centre + (sphere.radius + 0.02) * direction);
         result.contacts.push_back({contacts.back(), direction});
-        result.free_space.push_back(free.back());
       }
+      for (int mm = 50; mm >= 1; --mm) free.push_back(contacts.front() + 0.001 * mm * Vector3::UnitX());
+      result.free_space = free;
       return result;
     }
   } prober;
@@ -133,6 +137,7 @@ TEST(Explorer, DenseSlideContactsAreThinnedToTheConfiguredSpacing) {
   Explorer::Config config;
   config.max_actions = 1;
   config.min_point_spacing_m = 0.004;
+  config.min_free_space_spacing_m = 0.015;
   const auto strategy = makeStrategy("atlas_poke");
   const ExplorationResult result = Explorer(config).run(model, *strategy, prober);
   ASSERT_EQ(result.actions, 1) << result.stop_reason;
@@ -142,19 +147,26 @@ TEST(Explorer, DenseSlideContactsAreThinnedToTheConfiguredSpacing) {
     const TrainingPoint& p = model.observations()[i];
     (p.source == PointSource::kTouch ? kept_contacts : kept_free).push_back(p.position);
   }
-  for (const auto* kept : {&kept_contacts, &kept_free}) {
-    ASSERT_GE(kept->size(), 10u);  // 60 mm / 4 mm: about 15
-    ASSERT_LE(kept->size(), 16u);
-    for (std::size_t i = 0; i < kept->size(); ++i)
-      for (std::size_t j = i + 1; j < kept->size(); ++j) EXPECT_GE(((*kept)[i] - (*kept)[j]).norm(), 0.004 - 1e-12);
-  }
-  for (const auto& [all, kept] : {std::make_pair(&prober.contacts, &kept_contacts), std::make_pair(&prober.free, &kept_free)})
-    for (const Vector3& p : *all) {
+  const auto check = [](const std::vector<Vector3>& all, const std::vector<Vector3>& kept, double spacing,
+                        std::size_t min_kept, std::size_t max_kept) {
+    EXPECT_GE(kept.size(), min_kept);
+    EXPECT_LE(kept.size(), max_kept);
+    for (std::size_t i = 0; i < kept.size(); ++i)
+      for (std::size_t j = i + 1; j < kept.size(); ++j) EXPECT_GE((kept[i] - kept[j]).norm(), spacing - 1e-12);
+    for (const Vector3& p : all) {
       double nearest = 1e9;
-      for (const Vector3& q : *kept) nearest = std::min(nearest, (p - q).norm());
-      EXPECT_LT(nearest, 0.004);
+      for (const Vector3& q : kept) nearest = std::min(nearest, (p - q).norm());
+      EXPECT_LT(nearest, spacing);
     }
+  };
+  check(prober.contacts, kept_contacts, 0.004, 12, 16);  // 60 mm / 4 mm: 15
+  check(prober.free, kept_free, 0.015, 4, 4);            // 49 mm / 15 mm: 1, 16, 31, 46 mm
+  // The free point right next to the surface is the one kept first.
+  const Vector3 closest = prober.contacts.front() + 0.001 * Vector3::UnitX();
+  EXPECT_TRUE(std::any_of(kept_free.begin(), kept_free.end(),
+                          [&](const Vector3& q) { return (q - closest).norm() < 1e-12; }));
   EXPECT_EQ(result.records.front().contacts_added, static_cast<int>(kept_contacts.size()));
+  EXPECT_EQ(result.records.front().free_points_added, static_cast<int>(kept_free.size()));
 }
 
 TEST(Explorer, BadInputStopsWithAReason) {

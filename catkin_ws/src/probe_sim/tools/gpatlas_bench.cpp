@@ -78,6 +78,8 @@ struct Options {
   bool plot{true};
   bool save_meshes{false};
   int view_free_rays{300};
+  double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
+  double min_free_space_spacing_m{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
   bool free_space_distance_targets{true};
   gpatlas_core::GpisModel::Config gpis;
 };
@@ -99,6 +101,8 @@ void printUsage() {
   --out DIR                      output folder [bench_out]
   --points N                     initial on-surface points taken from the depth view [400]
   --view-free-rays N             camera rays whose free space (2 samples each) joins the initial data; 0: none [300]
+  --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
+  --min-free-spacing-m D         ... and its free-space points to this one [0.015]
   --vision-sigma S               noise sigma of the vision points (reference units, see
                                  GpisModelConfig) [0.1]
   --tune                         tune the kernel's parameters (ML-II, noise fixed) after the
@@ -209,6 +213,8 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
     else if (a == "--view-free-rays") o.view_free_rays = parseInt(a, next());
+    else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
+    else if (a == "--min-free-spacing-m") o.min_free_space_spacing_m = parseDouble(a, next());
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
   }
   if (o.gpis.kernel == "thin_plate" && !frame_given) {
@@ -226,6 +232,8 @@ Options parseArgs(int argc, char** argv) {
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
   if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
+  if (!(o.min_point_spacing_m >= 0.0) || !(o.min_free_space_spacing_m >= 0.0))
+    throw std::invalid_argument("--min-spacing-m and --min-free-spacing-m must be >= 0");
   if (!seeds_given && o.seeds.empty()) o.seeds = {0};
   const auto probes = probe_sim::probeModelNames();
   if (std::find(probes.begin(), probes.end(), o.probe) == probes.end())
@@ -381,6 +389,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.max_actions = o.max_actions;
   explorer_config.retune_every = o.retune_every;
   explorer_config.free_space_distance_targets = o.free_space_distance_targets;
+  explorer_config.min_point_spacing_m = o.min_point_spacing_m;
+  explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
   if (o.touch_noise_sigma >= 0.0) {
     explorer_config.contact_noise_sigma = o.touch_noise_sigma;
     explorer_config.free_space_noise_sigma = o.touch_noise_sigma;

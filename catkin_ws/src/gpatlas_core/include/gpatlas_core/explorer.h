@@ -45,6 +45,10 @@ struct ExplorationResult {
 // Greedy thinning of one touch's contacts or free space: the finite points, in order, that lie at
 // least `spacing_m` from every point kept before them (spacing_m <= 0 keeps them all).
 std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double spacing_m);
+// A touch's free space thinned to `spacing_m`, the points nearest the touch's contacts kept
+// first: they pin the surface down, while those a probe's length away hardly constrain it.
+std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const std::vector<Vector3>& contacts,
+                                   double spacing_m);
 
 // Tactile exploration, paper Algorithm 2: plan a touch on the current model, probe it, add the
 // contacts as surface points and the free-space observations as outside points, update the
@@ -66,11 +70,14 @@ class Explorer {
     // Free-space points carry their distance to the nearest surface point, so their target is
     // about their normalised distance to the surface (at most +1) instead of +1.
     bool free_space_distance_targets{true};
-    // New contacts (and, separately, new free-space points) closer than this to one already
-    // kept from the same touch are dropped: a slide reports a contact every few millimetres,
+    // New contacts closer than this to one already kept from the same touch are dropped: a slide reports a contact every few millimetres,
     // and near-duplicates add O(n^2) cost to every later query for almost no information
     // (the GP's correlation length is centimetres). 0 keeps every point.
     double min_point_spacing_m{0.004};
+    // The same for free-space points, coarser: a slide's approach rays yield thousands of them
+    // (measured: 5000 of the 6500 training points after 15 slides on the jug), each costing
+    // as much as a contact in every later query.
+    double min_free_space_spacing_m{0.015};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
     int retune_every{0};
     HyperparameterTuner::Config tuner;

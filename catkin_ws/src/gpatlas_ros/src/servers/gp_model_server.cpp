@@ -33,6 +33,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   // The fit is O(n^3) in time and O(n^2) in memory: a few thousand points is the useful range.
   max_vision_points_ = reader.integer("max_vision_points", max_vision_points_, 4, 5000);
   min_point_spacing_m_ = reader.number("min_point_spacing_m", min_point_spacing_m_, 0.0, 1.0);
+  min_free_space_spacing_m_ = reader.number("min_free_space_spacing_m", min_free_space_spacing_m_, 0.0, 1.0);
   tune_ = reader.flag("tuning/enabled", tune_);
   display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
   readGpis(reader, &gpis_config_);
@@ -163,7 +164,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   for (const auto& c : observed.contacts) contacts.push_back(c.position);
   // As the Explorer does: near-duplicates of a slide cost every later query and add nothing.
   contacts = gpatlas_core::thinToSpacing(contacts, min_point_spacing_m_);
-  free_space = gpatlas_core::thinToSpacing(observed.free_space, min_point_spacing_m_);
+  free_space = gpatlas_core::thinFreeSpace(observed.free_space, contacts, min_free_space_spacing_m_);
   if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &contacts,
                         message) ||
       !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &free_space,
