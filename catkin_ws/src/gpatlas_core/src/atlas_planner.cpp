@@ -27,6 +27,7 @@ std::string validate(const AtlasPlanner::Config& config) {
   if (!(config.max_time_s > 0.0)) problem << "max_time_s must be positive; ";
   if (!(config.max_start_distance_m > 0.0)) problem << "max_start_distance_m must be positive; ";
   if (config.max_start_attempts < 1) problem << "max_start_attempts must be at least 1; ";
+  if (config.extend_path_charts < 0) problem << "extend_path_charts must be >= 0; ";
   if (!(config.projection.f_tolerance > 0.0) || config.projection.max_iterations < 1 ||
       !(config.projection.max_step_fraction > 0.0))
     problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
@@ -187,7 +188,25 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
       continuation = atlas.addChart(std::move(created.chart));
       if (progress) progress(atlas);
       if (new_variance > v_max) {
-        result.path = atlas.pathTo(continuation);
+        int last = continuation;
+        for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
+          const Chart& tip = atlas.chart(last);
+          if (tip.candidates.empty()) break;
+          const auto next = std::max_element(tip.candidates.begin(), tip.candidates.end(),
+                                             [](const ChartCandidate& a, const ChartCandidate& b) {
+                                               return a.variance < b.variance;
+                                             });
+          Points3 from(3, 1), along(3, 1);
+          from.col(0) = next->ambient;
+          along.col(0) = tip.normal;
+          atlas.removeCandidate(last, static_cast<std::size_t>(next - tip.candidates.begin()));
+          const SurfacePoint reached = projectOntoSurface(model, from, along, config_.projection).front();
+          if (!reached.ok) break;
+          ChartCreation extension = createChart(model, reached, last, config_.chart, rng);
+          if (!extension.ok) break;
+          last = atlas.addChart(std::move(extension.chart));
+        }
+        result.path = atlas.pathTo(last);
         return finish(PlanStatus::kTouch, "found a chart with variance above V_max");
       }
     }

@@ -97,6 +97,37 @@ TEST(AtlasPlanner, SameSeedGivesTheSamePath) {
   for (int index : first.path) EXPECT_EQ(first.atlas.chart(index).centre, second.atlas.chart(index).centre);
 }
 
+// extend_path_charts: the same plan up to the first chart above V_max, then up to k more charts,
+// each a child of the previous one grown from its highest-variance candidate, in the unknown.
+TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    AtlasPlanner::Config config;
+    config.seed = seed;
+    const AtlasPlanResult base = AtlasPlanner(config).plan(model, kVMax);
+    config.extend_path_charts = 5;
+    const AtlasPlanResult extended = AtlasPlanner(config).plan(model, kVMax);
+    ASSERT_EQ(base.status, PlanStatus::kTouch) << base.message;
+    ASSERT_EQ(extended.status, PlanStatus::kTouch) << extended.message;
+    ASSERT_GT(extended.path.size(), base.path.size());
+    ASSERT_LE(extended.path.size(), base.path.size() + 5);
+    for (std::size_t k = 0; k < base.path.size(); ++k)
+      EXPECT_EQ(extended.atlas.chart(extended.path[k]).centre, base.atlas.chart(base.path[k]).centre);
+    for (std::size_t k = base.path.size(); k < extended.path.size(); ++k) {
+      const Chart& parent = extended.atlas.chart(extended.path[k - 1]);
+      const Chart& child = extended.atlas.chart(extended.path[k]);
+      EXPECT_EQ(child.parent, extended.path[k - 1]);
+      EXPECT_LT((child.centre - parent.centre).norm(), 1.5 * parent.radius);
+      EXPECT_LT(std::abs(model.mean(child.centre)), 1e-3);  // on the predicted surface
+      EXPECT_GT(child.variance, kVMax);                     // beyond the known part
+    }
+  }
+  AtlasPlanner::Config invalid;
+  invalid.extend_path_charts = -1;
+  EXPECT_EQ(AtlasPlanner(invalid).plan(model, kVMax).status, PlanStatus::kError);
+}
+
 TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   const AnalyticSphere sphere;
   GpisModel model;

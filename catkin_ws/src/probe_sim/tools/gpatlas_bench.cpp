@@ -78,6 +78,7 @@ struct Options {
   bool plot{true};
   bool save_meshes{false};
   int view_free_rays{300};
+  int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
   double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
   double min_free_space_spacing_m{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
   bool free_space_distance_targets{true};
@@ -101,6 +102,7 @@ void printUsage() {
   --out DIR                      output folder [bench_out]
   --points N                     initial on-surface points taken from the depth view [400]
   --view-free-rays N             camera rays whose free space (2 samples each) joins the initial data; 0: none [300]
+  --slide-extension N            atlas_slide: charts added to the path past the first above V_max [6]
   --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
   --min-free-spacing-m D         ... and its free-space points to this one [0.015]
   --vision-sigma S               noise sigma of the vision points (reference units, see
@@ -213,6 +215,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
     else if (a == "--view-free-rays") o.view_free_rays = parseInt(a, next());
+    else if (a == "--slide-extension") o.slide_extension_charts = parseInt(a, next());
     else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
     else if (a == "--min-free-spacing-m") o.min_free_space_spacing_m = parseDouble(a, next());
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
@@ -232,6 +235,7 @@ Options parseArgs(int argc, char** argv) {
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
   if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
+  if (o.slide_extension_charts < 0) throw std::invalid_argument("--slide-extension must be >= 0");
   if (!(o.min_point_spacing_m >= 0.0) || !(o.min_free_space_spacing_m >= 0.0))
     throw std::invalid_argument("--min-spacing-m and --min-free-spacing-m must be >= 0");
   if (!seeds_given && o.seeds.empty()) o.seeds = {0};
@@ -381,6 +385,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
 
   gpatlas_core::StrategyConfig strategy_config;
   strategy_config.seed = static_cast<std::uint64_t>(seed) + 1;
+  strategy_config.slide_extension_charts = o.slide_extension_charts;
   const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
   probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(o.probe));
 

@@ -53,6 +53,10 @@ class AtlasPlanner {
     // covers (a predicted surface in several pieces); false: only the root's tree (Algorithm 1
     // verbatim).
     bool cover_all_observations{true};
+    // Once a chart above V_max is found, extend the path from it by up to this many charts,
+    // each grown toward the highest-variance candidate of the previous one: a slide then runs
+    // on into the unknown instead of stopping at its edge. 0: Algorithm 1 verbatim.
+    int extend_path_charts{0};
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.

@@ -45,6 +45,9 @@ class ExplorationStrategy {
 // Everything a built-in strategy may need; each uses the parts that concern it.
 struct StrategyConfig {
   AtlasPlanner::Config atlas;       // atlas_poke, atlas_slide
+  // atlas_slide: the path goes on past the first chart above V_max for up to this many charts,
+  // each the highest-variance candidate of the last (AtlasPlanner::Config::extend_path_charts).
+  int slide_extension_charts{6};
   SurfaceSampler::Config sampler;   // random, max_variance
   std::uint64_t seed{1};
 };
