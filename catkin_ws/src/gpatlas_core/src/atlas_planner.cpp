@@ -190,6 +190,7 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
       if (new_variance > v_max) {
         int last = continuation;
         for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
+          if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
           const Chart& tip = atlas.chart(last);
           if (tip.candidates.empty()) break;
           const auto next = std::max_element(tip.candidates.begin(), tip.candidates.end(),
@@ -200,10 +201,14 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
           from.col(0) = next->ambient;
           along.col(0) = tip.normal;
           atlas.removeCandidate(last, static_cast<std::size_t>(next - tip.candidates.begin()));
+          ++result.expansions;
           const SurfacePoint reached = projectOntoSurface(model, from, along, config_.projection).front();
-          if (!reached.ok) break;
-          ChartCreation extension = createChart(model, reached, last, config_.chart, rng);
-          if (!extension.ok) break;
+          ChartCreation extension;
+          if (reached.ok) extension = createChart(model, reached, last, config_.chart, rng);
+          if (!reached.ok || !extension.ok) {
+            ++result.failed_projections;
+            break;
+          }
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);

@@ -137,9 +137,12 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
       new_points.push_back(point);
     }
     const std::size_t num_contacts = new_points.size();
-    for (const Vector3& free : thinFreeSpace(probed.free_space, contact_positions, config_.min_free_space_spacing_m)) {
-      // Outside the domain the model has its own outside pseudo-points and would reject them.
-      if (!model.inDomain(free)) continue;
+    // Outside the domain the model has its own outside pseudo-points and would reject them:
+    // filtered before the thinning, so that they cannot crowd out points the model keeps.
+    std::vector<Vector3> free_in_domain;
+    for (const Vector3& free : probed.free_space)
+      if (free.allFinite() && model.inDomain(free)) free_in_domain.push_back(free);
+    for (const Vector3& free : thinFreeSpace(free_in_domain, contact_positions, config_.min_free_space_spacing_m)) {
       TrainingPoint point;
       point.position = free;
       point.label = PointLabel::kOutside;

@@ -494,6 +494,8 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     if (!refit_report.ok) {
       m.observations = previous;
       refit_report.num_added = 0;
+      refit_report.num_rejected += report.num_rejected;
+      refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
       refit_report.message = "adding " + std::to_string(k) +
                              " point(s) makes the covariance singular (a point contradicts existing data); model "
                              "unchanged: " +

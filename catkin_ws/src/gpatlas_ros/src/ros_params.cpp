@@ -140,7 +140,7 @@ void readStrategy(ParamReader& r, gpatlas_core::StrategyConfig* c) {
   c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
   c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
   c->atlas.max_start_distance_m = r.number("planner/max_start_distance_m", c->atlas.max_start_distance_m, 0.0, 10.0);
-  c->slide_extension_charts = r.integer("planner/slide_extension_charts", c->slide_extension_charts, 0, 1000);
+  c->slide_extension_charts = r.integer("planner/slide_extension_charts", c->slide_extension_charts, 0, 100);
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
   c->seed = static_cast<std::uint64_t>(r.integer("planner/seed", static_cast<int>(c->seed), 0, 1 << 30));
   c->atlas.seed = c->seed;
@@ -157,8 +157,8 @@ void readOccupancy(ParamReader& r, gpatlas_core::OccupancyGridBuilder::Config* c
 
 void readViewFreeSpace(ParamReader& r, gpatlas_core::ViewFreeSpaceConfig* c, std::string* sensor_frame) {
   *sensor_frame = r.text("view_free_space/sensor_frame", *sensor_frame);
-  c->max_rays = r.integer("view_free_space/max_rays", c->max_rays, 0, 100000);
-  c->samples_per_ray = r.integer("view_free_space/samples_per_ray", c->samples_per_ray, 0, 100);
+  c->max_rays = r.integer("view_free_space/max_rays", c->max_rays, 0, 5000);
+  c->samples_per_ray = r.integer("view_free_space/samples_per_ray", c->samples_per_ray, 0, 10);
   c->min_offset_fraction = r.number("view_free_space/min_offset_fraction", c->min_offset_fraction, 1e-6, 10.0);
   c->max_offset_fraction = r.number("view_free_space/max_offset_fraction", c->max_offset_fraction, 1e-6, 10.0);
   if (c->max_offset_fraction < c->min_offset_fraction) {

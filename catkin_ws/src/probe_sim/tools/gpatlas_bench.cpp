@@ -317,7 +317,10 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, c
     failed.message = "no predicted surface: " + surface.message;
     return failed;
   }
-  if (!save_as.empty()) gpatlas_core::writePly(surface.mesh, save_as);
+  if (!save_as.empty()) {
+    const std::string error = gpatlas_core::writePly(surface.mesh, save_as);
+    if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
+  }
   return gpatlas_core::ShapeMetrics().compare(surface.mesh, gt.mesh);
 }
 

@@ -46,7 +46,8 @@ class ExplorationStrategy {
 struct StrategyConfig {
   AtlasPlanner::Config atlas;       // atlas_poke, atlas_slide
   // atlas_slide: the path goes on past the first chart above V_max for up to this many charts,
-  // each the highest-variance candidate of the last (AtlasPlanner::Config::extend_path_charts).
+  // each the highest-variance candidate of the last (it sets AtlasPlanner::Config::
+  // extend_path_charts for atlas_slide; atlas_poke keeps atlas.extend_path_charts).
   int slide_extension_charts{6};
   SurfaceSampler::Config sampler;   // random, max_variance
   std::uint64_t seed{1};

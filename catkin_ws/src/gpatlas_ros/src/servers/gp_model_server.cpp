@@ -94,6 +94,12 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
       auto free = gpatlas_core::sampleViewFreeSpace(points, origin.front(), view_free_config_);
       if (free.ok) view_free = std::move(free.points);
       else ROS_WARN_STREAM("gp_model: no view free space: " << free.message);
+      // The fit is O(n^3): the view's free space gets at most as many points as its surface.
+      if (view_free.size() > static_cast<std::size_t>(max_vision_points_)) {
+        std::mt19937 pick(11);
+        std::shuffle(view_free.begin(), view_free.end(), pick);
+        view_free.resize(static_cast<std::size_t>(max_vision_points_));
+      }
     }
   }
   // The GP costs O(n^3): keep a random, seeded subset of the view.
@@ -164,12 +170,27 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   for (const auto& c : observed.contacts) contacts.push_back(c.position);
   // As the Explorer does: near-duplicates of a slide cost every later query and add nothing.
   contacts = gpatlas_core::thinToSpacing(contacts, min_point_spacing_m_);
-  free_space = gpatlas_core::thinFreeSpace(observed.free_space, contacts, min_free_space_spacing_m_);
+  free_space = observed.free_space;
   if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &contacts,
                         message) ||
       !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &free_space,
                         message))
     return false;
+  if (contacts.empty() && free_space.empty()) {
+    *message = "no observation in the message";
+    return false;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!model_.isFitted()) {
+    *message = "no model yet: the object points have not arrived";
+    return false;
+  }
+  // Outside the domain the model has its own pseudo-points and would drop them: filtered before
+  // the thinning, so that they cannot crowd out points the model keeps.
+  free_space.erase(std::remove_if(free_space.begin(), free_space.end(),
+                                  [&](const Eigen::Vector3d& p) { return !model_.inDomain(p); }),
+                   free_space.end());
+  free_space = gpatlas_core::thinFreeSpace(free_space, contacts, min_free_space_spacing_m_);
   std::vector<gpatlas_core::TrainingPoint> points;
   appendTrainingPoints(contacts, gpatlas_core::PointLabel::kSurface, noise_.touch_sigma,
                        gpatlas_core::PointSource::kTouch, &points);
@@ -177,12 +198,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   appendTrainingPoints(free_space, gpatlas_core::PointLabel::kOutside, noise_.free_space_sigma,
                        gpatlas_core::PointSource::kFreeSpace, &points);
   if (points.empty()) {
-    *message = "no observation in the message";
-    return false;
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  if (!model_.isFitted()) {
-    *message = "no model yet: the object points have not arrived";
+    *message = "no observation inside the model's domain";
     return false;
   }
   // Free space gets a distance-like target (see GpisModel::nearestSurfaceDistance), not +1.
