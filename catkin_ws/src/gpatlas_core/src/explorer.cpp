@@ -53,6 +53,37 @@ std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const
   return thinToSpacing(sorted, spacing_m);
 }
 
+std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Vector3>& contacts,
+                                               const std::vector<Vector3>& free_space, const Explorer::Config& config,
+                                               std::size_t* num_contacts) {
+  const std::vector<Vector3> kept_contacts = thinToSpacing(contacts, config.min_point_spacing_m);
+  std::vector<TrainingPoint> points;
+  for (const Vector3& contact : kept_contacts) {
+    TrainingPoint point;
+    point.position = contact;
+    point.label = PointLabel::kSurface;
+    point.noise_sigma = config.contact_noise_sigma;
+    point.source = PointSource::kTouch;
+    points.push_back(point);
+  }
+  if (num_contacts) *num_contacts = points.size();
+  // Outside the domain the model has its own outside pseudo-points and would reject them:
+  // filtered before the thinning, so that they cannot crowd out points the model keeps.
+  std::vector<Vector3> free_in_domain;
+  for (const Vector3& free : free_space)
+    if (free.allFinite() && model.inDomain(free)) free_in_domain.push_back(free);
+  for (const Vector3& free : thinFreeSpace(free_in_domain, kept_contacts, config.min_free_space_spacing_m)) {
+    TrainingPoint point;
+    point.position = free;
+    point.label = PointLabel::kOutside;
+    point.noise_sigma = config.free_space_noise_sigma;
+    point.source = PointSource::kFreeSpace;
+    if (config.free_space_distance_targets) point.surface_distance_m = model.nearestSurfaceDistance(free, kept_contacts);
+    points.push_back(point);
+  }
+  return points;
+}
+
 namespace {
 
 std::string validate(const Explorer::Config& config) {
@@ -126,32 +157,9 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     std::vector<Vector3> contact_positions;
     for (const Contact& contact : probed.contacts) contact_positions.push_back(contact.position);
-    contact_positions = thinToSpacing(contact_positions, config_.min_point_spacing_m);
-    std::vector<TrainingPoint> new_points;
-    for (const Vector3& contact : contact_positions) {
-      TrainingPoint point;
-      point.position = contact;
-      point.label = PointLabel::kSurface;
-      point.noise_sigma = config_.contact_noise_sigma;
-      point.source = PointSource::kTouch;
-      new_points.push_back(point);
-    }
-    const std::size_t num_contacts = new_points.size();
-    // Outside the domain the model has its own outside pseudo-points and would reject them:
-    // filtered before the thinning, so that they cannot crowd out points the model keeps.
-    std::vector<Vector3> free_in_domain;
-    for (const Vector3& free : probed.free_space)
-      if (free.allFinite() && model.inDomain(free)) free_in_domain.push_back(free);
-    for (const Vector3& free : thinFreeSpace(free_in_domain, contact_positions, config_.min_free_space_spacing_m)) {
-      TrainingPoint point;
-      point.position = free;
-      point.label = PointLabel::kOutside;
-      point.noise_sigma = config_.free_space_noise_sigma;
-      point.source = PointSource::kFreeSpace;
-      if (config_.free_space_distance_targets)
-        point.surface_distance_m = model.nearestSurfaceDistance(free, contact_positions);
-      new_points.push_back(point);
-    }
+    std::size_t num_contacts = 0;
+    std::vector<TrainingPoint> new_points =
+        touchTrainingPoints(model, contact_positions, probed.free_space, config_, &num_contacts);
 
     const Clock::time_point update_started = Clock::now();
     if (!new_points.empty()) {

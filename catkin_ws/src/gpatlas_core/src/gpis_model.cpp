@@ -440,23 +440,26 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     return report;
   }
 
+  // Where extending the factor would not give the model a refit builds, the points go in by a
+  // full refit of all the data; on failure the observations are restored.
+  const auto refitWithKept = [&]() {
+    const auto previous = m.observations;
+    m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+    FitReport refit_report = refit(false);
+    if (!refit_report.ok) m.observations = previous;
+    refit_report.num_added = refit_report.ok ? kept.size() : 0;
+    refit_report.num_rejected += report.num_rejected;
+    refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+    return refit_report;
+  };
+
   // A contact or free-space point near the centroid invalidates the inside pseudo-point there
-  // (refit() drops it when such a point is that close, e.g. in a cup's cavity): refit rather
-  // than extend, so the incremental model stays the one a refit or a replica builds.
+  // (refit() drops it when such a point is that close, e.g. in a cup's cavity).
   const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
-  if (has_inside_point && c.inside_point_min_clearance > 0.0) {
-    for (std::size_t j = 0; j < kept.size(); ++j) {
-      if (kept[j].label == PointLabel::kInside || kept_x[j].norm() >= c.inside_point_min_clearance) continue;
-      const auto previous = m.observations;
-      m.observations.insert(m.observations.end(), kept.begin(), kept.end());
-      FitReport refit_report = refit(false);
-      if (!refit_report.ok) m.observations = previous;
-      refit_report.num_added = refit_report.ok ? kept.size() : 0;
-      refit_report.num_rejected += report.num_rejected;
-      refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
-      return refit_report;
-    }
-  }
+  if (has_inside_point && c.inside_point_min_clearance > 0.0)
+    for (std::size_t j = 0; j < kept.size(); ++j)
+      if (kept[j].label != PointLabel::kInside && kept_x[j].norm() < c.inside_point_min_clearance)
+        return refitWithKept();
 
   const Eigen::Index n = m.n;
   const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
@@ -486,25 +489,13 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   };
   if (!factored()) {
     // The new block needs more jitter than the model has: a full refit escalates the jitter on
-    // every point alike, so the model stays the one a refit or a replica builds (a larger
-    // jitter on the new block only would not be).
-    const auto previous = m.observations;
-    m.observations.insert(m.observations.end(), kept.begin(), kept.end());
-    FitReport refit_report = refit(false);
-    if (!refit_report.ok) {
-      m.observations = previous;
-      refit_report.num_added = 0;
-      refit_report.num_rejected += report.num_rejected;
-      refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+    // every point alike (a larger jitter on the new block only would not be what a refit builds).
+    FitReport refit_report = refitWithKept();
+    if (!refit_report.ok)
       refit_report.message = "adding " + std::to_string(k) +
                              " point(s) makes the covariance singular (a point contradicts existing data); model "
                              "unchanged: " +
                              refit_report.message;
-      return refit_report;
-    }
-    refit_report.num_added = kept.size();
-    refit_report.num_rejected += report.num_rejected;
-    refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
     return refit_report;
   }
   m.chol.block(n, 0, k, n) = cross.transpose();

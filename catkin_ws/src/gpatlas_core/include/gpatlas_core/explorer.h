@@ -98,4 +98,13 @@ class Explorer {
   Config config_;
 };
 
+// A touch's observations as training points for `model` (used by the Explorer and by the GP
+// model nodelet): contacts thinned to config.min_point_spacing_m; free space inside the model's
+// domain thinned to config.min_free_space_spacing_m, nearest the contacts first, and labelled
+// with its distance to the surface when config.free_space_distance_targets. Contacts come
+// first; their number goes to *num_contacts when given.
+std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Vector3>& contacts,
+                                               const std::vector<Vector3>& free_space, const Explorer::Config& config,
+                                               std::size_t* num_contacts = nullptr);
+
 }  // namespace gpatlas_core

@@ -82,8 +82,8 @@ class GpModelServer {
   std::string world_frame_;
   double tf_timeout_s_{0.5};
   int max_vision_points_{600};
-  double min_point_spacing_m_{gpatlas_core::Explorer::Config().min_point_spacing_m};
-  double min_free_space_spacing_m_{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
+  // Noise and thinning of touch observations (the Explorer's settings, filled from parameters).
+  gpatlas_core::Explorer::Config touch_config_;
   bool tune_{true};
   double display_v_max_{0.1};
   gpatlas_core::GpisModel::Config gpis_config_;

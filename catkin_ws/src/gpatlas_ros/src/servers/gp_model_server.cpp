@@ -32,8 +32,9 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
   // The fit is O(n^3) in time and O(n^2) in memory: a few thousand points is the useful range.
   max_vision_points_ = reader.integer("max_vision_points", max_vision_points_, 4, 5000);
-  min_point_spacing_m_ = reader.number("min_point_spacing_m", min_point_spacing_m_, 0.0, 1.0);
-  min_free_space_spacing_m_ = reader.number("min_free_space_spacing_m", min_free_space_spacing_m_, 0.0, 1.0);
+  touch_config_.min_point_spacing_m = reader.number("min_point_spacing_m", touch_config_.min_point_spacing_m, 0.0, 1.0);
+  touch_config_.min_free_space_spacing_m =
+      reader.number("min_free_space_spacing_m", touch_config_.min_free_space_spacing_m, 0.0, 1.0);
   tune_ = reader.flag("tuning/enabled", tune_);
   display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
   readGpis(reader, &gpis_config_);
@@ -42,6 +43,8 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readMesher(reader, &mesher_config_);
   readViewFreeSpace(reader, &view_free_config_, &sensor_frame_);
   view_free_config_.noise_sigma = noise_.free_space_sigma;
+  touch_config_.contact_noise_sigma = noise_.touch_sigma;
+  touch_config_.free_space_noise_sigma = noise_.free_space_sigma;
   reader.report("gp_model");
   model_ = gpatlas_core::GpisModel(gpis_config_);  // readGpis() validated the config
 
@@ -166,11 +169,8 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   *num_added = 0;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
-  std::vector<Eigen::Vector3d> contacts, free_space;
+  std::vector<Eigen::Vector3d> contacts, free_space = observed.free_space;
   for (const auto& c : observed.contacts) contacts.push_back(c.position);
-  // As the Explorer does: near-duplicates of a slide cost every later query and add nothing.
-  contacts = gpatlas_core::thinToSpacing(contacts, min_point_spacing_m_);
-  free_space = observed.free_space;
   if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &contacts,
                         message) ||
       !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &free_space,
@@ -185,25 +185,14 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     *message = "no model yet: the object points have not arrived";
     return false;
   }
-  // Outside the domain the model has its own pseudo-points and would drop them: filtered before
-  // the thinning, so that they cannot crowd out points the model keeps.
-  free_space.erase(std::remove_if(free_space.begin(), free_space.end(),
-                                  [&](const Eigen::Vector3d& p) { return !model_.inDomain(p); }),
-                   free_space.end());
-  free_space = gpatlas_core::thinFreeSpace(free_space, contacts, min_free_space_spacing_m_);
-  std::vector<gpatlas_core::TrainingPoint> points;
-  appendTrainingPoints(contacts, gpatlas_core::PointLabel::kSurface, noise_.touch_sigma,
-                       gpatlas_core::PointSource::kTouch, &points);
-  const std::size_t first_free = points.size();
-  appendTrainingPoints(free_space, gpatlas_core::PointLabel::kOutside, noise_.free_space_sigma,
-                       gpatlas_core::PointSource::kFreeSpace, &points);
+  // As the Explorer does: thinned (near-duplicates of a slide cost every later query and add
+  // nothing), free space in the domain and labelled with its distance to the surface.
+  const std::vector<gpatlas_core::TrainingPoint> points =
+      gpatlas_core::touchTrainingPoints(model_, contacts, free_space, touch_config_);
   if (points.empty()) {
     *message = "no observation inside the model's domain";
     return false;
   }
-  // Free space gets a distance-like target (see GpisModel::nearestSurfaceDistance), not +1.
-  for (std::size_t i = first_free; i < points.size(); ++i)
-    points[i].surface_distance_m = model_.nearestSurfaceDistance(points[i].position, contacts);
   const gpatlas_core::FitReport report = model_.addPoints(points);
   *num_added = static_cast<std::uint32_t>(report.num_added);
   *message = report.message;
