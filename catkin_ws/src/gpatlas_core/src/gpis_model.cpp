@@ -16,12 +16,12 @@ constexpr double kLog2Pi = 1.8378770664093453;
 
 bool isFinite(const Vector3& v) { return v.allFinite(); }
 
-// The frame's scale matters for outside points with a known distance to the surface: their
+// The frame's scale matters for outside and inside points with a known distance to the surface: their
 // target is that distance in normalised units, so it follows every renormalisation.
 double targetOf(const TrainingPoint& p, double scale) {
   if (std::isfinite(p.target_override)) return p.target_override;
-  if (p.label == PointLabel::kOutside && std::isfinite(p.surface_distance_m) && scale > 0.0)
-    return std::min(1.0, std::max(0.0, p.surface_distance_m) / scale);
+  if (p.label != PointLabel::kSurface && std::isfinite(p.surface_distance_m) && scale > 0.0)
+    return static_cast<double>(static_cast<int>(p.label)) * std::min(1.0, std::max(0.0, p.surface_distance_m) / scale);
   return static_cast<double>(static_cast<int>(p.label));
 }
 
@@ -51,6 +51,7 @@ struct GpisModel::Impl {
       : config(o.config),
         kernel(o.kernel ? o.kernel->clone() : nullptr),
         noise_scale(o.noise_scale),
+        prior_mean(o.prior_mean),
         observations(o.observations),
         fitted(o.fitted),
         frame_preset(o.frame_preset),
@@ -68,6 +69,7 @@ struct GpisModel::Impl {
   Config config;
   std::unique_ptr<Kernel> kernel;
   double noise_scale{1.0};
+  std::shared_ptr<const PriorMean> prior_mean;  // immutable, so shared between copies
 
   std::vector<TrainingPoint> observations;  // world frame, accepted points only
 
@@ -103,6 +105,17 @@ struct GpisModel::Impl {
   }
 
   Vector3 normalise(const Vector3& p) const { return (p - centroid) / scale; }
+  double priorAt(const Vector3& world) const { return prior_mean ? prior_mean->value(world) : 0.0; }
+  void addPriorMean(const Points3& x_world, bool with_gradient, BatchPrediction* out) const {
+    if (!prior_mean) return;
+    Vector3 gradient;
+    for (Eigen::Index j = 0; j < x_world.cols(); ++j) {
+      out->mean[j] += prior_mean->value(x_world.col(j), with_gradient ? &gradient : nullptr);
+      if (with_gradient) out->gradient.col(j) += gradient;
+    }
+  }
+  // The GP's target for an observation: its label's value minus the prior mean there.
+  double residualOf(const TrainingPoint& p) const { return targetOf(p, scale) - priorAt(p.position); }
 
   double diagonal(Eigen::Index i) const {
     return kernel->value(0.0) + noise_scale * noise_var[i] * noiseUnit(*kernel) + jitter;
@@ -230,6 +243,7 @@ FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vec
   trial.config = impl_->config;
   trial.kernel = impl_->kernel->clone();
   trial.noise_scale = impl_->noise_scale;
+  trial.prior_mean = impl_->prior_mean;
   trial.observations = std::move(accepted);
   if (centroid) {
     trial.centroid = *centroid;
@@ -317,13 +331,13 @@ FitReport GpisModel::refit(bool renormalise) {
   const double pseudo_var = c.pseudo_point_sigma * c.pseudo_point_sigma;
   for (const auto& dir : outside) {
     m.x.col(m.n) = dir * c.domain_radius;
-    m.y[m.n] = 1.0;
+    m.y[m.n] = 1.0 - m.priorAt(centroid + scale * m.x.col(m.n));
     m.noise_var[m.n] = pseudo_var;
     ++m.n;
   }
   if (use_inside_point) {
     m.x.col(m.n).setZero();
-    m.y[m.n] = -1.0;
+    m.y[m.n] = -1.0 - m.priorAt(centroid);
     m.noise_var[m.n] = pseudo_var;
     ++m.n;
   }
@@ -340,7 +354,7 @@ FitReport GpisModel::refit(bool renormalise) {
       continue;
     }
     bool duplicate = false;
-    const double target = targetOf(p, m.scale);
+    const double target = m.residualOf(p);
     for (Eigen::Index j = num_pseudo; j < m.n && !duplicate; ++j)
       duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
     if (duplicate) {
@@ -417,12 +431,12 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
       ++out_of_domain;
       continue;
     }
-    const double target = targetOf(p, m.scale);
+    const double target = m.residualOf(p);
     bool duplicate = false;
     for (Eigen::Index j = m.num_pseudo; j < m.n && !duplicate; ++j)
       duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = targetOf(kept[j], m.scale) == target && (kept_x[j] - xn).squaredNorm() <= dup2;
+      duplicate = m.residualOf(kept[j]) == target && (kept_x[j] - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
@@ -466,7 +480,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   m.reserve(n + k);
   for (Eigen::Index j = 0; j < k; ++j) {
     m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
-    m.y[n + j] = targetOf(kept[static_cast<std::size_t>(j)], m.scale);
+    m.y[n + j] = m.residualOf(kept[static_cast<std::size_t>(j)]);
     const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
     m.noise_var[n + j] = s * s;
   }
@@ -522,6 +536,24 @@ bool GpisModel::inDomain(const Vector3& x_world) const {
   return impl_->fitted && impl_->normalise(x_world).norm() <= impl_->config.domain_radius;
 }
 double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
+FitReport GpisModel::setPriorMean(std::shared_ptr<const PriorMean> prior) {
+  Impl& m = *impl_;
+  if (!m.fitted) {
+    m.prior_mean = std::move(prior);
+    FitReport report;
+    report.ok = true;
+    report.message = "prior mean set; takes effect at the first fit";
+    return report;
+  }
+  Impl backup(m);
+  m.prior_mean = std::move(prior);
+  FitReport report = refit(false);
+  if (!report.ok) *impl_ = std::move(backup);
+  return report;
+}
+
+const std::shared_ptr<const PriorMean>& GpisModel::priorMean() const { return impl_->prior_mean; }
+
 const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
 double GpisModel::noiseScale() const { return impl_->noise_scale; }
 double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
@@ -572,6 +604,7 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
         out.gradient.col(j) = grad_mean * inv_scale;
       }
     }
+    m.addPriorMean(x_world, with_gradient, &out);
     return out;
   }
 
@@ -603,6 +636,7 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
       if (with_variance_gradient) out.variance_gradient.col(j) = -2.0 * unit * inv_scale * grad_var;
     }
   }
+  m.addPriorMean(x_world, with_gradient, &out);
   return out;
 }
 

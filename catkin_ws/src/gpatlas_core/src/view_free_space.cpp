@@ -1,5 +1,7 @@
 #include "gpatlas_core/view_free_space.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -69,6 +71,178 @@ ViewFreeSpace sampleViewFreeSpace(const std::vector<Vector3>& surface_points, co
   }
   out.ok = true;
   return out;
+}
+
+}  // namespace gpatlas_core
+
+namespace gpatlas_core {
+
+ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
+                                     const OccludedInteriorConfig& config) {
+  ViewFreeSpace out;
+  if (!sensor_origin.allFinite()) {
+    out.message = "the sensor origin is not finite";
+    return out;
+  }
+  if (config.grid_cells < 2 || config.grid_cells > 100 || config.max_points < 0 || config.hull_directions < 4 ||
+      !(config.margin_fraction >= 0.0) || !std::isfinite(config.margin_fraction) || !(config.noise_sigma >= 0.0) ||
+      !std::isfinite(config.noise_sigma)) {
+    out.message =
+        "invalid occluded-interior settings (2 <= grid_cells <= 100, max_points >= 0, hull_directions >= 4, "
+        "margin_fraction >= 0, noise_sigma >= 0)";
+    return out;
+  }
+  std::vector<Vector3> points;
+  points.reserve(surface_points.size());
+  for (const auto& p : surface_points)
+    if (p.allFinite()) points.push_back(p);
+  if (points.size() < 4) {
+    out.message = "the view has fewer than 4 finite points";
+    return out;
+  }
+  Vector3 centroid = Vector3::Zero();
+  for (const auto& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  double radius = 0.0;
+  for (const auto& p : points) radius = std::max(radius, (p - centroid).norm());
+  const Vector3 forward_raw = centroid - sensor_origin;
+  if (!(radius > 0.0) || !(forward_raw.norm() > radius)) {
+    out.message = "the view's points coincide or surround the sensor";
+    return out;
+  }
+  const double margin = config.margin_fraction * radius;
+
+  // A coarse range image in the sensor's frame: per pixel, the range of the farthest hit. The
+  // farthest, not the nearest: a pixel on a depth edge (a rim in front of a cavity's far wall)
+  // would otherwise call the air just past the rim occluded, though the camera saw through it.
+  // Every view point lies in front of the sensor (forward_raw.norm() > radius).
+  const Vector3 forward = forward_raw.normalized();
+  const Vector3 right = forward.unitOrthogonal();
+  const Vector3 up = forward.cross(right);
+  const auto imageOf = [&](const Vector3& p, double* a, double* b) {
+    const Vector3 v = p - sensor_origin;
+    const double depth = v.dot(forward);
+    if (!(depth > 0.0)) return false;
+    *a = v.dot(right) / depth;
+    *b = v.dot(up) / depth;
+    return true;
+  };
+  double a_min = std::numeric_limits<double>::infinity(), a_max = -a_min, b_min = a_min, b_max = -a_min;
+  for (const auto& p : points) {
+    double a = 0.0, b = 0.0;
+    imageOf(p, &a, &b);
+    a_min = std::min(a_min, a);
+    a_max = std::max(a_max, a);
+    b_min = std::min(b_min, b);
+    b_max = std::max(b_max, b);
+  }
+  // About 4 points per pixel on average, so that a pixel inside the silhouette is rarely empty
+  // (an empty pixel is unknown, never occluded: the background seen through a handle).
+  const int pixels = std::clamp(static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 4.0)), 4, 128);
+  const double a_step = std::max(a_max - a_min, 1e-12) / pixels, b_step = std::max(b_max - b_min, 1e-12) / pixels;
+  std::vector<double> farthest_range(static_cast<std::size_t>(pixels * pixels), -1.0);
+  const auto pixelOf = [&](double a, double b) -> int {
+    const int i = static_cast<int>(std::floor((a - a_min) / a_step));
+    const int j = static_cast<int>(std::floor((b - b_min) / b_step));
+    if (i < 0 || j < 0 || i > pixels || j > pixels) return -1;
+    return std::min(i, pixels - 1) * pixels + std::min(j, pixels - 1);
+  };
+  for (const auto& p : points) {
+    double a = 0.0, b = 0.0;
+    imageOf(p, &a, &b);
+    const int px = pixelOf(a, b);
+    auto& r = farthest_range[static_cast<std::size_t>(px)];
+    r = std::max(r, (p - sensor_origin).norm());
+  }
+
+  // The convex hull, approximated from outside by its support planes in evenly spread
+  // directions (Fibonacci lattice), shrunk by the margin.
+  std::vector<Vector3> directions;
+  std::vector<double> support;
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int k = 0; k < config.hull_directions; ++k) {
+    const double z = 1.0 - 2.0 * (k + 0.5) / config.hull_directions;
+    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const Vector3 u(r * std::cos(golden * k), r * std::sin(golden * k), z);
+    double h = -std::numeric_limits<double>::infinity();
+    for (const auto& p : points) h = std::max(h, u.dot(p));
+    directions.push_back(u);
+    support.push_back(h - margin);
+  }
+  Vector3 lo = points.front(), hi = points.front();
+  for (const auto& p : points) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+
+  std::vector<TrainingPoint> candidates;
+  const int n = config.grid_cells;
+  for (int ix = 0; ix < n; ++ix)
+    for (int iy = 0; iy < n; ++iy)
+      for (int iz = 0; iz < n; ++iz) {
+        const Vector3 t((ix + 0.5) / n, (iy + 0.5) / n, (iz + 0.5) / n);
+        const Vector3 x = lo + (hi - lo).cwiseProduct(t);
+        bool in_hull = true;
+        for (std::size_t k = 0; k < directions.size() && in_hull; ++k) in_hull = directions[k].dot(x) <= support[k];
+        if (!in_hull) continue;
+        double a = 0.0, b = 0.0;
+        if (!imageOf(x, &a, &b)) continue;
+        const int px = pixelOf(a, b);
+        if (px < 0) continue;
+        const double hit = farthest_range[static_cast<std::size_t>(px)];
+        if (hit < 0.0 || (x - sensor_origin).norm() < hit + margin) continue;
+        double nearest = std::numeric_limits<double>::infinity();
+        for (const auto& p : points) nearest = std::min(nearest, (p - x).squaredNorm());
+        nearest = std::sqrt(nearest);
+        if (nearest < margin) continue;
+        TrainingPoint s;
+        s.position = x;
+        s.label = PointLabel::kInside;
+        s.source = PointSource::kVision;
+        s.noise_sigma = config.noise_sigma;
+        s.surface_distance_m = nearest;
+        candidates.push_back(s);
+      }
+  std::mt19937_64 rng(config.seed);
+  std::shuffle(candidates.begin(), candidates.end(), rng);
+  if (candidates.size() > static_cast<std::size_t>(config.max_points))
+    candidates.resize(static_cast<std::size_t>(config.max_points));
+  out.points = std::move(candidates);
+  out.ok = true;
+  return out;
+}
+
+}  // namespace gpatlas_core
+
+namespace gpatlas_core {
+
+std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<Vector3>& surface_points,
+                                                             const Vector3& sensor_origin,
+                                                             const OccludedInteriorPriorConfig& config,
+                                                             std::string* message) {
+  const auto fail = [&](const std::string& why) -> std::shared_ptr<InteriorPriorMean> {
+    if (message) *message = why;
+    return nullptr;
+  };
+  if (!(config.bump_radius_cells > 0.0) || !std::isfinite(config.bump_radius_cells) || !(config.depth >= 0.0) ||
+      !std::isfinite(config.depth))
+    return fail("invalid occluded-interior prior settings (bump_radius_cells > 0, depth >= 0)");
+  OccludedInteriorConfig sampling = config.sampling;
+  sampling.max_points = std::numeric_limits<int>::max();
+  const ViewFreeSpace interior = sampleOccludedInterior(surface_points, sensor_origin, sampling);
+  if (!interior.ok) return fail(interior.message);
+  Vector3 lo = Vector3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const auto& p : surface_points)
+    if (p.allFinite()) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  const double cell = (hi - lo).maxCoeff() / sampling.grid_cells;
+  std::vector<Vector3> centres;
+  centres.reserve(interior.points.size());
+  for (const auto& p : interior.points) centres.push_back(p.position);
+  if (message) message->clear();
+  return std::make_shared<InteriorPriorMean>(std::move(centres), config.bump_radius_cells * cell, config.depth);
 }
 
 }  // namespace gpatlas_core

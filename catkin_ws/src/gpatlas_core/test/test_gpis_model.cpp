@@ -279,6 +279,31 @@ TEST(GpisModel, FreeSpaceDistanceTargetsFollowTheFrame) {
   EXPECT_NEAR(fresh.mean(out), with_distance.mean(out), 1e-9);
 }
 
+TEST(GpisModel, InsideDistanceTargetsAreTheNegativeDistanceInTheFrame) {
+  GpisModel model;
+  const auto cap = sphereCap(150, 0.0, 29);
+  ASSERT_TRUE(model.fit(cap).ok);
+  const Vector3d top = cap[0].position;
+  const Vector3d in = top - 0.01 * (top - kCentre).normalized();
+  TrainingPoint inside_point;
+  inside_point.position = in;
+  inside_point.label = PointLabel::kInside;
+  inside_point.noise_sigma = 0.05;
+  inside_point.surface_distance_m = 0.01;
+  TrainingPoint explicit_target = inside_point;
+  explicit_target.surface_distance_m = std::numeric_limits<double>::quiet_NaN();
+  explicit_target.target_override = -0.01 / model.scale();
+  TrainingPoint plain = explicit_target;
+  plain.target_override = std::numeric_limits<double>::quiet_NaN();
+  GpisModel with_distance(model), with_target(model), with_minus_one(model);
+  ASSERT_TRUE(with_distance.addPoints({inside_point}).ok);
+  ASSERT_TRUE(with_target.addPoints({explicit_target}).ok);
+  ASSERT_TRUE(with_minus_one.addPoints({plain}).ok);
+  EXPECT_NEAR(with_distance.mean(in), with_target.mean(in), 1e-12);
+  // Without a distance an inside point keeps its -1: a different (steeper) model.
+  EXPECT_LT(with_minus_one.mean(in), with_distance.mean(in) - 0.05);
+}
+
 TEST(GpisModel, ContactNearTheCentroidDropsTheInsidePointAsARefitWould) {
   GpisModel model;
   ASSERT_TRUE(model.fit(sphereCap(200, -0.5, 24)).ok);

@@ -139,5 +139,172 @@ TEST(ViewFreeSpace, KeepsTheCavityOfABowlOpen) {
   for (std::size_t i = 0; i < view.size(); i += 10) EXPECT_NEAR(with_free_space.mean(view[i]), 0.0, 0.05);
 }
 
+// The front of a solid ball of radius kRadius centred at the origin, as seen from kSideEye:
+// a point of a convex body is visible exactly when its outward normal faces the eye.
+const Vector3 kSideEye(0.5, 0.1, 0.2);
+
+std::vector<Vector3> visibleBallFront(int count, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> gaussian;
+  std::vector<Vector3> points;
+  while (static_cast<int>(points.size()) < count) {
+    Vector3 d(gaussian(rng), gaussian(rng), gaussian(rng));
+    if (!(d.norm() > 1e-9)) continue;
+    d.normalize();
+    const Vector3 p = kRadius * d;
+    if (d.dot(kSideEye - p) > 0.0) points.push_back(p);
+  }
+  return points;
+}
+
+// Range from `eye` to the first intersection of its ray through `x` with the sphere |p| = R,
+// or infinity when the ray misses it.
+double firstSphereHit(const Vector3& eye, const Vector3& x) {
+  const Vector3 u = (x - eye).normalized();
+  const double b = eye.dot(u);
+  const double disc = b * b - (eye.squaredNorm() - kRadius * kRadius);
+  if (disc < 0.0) return std::numeric_limits<double>::infinity();
+  return -b - std::sqrt(disc);
+}
+
+TEST(OccludedInterior, SamplesOfASolidBallLieInsideItBehindTheVisibleSurface) {
+  const auto view = visibleBallFront(3000, 4);
+  OccludedInteriorConfig config;
+  config.max_points = 80;
+  const ViewFreeSpace inside = sampleOccludedInterior(view, kSideEye, config);
+  ASSERT_TRUE(inside.ok) << inside.message;
+  ASSERT_EQ(inside.points.size(), 80u);  // the ball's hidden half is large: the cap applies
+
+  double view_radius = 0.0;
+  Vector3 centroid = Vector3::Zero();
+  for (const auto& p : view) centroid += p;
+  centroid /= static_cast<double>(view.size());
+  for (const auto& p : view) view_radius = std::max(view_radius, (p - centroid).norm());
+  const double margin = config.margin_fraction * view_radius;
+
+  for (const auto& t : inside.points) {
+    EXPECT_EQ(t.label, PointLabel::kInside);
+    EXPECT_EQ(t.source, PointSource::kVision);
+    EXPECT_DOUBLE_EQ(t.noise_sigma, config.noise_sigma);
+    // Inside the solid (the truth), and behind the surface the camera saw on its own ray.
+    EXPECT_LT(t.position.norm(), kRadius) << t.position.transpose();
+    EXPECT_GT((t.position - kSideEye).norm(), firstSphereHit(kSideEye, t.position)) << t.position.transpose();
+    // Labelled with the distance to the nearest view point (recomputed), which clears the margin.
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& p : view) nearest = std::min(nearest, (p - t.position).norm());
+    EXPECT_NEAR(t.surface_distance_m, nearest, 1e-12);
+    EXPECT_GE(nearest, margin - 1e-12);
+  }
+}
+
+TEST(OccludedInterior, NothingTheCameraSawAsAirInABowl) {
+  // The zero-thickness bowl: its occluded interior is the space behind the shell. No sample may
+  // lie where the camera's ray reached it unobstructed: in the cavity in view, or above the rim.
+  // Seen from the side and above, so that the near rim hides part of the cavity: the shell's
+  // inside is visible where the ray enters through the opening, its outside where it faces
+  // the eye.
+  const Vector3 eye(0.35, 0.05, 0.2);
+  std::mt19937 rng(5);
+  std::normal_distribution<double> gaussian;
+  std::vector<Vector3> view;
+  while (view.size() < 3000) {
+    Vector3 d(gaussian(rng), gaussian(rng), gaussian(rng));
+    if (!(d.norm() > 1e-9)) continue;
+    d.normalize();
+    if (d.z() > 0.0) continue;
+    const Vector3 p = kRadius * d;
+    const Vector3 crossing = eye + (eye.z() / (eye.z() - p.z())) * (p - eye);
+    if (crossing.head<2>().norm() < kRadius || d.dot(eye - p) > 0.0) view.push_back(p);
+  }
+  const ViewFreeSpace inside = sampleOccludedInterior(view, eye);
+  ASSERT_TRUE(inside.ok) << inside.message;
+  ASSERT_GE(inside.points.size(), 20u);
+  std::size_t grazing = 0;
+  for (const auto& t : inside.points) {
+    const Vector3& x = t.position;
+    EXPECT_LT(x.z(), 0.0) << x.transpose();
+    // The ray from the eye meets the shell (the sphere below z = 0) before x.
+    const Vector3 u = (x - eye).normalized();
+    const double b = eye.dot(u);
+    const double disc = b * b - (eye.squaredNorm() - kRadius * kRadius);
+    bool blocked = false;
+    if (disc >= 0.0) {
+      for (double s : {-b - std::sqrt(disc), -b + std::sqrt(disc)}) {
+        const Vector3 hit = eye + s * u;
+        if (hit.z() <= 0.0 && s < (x - eye).norm()) blocked = true;
+      }
+    }
+    if (blocked) continue;
+    // The range image is coarse (about 4 view points per pixel, 7 mm here): a ray that grazes
+    // the rim can share a pixel with it. Allowed within a pixel of the rim, and rarely.
+    ++grazing;
+    const Vector3 crossing = eye + (eye.z() / (eye.z() - x.z())) * (x - eye);
+    EXPECT_GT(crossing.head<2>().norm(), kRadius - 0.01) << x.transpose();
+  }
+  EXPECT_LE(grazing, inside.points.size() / 20);
+}
+
+TEST(OccludedInterior, BadInputIsRefusedWithAReason) {
+  const auto view = visibleBallFront(50, 6);
+  auto result = sampleOccludedInterior(view, Vector3(std::nan(""), 0.0, 0.0));
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.message.find("sensor origin"), std::string::npos);
+
+  result = sampleOccludedInterior({Vector3::Zero(), Vector3::UnitX(), Vector3(std::nan(""), 0, 0)}, kSideEye);
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.message.find("fewer than 4"), std::string::npos);
+
+  result = sampleOccludedInterior(view, Vector3::Zero());  // the sensor amid the points
+  EXPECT_FALSE(result.ok);
+  EXPECT_NE(result.message.find("surround the sensor"), std::string::npos);
+
+  OccludedInteriorConfig bad;
+  bad.grid_cells = 1;
+  result = sampleOccludedInterior(view, kSideEye, bad);
+  EXPECT_FALSE(result.ok);
+  EXPECT_TRUE(result.points.empty());
+
+  OccludedInteriorPriorConfig bad_prior;
+  bad_prior.depth = -1.0;
+  std::string message;
+  EXPECT_EQ(makeOccludedInteriorPrior(view, kSideEye, bad_prior, &message), nullptr);
+  EXPECT_FALSE(message.empty());
+}
+
+// The reason for the occluded interior: with the front of a ball, its view's free space and no
+// inside pseudo-point, the GP has no evidence of material, and the ball's centre is not
+// clearly inside. The occluded interior says it is.
+TEST(OccludedInterior, TellsTheModelTheHiddenBulkIsMaterial) {
+  const auto view = visibleBallFront(1500, 7);
+  std::vector<TrainingPoint> data;
+  for (std::size_t i = 0; i < view.size(); i += 4) {
+    TrainingPoint t;
+    t.position = view[i];
+    t.noise_sigma = 0.1;
+    data.push_back(t);
+  }
+  const auto free = sampleViewFreeSpace(view, kSideEye);
+  ASSERT_TRUE(free.ok) << free.message;
+  data.insert(data.end(), free.points.begin(), free.points.end());
+  GpisModelConfig config;
+  config.inside_point_at_centroid = false;
+  GpisModel without(config);
+  ASSERT_TRUE(without.fit(data).ok);
+
+  const auto inside = sampleOccludedInterior(view, kSideEye);
+  ASSERT_TRUE(inside.ok) << inside.message;
+  data.insert(data.end(), inside.points.begin(), inside.points.end());
+  GpisModel with(config);
+  ASSERT_TRUE(with.fit(data).ok);
+
+  const Vector3 centre = Vector3::Zero();
+  const Vector3 hidden_back = -0.6 * kRadius * kSideEye.normalized();
+  EXPECT_LT(with.mean(centre), -0.1);
+  EXPECT_LT(with.mean(hidden_back), -0.05);
+  EXPECT_LT(with.mean(centre), without.mean(centre) - 0.1);
+  // The visible surface stays on the zero level set.
+  for (std::size_t i = 0; i < view.size(); i += 50) EXPECT_NEAR(with.mean(view[i]), 0.0, 0.05);
+}
+
 }  // namespace
 }  // namespace gpatlas_core

@@ -78,6 +78,12 @@ struct Options {
   bool plot{true};
   bool save_meshes{false};
   int view_free_rays{300};
+  int occluded_inside_points{60};
+  double occluded_inside_sigma{1.0};
+  double occluded_margin{0.08};
+  double interior_prior_depth{0.0};
+  double interior_prior_radius_cells{1.5};
+  int interior_prior_cells{16};
   int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
   double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
   double min_free_space_spacing_m{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
@@ -102,6 +108,12 @@ void printUsage() {
   --out DIR                      output folder [bench_out]
   --points N                     initial on-surface points taken from the depth view [400]
   --view-free-rays N             camera rays whose free space (2 samples each) joins the initial data; 0: none [300]
+  --occluded-inside N            inside points sampled behind the view, within its hull; 0: none [60]
+  --occluded-inside-sigma S      their noise sigma (reference units) [1.0]
+  --occluded-margin F            their clearance behind the view, fraction of its radius [0.08]
+  --interior-prior D             prior mean -D (units of f) over the view's occluded interior; 0: none [0]
+  --interior-prior-radius C      its bumps' radius in grid cells [1.5]
+  --interior-prior-cells N       its grid cells per axis [16]
   --slide-extension N            atlas_slide: charts added to the path past the first above V_max [6]
   --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
   --min-free-spacing-m D         ... and its free-space points to this one [0.015]
@@ -215,6 +227,12 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
     else if (a == "--view-free-rays") o.view_free_rays = parseInt(a, next());
+    else if (a == "--occluded-inside") o.occluded_inside_points = parseInt(a, next());
+    else if (a == "--occluded-inside-sigma") o.occluded_inside_sigma = parseDouble(a, next());
+    else if (a == "--occluded-margin") o.occluded_margin = parseDouble(a, next());
+    else if (a == "--interior-prior") o.interior_prior_depth = parseDouble(a, next());
+    else if (a == "--interior-prior-radius") o.interior_prior_radius_cells = parseDouble(a, next());
+    else if (a == "--interior-prior-cells") o.interior_prior_cells = parseInt(a, next());
     else if (a == "--slide-extension") o.slide_extension_charts = parseInt(a, next());
     else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
     else if (a == "--min-free-spacing-m") o.min_free_space_spacing_m = parseDouble(a, next());
@@ -235,6 +253,8 @@ Options parseArgs(int argc, char** argv) {
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
   if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
+  if (o.occluded_inside_points < 0) throw std::invalid_argument("--occluded-inside must be >= 0");
+  if (!(o.occluded_inside_sigma > 0.0)) throw std::invalid_argument("--occluded-inside-sigma must be > 0");
   if (o.slide_extension_charts < 0) throw std::invalid_argument("--slide-extension must be >= 0");
   if (!(o.min_point_spacing_m >= 0.0) || !(o.min_free_space_spacing_m >= 0.0))
     throw std::invalid_argument("--min-spacing-m and --min-free-spacing-m must be >= 0");
@@ -377,7 +397,40 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     }
     initial.insert(initial.end(), free.points.begin(), free.points.end());
   }
+  if (o.occluded_inside_points > 0) {
+    std::vector<Vector3> view;
+    for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
+    gpatlas_core::OccludedInteriorConfig inside_config;
+    inside_config.max_points = o.occluded_inside_points;
+    inside_config.noise_sigma = o.occluded_inside_sigma;
+    inside_config.margin_fraction = o.occluded_margin;
+    inside_config.seed = static_cast<std::uint64_t>(seed) + 1;
+    const auto inside = gpatlas_core::sampleOccludedInterior(view, eye, inside_config);
+    if (!inside.ok) {
+      r.error = "occluded interior: " + inside.message;
+      r.stop_reason = "error";
+      return r;
+    }
+    initial.insert(initial.end(), inside.points.begin(), inside.points.end());
+  }
   gpatlas_core::GpisModel model(o.gpis);
+  if (o.interior_prior_depth > 0.0) {
+    std::vector<Vector3> view;
+    for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
+    gpatlas_core::OccludedInteriorPriorConfig prior_config;
+    prior_config.depth = o.interior_prior_depth;
+    prior_config.bump_radius_cells = o.interior_prior_radius_cells;
+    prior_config.sampling.grid_cells = o.interior_prior_cells;
+    prior_config.sampling.margin_fraction = o.occluded_margin;
+    std::string message;
+    auto prior = gpatlas_core::makeOccludedInteriorPrior(view, eye, prior_config, &message);
+    if (!prior) {
+      r.error = "occluded-interior prior: " + message;
+      r.stop_reason = "error";
+      return r;
+    }
+    model.setPriorMean(prior);
+  }
   const auto fit = model.fit(initial);
   if (!fit.ok) {
     r.error = "initial fit failed: " + fit.message;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/kernel.h"
+#include "gpatlas_core/prior_mean.h"
 #include "gpatlas_core/types.h"
 
 #include <Eigen/Core>
@@ -169,6 +170,11 @@ class GpisModel {
   // and `variance` is NaN: mean-only queries (meshing, projection) cost O(n) per point.
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
                                bool with_variance_gradient = true, bool with_variance = true) const;
+
+  // Prior mean of f (none: zero, the paper's). Refits a fitted model; on failure the previous
+  // prior stays. Observations' targets are unchanged: the GP models their residual.
+  FitReport setPriorMean(std::shared_ptr<const PriorMean> prior);
+  const std::shared_ptr<const PriorMean>& priorMean() const;
 
   // Hyperparameters.
   const Kernel& kernel() const;

@@ -31,9 +31,9 @@ struct TrainingPoint {
   // When finite, replaces the label's target (-1/0/+1): plain GP regression on other data,
   // e.g. samples drawn from a known kernel in the tuner's tests.
   double target_override{std::numeric_limits<double>::quiet_NaN()};
-  // For an outside point: the distance (metres) to the nearest known surface point. The model
-  // then uses min(1, distance / scale) as the target, in its current frame (see
-  // GpisModel::nearestSurfaceDistance); NaN keeps the label's +1.
+  // For an outside (inside) point: the distance (metres) to the nearest known surface point.
+  // The model then uses min(1, distance / scale) (its negative) as the target, in its current
+  // frame (see GpisModel::nearestSurfaceDistance); NaN keeps the label's +1 (-1).
   double surface_distance_m{std::numeric_limits<double>::quiet_NaN()};
 };
 

@@ -66,5 +66,8 @@ void readSegmenter(ParamReader& reader, gpatlas_core::ObjectSegmenter::Config* c
 // view_free_space/...: the camera's free space as outside points; `sensor_frame` is the depth
 // camera's optical frame (empty: the view's free space is not used).
 void readViewFreeSpace(ParamReader& reader, gpatlas_core::ViewFreeSpaceConfig* config, std::string* sensor_frame);
+// occluded_interior/...: inside points behind the view, within its hull (needs the sensor
+// frame above; max_points 0 disables them).
+void readOccludedInterior(ParamReader& reader, gpatlas_core::OccludedInteriorConfig* config);
 
 }  // namespace gpatlas_ros

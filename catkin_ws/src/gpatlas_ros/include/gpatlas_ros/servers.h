@@ -91,6 +91,7 @@ class GpModelServer {
   gpatlas_core::HyperparameterTuner::Config tuner_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   gpatlas_core::ViewFreeSpaceConfig view_free_config_;
+  gpatlas_core::OccludedInteriorConfig occluded_config_;
   std::string sensor_frame_;  // empty: no view free space
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;

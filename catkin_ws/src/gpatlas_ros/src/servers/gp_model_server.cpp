@@ -43,6 +43,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readMesher(reader, &mesher_config_);
   readViewFreeSpace(reader, &view_free_config_, &sensor_frame_);
   view_free_config_.noise_sigma = noise_.free_space_sigma;
+  readOccludedInterior(reader, &occluded_config_);
   touch_config_.contact_noise_sigma = noise_.touch_sigma;
   touch_config_.free_space_noise_sigma = noise_.free_space_sigma;
   reader.report("gp_model");
@@ -102,6 +103,13 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
         std::mt19937 pick(11);
         std::shuffle(view_free.begin(), view_free.end(), pick);
         view_free.resize(static_cast<std::size_t>(max_vision_points_));
+      }
+      // Material behind what the camera saw, within the view's hull: without it a surface the
+      // camera never saw (a bowl's bottom behind its rim) has no zero crossing to explore.
+      if (occluded_config_.max_points > 0) {
+        auto inside = gpatlas_core::sampleOccludedInterior(points, origin.front(), occluded_config_);
+        if (inside.ok) view_free.insert(view_free.end(), inside.points.begin(), inside.points.end());
+        else ROS_WARN_STREAM("gp_model: no occluded interior: " << inside.message);
       }
     }
   }

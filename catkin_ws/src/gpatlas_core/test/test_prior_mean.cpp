@@ -1,0 +1,175 @@
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/prior_mean.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+namespace gpatlas_core {
+namespace {
+
+std::vector<Vector3> randomPoints(int count, double half_width, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-half_width, half_width);
+  std::vector<Vector3> points;
+  for (int i = 0; i < count; ++i) points.emplace_back(u(rng), u(rng), u(rng));
+  return points;
+}
+
+// The prior written out from its definition, over every centre (no grid).
+double bruteForcePrior(const std::vector<Vector3>& centres, double radius, double depth, const Vector3& x) {
+  double sum = 0.0;
+  for (const auto& c : centres) {
+    const double t = (x - c).norm() / radius;
+    if (t < 1.0) sum += std::pow(1.0 - t, 4) * (4.0 * t + 1.0);
+  }
+  return -depth * (1.0 - std::exp(-sum));
+}
+
+TEST(InteriorPriorMean, ValueMatchesItsDefinitionAndGradientMatchesFiniteDifferences) {
+  const auto centres = randomPoints(200, 0.05, 1);
+  const InteriorPriorMean prior(centres, 0.02, 0.3);
+  const double h = 1e-6;
+  for (const auto& x : randomPoints(100, 0.08, 2)) {
+    Vector3 gradient;
+    const double value = prior.value(x, &gradient);
+    EXPECT_NEAR(value, bruteForcePrior(centres, 0.02, 0.3, x), 1e-12);
+    EXPECT_DOUBLE_EQ(prior.value(x), value);
+    for (int k = 0; k < 3; ++k) {
+      const Vector3 step = h * Vector3::Unit(k);
+      const double fd = (prior.value(x + step) - prior.value(x - step)) / (2.0 * h);
+      EXPECT_NEAR(gradient[k], fd, 1e-5 * std::max(1.0, std::abs(fd)));
+    }
+  }
+}
+
+TEST(InteriorPriorMean, ZeroAwayFromTheCentresAndNearMinusDepthAmidThem) {
+  std::vector<Vector3> grid;
+  for (int i = -5; i <= 5; ++i)
+    for (int j = -5; j <= 5; ++j)
+      for (int k = -5; k <= 5; ++k) grid.emplace_back(0.01 * i, 0.01 * j, 0.01 * k);
+  const InteriorPriorMean prior(grid, 0.03, 0.25);  // ~8 bumps' worth of overlap: saturated
+  Vector3 gradient;
+  EXPECT_EQ(prior.value(Vector3(0.2, 0.0, 0.0), &gradient), 0.0);
+  EXPECT_EQ(gradient.norm(), 0.0);
+  EXPECT_NEAR(prior.value(Vector3(0.001, 0.002, -0.003)), -0.25, 0.01);
+  EXPECT_EQ(InteriorPriorMean({}, 0.01, 0.3).value(Vector3::Zero()), 0.0);
+  EXPECT_EQ(prior.value(Vector3(std::nan(""), 0.0, 0.0)), 0.0);
+}
+
+TEST(InteriorPriorMean, InvalidArgumentsThrow) {
+  EXPECT_THROW(InteriorPriorMean({Vector3::Zero()}, 0.0, 0.3), std::invalid_argument);
+  EXPECT_THROW(InteriorPriorMean({Vector3::Zero()}, 0.01, -0.1), std::invalid_argument);
+  EXPECT_THROW(InteriorPriorMean({Vector3(std::nan(""), 0.0, 0.0)}, 0.01, 0.3), std::invalid_argument);
+}
+
+// Data: a sphere's front cap (surface), some free space and the prior's bumps behind it.
+std::vector<TrainingPoint> capData(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g;
+  std::vector<TrainingPoint> data;
+  while (data.size() < 120) {
+    Vector3 d(g(rng), g(rng), g(rng));
+    d.normalize();
+    if (d.x() < 0.2) continue;
+    TrainingPoint t;
+    t.position = 0.1 * d;
+    t.noise_sigma = 0.1;
+    data.push_back(t);
+  }
+  for (int i = 0; i < 20; ++i) {
+    TrainingPoint t;
+    t.position = Vector3(0.13 + 0.002 * i, 0.01 * (i % 5) - 0.02, 0.0);
+    t.label = PointLabel::kOutside;
+    t.noise_sigma = 0.3;
+    t.surface_distance_m = t.position.norm() - 0.1;
+    data.push_back(t);
+  }
+  return data;
+}
+
+std::shared_ptr<const InteriorPriorMean> backPrior() {
+  std::vector<Vector3> centres;
+  for (const auto& p : randomPoints(150, 0.05, 3)) centres.push_back(p - Vector3(0.03, 0.0, 0.0));
+  return std::make_shared<InteriorPriorMean>(centres, 0.025, 0.3);
+}
+
+// The definition of a GP with a known mean m: it is m plus a zero-mean GP fitted to the
+// residuals y - m(x). The reference model below is that zero-mean GP, its targets overridden.
+TEST(GpisModelWithPrior, EqualsAZeroMeanModelOfTheResidualsPlusThePrior) {
+  GpisModelConfig config;
+  config.num_outside_points = 0;  // pseudo-points would carry the prior too: keep the reference exact
+  config.inside_point_at_centroid = false;
+  const auto data = capData(4);
+  const auto prior = backPrior();
+
+  GpisModel with_prior(config);
+  ASSERT_TRUE(with_prior.setPriorMean(prior).ok);
+  ASSERT_TRUE(with_prior.fit(data).ok);
+
+  GpisModel reference(config);
+  ASSERT_TRUE(reference.fit(data).ok);  // for its frame (scale) only
+  auto residual_data = data;
+  for (auto& t : residual_data) {
+    const double label = static_cast<double>(static_cast<int>(t.label));
+    const double target =
+        std::isfinite(t.surface_distance_m) ? label * std::min(1.0, t.surface_distance_m / reference.scale()) : label;
+    t.target_override = target - prior->value(t.position);
+  }
+  ASSERT_TRUE(reference.fitInFrame(residual_data, reference.centroid(), reference.scale()).ok);
+
+  for (const auto& x : randomPoints(50, 0.12, 5)) {
+    const Prediction a = with_prior.predict(x);
+    const Prediction b = reference.predict(x);
+    Vector3 prior_gradient;
+    const double m = prior->value(x, &prior_gradient);
+    EXPECT_NEAR(a.mean, b.mean + m, 1e-9);
+    EXPECT_NEAR(a.variance, b.variance, 1e-12);  // the prior moves the mean only
+    EXPECT_NEAR((a.gradient - b.gradient - prior_gradient).norm(), 0.0, 1e-7);
+  }
+  // And the batch query agrees with the single ones.
+  Points3 xs(3, 2);
+  xs.col(0) = Vector3(-0.05, 0.01, 0.02);
+  xs.col(1) = Vector3(0.09, -0.02, 0.0);
+  const BatchPrediction batch = with_prior.predictBatch(xs, true, false, false);
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_NEAR(batch.mean[j], with_prior.mean(xs.col(j)), 1e-12);
+    EXPECT_NEAR((batch.gradient.col(j) - with_prior.predict(xs.col(j)).gradient).norm(), 0.0, 1e-9);
+  }
+}
+
+TEST(GpisModelWithPrior, IncrementalUpdateEqualsARefitAndRemovingThePriorRestoresTheModel) {
+  const auto data = capData(6);
+  GpisModel plain;
+  ASSERT_TRUE(plain.fit(data).ok);
+  GpisModel model(plain);
+  ASSERT_TRUE(model.setPriorMean(backPrior()).ok);  // refits the fitted model
+  ASSERT_NE(model.priorMean(), nullptr);
+  const Vector3 behind(-0.06, 0.0, 0.0);
+  EXPECT_LT(model.mean(behind), plain.mean(behind) - 0.05);  // the prior's material behind
+
+  TrainingPoint contact;
+  contact.position = Vector3(-0.1, 0.0, 0.0);  // the back of the sphere, by touch
+  contact.noise_sigma = 0.3;
+  contact.source = PointSource::kTouch;
+  ASSERT_TRUE(model.addPoints({contact}).ok);
+  GpisModel refitted(model);
+  ASSERT_TRUE(refitted.refit().ok);
+  for (const auto& x : randomPoints(30, 0.12, 7)) {
+    EXPECT_NEAR(model.mean(x), refitted.mean(x), 1e-8);
+    EXPECT_NEAR(model.variance(x), refitted.variance(x), 1e-8);
+  }
+
+  GpisModel without(model);
+  ASSERT_TRUE(without.setPriorMean(nullptr).ok);
+  GpisModel zero_mean;
+  ASSERT_TRUE(zero_mean.fitInFrame(model.observations(), model.centroid(), model.scale()).ok);
+  for (const auto& x : randomPoints(30, 0.12, 8)) EXPECT_NEAR(without.mean(x), zero_mean.mean(x), 1e-9);
+}
+
+}  // namespace
+}  // namespace gpatlas_core
