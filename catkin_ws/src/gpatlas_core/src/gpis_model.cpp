@@ -341,11 +341,16 @@ FitReport GpisModel::refit(bool renormalise) {
     m.noise_var[m.n] = pseudo_var;
     ++m.n;
   }
+  if (!m.y.head(m.n).allFinite()) {
+    m = std::move(backup);
+    report.message = "the prior mean is not finite at a pseudo-point";
+    return report;
+  }
 
   // Observations: drop out-of-domain outside points and duplicates.
   std::vector<TrainingPoint> kept;
   kept.reserve(m.observations.size());
-  std::size_t out_of_domain = 0, duplicates = 0;
+  std::size_t out_of_domain = 0, duplicates = 0, bad_prior = 0;
   const double dup2 = c.duplicate_distance * c.duplicate_distance;
   for (const auto& p : m.observations) {
     const Vector3 xn = m.normalise(p.position);
@@ -353,10 +358,17 @@ FitReport GpisModel::refit(bool renormalise) {
       ++out_of_domain;
       continue;
     }
-    bool duplicate = false;
     const double target = m.residualOf(p);
-    for (Eigen::Index j = num_pseudo; j < m.n && !duplicate; ++j)
-      duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
+    if (!std::isfinite(target)) {
+      ++bad_prior;
+      continue;
+    }
+    // Duplicates: the same label's value at (nearly) the same place; kept observations are in
+    // the order of m.x after the pseudo-points.
+    bool duplicate = false;
+    const double value = targetOf(p, m.scale);
+    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
+      duplicate = targetOf(kept[j], m.scale) == value && (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
@@ -370,6 +382,12 @@ FitReport GpisModel::refit(bool renormalise) {
   if (out_of_domain > 0)
     report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
   if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
+  if (bad_prior > 0) {
+    // Never drop accepted data for a broken prior: refuse it instead.
+    m = std::move(backup);
+    report.message = "the prior mean is not finite at " + std::to_string(bad_prior) + " observation(s)";
+    return report;
+  }
   report.num_rejected = out_of_domain + duplicates;
   m.observations = std::move(kept);
 
@@ -423,7 +441,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   // Screen against the domain and duplicates in the current frame.
   std::vector<TrainingPoint> kept;
   std::vector<Vector3> kept_x;
-  std::size_t out_of_domain = 0, duplicates = 0;
+  std::size_t out_of_domain = 0, duplicates = 0, bad_prior = 0;
   const double dup2 = c.duplicate_distance * c.duplicate_distance;
   for (const auto& p : accepted) {
     const Vector3 xn = m.normalise(p.position);
@@ -431,12 +449,17 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
       ++out_of_domain;
       continue;
     }
-    const double target = m.residualOf(p);
+    if (!std::isfinite(m.residualOf(p))) {
+      ++bad_prior;
+      continue;
+    }
+    const double value = targetOf(p, m.scale);
     bool duplicate = false;
-    for (Eigen::Index j = m.num_pseudo; j < m.n && !duplicate; ++j)
-      duplicate = m.y[j] == target && (m.x.col(j) - xn).squaredNorm() <= dup2;
+    for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
+      duplicate = targetOf(m.observations[j], m.scale) == value &&
+                  (m.x.col(m.num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = m.residualOf(kept[j]) == target && (kept_x[j] - xn).squaredNorm() <= dup2;
+      duplicate = targetOf(kept[j], m.scale) == value && (kept_x[j] - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
@@ -447,7 +470,9 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   if (out_of_domain > 0)
     report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
   if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
-  report.num_rejected += out_of_domain + duplicates;
+  if (bad_prior > 0)
+    report.warnings.push_back(std::to_string(bad_prior) + " point(s) dropped: the prior mean is not finite there");
+  report.num_rejected += out_of_domain + duplicates + bad_prior;
   if (kept.empty()) {
     report.ok = true;
     report.message = "no new point to add";

@@ -85,11 +85,11 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
     return out;
   }
   if (config.grid_cells < 2 || config.grid_cells > 100 || config.max_points < 0 || config.hull_directions < 4 ||
-      !(config.margin_fraction >= 0.0) || !std::isfinite(config.margin_fraction) || !(config.noise_sigma >= 0.0) ||
+      !(config.margin_fraction >= 0.0) || !std::isfinite(config.margin_fraction) || !(config.noise_sigma > 0.0) ||
       !std::isfinite(config.noise_sigma)) {
     out.message =
         "invalid occluded-interior settings (2 <= grid_cells <= 100, max_points >= 0, hull_directions >= 4, "
-        "margin_fraction >= 0, noise_sigma >= 0)";
+        "margin_fraction >= 0, noise_sigma > 0)";
     return out;
   }
   std::vector<Vector3> points;
@@ -141,11 +141,12 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
   const int pixels = std::clamp(static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 4.0)), 4, 128);
   const double a_step = std::max(a_max - a_min, 1e-12) / pixels, b_step = std::max(b_max - b_min, 1e-12) / pixels;
   std::vector<double> farthest_range(static_cast<std::size_t>(pixels * pixels), -1.0);
+  // Outside the image: -1. The image's far edges (a == a_max) belong to its last pixels.
   const auto pixelOf = [&](double a, double b) -> int {
-    const int i = static_cast<int>(std::floor((a - a_min) / a_step));
-    const int j = static_cast<int>(std::floor((b - b_min) / b_step));
-    if (i < 0 || j < 0 || i > pixels || j > pixels) return -1;
-    return std::min(i, pixels - 1) * pixels + std::min(j, pixels - 1);
+    if (a < a_min || a > a_max || b < b_min || b > b_max) return -1;
+    const int i = std::min(static_cast<int>(std::floor((a - a_min) / a_step)), pixels - 1);
+    const int j = std::min(static_cast<int>(std::floor((b - b_min) / b_step)), pixels - 1);
+    return i * pixels + j;
   };
   for (const auto& p : points) {
     double a = 0.0, b = 0.0;
@@ -175,7 +176,9 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
     hi = hi.cwiseMax(p);
   }
 
-  std::vector<TrainingPoint> candidates;
+  // Cheap tests first (hull, range image) on the whole grid, then the O(view) distance test on
+  // a random order of the survivors until max_points are accepted.
+  std::vector<Vector3> candidates;
   const int n = config.grid_cells;
   for (int ix = 0; ix < n; ++ix)
     for (int iy = 0; iy < n; ++iy)
@@ -191,23 +194,24 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
         if (px < 0) continue;
         const double hit = farthest_range[static_cast<std::size_t>(px)];
         if (hit < 0.0 || (x - sensor_origin).norm() < hit + margin) continue;
-        double nearest = std::numeric_limits<double>::infinity();
-        for (const auto& p : points) nearest = std::min(nearest, (p - x).squaredNorm());
-        nearest = std::sqrt(nearest);
-        if (nearest < margin) continue;
-        TrainingPoint s;
-        s.position = x;
-        s.label = PointLabel::kInside;
-        s.source = PointSource::kVision;
-        s.noise_sigma = config.noise_sigma;
-        s.surface_distance_m = nearest;
-        candidates.push_back(s);
+        candidates.push_back(x);
       }
   std::mt19937_64 rng(config.seed);
   std::shuffle(candidates.begin(), candidates.end(), rng);
-  if (candidates.size() > static_cast<std::size_t>(config.max_points))
-    candidates.resize(static_cast<std::size_t>(config.max_points));
-  out.points = std::move(candidates);
+  for (const Vector3& x : candidates) {
+    if (out.points.size() >= static_cast<std::size_t>(config.max_points)) break;
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& p : points) nearest = std::min(nearest, (p - x).squaredNorm());
+    nearest = std::sqrt(nearest);
+    if (nearest < margin) continue;
+    TrainingPoint s;
+    s.position = x;
+    s.label = PointLabel::kInside;
+    s.source = PointSource::kVision;
+    s.noise_sigma = config.noise_sigma;
+    s.surface_distance_m = nearest;
+    out.points.push_back(s);
+  }
   out.ok = true;
   return out;
 }

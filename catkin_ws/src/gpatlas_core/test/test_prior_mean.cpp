@@ -142,6 +142,76 @@ TEST(GpisModelWithPrior, EqualsAZeroMeanModelOfTheResidualsPlusThePrior) {
   }
 }
 
+// The pseudo-points carry the prior too: the inside point at the centroid has residual
+// -1 - m(centroid). Reference: a zero-mean model with that point given explicitly.
+TEST(GpisModelWithPrior, ThePseudoPointAtTheCentroidCarriesThePrior) {
+  GpisModelConfig config;
+  config.num_outside_points = 0;
+  config.inside_point_min_clearance = 0.0;  // always placed
+  const auto data = capData(9);
+  GpisModel frame_of(config);
+  ASSERT_TRUE(frame_of.fit(data).ok);
+  const Vector3 centroid = frame_of.centroid();
+  std::vector<Vector3> centres;
+  for (const auto& p : randomPoints(60, 0.02, 10)) centres.push_back(centroid + p);
+  const auto prior = std::make_shared<InteriorPriorMean>(centres, 0.03, 0.3);
+  ASSERT_LT(prior->value(centroid), -0.2);
+
+  GpisModel with_prior(config);
+  ASSERT_TRUE(with_prior.setPriorMean(prior).ok);
+  ASSERT_TRUE(with_prior.fitInFrame(data, centroid, frame_of.scale()).ok);
+  ASSERT_EQ(with_prior.size(), data.size() + 1);  // the inside point is there
+
+  GpisModelConfig bare = config;
+  bare.inside_point_at_centroid = false;
+  auto residual_data = data;
+  for (auto& t : residual_data) {
+    const double label = static_cast<double>(static_cast<int>(t.label));
+    const double target =
+        std::isfinite(t.surface_distance_m) ? label * std::min(1.0, t.surface_distance_m / frame_of.scale()) : label;
+    t.target_override = target - prior->value(t.position);
+  }
+  TrainingPoint centre_point;
+  centre_point.position = centroid;
+  centre_point.label = PointLabel::kInside;
+  centre_point.noise_sigma = 0.0;  // as the pseudo-point (pseudo_point_sigma 0)
+  centre_point.target_override = -1.0 - prior->value(centroid);
+  residual_data.push_back(centre_point);
+  GpisModel reference(bare);
+  ASSERT_TRUE(reference.fitInFrame(residual_data, centroid, frame_of.scale()).ok);
+  for (const auto& x : randomPoints(40, 0.12, 11))
+    EXPECT_NEAR(with_prior.mean(x), reference.mean(x) + prior->value(x), 1e-8);
+}
+
+TEST(GpisModelWithPrior, ANonFinitePriorIsRefusedAndTheModelKept) {
+  struct BrokenPrior : PriorMean {
+    double value(const Vector3& x, Vector3* gradient) const override {
+      if (gradient) gradient->setZero();
+      return (x - Vector3(0.1, 0.0, 0.0)).norm() < 0.03 ? std::numeric_limits<double>::quiet_NaN() : 0.0;
+    }
+  };
+  const auto data = capData(12);
+  GpisModel model;
+  ASSERT_TRUE(model.fit(data).ok);
+  const double before = model.mean(Vector3(0.0, 0.0, 0.0));
+  // NaN at some observations: refused (no data is dropped for a broken prior), model kept.
+  const FitReport refused = model.setPriorMean(std::make_shared<BrokenPrior>());
+  EXPECT_FALSE(refused.ok);
+  EXPECT_NE(refused.message.find("observation"), std::string::npos);
+  EXPECT_EQ(model.observations().size(), data.size());
+  EXPECT_EQ(model.priorMean(), nullptr);
+  EXPECT_DOUBLE_EQ(model.mean(Vector3(0.0, 0.0, 0.0)), before);
+  // NaN everywhere: the pseudo-points already fail the fit.
+  struct NanPrior : PriorMean {
+    double value(const Vector3&, Vector3*) const override { return std::numeric_limits<double>::quiet_NaN(); }
+  };
+  const FitReport failed = model.setPriorMean(std::make_shared<NanPrior>());
+  EXPECT_FALSE(failed.ok);
+  EXPECT_NE(failed.message.find("not finite"), std::string::npos);
+  EXPECT_EQ(model.priorMean(), nullptr);
+  EXPECT_DOUBLE_EQ(model.mean(Vector3(0.0, 0.0, 0.0)), before);
+}
+
 TEST(GpisModelWithPrior, IncrementalUpdateEqualsARefitAndRemovingThePriorRestoresTheModel) {
   const auto data = capData(6);
   GpisModel plain;

@@ -188,7 +188,10 @@ TEST(OccludedInterior, SamplesOfASolidBallLieInsideItBehindTheVisibleSurface) {
     EXPECT_DOUBLE_EQ(t.noise_sigma, config.noise_sigma);
     // Inside the solid (the truth), and behind the surface the camera saw on its own ray.
     EXPECT_LT(t.position.norm(), kRadius) << t.position.transpose();
-    EXPECT_GT((t.position - kSideEye).norm(), firstSphereHit(kSideEye, t.position)) << t.position.transpose();
+    // By the margin, less the range image's coarseness (a pixel spans several view rays, whose
+    // hits on the curved surface differ in range by up to a few millimetres).
+    EXPECT_GE((t.position - kSideEye).norm(), firstSphereHit(kSideEye, t.position) + margin - 0.005)
+        << t.position.transpose();
     // Labelled with the distance to the nearest view point (recomputed), which clears the margin.
     double nearest = std::numeric_limits<double>::infinity();
     for (const auto& p : view) nearest = std::min(nearest, (p - t.position).norm());

@@ -171,7 +171,7 @@ void readViewFreeSpace(ParamReader& r, gpatlas_core::ViewFreeSpaceConfig* c, std
 
 void readOccludedInterior(ParamReader& r, gpatlas_core::OccludedInteriorConfig* c) {
   c->max_points = r.integer("occluded_interior/max_points", c->max_points, 0, 2000);
-  c->grid_cells = r.integer("occluded_interior/grid_cells", c->grid_cells, 2, 100);
+  c->grid_cells = r.integer("occluded_interior/grid_cells", c->grid_cells, 2, 40);
   c->margin_fraction = r.number("occluded_interior/margin_fraction", c->margin_fraction, 0.0, 1.0);
   c->noise_sigma = r.number("occluded_interior/noise_sigma", c->noise_sigma, 1e-3, 100.0);
 }

@@ -161,10 +161,10 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // Only object points reach the GP: every surface point is on the sphere, none on or under
   // the table top (z = 0). The camera's free space (sensor_frame test_camera, see
   // pipeline.test) adds outside points in front of the sphere, each labelled with a distance to
-  // the view that is at least its true distance to the sphere.
+  // the view that is at least its true distance to the sphere, and inside points behind it.
   ASSERT_EQ(training->labels.size(), training->points.size());
   ASSERT_EQ(training->surface_distances_m.size(), training->points.size());
-  std::size_t view_free_space = 0;
+  std::size_t view_free_space = 0, occluded_interior = 0;
   for (std::size_t i = 0; i < training->points.size(); ++i) {
     const auto& p = training->points[i];
     EXPECT_GT(p.z, 0.0);
@@ -175,9 +175,17 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
       EXPECT_GT(distance, 0.0);
       EXPECT_GE(training->surface_distances_m[i] + 0.004, distance);
       ++view_free_space;
+    } else {
+      // The view's occluded interior (occluded_interior/*): inside the sphere, labelled with a
+      // distance to the view at least its true depth.
+      const double depth = kRadius - (gpatlas_ros::fromMsg(p) - kCentre).norm();
+      EXPECT_GT(depth, 0.0);
+      EXPECT_GE(training->surface_distances_m[i] + 0.004, depth);
+      ++occluded_interior;
     }
   }
   EXPECT_GT(view_free_space, 100u);
+  EXPECT_GT(occluded_interior, 10u);
 
   // The planner needs the latched training set too; retry while it reports no model.
   gpatlas_msgs::GetNextTouch touch;

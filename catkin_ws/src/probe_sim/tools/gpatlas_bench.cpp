@@ -111,7 +111,8 @@ void printUsage() {
   --occluded-inside N            inside points sampled behind the view, within its hull; 0: none [60]
   --occluded-inside-sigma S      their noise sigma (reference units) [1.0]
   --occluded-margin F            their clearance behind the view, fraction of its radius [0.08]
-  --interior-prior D             prior mean -D (units of f) over the view's occluded interior; 0: none [0]
+  --interior-prior D             prior mean -D (units of f) over the view's occluded interior,
+                                 instead of the inside points unless --occluded-inside is given; 0: none [0]
   --interior-prior-radius C      its bumps' radius in grid cells [1.5]
   --interior-prior-cells N       its grid cells per axis [16]
   --slide-extension N            atlas_slide: charts added to the path past the first above V_max [6]
@@ -173,6 +174,7 @@ Options parseArgs(int argc, char** argv) {
   Options o;
   bool seeds_given = false;
   bool frame_given = false;
+  bool occluded_inside_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -227,7 +229,10 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
     else if (a == "--view-free-rays") o.view_free_rays = parseInt(a, next());
-    else if (a == "--occluded-inside") o.occluded_inside_points = parseInt(a, next());
+    else if (a == "--occluded-inside") {
+      o.occluded_inside_points = parseInt(a, next());
+      occluded_inside_given = true;
+    }
     else if (a == "--occluded-inside-sigma") o.occluded_inside_sigma = parseDouble(a, next());
     else if (a == "--occluded-margin") o.occluded_margin = parseDouble(a, next());
     else if (a == "--interior-prior") o.interior_prior_depth = parseDouble(a, next());
@@ -254,6 +259,16 @@ Options parseArgs(int argc, char** argv) {
   if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
   if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
   if (o.occluded_inside_points < 0) throw std::invalid_argument("--occluded-inside must be >= 0");
+  if (!(o.occluded_margin >= 0.0) || !std::isfinite(o.occluded_margin))
+    throw std::invalid_argument("--occluded-margin must be a finite number >= 0");
+  if (!(o.interior_prior_depth >= 0.0) || !std::isfinite(o.interior_prior_depth))
+    throw std::invalid_argument("--interior-prior must be a finite number >= 0");
+  if (!(o.interior_prior_radius_cells > 0.0) || !std::isfinite(o.interior_prior_radius_cells))
+    throw std::invalid_argument("--interior-prior-radius must be > 0");
+  if (o.interior_prior_cells < 2 || o.interior_prior_cells > 100)
+    throw std::invalid_argument("--interior-prior-cells must be in 2..100");
+  // The prior replaces the inside points unless both are asked for.
+  if (o.interior_prior_depth > 0.0 && !occluded_inside_given) o.occluded_inside_points = 0;
   if (!(o.occluded_inside_sigma > 0.0)) throw std::invalid_argument("--occluded-inside-sigma must be > 0");
   if (o.slide_extension_charts < 0) throw std::invalid_argument("--slide-extension must be >= 0");
   if (!(o.min_point_spacing_m >= 0.0) || !(o.min_free_space_spacing_m >= 0.0))
@@ -429,7 +444,12 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
       r.stop_reason = "error";
       return r;
     }
-    model.setPriorMean(prior);
+    const auto set = model.setPriorMean(prior);
+    if (!set.ok) {
+      r.error = "occluded-interior prior: " + set.message;
+      r.stop_reason = "error";
+      return r;
+    }
   }
   const auto fit = model.fit(initial);
   if (!fit.ok) {

@@ -14,7 +14,10 @@ namespace gpatlas_core {
 class PriorMean {
  public:
   virtual ~PriorMean() = default;
-  // m(x); when `gradient` is given, also dm/dx per metre.
+  // m(x); when `gradient` is given, also dm/dx per metre. Must be stateless and thread-safe:
+  // model copies share the prior and const queries run concurrently. A non-finite m at an
+  // observation or a pseudo-point fails the fit (the model keeps its previous state); a new
+  // point where m is not finite is rejected by addPoints.
   virtual double value(const Vector3& x_world, Vector3* gradient = nullptr) const = 0;
 };
 

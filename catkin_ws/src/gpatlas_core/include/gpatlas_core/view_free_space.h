@@ -48,7 +48,8 @@ ViewFreeSpace sampleViewFreeSpace(const std::vector<Vector3>& surface_points, co
                                   const ViewFreeSpaceConfig& config = ViewFreeSpaceConfig());
 
 // The occluded interior of a view: places behind the observed surface (farther along the
-// sensor's ray than the first hit there) that lie inside the convex hull of the view's points.
+// sensor's ray than every hit in their pixel of a coarse range image) that lie inside the
+// convex hull of the view's points.
 // Samples there are inside points for the GPIS, labelled with their distance to the nearest
 // observed surface point (target -min(1, d / scale)).
 //
@@ -67,7 +68,7 @@ struct OccludedInteriorConfig {
   int grid_cells{16};
   int max_points{60};
   // Clearance, as a fraction of the view's radius: a sample must be at least this far behind
-  // the first hit on its ray, from every view point and inside the hull's faces.
+  // the farthest hit in its pixel, from every view point and inside the hull's faces.
   double margin_fraction{0.08};
   // Directions of the planes that approximate the convex hull (its support function).
   int hull_directions{64};
@@ -84,7 +85,8 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
 
 // The occluded interior as a prior mean for the GPIS (see InteriorPriorMean): a bump on every
 // occluded-interior sample (max_points does not apply), of radius bump_radius_cells grid cells
-// (the largest edge of a cell), saturating at -depth. Returns nullptr and sets `message` when
+// (the largest edge of a cell), never below -depth (amid the samples, -0.63 depth at 1.5 cells,
+// -depth from about 3 cells on: see InteriorPriorMean). Returns nullptr and sets `message` when
 // sampling fails; a view without any occluded interior gives a prior without centres (zero).
 struct OccludedInteriorPriorConfig {
   OccludedInteriorConfig sampling;
