@@ -7,8 +7,36 @@
 #include <limits>
 #include <numeric>
 #include <random>
+#include <string>
 
 namespace gpatlas_core {
+namespace {
+
+// The finite points of a view, their centroid and radius (largest distance from the centroid).
+struct View {
+  std::vector<Vector3> points;
+  Vector3 centroid{Vector3::Zero()};
+  double radius{0.0};
+};
+
+// Empty message: ok; otherwise why the view cannot be used.
+std::string finiteView(const std::vector<Vector3>& surface_points, std::size_t min_points, View* view) {
+  view->points.clear();
+  view->points.reserve(surface_points.size());
+  for (const auto& p : surface_points)
+    if (p.allFinite()) view->points.push_back(p);
+  if (view->points.size() < min_points)
+    return "the view has fewer than " + std::to_string(min_points) + " finite points";
+  view->centroid.setZero();
+  for (const auto& p : view->points) view->centroid += p;
+  view->centroid /= static_cast<double>(view->points.size());
+  view->radius = 0.0;
+  for (const auto& p : view->points) view->radius = std::max(view->radius, (p - view->centroid).norm());
+  if (!(view->radius > 0.0)) return "the view's points all coincide";
+  return "";
+}
+
+}  // namespace
 
 ViewFreeSpace sampleViewFreeSpace(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
                                   const ViewFreeSpaceConfig& config) {
@@ -25,23 +53,11 @@ ViewFreeSpace sampleViewFreeSpace(const std::vector<Vector3>& surface_points, co
         "max_offset_fraction; noise_sigma >= 0)";
     return out;
   }
-  std::vector<Vector3> points;
-  points.reserve(surface_points.size());
-  for (const auto& p : surface_points)
-    if (p.allFinite()) points.push_back(p);
-  if (points.size() < 2) {
-    out.message = "the view has fewer than 2 finite points";
-    return out;
-  }
-  Vector3 centroid = Vector3::Zero();
-  for (const auto& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  double radius = 0.0;
-  for (const auto& p : points) radius = std::max(radius, (p - centroid).norm());
-  if (!(radius > 0.0)) {
-    out.message = "the view's points all coincide";
-    return out;
-  }
+  View view;
+  out.message = finiteView(surface_points, 2, &view);
+  if (!out.message.empty()) return out;
+  const std::vector<Vector3>& points = view.points;
+  const double radius = view.radius;
 
   std::vector<std::size_t> rays(points.size());
   std::iota(rays.begin(), rays.end(), 0);
@@ -92,22 +108,14 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
         "margin_fraction >= 0, noise_sigma > 0)";
     return out;
   }
-  std::vector<Vector3> points;
-  points.reserve(surface_points.size());
-  for (const auto& p : surface_points)
-    if (p.allFinite()) points.push_back(p);
-  if (points.size() < 4) {
-    out.message = "the view has fewer than 4 finite points";
-    return out;
-  }
-  Vector3 centroid = Vector3::Zero();
-  for (const auto& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  double radius = 0.0;
-  for (const auto& p : points) radius = std::max(radius, (p - centroid).norm());
-  const Vector3 forward_raw = centroid - sensor_origin;
-  if (!(radius > 0.0) || !(forward_raw.norm() > radius)) {
-    out.message = "the view's points coincide or surround the sensor";
+  View view;
+  out.message = finiteView(surface_points, 4, &view);
+  if (!out.message.empty()) return out;
+  const std::vector<Vector3>& points = view.points;
+  const double radius = view.radius;
+  const Vector3 forward_raw = view.centroid - sensor_origin;
+  if (!(forward_raw.norm() > radius)) {
+    out.message = "the view's points surround the sensor";
     return out;
   }
   const double margin = config.margin_fraction * radius;

@@ -98,6 +98,18 @@ std::shared_ptr<const InteriorPriorMean> backPrior() {
   return std::make_shared<InteriorPriorMean>(centres, 0.025, 0.3);
 }
 
+// The data with their targets made explicit (label value, or +-min(1, d / scale) with a
+// distance, as GpisModel documents) less the prior mean: what a zero-mean GP must fit.
+std::vector<TrainingPoint> residualTargets(std::vector<TrainingPoint> data, const PriorMean& prior, double scale) {
+  for (auto& t : data) {
+    const double label = static_cast<double>(static_cast<int>(t.label));
+    const double target =
+        std::isfinite(t.surface_distance_m) ? label * std::min(1.0, t.surface_distance_m / scale) : label;
+    t.target_override = target - prior.value(t.position);
+  }
+  return data;
+}
+
 // The definition of a GP with a known mean m: it is m plus a zero-mean GP fitted to the
 // residuals y - m(x). The reference model below is that zero-mean GP, its targets overridden.
 TEST(GpisModelWithPrior, EqualsAZeroMeanModelOfTheResidualsPlusThePrior) {
@@ -113,13 +125,7 @@ TEST(GpisModelWithPrior, EqualsAZeroMeanModelOfTheResidualsPlusThePrior) {
 
   GpisModel reference(config);
   ASSERT_TRUE(reference.fit(data).ok);  // for its frame (scale) only
-  auto residual_data = data;
-  for (auto& t : residual_data) {
-    const double label = static_cast<double>(static_cast<int>(t.label));
-    const double target =
-        std::isfinite(t.surface_distance_m) ? label * std::min(1.0, t.surface_distance_m / reference.scale()) : label;
-    t.target_override = target - prior->value(t.position);
-  }
+  auto residual_data = residualTargets(data, *prior, reference.scale());
   ASSERT_TRUE(reference.fitInFrame(residual_data, reference.centroid(), reference.scale()).ok);
 
   for (const auto& x : randomPoints(50, 0.12, 5)) {
@@ -164,13 +170,7 @@ TEST(GpisModelWithPrior, ThePseudoPointAtTheCentroidCarriesThePrior) {
 
   GpisModelConfig bare = config;
   bare.inside_point_at_centroid = false;
-  auto residual_data = data;
-  for (auto& t : residual_data) {
-    const double label = static_cast<double>(static_cast<int>(t.label));
-    const double target =
-        std::isfinite(t.surface_distance_m) ? label * std::min(1.0, t.surface_distance_m / frame_of.scale()) : label;
-    t.target_override = target - prior->value(t.position);
-  }
+  auto residual_data = residualTargets(data, *prior, frame_of.scale());
   TrainingPoint centre_point;
   centre_point.position = centroid;
   centre_point.label = PointLabel::kInside;

@@ -398,40 +398,34 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     initial.push_back(p);
   }
 
+  // The whole view (not the subset): free space, occluded interior and their labels use it.
+  std::vector<Vector3> view;
+  for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
+  const auto failed = [&r](const std::string& what) {
+    r.error = what;
+    r.stop_reason = "error";
+    return r;
+  };
   if (o.view_free_rays > 0) {
-    std::vector<Vector3> view;
-    for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
     gpatlas_core::ViewFreeSpaceConfig free_config;
     free_config.max_rays = o.view_free_rays;
     free_config.seed = static_cast<std::uint64_t>(seed) + 1;
     const auto free = gpatlas_core::sampleViewFreeSpace(view, eye, free_config);
-    if (!free.ok) {
-      r.error = "view free space: " + free.message;
-      r.stop_reason = "error";
-      return r;
-    }
+    if (!free.ok) return failed("view free space: " + free.message);
     initial.insert(initial.end(), free.points.begin(), free.points.end());
   }
   if (o.occluded_inside_points > 0) {
-    std::vector<Vector3> view;
-    for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
     gpatlas_core::OccludedInteriorConfig inside_config;
     inside_config.max_points = o.occluded_inside_points;
     inside_config.noise_sigma = o.occluded_inside_sigma;
     inside_config.margin_fraction = o.occluded_margin;
     inside_config.seed = static_cast<std::uint64_t>(seed) + 1;
     const auto inside = gpatlas_core::sampleOccludedInterior(view, eye, inside_config);
-    if (!inside.ok) {
-      r.error = "occluded interior: " + inside.message;
-      r.stop_reason = "error";
-      return r;
-    }
+    if (!inside.ok) return failed("occluded interior: " + inside.message);
     initial.insert(initial.end(), inside.points.begin(), inside.points.end());
   }
   gpatlas_core::GpisModel model(o.gpis);
   if (o.interior_prior_depth > 0.0) {
-    std::vector<Vector3> view;
-    for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
     gpatlas_core::OccludedInteriorPriorConfig prior_config;
     prior_config.depth = o.interior_prior_depth;
     prior_config.bump_radius_cells = o.interior_prior_radius_cells;
@@ -439,24 +433,12 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     prior_config.sampling.margin_fraction = o.occluded_margin;
     std::string message;
     auto prior = gpatlas_core::makeOccludedInteriorPrior(view, eye, prior_config, &message);
-    if (!prior) {
-      r.error = "occluded-interior prior: " + message;
-      r.stop_reason = "error";
-      return r;
-    }
+    if (!prior) return failed("occluded-interior prior: " + message);
     const auto set = model.setPriorMean(prior);
-    if (!set.ok) {
-      r.error = "occluded-interior prior: " + set.message;
-      r.stop_reason = "error";
-      return r;
-    }
+    if (!set.ok) return failed("occluded-interior prior: " + set.message);
   }
   const auto fit = model.fit(initial);
-  if (!fit.ok) {
-    r.error = "initial fit failed: " + fit.message;
-    r.stop_reason = "error";
-    return r;
-  }
+  if (!fit.ok) return failed("initial fit failed: " + fit.message);
   if (o.tune) gpatlas_core::HyperparameterTuner().tune(model);  // kernel parameters only: noise fixed
 
   gpatlas_core::StrategyConfig strategy_config;
