@@ -18,21 +18,28 @@ namespace {
 constexpr double kRadius = 0.1;
 const Vector3 kEye(0.03, 0.0, 0.4);
 
-std::vector<Vector3> visibleBowlInside(int count, unsigned seed) {
+// `count` points uniform in area on the sphere |p| = kRadius that `keep` accepts.
+template <typename Keep>
+std::vector<Vector3> sphereSamples(int count, unsigned seed, Keep keep) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> gaussian;
   std::vector<Vector3> points;
   while (static_cast<int>(points.size()) < count) {
     Vector3 d(gaussian(rng), gaussian(rng), gaussian(rng));
     if (!(d.norm() > 1e-9)) continue;
-    d.normalize();
-    if (d.z() > -0.05) continue;
-    const Vector3 p = kRadius * d;
-    const double t = kEye.z() / (kEye.z() - p.z());  // where the ray from the eye meets z = 0
-    const Vector3 crossing = kEye + t * (p - kEye);
-    if (crossing.head<2>().norm() < 0.98 * kRadius) points.push_back(p);
+    const Vector3 p = kRadius * d.normalized();
+    if (keep(p)) points.push_back(p);
   }
   return points;
+}
+
+// Where the ray from `eye` through p crosses the plane z = 0 (the bowl's opening).
+Vector3 openingCrossing(const Vector3& eye, const Vector3& p) { return eye + (eye.z() / (eye.z() - p.z())) * (p - eye); }
+
+std::vector<Vector3> visibleBowlInside(int count, unsigned seed) {
+  return sphereSamples(count, seed, [](const Vector3& p) {
+    return p.z() < -0.05 * kRadius && openingCrossing(kEye, p).head<2>().norm() < 0.98 * kRadius;
+  });
 }
 
 TEST(ViewFreeSpace, SamplesLieOnTheRaysBeforeTheHitWithDistanceLabelsToTheView) {
@@ -144,17 +151,7 @@ TEST(ViewFreeSpace, KeepsTheCavityOfABowlOpen) {
 const Vector3 kSideEye(0.5, 0.1, 0.2);
 
 std::vector<Vector3> visibleBallFront(int count, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> gaussian;
-  std::vector<Vector3> points;
-  while (static_cast<int>(points.size()) < count) {
-    Vector3 d(gaussian(rng), gaussian(rng), gaussian(rng));
-    if (!(d.norm() > 1e-9)) continue;
-    d.normalize();
-    const Vector3 p = kRadius * d;
-    if (d.dot(kSideEye - p) > 0.0) points.push_back(p);
-  }
-  return points;
+  return sphereSamples(count, seed, [](const Vector3& p) { return p.dot(kSideEye - p) > 0.0; });
 }
 
 // Range from `eye` to the first intersection of its ray through `x` with the sphere |p| = R,
@@ -207,18 +204,9 @@ TEST(OccludedInterior, NothingTheCameraSawAsAirInABowl) {
   // inside is visible where the ray enters through the opening, its outside where it faces
   // the eye.
   const Vector3 eye(0.35, 0.05, 0.2);
-  std::mt19937 rng(5);
-  std::normal_distribution<double> gaussian;
-  std::vector<Vector3> view;
-  while (view.size() < 3000) {
-    Vector3 d(gaussian(rng), gaussian(rng), gaussian(rng));
-    if (!(d.norm() > 1e-9)) continue;
-    d.normalize();
-    if (d.z() > 0.0) continue;
-    const Vector3 p = kRadius * d;
-    const Vector3 crossing = eye + (eye.z() / (eye.z() - p.z())) * (p - eye);
-    if (crossing.head<2>().norm() < kRadius || d.dot(eye - p) > 0.0) view.push_back(p);
-  }
+  const auto view = sphereSamples(3000, 5, [&eye](const Vector3& p) {
+    return p.z() <= 0.0 && (openingCrossing(eye, p).head<2>().norm() < kRadius || p.dot(eye - p) > 0.0);
+  });
   const ViewFreeSpace inside = sampleOccludedInterior(view, eye);
   ASSERT_TRUE(inside.ok) << inside.message;
   ASSERT_GE(inside.points.size(), 20u);
@@ -241,8 +229,7 @@ TEST(OccludedInterior, NothingTheCameraSawAsAirInABowl) {
     // The range image is coarse (about 4 view points per pixel, 7 mm here): a ray that grazes
     // the rim can share a pixel with it. Allowed within a pixel of the rim, and rarely.
     ++grazing;
-    const Vector3 crossing = eye + (eye.z() / (eye.z() - x.z())) * (x - eye);
-    EXPECT_GT(crossing.head<2>().norm(), kRadius - 0.01) << x.transpose();
+    EXPECT_GT(openingCrossing(eye, x).head<2>().norm(), kRadius - 0.01) << x.transpose();
   }
   EXPECT_LE(grazing, inside.points.size() / 20);
 }
