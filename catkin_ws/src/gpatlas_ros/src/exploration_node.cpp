@@ -20,14 +20,18 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
 #include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <memory>
 #include <mutex>
 #include <sstream>
+#include <thread>
 
 namespace gpatlas_ros {
 namespace {
@@ -84,6 +88,7 @@ class ExplorationNode {
     max_actions_ = r.integer("max_actions", 60, 0, 100000);
     max_failures_ = r.integer("max_consecutive_failures", 5, 1, 100000);
     service_timeout_s_ = r.number("service_timeout_s", 60.0, 0.1, 3600.0);
+    call_timeout_s_ = r.number("call_timeout_s", 600.0, 0.1, 86400.0);
     capture_ = r.flag("capture", true);
     metrics_every_ = r.integer("metrics_every", 1, 0, 100000);
     results_dir_ = r.text("results_dir", "");
@@ -187,10 +192,43 @@ class ExplorationNode {
       ROS_ERROR_STREAM("exploration: service " << resolved << " not available after " << service_timeout_s_ << " s");
       return false;
     }
-    if (!ros::service::call(resolved, srv)) {
+    return timedCall(resolved, srv);
+  }
+
+  template <typename Srv>
+  bool timedCall(const std::string& resolved, Srv& srv) {
+    // ros::service::call has no timeout: a server that never answers (an arm stuck mid-motion,
+    // a hung driver) would freeze the exploration for good. The call runs on a worker thread
+    // with its own copy of the request; past call_timeout_s we give up on it and report, and
+    // the worker is left to finish or die with the process.
+    struct Pending {
+      std::mutex mutex;
+      std::condition_variable answered;
+      bool done{false};
+      bool ok{false};
+      Srv srv;
+    };
+    auto pending = std::make_shared<Pending>();
+    pending->srv = srv;
+    std::thread([pending, resolved]() {
+      const bool ok = ros::service::call(resolved, pending->srv);
+      std::lock_guard<std::mutex> lock(pending->mutex);
+      pending->ok = ok;
+      pending->done = true;
+      pending->answered.notify_all();
+    }).detach();
+    std::unique_lock<std::mutex> lock(pending->mutex);
+    if (!pending->answered.wait_for(lock, std::chrono::duration<double>(call_timeout_s_),
+                                    [&pending]() { return pending->done; })) {
+      ROS_ERROR_STREAM("exploration: " << resolved << " did not answer within " << call_timeout_s_
+                                       << " s (call_timeout_s)");
+      return false;
+    }
+    if (!pending->ok) {
       ROS_ERROR_STREAM("exploration: call to " << resolved << " failed");
       return false;
     }
+    srv = pending->srv;
     return true;
   }
 
@@ -212,7 +250,7 @@ class ExplorationNode {
       return;
     }
     gpatlas_msgs::GetMesh srv;
-    if (!ros::service::call(name, srv) || !srv.response.success) {
+    if (!timedCall(name, srv) || !srv.response.success) {
       ROS_WARN_STREAM("exploration: ground truth unavailable: " << srv.response.message);
       return;
     }
@@ -303,7 +341,7 @@ class ExplorationNode {
     gpatlas_msgs::SaveMap save;
     save.request.path = (dir / "collision_map.bt").string();
     const std::string save_name = nh_.resolveName("save_map");
-    if (ros::service::waitForService(save_name, ros::Duration(2.0)) && ros::service::call(save_name, save) &&
+    if (ros::service::waitForService(save_name, ros::Duration(2.0)) && timedCall(save_name, save) &&
         !save.response.success)
       ROS_WARN_STREAM("exploration: " << save.response.message);
 
@@ -367,7 +405,8 @@ class ExplorationNode {
   double v_max_{0.1};
   int max_actions_{60};
   int max_failures_{5};
-  double service_timeout_s_{60.0};
+  double service_timeout_s_{60.0};  // for a service to appear
+  double call_timeout_s_{600.0};    // for a call to answer (a touch on a slow arm takes minutes)
   bool capture_{true};
   int metrics_every_{1};
   gpatlas_core::GpisModel::Config gpis_config_;
