@@ -258,3 +258,71 @@ std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<V
 }
 
 }  // namespace gpatlas_core
+
+namespace gpatlas_core {
+
+ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, const SupportPlane& plane,
+                                 const BelowSupportConfig& config) {
+  ViewFreeSpace out;
+  if (!plane.normal.allFinite() || std::abs(plane.normal.norm() - 1.0) > 1e-6 || !std::isfinite(plane.offset)) {
+    out.message = "the support plane needs a finite unit normal and a finite offset";
+    return out;
+  }
+  bool depths_ok = !config.depth_fractions.empty();
+  for (double f : config.depth_fractions) depths_ok = depths_ok && f > 0.0 && std::isfinite(f);
+  if (config.grid_cells < 1 || config.grid_cells > 100 || !depths_ok || !(config.footprint_margin_fraction >= 0.0) ||
+      !std::isfinite(config.footprint_margin_fraction) || !(config.noise_sigma > 0.0) || !std::isfinite(config.noise_sigma)) {
+    out.message =
+        "invalid below-support settings (1 <= grid_cells <= 100, depth fractions > 0, footprint margin >= 0, "
+        "noise_sigma > 0)";
+    return out;
+  }
+  View view;
+  out.message = finiteView(surface_points, 2, &view);
+  if (!out.message.empty()) return out;
+
+  // The footprint: the view projected on the plane, in an orthonormal frame (u, v) of it.
+  const Vector3 u = plane.normal.unitOrthogonal();
+  const Vector3 v = plane.normal.cross(u);
+  double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min, v_min = u_min, v_max = -u_min;
+  for (const auto& p : view.points) {
+    u_min = std::min(u_min, u.dot(p));
+    u_max = std::max(u_max, u.dot(p));
+    v_min = std::min(v_min, v.dot(p));
+    v_max = std::max(v_max, v.dot(p));
+  }
+  const double grow = config.footprint_margin_fraction * view.radius;
+  u_min -= grow;
+  u_max += grow;
+  v_min -= grow;
+  v_max += grow;
+  const Vector3 on_plane = -plane.offset * plane.normal;  // the plane's point nearest the origin
+  const int n = config.grid_cells;
+  for (double fraction : config.depth_fractions) {
+    const double depth = fraction * view.radius;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) {
+        const double a = u_min + (u_max - u_min) * (i + 0.5) / n;
+        const double b = v_min + (v_max - v_min) * (j + 0.5) / n;
+        TrainingPoint t;
+        t.position = on_plane + a * u + b * v - depth * plane.normal;
+        t.label = PointLabel::kOutside;
+        t.source = PointSource::kVision;
+        t.noise_sigma = config.noise_sigma;
+        t.surface_distance_m = depth;
+        out.points.push_back(t);
+      }
+  }
+  out.ok = true;
+  return out;
+}
+
+std::size_t dropNearOrBelowPlane(std::vector<TrainingPoint>* points, const SupportPlane& plane, double clearance_m) {
+  const std::size_t before = points->size();
+  points->erase(std::remove_if(points->begin(), points->end(),
+                               [&](const TrainingPoint& p) { return !(plane.height(p.position) >= clearance_m); }),
+                points->end());
+  return before - points->size();
+}
+
+}  // namespace gpatlas_core

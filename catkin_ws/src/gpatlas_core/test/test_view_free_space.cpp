@@ -296,5 +296,106 @@ TEST(OccludedInterior, TellsTheModelTheHiddenBulkIsMaterial) {
   for (std::size_t i = 0; i < view.size(); i += 50) EXPECT_NEAR(with.mean(view[i]), 0.0, 0.05);
 }
 
+TEST(SupportPlane, SamplesLieBelowThePlaneUnderTheViewLabelledWithTheirDepth) {
+  const auto view = visibleBallFront(500, 13);
+  double view_radius = 0.0;
+  Vector3 centroid = Vector3::Zero();
+  for (const auto& p : view) centroid += p;
+  centroid /= static_cast<double>(view.size());
+  for (const auto& p : view) view_radius = std::max(view_radius, (p - centroid).norm());
+
+  SupportPlane plane;  // tilted, under the ball
+  plane.normal = Vector3(0.2, -0.1, 1.0).normalized();
+  plane.offset = 0.12;
+  BelowSupportConfig config;
+  const ViewFreeSpace below = sampleBelowSupport(view, plane, config);
+  ASSERT_TRUE(below.ok) << below.message;
+  ASSERT_EQ(below.points.size(), static_cast<std::size_t>(config.grid_cells * config.grid_cells) *
+                                     config.depth_fractions.size());
+  const double reach = view_radius * (1.0 + config.footprint_margin_fraction) + 1e-9;
+  for (const auto& t : below.points) {
+    EXPECT_EQ(t.label, PointLabel::kOutside);
+    const double depth = -(plane.normal.dot(t.position) + plane.offset);  // recomputed
+    EXPECT_NEAR(t.surface_distance_m, depth, 1e-12);
+    bool a_layer = false;
+    for (double f : config.depth_fractions) a_layer = a_layer || std::abs(depth - f * view_radius) < 1e-9;
+    EXPECT_TRUE(a_layer) << depth;
+    // Under the view: its projection on the plane is within the grown footprint of the view,
+    // whose points all lie within view_radius of their centroid.
+    const Vector3 projected = t.position + depth * plane.normal;
+    const Vector3 centroid_projected = centroid - plane.height(centroid) * plane.normal;
+    EXPECT_LE((projected - centroid_projected).norm(), std::sqrt(2.0) * reach);
+  }
+
+  SupportPlane bad;
+  bad.normal = Vector3(0.0, 0.0, 2.0);
+  EXPECT_FALSE(sampleBelowSupport(view, bad).ok);
+  BelowSupportConfig no_depths;
+  no_depths.depth_fractions.clear();
+  EXPECT_FALSE(sampleBelowSupport(view, plane, no_depths).ok);
+}
+
+TEST(SupportPlane, DropsExactlyThePointsTooCloseToOrBelowIt) {
+  SupportPlane plane;
+  plane.offset = -0.01;  // z = 0.01
+  std::vector<TrainingPoint> points;
+  for (double z : {-0.05, 0.0, 0.012, 0.0149, 0.0151, 0.2}) {
+    TrainingPoint t;
+    t.position = Vector3(0.3, -0.2, z);
+    points.push_back(t);
+  }
+  EXPECT_EQ(dropNearOrBelowPlane(&points, plane, 0.005), 4u);
+  ASSERT_EQ(points.size(), 2u);
+  EXPECT_DOUBLE_EQ(points[0].position.z(), 0.0151);
+  EXPECT_DOUBLE_EQ(points[1].position.z(), 0.2);
+}
+
+// A ball resting on a table, seen from the side and above, the table hiding its lowest band:
+// without the table the model leaves the unseen bottom to the GP's smoothness (here it cuts the
+// ball off above its lowest point); the plane's outside points, labelled with their small depth,
+// say the surface is right there, and nothing of the prediction may go below the table top.
+TEST(SupportPlane, PutsTheUnseenBottomOfABallOnTheTable) {
+  const Vector3 lift(0.0, 0.0, kRadius);  // the ball rests on z = 0
+  std::vector<Vector3> view;
+  for (const auto& p : visibleBallFront(1500, 14))
+    if (p.z() > -0.8 * kRadius) view.push_back(p + lift);  // the table hides the lowest band
+  const Vector3 eye = kSideEye + lift;
+  std::vector<TrainingPoint> data;
+  for (std::size_t i = 0; i < view.size(); i += 4) {
+    TrainingPoint t;
+    t.position = view[i];
+    t.noise_sigma = 0.1;
+    data.push_back(t);
+  }
+  const auto free = sampleViewFreeSpace(view, eye);
+  auto inside = sampleOccludedInterior(view, eye);
+  ASSERT_TRUE(free.ok && inside.ok);
+  data.insert(data.end(), free.points.begin(), free.points.end());
+  auto without_plane = data;
+  without_plane.insert(without_plane.end(), inside.points.begin(), inside.points.end());
+
+  const SupportPlane table;
+  dropNearOrBelowPlane(&inside.points, table, 0.005);
+  const auto below = sampleBelowSupport(view, table);
+  ASSERT_TRUE(below.ok) << below.message;
+  auto with_plane = data;
+  with_plane.insert(with_plane.end(), inside.points.begin(), inside.points.end());
+  with_plane.insert(with_plane.end(), below.points.begin(), below.points.end());
+
+  GpisModel unaware, aware;
+  ASSERT_TRUE(unaware.fit(without_plane).ok);
+  ASSERT_TRUE(aware.fit(with_plane).ok);
+  // 1 cm above the ball's lowest point: inside the ball (the truth).
+  const Vector3 low_inside(0.0, 0.0, 0.01);
+  EXPECT_LT(aware.mean(low_inside), 0.0);
+  EXPECT_GT(unaware.mean(low_inside), aware.mean(low_inside) + 0.05);
+  // Under the table top, everywhere under the ball: outside.
+  for (double x = -0.08; x <= 0.08 + 1e-9; x += 0.02)
+    for (double y = -0.08; y <= 0.08 + 1e-9; y += 0.02) EXPECT_GT(aware.mean(Vector3(x, y, -0.015)), 0.0);
+  // The ball's visible surface stays on the zero level set, its centre inside.
+  for (std::size_t i = 0; i < view.size(); i += 50) EXPECT_NEAR(aware.mean(view[i]), 0.0, 0.05);
+  EXPECT_LT(aware.mean(lift), -0.05);
+}
+
 }  // namespace
 }  // namespace gpatlas_core

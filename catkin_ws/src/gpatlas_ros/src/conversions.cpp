@@ -26,6 +26,26 @@ geometry_msgs::Vector3 toVectorMsg(const Eigen::Vector3d& v) {
 Eigen::Vector3d fromMsg(const geometry_msgs::Point& p) { return {p.x, p.y, p.z}; }
 Eigen::Vector3d fromMsg(const geometry_msgs::Vector3& v) { return {v.x, v.y, v.z}; }
 
+gpatlas_msgs::SupportPlane toMsg(const gpatlas_core::SupportPlane& plane, const std::string& frame_id) {
+  gpatlas_msgs::SupportPlane msg;
+  msg.header.frame_id = frame_id;
+  msg.normal = toVectorMsg(plane.normal);
+  msg.offset = plane.offset;
+  return msg;
+}
+
+bool fromMsg(const gpatlas_msgs::SupportPlane& msg, gpatlas_core::SupportPlane* plane, std::string* error) {
+  const Eigen::Vector3d normal = fromMsg(msg.normal);
+  const double norm = normal.norm();
+  if (!normal.allFinite() || !(norm > 1e-9) || !std::isfinite(msg.offset)) {
+    if (error) *error = "support plane: the normal must be finite and non-zero, the offset finite";
+    return false;
+  }
+  plane->normal = normal / norm;
+  plane->offset = msg.offset / norm;
+  return true;
+}
+
 gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch) {
   gpatlas_msgs::Touch msg;
   msg.kind = touch.kind == gpatlas_core::Touch::Kind::kSlide ? gpatlas_msgs::Touch::SLIDE : gpatlas_msgs::Touch::POKE;

@@ -176,6 +176,14 @@ void readOccludedInterior(ParamReader& r, gpatlas_core::OccludedInteriorConfig* 
   c->noise_sigma = r.number("occluded_interior/noise_sigma", c->noise_sigma, 1e-3, 100.0);
 }
 
+void readSupportPlane(ParamReader& r, bool* enabled, double* clearance_m, gpatlas_core::BelowSupportConfig* c) {
+  *enabled = r.flag("support_plane/enabled", *enabled);
+  *clearance_m = r.number("support_plane/clearance_m", *clearance_m, 0.0, 0.5);
+  c->grid_cells = r.integer("support_plane/grid_cells", c->grid_cells, 1, 40);
+  c->footprint_margin_fraction =
+      r.number("support_plane/footprint_margin_fraction", c->footprint_margin_fraction, 0.0, 5.0);
+}
+
 void readSegmenter(ParamReader& r, gpatlas_core::ObjectSegmenter::Config* c) {
   c->crop_min_m = r.vector3("segmentation/crop_min_m", c->crop_min_m);
   c->crop_max_m = r.vector3("segmentation/crop_max_m", c->crop_max_m);

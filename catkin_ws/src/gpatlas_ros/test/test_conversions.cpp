@@ -43,6 +43,32 @@ TEST(Conversions, MalformedTouchIsRefused) {
   EXPECT_FALSE(fromMsg(msg, &touch, &error));
 }
 
+TEST(Conversions, SupportPlaneRoundTripAndNormalisation) {
+  gpatlas_core::SupportPlane plane;
+  plane.normal = Eigen::Vector3d(0.1, -0.2, 0.9).normalized();
+  plane.offset = -0.73;
+  const gpatlas_msgs::SupportPlane msg = gpatlas_ros::toMsg(plane, "world");
+  EXPECT_EQ(msg.header.frame_id, "world");
+  gpatlas_core::SupportPlane back;
+  std::string error;
+  ASSERT_TRUE(gpatlas_ros::fromMsg(msg, &back, &error)) << error;
+  EXPECT_NEAR((back.normal - plane.normal).norm(), 0.0, 1e-15);
+  EXPECT_DOUBLE_EQ(back.offset, plane.offset);
+  // A non-unit normal describes the same plane: same heights after normalisation.
+  gpatlas_msgs::SupportPlane scaled = msg;
+  scaled.normal.x *= 3.0;
+  scaled.normal.y *= 3.0;
+  scaled.normal.z *= 3.0;
+  scaled.offset *= 3.0;
+  ASSERT_TRUE(gpatlas_ros::fromMsg(scaled, &back, &error)) << error;
+  const Eigen::Vector3d x(0.3, 0.4, -0.5);
+  EXPECT_NEAR(back.height(x), plane.height(x), 1e-12);
+  gpatlas_msgs::SupportPlane zero = msg;
+  zero.normal.x = zero.normal.y = zero.normal.z = 0.0;
+  EXPECT_FALSE(gpatlas_ros::fromMsg(zero, &back, &error));
+  EXPECT_FALSE(error.empty());
+}
+
 TEST(Conversions, ObservationsRoundTrip) {
   gpatlas_core::ProbeResult result;
   result.contacts.push_back({{1, 2, 3}, {0, 0, 1}});

@@ -161,13 +161,21 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // Only object points reach the GP: every surface point is on the sphere, none on or under
   // the table top (z = 0). The camera's free space (sensor_frame test_camera, see
   // pipeline.test) adds outside points in front of the sphere, each labelled with a distance to
-  // the view that is at least its true distance to the sphere, and inside points behind it.
+  // the view that is at least its true distance to the sphere, inside points behind it, and
+  // outside points under the table.
   ASSERT_EQ(training->labels.size(), training->points.size());
   ASSERT_EQ(training->surface_distances_m.size(), training->points.size());
-  std::size_t view_free_space = 0, occluded_interior = 0;
+  std::size_t view_free_space = 0, occluded_interior = 0, below_table = 0;
   for (std::size_t i = 0; i < training->points.size(); ++i) {
     const auto& p = training->points[i];
-    EXPECT_GT(p.z, 0.0);
+    if (p.z < -0.002) {
+      // Segmentation's support plane (the table top, z = 0): outside points under it, labelled
+      // with their depth.
+      EXPECT_EQ(training->labels[i], 1);
+      EXPECT_NEAR(training->surface_distances_m[i], -p.z, 0.003);
+      ++below_table;
+      continue;
+    }
     if (training->labels[i] == 0) {
       EXPECT_LT(sphereError(p), 0.004);
     } else if (training->labels[i] == 1) {
@@ -186,6 +194,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   }
   EXPECT_GT(view_free_space, 100u);
   EXPECT_GT(occluded_interior, 10u);
+  EXPECT_GT(below_table, 100u);
 
   // The planner needs the latched training set too; retry while it reports no model.
   gpatlas_msgs::GetNextTouch touch;

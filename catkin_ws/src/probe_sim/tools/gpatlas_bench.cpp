@@ -71,6 +71,7 @@ struct Options {
   // in the air); a table under the object makes every touch aimed at the unseen underside hit
   // the table, which is no information about the object and ends runs by failed touches.
   bool table{false};
+  bool support_plane{true};
   int retune_every{0};
   int curve_every{5};
   double mesh_resolution_m{0.005};
@@ -127,6 +128,9 @@ void printUsage() {
   --no-tune                      do not tune (the default)
   --table                        put a table under the object (touches can hit it) [off: the
                                  paper's protocol casts rays on the object mesh alone]
+  --no-support-plane             with --table: do not tell the model that nothing of the object
+                                 is below the table top [told: outside points under it, no guessed
+                                 inside points in it, as the pipeline does with segmentation's plane]
   --retune-every K               re-tune every K actions (0: never) [0]
   --curve-every K                measure the shape error every K actions (0: only at the end) [5]
   --mesh-res-m R                 marching-cubes resolution in metres [0.005]
@@ -207,6 +211,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--no-tune") o.tune = false;
     else if (a == "--tune") o.tune = true;
     else if (a == "--table") o.table = true;
+    else if (a == "--no-support-plane") o.support_plane = false;
     else if (a == "--retune-every") o.retune_every = parseInt(a, next());
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
     else if (a == "--mesh-res-m") o.mesh_resolution_m = parseDouble(a, next());
@@ -335,6 +340,10 @@ struct RunResult {
   std::string error;
 };
 
+// Guessed inside points closer than this to the table top are dropped (the pipeline's
+// support_plane/clearance_m).
+constexpr double kSupportClearanceM = 0.005;
+
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -414,6 +423,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     if (!free.ok) return failed("view free space: " + free.message);
     initial.insert(initial.end(), free.points.begin(), free.points.end());
   }
+  std::size_t inside_count = 0;  // the occluded interior's points, last in `initial`
   if (o.occluded_inside_points > 0) {
     gpatlas_core::OccludedInteriorConfig inside_config;
     inside_config.max_points = o.occluded_inside_points;
@@ -423,6 +433,18 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     const auto inside = gpatlas_core::sampleOccludedInterior(view, eye, inside_config);
     if (!inside.ok) return failed("occluded interior: " + inside.message);
     initial.insert(initial.end(), inside.points.begin(), inside.points.end());
+    inside_count = inside.points.size();
+  }
+  if (o.table && o.support_plane) {
+    // The table top (z = 0, the object rests on it), as segmentation would find it.
+    const gpatlas_core::SupportPlane table;
+    std::vector<gpatlas_core::TrainingPoint> guesses(initial.end() - inside_count, initial.end());
+    initial.resize(initial.size() - inside_count);
+    gpatlas_core::dropNearOrBelowPlane(&guesses, table, kSupportClearanceM);
+    initial.insert(initial.end(), guesses.begin(), guesses.end());
+    const auto below = gpatlas_core::sampleBelowSupport(view, table);
+    if (!below.ok) return failed("support plane: " + below.message);
+    initial.insert(initial.end(), below.points.begin(), below.points.end());
   }
   gpatlas_core::GpisModel model(o.gpis);
   if (o.interior_prior_depth > 0.0) {

@@ -100,4 +100,36 @@ std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<V
                                                              const OccludedInteriorPriorConfig& config,
                                                              std::string* message = nullptr);
 
+// The support the object rests on (a table, found by segmentation): the plane n . x + d = 0,
+// n unit and pointing to the object's side. Everything below it is outside the object.
+//
+// Why: the occluded interior and the GP's smoothness extend the predicted object below its
+// lowest visible points, i.e. into the table. The planner then picks charts under the table,
+// every touch there hits the table first, and the exploration ends by failed touches.
+struct SupportPlane {
+  Vector3 normal{Vector3::UnitZ()};
+  double offset{0.0};
+  double height(const Vector3& x) const { return normal.dot(x) + offset; }
+};
+
+struct BelowSupportConfig {
+  // A grid of grid_cells x grid_cells samples over the view's footprint on the plane (its
+  // bounding rectangle, grown by footprint_margin_fraction of the view's radius), one layer
+  // per depth below the plane (fractions of the view's radius).
+  int grid_cells{8};
+  std::vector<double> depth_fractions{0.1, 0.3};
+  double footprint_margin_fraction{0.2};
+  // Noise sigma (reference units), as the camera's free space.
+  double noise_sigma{0.3162};
+};
+
+// Outside points under the support plane, labelled with their depth below it (their distance to
+// the plane: a lower bound on their distance to an object above it).
+ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, const SupportPlane& plane,
+                                 const BelowSupportConfig& config = BelowSupportConfig());
+
+// Removes the points less than `clearance_m` above the plane (inside points guessed into the
+// table); returns how many.
+std::size_t dropNearOrBelowPlane(std::vector<TrainingPoint>* points, const SupportPlane& plane, double clearance_m);
+
 }  // namespace gpatlas_core

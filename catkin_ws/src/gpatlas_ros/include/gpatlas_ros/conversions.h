@@ -6,10 +6,12 @@
 #include <gpatlas_core/gpis_model.h>
 #include <gpatlas_core/prober.h>
 #include <gpatlas_core/types.h>
+#include <gpatlas_core/view_free_space.h>
 
 #include <geometry_msgs/Point.h>
 #include <geometry_msgs/Vector3.h>
 #include <gpatlas_msgs/Observations.h>
+#include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/Touch.h>
 #include <gpatlas_msgs/TrainingSet.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -23,6 +25,10 @@ geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p);
 geometry_msgs::Vector3 toVectorMsg(const Eigen::Vector3d& v);
 Eigen::Vector3d fromMsg(const geometry_msgs::Point& p);
 Eigen::Vector3d fromMsg(const geometry_msgs::Vector3& v);
+
+gpatlas_msgs::SupportPlane toMsg(const gpatlas_core::SupportPlane& plane, const std::string& frame_id);
+// Fails on a non-finite or zero normal or offset; the normal is normalised (offset scaled).
+bool fromMsg(const gpatlas_msgs::SupportPlane& msg, gpatlas_core::SupportPlane* plane, std::string* error);
 
 gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch);
 // Fails (returns false with a reason) on mismatched array lengths or an unknown kind.

@@ -69,5 +69,7 @@ void readViewFreeSpace(ParamReader& reader, gpatlas_core::ViewFreeSpaceConfig* c
 // occluded_interior/...: inside points behind the view, within its hull (needs the sensor
 // frame above; max_points 0 disables them).
 void readOccludedInterior(ParamReader& reader, gpatlas_core::OccludedInteriorConfig* config);
+// support_plane/...: the table under the object, from segmentation (`support_plane` topic).
+void readSupportPlane(ParamReader& reader, bool* enabled, double* clearance_m, gpatlas_core::BelowSupportConfig* config);
 
 }  // namespace gpatlas_ros

@@ -14,6 +14,7 @@
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/Observations.h>
 #include <gpatlas_msgs/SaveMap.h>
+#include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/TrainingSet.h>
 #include <gpatlas_ros/ros_params.h>
 
@@ -26,6 +27,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -57,7 +59,7 @@ class SegmentationServer {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
   ros::Subscriber points_sub_;
-  ros::Publisher object_pub_;
+  ros::Publisher object_pub_, plane_pub_;
 };
 
 // The GPIS: fitted to the object points (`points`), updated with touch observations
@@ -71,6 +73,7 @@ class GpModelServer {
  private:
   void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
   void fitCloud(const sensor_msgs::PointCloud2& cloud);
+  void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
@@ -93,13 +96,22 @@ class GpModelServer {
   gpatlas_core::ViewFreeSpaceConfig view_free_config_;
   gpatlas_core::OccludedInteriorConfig occluded_config_;
   std::string sensor_frame_;  // empty: no view free space
+  // The table under the object (segmentation's `support_plane`): outside points below it, no
+  // guessed inside points in it.
+  bool use_support_plane_{true};
+  double support_clearance_m_{0.005};
+  gpatlas_core::BelowSupportConfig below_support_config_;
+  std::mutex plane_mutex_;  // guards the three below
+  std::optional<gpatlas_core::SupportPlane> support_plane_;
+  std::optional<gpatlas_core::SupportPlane> plane_of_last_fit_;
+  sensor_msgs::PointCloud2::ConstPtr last_cloud_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
 
   std::mutex mutex_;  // guards model_ (callbacks may run concurrently in a multi-threaded manager)
   gpatlas_core::GpisModel model_;
 
-  ros::Subscriber points_sub_, contacts_sub_;
+  ros::Subscriber points_sub_, contacts_sub_, plane_sub_;
   ros::ServiceServer add_srv_, reset_srv_;
   ros::Publisher training_pub_, surface_pub_, mesh_marker_pub_, mesh_shape_pub_;
 };

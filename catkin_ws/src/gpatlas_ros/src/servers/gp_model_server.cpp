@@ -7,6 +7,7 @@
 #include <visualization_msgs/Marker.h>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 
 namespace gpatlas_ros {
@@ -44,6 +45,8 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readViewFreeSpace(reader, &view_free_config_, &sensor_frame_);
   view_free_config_.noise_sigma = noise_.free_space_sigma;
   readOccludedInterior(reader, &occluded_config_);
+  readSupportPlane(reader, &use_support_plane_, &support_clearance_m_, &below_support_config_);
+  below_support_config_.noise_sigma = noise_.free_space_sigma;
   touch_config_.contact_noise_sigma = noise_.touch_sigma;
   touch_config_.free_space_noise_sigma = noise_.free_space_sigma;
   reader.report("gp_model");
@@ -57,6 +60,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   reset_srv_ = pnh_.advertiseService("reset", &GpModelServer::onReset, this);
   points_sub_ = nh_.subscribe("points", 1, &GpModelServer::onPoints, this);
   contacts_sub_ = nh_.subscribe("contacts", 10, &GpModelServer::onContacts, this);
+  if (use_support_plane_) plane_sub_ = nh_.subscribe("support_plane", 1, &GpModelServer::onSupportPlane, this);
   ROS_INFO_STREAM("gp_model: kernel " << gpis_config_.kernel << ", waiting for object points on "
                                       << points_sub_.getTopic());
 }
@@ -65,9 +69,42 @@ void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
   // nodelet manager. Report it and keep the previous model.
   try {
+    {
+      std::lock_guard<std::mutex> lock(plane_mutex_);
+      last_cloud_ = msg;
+    }
     fitCloud(*msg);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("gp_model: object cloud ignored: " << e.what());
+  }
+}
+
+void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
+  try {
+    gpatlas_core::SupportPlane plane;
+    std::string error;
+    if (!fromMsg(*msg, &plane, &error)) {
+      ROS_WARN_STREAM("gp_model: support plane ignored: " << error);
+      return;
+    }
+    if (msg->header.frame_id != world_frame_) {
+      ROS_WARN_STREAM("gp_model: support plane ignored: in '" << msg->header.frame_id << "', expected '"
+                                                              << world_frame_ << "'");
+      return;
+    }
+    sensor_msgs::PointCloud2::ConstPtr refit;
+    {
+      std::lock_guard<std::mutex> lock(plane_mutex_);
+      support_plane_ = plane;
+      // The plane and the cloud come on two topics: if the last view was fitted without this
+      // plane (it came late, or the table moved), fit that view again.
+      const bool same = plane_of_last_fit_ && plane_of_last_fit_->normal.dot(plane.normal) > std::cos(0.5 * M_PI / 180.0) &&
+                        std::abs(plane_of_last_fit_->offset - plane.offset) < 0.001;
+      if (last_cloud_ && !same) refit = last_cloud_;
+    }
+    if (refit) fitCloud(*refit);
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("gp_model: support plane ignored: " << e.what());
   }
 }
 
@@ -84,6 +121,12 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     ROS_WARN_STREAM("gp_model: object cloud ignored: " << points.size() << " valid points (" << invalid
                                                        << " NaN), need at least 4");
     return;
+  }
+  std::optional<gpatlas_core::SupportPlane> plane;
+  if (use_support_plane_) {
+    std::lock_guard<std::mutex> lock(plane_mutex_);
+    plane = support_plane_;
+    plane_of_last_fit_ = plane;
   }
   // The camera's rays crossed free space up to the object: outside points that keep the model
   // from closing cavities the camera looked into. Labels use the whole view, before the subset.
@@ -108,10 +151,19 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
       // camera never saw (a bowl's bottom behind its rim) has no zero crossing to explore.
       if (occluded_config_.max_points > 0) {
         auto inside = gpatlas_core::sampleOccludedInterior(points, origin.front(), occluded_config_);
-        if (inside.ok) view_free.insert(view_free.end(), inside.points.begin(), inside.points.end());
-        else ROS_WARN_STREAM("gp_model: no occluded interior: " << inside.message);
+        if (inside.ok) {
+          if (plane) gpatlas_core::dropNearOrBelowPlane(&inside.points, *plane, support_clearance_m_);
+          view_free.insert(view_free.end(), inside.points.begin(), inside.points.end());
+        } else {
+          ROS_WARN_STREAM("gp_model: no occluded interior: " << inside.message);
+        }
       }
     }
+  }
+  if (plane) {
+    auto below = gpatlas_core::sampleBelowSupport(points, *plane, below_support_config_);
+    if (below.ok) view_free.insert(view_free.end(), below.points.begin(), below.points.end());
+    else ROS_WARN_STREAM("gp_model: support plane not used: " << below.message);
   }
   // The GP costs O(n^3): keep a random, seeded subset of the view.
   std::mt19937 rng(7);

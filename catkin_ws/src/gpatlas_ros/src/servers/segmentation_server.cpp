@@ -42,6 +42,7 @@ SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   }
   segmenter_ = gpatlas_core::ObjectSegmenter(config);
   object_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("object_points", 1, true);
+  plane_pub_ = pnh_.advertise<gpatlas_msgs::SupportPlane>("support_plane", 1, true);
   points_sub_ = nh_.subscribe("points", 1, &SegmentationServer::onPoints, this);
   ROS_INFO_STREAM("segmentation: listening on " << points_sub_.getTopic() << ", publishing "
                                                 << object_pub_.getTopic() << " in '" << world_frame_ << "'");
@@ -66,6 +67,15 @@ void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg)
     }
     ROS_INFO_STREAM("segmentation: " << result.message << " from " << result.stats.input << " points ("
                                      << result.stats.plane_inliers << " on the table)");
+    // The plane first: the GP model uses it with the object cloud (and refits if it comes late).
+    if (result.plane_found) {
+      gpatlas_core::SupportPlane plane;
+      plane.normal = result.plane_normal;
+      plane.offset = result.plane_offset;
+      gpatlas_msgs::SupportPlane plane_msg = toMsg(plane, world_frame_);
+      plane_msg.header.stamp = msg->header.stamp;
+      plane_pub_.publish(plane_msg);
+    }
     sensor_msgs::PointCloud2 out = pointsToCloud(result.object_points, {}, 1.0, world_frame_);
     out.header.stamp = msg->header.stamp;
     object_pub_.publish(out);
