@@ -280,6 +280,13 @@ ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, con
   View view;
   out.message = finiteView(surface_points, 2, &view);
   if (!out.message.empty()) return out;
+  std::vector<double> heights;
+  for (const auto& p : view.points) heights.push_back(plane.height(p));
+  std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+  if (!(heights[heights.size() / 2] > 0.0)) {
+    out.message = "the view is not above the support plane (is its normal flipped?)";
+    return out;
+  }
 
   // The footprint: the view projected on the plane, in an orthonormal frame (u, v) of it.
   const Vector3 u = plane.normal.unitOrthogonal();
@@ -297,27 +304,38 @@ ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, con
   v_min -= grow;
   v_max += grow;
   const Vector3 on_plane = -plane.offset * plane.normal;  // the plane's point nearest the origin
+  // Only under the view: within `grow` of a projected view point. The label (the depth) is
+  // close to the true distance only there; under a corner of the rectangle, far from the
+  // object, it would understate the distance and pull the predicted surface out along the table.
+  std::vector<Eigen::Vector2d> footprint;
+  for (const auto& p : view.points) footprint.emplace_back(u.dot(p), v.dot(p));
   const int n = config.grid_cells;
+  std::vector<Eigen::Vector2d> cells;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector2d c(u_min + (u_max - u_min) * (i + 0.5) / n, v_min + (v_max - v_min) * (j + 0.5) / n);
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const auto& f : footprint) nearest = std::min(nearest, (f - c).squaredNorm());
+      if (nearest <= grow * grow) cells.push_back(c);
+    }
   for (double fraction : config.depth_fractions) {
     const double depth = fraction * view.radius;
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) {
-        const double a = u_min + (u_max - u_min) * (i + 0.5) / n;
-        const double b = v_min + (v_max - v_min) * (j + 0.5) / n;
-        TrainingPoint t;
-        t.position = on_plane + a * u + b * v - depth * plane.normal;
-        t.label = PointLabel::kOutside;
-        t.source = PointSource::kVision;
-        t.noise_sigma = config.noise_sigma;
-        t.surface_distance_m = depth;
-        out.points.push_back(t);
-      }
+    for (const auto& c : cells) {
+      TrainingPoint t;
+      t.position = on_plane + c.x() * u + c.y() * v - depth * plane.normal;
+      t.label = PointLabel::kOutside;
+      t.source = PointSource::kVision;
+      t.noise_sigma = config.noise_sigma;
+      t.surface_distance_m = depth;
+      out.points.push_back(t);
+    }
   }
   out.ok = true;
   return out;
 }
 
 std::size_t dropNearOrBelowPlane(std::vector<TrainingPoint>* points, const SupportPlane& plane, double clearance_m) {
+  if (!points) return 0;
   const std::size_t before = points->size();
   points->erase(std::remove_if(points->begin(), points->end(),
                                [&](const TrainingPoint& p) { return !(plane.height(p.position) >= clearance_m); }),

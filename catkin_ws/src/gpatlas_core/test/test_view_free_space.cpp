@@ -310,9 +310,11 @@ TEST(SupportPlane, SamplesLieBelowThePlaneUnderTheViewLabelledWithTheirDepth) {
   BelowSupportConfig config;
   const ViewFreeSpace below = sampleBelowSupport(view, plane, config);
   ASSERT_TRUE(below.ok) << below.message;
-  ASSERT_EQ(below.points.size(), static_cast<std::size_t>(config.grid_cells * config.grid_cells) *
-                                     config.depth_fractions.size());
-  const double reach = view_radius * (1.0 + config.footprint_margin_fraction) + 1e-9;
+  // Every layer has the same cells, and the ball's footprint (a disc) fills most of the grid.
+  ASSERT_EQ(below.points.size() % config.depth_fractions.size(), 0u);
+  const std::size_t per_layer = below.points.size() / config.depth_fractions.size();
+  EXPECT_GT(per_layer, static_cast<std::size_t>(config.grid_cells * config.grid_cells) / 2);
+  const double grow = config.footprint_margin_fraction * view_radius;
   for (const auto& t : below.points) {
     EXPECT_EQ(t.label, PointLabel::kOutside);
     const double depth = -(plane.normal.dot(t.position) + plane.offset);  // recomputed
@@ -320,12 +322,20 @@ TEST(SupportPlane, SamplesLieBelowThePlaneUnderTheViewLabelledWithTheirDepth) {
     bool a_layer = false;
     for (double f : config.depth_fractions) a_layer = a_layer || std::abs(depth - f * view_radius) < 1e-9;
     EXPECT_TRUE(a_layer) << depth;
-    // Under the view: its projection on the plane is within the grown footprint of the view,
-    // whose points all lie within view_radius of their centroid.
+    // Under the view: its projection on the plane is within the margin of a projected view
+    // point (recomputed).
     const Vector3 projected = t.position + depth * plane.normal;
-    const Vector3 centroid_projected = centroid - plane.height(centroid) * plane.normal;
-    EXPECT_LE((projected - centroid_projected).norm(), std::sqrt(2.0) * reach);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& p : view) nearest = std::min(nearest, (p - plane.height(p) * plane.normal - projected).norm());
+    EXPECT_LE(nearest, grow + 1e-9);
   }
+  // A flipped normal puts the view below the plane: refused.
+  SupportPlane flipped = plane;
+  flipped.normal = -plane.normal;
+  flipped.offset = -plane.offset;
+  const ViewFreeSpace refused = sampleBelowSupport(view, flipped);
+  EXPECT_FALSE(refused.ok);
+  EXPECT_NE(refused.message.find("flipped"), std::string::npos);
 
   SupportPlane bad;
   bad.normal = Vector3(0.0, 0.0, 2.0);

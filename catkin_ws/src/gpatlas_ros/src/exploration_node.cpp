@@ -20,6 +20,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
@@ -31,7 +32,9 @@
 #include <memory>
 #include <mutex>
 #include <sstream>
+#include <system_error>
 #include <thread>
+#include <vector>
 
 namespace gpatlas_ros {
 namespace {
@@ -184,6 +187,13 @@ class ExplorationNode {
     return finish("interrupted", 1);
   }
 
+  // Joins the call workers; call after ros::shutdown(), which makes any blocked call return.
+  void joinWorkers() {
+    for (auto& worker : workers_)
+      if (worker.joinable()) worker.join();
+    workers_.clear();
+  }
+
  private:
   template <typename Srv>
   bool callService(const std::string& name, Srv& srv) {
@@ -196,11 +206,12 @@ class ExplorationNode {
   }
 
   template <typename Srv>
-  bool timedCall(const std::string& resolved, Srv& srv) {
+  bool timedCall(const std::string& resolved, Srv& srv, double timeout_s = -1.0) {
+    if (timeout_s < 0.0) timeout_s = call_timeout_s_;
     // ros::service::call has no timeout: a server that never answers (an arm stuck mid-motion,
     // a hung driver) would freeze the exploration for good. The call runs on a worker thread
-    // with its own copy of the request; past call_timeout_s we give up on it and report, and
-    // the worker is left to finish or die with the process.
+    // with its own copy of the request; past the timeout we give up on it and report. Workers
+    // are joined at exit, after ros::shutdown() has released any call still blocked.
     struct Pending {
       std::mutex mutex;
       std::condition_variable answered;
@@ -210,20 +221,27 @@ class ExplorationNode {
     };
     auto pending = std::make_shared<Pending>();
     pending->srv = srv;
-    std::thread([pending, resolved]() {
-      const bool ok = ros::service::call(resolved, pending->srv);
-      std::lock_guard<std::mutex> lock(pending->mutex);
-      pending->ok = ok;
-      pending->done = true;
-      pending->answered.notify_all();
-    }).detach();
-    std::unique_lock<std::mutex> lock(pending->mutex);
-    if (!pending->answered.wait_for(lock, std::chrono::duration<double>(call_timeout_s_),
-                                    [&pending]() { return pending->done; })) {
-      ROS_ERROR_STREAM("exploration: " << resolved << " did not answer within " << call_timeout_s_
-                                       << " s (call_timeout_s)");
+    try {
+      workers_.emplace_back([pending, resolved]() {
+        const bool ok = ros::service::call(resolved, pending->srv);
+        std::lock_guard<std::mutex> lock(pending->mutex);
+        pending->ok = ok;
+        pending->done = true;
+        pending->answered.notify_all();
+      });
+    } catch (const std::system_error& e) {
+      ROS_ERROR_STREAM("exploration: cannot call " << resolved << ": " << e.what());
       return false;
     }
+    std::unique_lock<std::mutex> lock(pending->mutex);
+    if (!pending->answered.wait_for(lock, std::chrono::duration<double>(timeout_s),
+                                    [&pending]() { return pending->done; })) {
+      ROS_ERROR_STREAM("exploration: " << resolved << " did not answer within " << timeout_s << " s");
+      return false;
+    }
+    lock.unlock();
+    workers_.back().join();  // finished: reap it now (the last started is this call's)
+    workers_.pop_back();
     if (!pending->ok) {
       ROS_ERROR_STREAM("exploration: call to " << resolved << " failed");
       return false;
@@ -250,7 +268,7 @@ class ExplorationNode {
       return;
     }
     gpatlas_msgs::GetMesh srv;
-    if (!timedCall(name, srv) || !srv.response.success) {
+    if (!timedCall(name, srv, std::min(call_timeout_s_, kAuxiliaryCallTimeoutS)) || !srv.response.success) {
       ROS_WARN_STREAM("exploration: ground truth unavailable: " << srv.response.message);
       return;
     }
@@ -341,7 +359,8 @@ class ExplorationNode {
     gpatlas_msgs::SaveMap save;
     save.request.path = (dir / "collision_map.bt").string();
     const std::string save_name = nh_.resolveName("save_map");
-    if (ros::service::waitForService(save_name, ros::Duration(2.0)) && timedCall(save_name, save) &&
+    if (ros::service::waitForService(save_name, ros::Duration(2.0)) &&
+        timedCall(save_name, save, std::min(call_timeout_s_, kAuxiliaryCallTimeoutS)) &&
         !save.response.success)
       ROS_WARN_STREAM("exploration: " << save.response.message);
 
@@ -407,6 +426,9 @@ class ExplorationNode {
   int max_failures_{5};
   double service_timeout_s_{60.0};  // for a service to appear
   double call_timeout_s_{600.0};    // for a call to answer (a touch on a slow arm takes minutes)
+  // The ground truth and the map's saving: optional, at the start and the end; not worth a wait.
+  static constexpr double kAuxiliaryCallTimeoutS = 30.0;
+  std::vector<std::thread> workers_;  // service calls in flight or abandoned (see timedCall)
   bool capture_{true};
   int metrics_every_{1};
   gpatlas_core::GpisModel::Config gpis_config_;
@@ -434,6 +456,7 @@ int main(int argc, char** argv) {
     gpatlas_ros::ExplorationNode node(ros::NodeHandle(), ros::NodeHandle("~"));
     const int code = node.run();
     ros::shutdown();
+    node.joinWorkers();
     return code;
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("exploration: " << e.what());

@@ -4,6 +4,7 @@
 #include <ros/ros.h>
 
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -26,7 +27,8 @@ TEST(ExplorationNode, GivesUpOnAServiceThatNeverAnswers) {
         return true;
       });
 
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "gpatlas_exploration_timeout_test";
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("gpatlas_exploration_timeout_test_" + std::to_string(::getpid()));
   const std::string command =
       "rosrun gpatlas_ros exploration_node __name:=timeout_exploration capture:=/hanging/capture "
       "ground_truth:=/no_ground_truth _call_timeout_s:=1.0 _service_timeout_s:=5.0 _results_dir:=" +
@@ -38,7 +40,7 @@ TEST(ExplorationNode, GivesUpOnAServiceThatNeverAnswers) {
 
   EXPECT_TRUE(called) << "the exploration never called the capture service";
   ASSERT_TRUE(WIFEXITED(status));
-  EXPECT_NE(WEXITSTATUS(status), 0);  // an error, not a finished exploration
+  EXPECT_EQ(WEXITSTATUS(status), 1);  // the exploration's error exit, not a crash nor a finish
   // Start-up, 2 s looking for a ground truth, 1 s on the capture. Without the timeout it would
   // wait the 30 s of the hanging call, then service_timeout_s for a model.
   EXPECT_LT(elapsed, 20.0);

@@ -18,6 +18,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <mutex>
 #include <random>
 
 namespace {
@@ -139,9 +140,21 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   tf.transform.rotation.w = q.w();
   broadcaster.sendTransform(tf);
 
-  gpatlas_msgs::TrainingSet::ConstPtr training;
+  std::mutex training_mutex;
+  gpatlas_msgs::TrainingSet::ConstPtr latest_training;
   ros::Subscriber training_sub = nh.subscribe<gpatlas_msgs::TrainingSet>(
-      "/gpatlas/gp_model/training_set", 1, [&](const gpatlas_msgs::TrainingSet::ConstPtr& m) { training = m; });
+      "/gpatlas/gp_model/training_set", 1, [&](const gpatlas_msgs::TrainingSet::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(training_mutex);
+        latest_training = m;
+      });
+  // A model fitted with segmentation's support plane has outside points under the table top.
+  const auto withSupportPlane = [](const gpatlas_msgs::TrainingSet::ConstPtr& m) {
+    if (!m) return false;
+    for (const auto& p : m->points)
+      if (p.z < -0.002) return true;
+    return false;
+  };
+  gpatlas_msgs::TrainingSet::ConstPtr training;
   visualization_msgs::MarkerArray::ConstPtr atlas;
   ros::Subscriber atlas_sub = nh.subscribe<visualization_msgs::MarkerArray>(
       "/gpatlas/atlas_planner/atlas", 1, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { atlas = m; });
@@ -152,12 +165,15 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
 
   sensor_msgs::PointCloud2 cloud = syntheticView();
   const ros::Time deadline = ros::Time::now() + ros::Duration(60.0);
-  while (ros::ok() && !training && ros::Time::now() < deadline) {
+  while (ros::ok() && !withSupportPlane(training) && ros::Time::now() < deadline) {
     cloud.header.stamp = ros::Time::now();
     cloud_pub.publish(cloud);
     ros::Duration(1.0).sleep();
+    std::lock_guard<std::mutex> lock(training_mutex);
+    training = latest_training;
   }
   ASSERT_TRUE(training) << "the GP never published a training set";
+  ASSERT_TRUE(withSupportPlane(training)) << "no training set used segmentation's support plane";
   // Only object points reach the GP: every surface point is on the sphere, none on or under
   // the table top (z = 0). The camera's free space (sensor_frame test_camera, see
   // pipeline.test) adds outside points in front of the sphere, each labelled with a distance to
@@ -185,7 +201,8 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
       ++view_free_space;
     } else {
       // The view's occluded interior (occluded_interior/*): inside the sphere, labelled with a
-      // distance to the view at least its true depth.
+      // distance to the view at least its true depth, and clear of the table (clearance_m).
+      EXPECT_GE(p.z, 0.005 - 0.002);
       const double depth = kRadius - (gpatlas_ros::fromMsg(p) - kCentre).norm();
       EXPECT_GT(depth, 0.0);
       EXPECT_GE(training->surface_distances_m[i] + 0.004, depth);

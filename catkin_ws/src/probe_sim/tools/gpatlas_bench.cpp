@@ -130,7 +130,8 @@ void printUsage() {
                                  paper's protocol casts rays on the object mesh alone]
   --no-support-plane             with --table: do not tell the model that nothing of the object
                                  is below the table top [told: outside points under it, no guessed
-                                 inside points in it, as the pipeline does with segmentation's plane]
+                                 inside points in it; the exact top here, segmentation's RANSAC
+                                 plane in the pipeline]
   --retune-every K               re-tune every K actions (0: never) [0]
   --curve-every K                measure the shape error every K actions (0: only at the end) [5]
   --mesh-res-m R                 marching-cubes resolution in metres [0.005]

@@ -101,10 +101,12 @@ class GpModelServer {
   bool use_support_plane_{true};
   double support_clearance_m_{0.005};
   gpatlas_core::BelowSupportConfig below_support_config_;
+  // A plane belongs to the cloud with the same stamp (segmentation stamps both with the
+  // camera's); a plane stamped 0 (a fixed table, published by hand) belongs to every cloud.
   std::mutex plane_mutex_;  // guards the three below
-  std::optional<gpatlas_core::SupportPlane> support_plane_;
-  std::optional<gpatlas_core::SupportPlane> plane_of_last_fit_;
+  gpatlas_msgs::SupportPlane::ConstPtr support_plane_;
   sensor_msgs::PointCloud2::ConstPtr last_cloud_;
+  bool last_fit_had_plane_{false};
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
 

@@ -89,18 +89,18 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
     }
     if (msg->header.frame_id != world_frame_) {
       ROS_WARN_STREAM("gp_model: support plane ignored: in '" << msg->header.frame_id << "', expected '"
-                                                              << world_frame_ << "'");
+                                                              << world_frame_ << "' (publish it in the world frame)");
       return;
     }
     sensor_msgs::PointCloud2::ConstPtr refit;
     {
       std::lock_guard<std::mutex> lock(plane_mutex_);
-      support_plane_ = plane;
-      // The plane and the cloud come on two topics: if the last view was fitted without this
-      // plane (it came late, or the table moved), fit that view again.
-      const bool same = plane_of_last_fit_ && plane_of_last_fit_->normal.dot(plane.normal) > std::cos(0.5 * M_PI / 180.0) &&
-                        std::abs(plane_of_last_fit_->offset - plane.offset) < 0.001;
-      if (last_cloud_ && !same) refit = last_cloud_;
+      support_plane_ = msg;
+      // The plane and its cloud come on two topics: if the cloud it belongs to was fitted
+      // before the plane arrived, fit that cloud again.
+      if (last_cloud_ && !last_fit_had_plane_ &&
+          (msg->header.stamp.isZero() || msg->header.stamp == last_cloud_->header.stamp))
+        refit = last_cloud_;
     }
     if (refit) fitCloud(*refit);
   } catch (const std::exception& e) {
@@ -125,8 +125,10 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   std::optional<gpatlas_core::SupportPlane> plane;
   if (use_support_plane_) {
     std::lock_guard<std::mutex> lock(plane_mutex_);
-    plane = support_plane_;
-    plane_of_last_fit_ = plane;
+    gpatlas_core::SupportPlane p;
+    if (support_plane_ && (support_plane_->header.stamp.isZero() || support_plane_->header.stamp == cloud.header.stamp) &&
+        fromMsg(*support_plane_, &p, nullptr))
+      plane = p;
   }
   // The camera's rays crossed free space up to the object: outside points that keep the model
   // from closing cavities the camera looked into. Labels use the whole view, before the subset.
@@ -184,6 +186,10 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << report.message);
     return;
   }
+  {
+    std::lock_guard<std::mutex> plane_lock(plane_mutex_);
+    last_fit_had_plane_ = plane.has_value();
+  }
   for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
   std::string tuned;
   if (tune_) {
@@ -212,6 +218,12 @@ bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& re
 }
 
 bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  {
+    std::lock_guard<std::mutex> plane_lock(plane_mutex_);
+    support_plane_.reset();
+    last_cloud_.reset();
+    last_fit_had_plane_ = false;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   model_ = gpatlas_core::GpisModel(gpis_config_);
   // An empty training set tells the planner and the collision map to drop their copies.
