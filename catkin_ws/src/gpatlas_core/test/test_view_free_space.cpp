@@ -261,18 +261,24 @@ TEST(OccludedInterior, BadInputIsRefusedWithAReason) {
   EXPECT_FALSE(message.empty());
 }
 
-// The reason for the occluded interior: with the front of a ball, its view's free space and no
-// inside pseudo-point, the GP has no evidence of material, and the ball's centre is not
-// clearly inside. The occluded interior says it is.
-TEST(OccludedInterior, TellsTheModelTheHiddenBulkIsMaterial) {
-  const auto view = visibleBallFront(1500, 7);
+// Every stride-th view point as a surface observation (the camera's noise sigma).
+std::vector<TrainingPoint> surfaceData(const std::vector<Vector3>& view, std::size_t stride) {
   std::vector<TrainingPoint> data;
-  for (std::size_t i = 0; i < view.size(); i += 4) {
+  for (std::size_t i = 0; i < view.size(); i += stride) {
     TrainingPoint t;
     t.position = view[i];
     t.noise_sigma = 0.1;
     data.push_back(t);
   }
+  return data;
+}
+
+// The reason for the occluded interior: with the front of a ball, its view's free space and no
+// inside pseudo-point, the GP has no evidence of material, and the ball's centre is not
+// clearly inside. The occluded interior says it is.
+TEST(OccludedInterior, TellsTheModelTheHiddenBulkIsMaterial) {
+  const auto view = visibleBallFront(1500, 7);
+  std::vector<TrainingPoint> data = surfaceData(view, 4);
   const auto free = sampleViewFreeSpace(view, kSideEye);
   ASSERT_TRUE(free.ok) << free.message;
   data.insert(data.end(), free.points.begin(), free.points.end());
@@ -370,13 +376,7 @@ TEST(SupportPlane, PutsTheUnseenBottomOfABallOnTheTable) {
   for (const auto& p : visibleBallFront(1500, 14))
     if (p.z() > -0.8 * kRadius) view.push_back(p + lift);  // the table hides the lowest band
   const Vector3 eye = kSideEye + lift;
-  std::vector<TrainingPoint> data;
-  for (std::size_t i = 0; i < view.size(); i += 4) {
-    TrainingPoint t;
-    t.position = view[i];
-    t.noise_sigma = 0.1;
-    data.push_back(t);
-  }
+  std::vector<TrainingPoint> data = surfaceData(view, 4);
   const auto free = sampleViewFreeSpace(view, eye);
   auto inside = sampleOccludedInterior(view, eye);
   ASSERT_TRUE(free.ok && inside.ok);
