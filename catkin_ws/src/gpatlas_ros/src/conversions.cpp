@@ -46,6 +46,13 @@ bool fromMsg(const gpatlas_msgs::SupportPlane& msg, gpatlas_core::SupportPlane* 
   return true;
 }
 
+gpatlas_core::SupportPlane transformPlane(const gpatlas_core::SupportPlane& plane, const Eigen::Isometry3d& pose) {
+  gpatlas_core::SupportPlane out;
+  out.normal = (pose.linear() * plane.normal).normalized();
+  out.offset = -out.normal.dot(pose * Eigen::Vector3d(-plane.offset * plane.normal));
+  return out;
+}
+
 gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch) {
   gpatlas_msgs::Touch msg;
   msg.kind = touch.kind == gpatlas_core::Touch::Kind::kSlide ? gpatlas_msgs::Touch::SLIDE : gpatlas_msgs::Touch::POKE;

@@ -69,6 +69,21 @@ TEST(Conversions, SupportPlaneRoundTripAndNormalisation) {
   EXPECT_FALSE(error.empty());
 }
 
+TEST(Conversions, APlaneMovedToAnotherFrameKeepsEveryPointsHeight) {
+  gpatlas_core::SupportPlane plane;
+  plane.normal = Eigen::Vector3d(0.3, 0.1, -0.9).normalized();
+  plane.offset = 0.4;
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
+  pose.translation() = Eigen::Vector3d(0.2, -1.1, 0.6);
+  const gpatlas_core::SupportPlane moved = gpatlas_ros::transformPlane(plane, pose);
+  EXPECT_NEAR(moved.normal.norm(), 1.0, 1e-12);
+  // Any point's signed height above the plane is the same in both frames.
+  for (const Eigen::Vector3d x : {Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(1.0, 2.0, -3.0),
+                                  Eigen::Vector3d(-0.4, 0.25, 0.9)})
+    EXPECT_NEAR(moved.height(pose * x), plane.height(x), 1e-12);
+}
+
 TEST(Conversions, ObservationsRoundTrip) {
   gpatlas_core::ProbeResult result;
   result.contacts.push_back({{1, 2, 3}, {0, 0, 1}});

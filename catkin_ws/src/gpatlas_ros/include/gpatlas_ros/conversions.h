@@ -16,6 +16,8 @@
 #include <gpatlas_msgs/TrainingSet.h>
 #include <sensor_msgs/PointCloud2.h>
 
+#include <Eigen/Geometry>
+
 #include <string>
 #include <vector>
 
@@ -29,6 +31,9 @@ Eigen::Vector3d fromMsg(const geometry_msgs::Vector3& v);
 gpatlas_msgs::SupportPlane toMsg(const gpatlas_core::SupportPlane& plane, const std::string& frame_id);
 // Fails on a non-finite or zero normal or offset; the normal is normalised (offset scaled).
 bool fromMsg(const gpatlas_msgs::SupportPlane& msg, gpatlas_core::SupportPlane* plane, std::string* error);
+
+// The same plane in another frame: `pose` maps its frame's coordinates into the new one.
+gpatlas_core::SupportPlane transformPlane(const gpatlas_core::SupportPlane& plane, const Eigen::Isometry3d& pose);
 
 gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch);
 // Fails (returns false with a reason) on mismatched array lengths or an unknown kind.

@@ -3,6 +3,7 @@
 #include "gpatlas_ros/servers.h"
 
 #include <gpatlas_core/explorer.h>
+#include <tf2_eigen/tf2_eigen.h>
 #include <shape_msgs/Mesh.h>
 #include <visualization_msgs/Marker.h>
 
@@ -87,15 +88,24 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
       ROS_WARN_STREAM("gp_model: support plane ignored: " << error);
       return;
     }
-    if (msg->header.frame_id != world_frame_) {
-      ROS_WARN_STREAM("gp_model: support plane ignored: in '" << msg->header.frame_id << "', expected '"
-                                                              << world_frame_ << "' (publish it in the world frame)");
-      return;
+    // Kept in the world frame (stamp 0: the latest transform).
+    gpatlas_msgs::SupportPlane::Ptr in_world(new gpatlas_msgs::SupportPlane(*msg));
+    if (!msg->header.frame_id.empty() && msg->header.frame_id != world_frame_) {
+      try {
+        const geometry_msgs::TransformStamped tf = tf_buffer_.lookupTransform(
+            world_frame_, msg->header.frame_id, msg->header.stamp, ros::Duration(tf_timeout_s_));
+        *in_world = toMsg(transformPlane(plane, tf2::transformToEigen(tf)), world_frame_);
+        in_world->header.stamp = msg->header.stamp;
+      } catch (const tf2::TransformException& e) {
+        ROS_WARN_STREAM("gp_model: support plane ignored: no transform from '" << msg->header.frame_id << "' to '"
+                                                                              << world_frame_ << "': " << e.what());
+        return;
+      }
     }
     sensor_msgs::PointCloud2::ConstPtr refit;
     {
       std::lock_guard<std::mutex> lock(plane_mutex_);
-      support_plane_ = msg;
+      support_plane_ = in_world;
       // The plane and its cloud come on two topics: if the cloud it belongs to was fitted
       // before the plane arrived, fit that cloud again.
       if (last_cloud_ && !last_fit_had_plane_ &&
