@@ -25,20 +25,6 @@ double targetOf(const TrainingPoint& p, double scale) {
   return static_cast<double>(static_cast<int>(p.label));
 }
 
-// Evenly spread directions on the unit sphere (Fibonacci lattice): a deterministic, isotropic
-// set of outside pseudo-points.
-std::vector<Vector3> fibonacciSphere(int count) {
-  std::vector<Vector3> dirs;
-  dirs.reserve(static_cast<std::size_t>(count));
-  const double golden = M_PI * (3.0 - std::sqrt(5.0));
-  for (int i = 0; i < count; ++i) {
-    const double z = 1.0 - 2.0 * (i + 0.5) / count;
-    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const double phi = golden * i;
-    dirs.emplace_back(rho * std::cos(phi), rho * std::sin(phi), z);
-  }
-  return dirs;
-}
 
 }  // namespace
 
@@ -349,6 +335,7 @@ FitReport GpisModel::refit(bool renormalise) {
 
   // Observations: drop out-of-domain outside points and duplicates.
   std::vector<TrainingPoint> kept;
+  std::vector<double> kept_values;  // their label values (targets before the prior)
   kept.reserve(m.observations.size());
   std::size_t out_of_domain = 0, duplicates = 0, bad_prior = 0;
   const double dup2 = c.duplicate_distance * c.duplicate_distance;
@@ -368,11 +355,12 @@ FitReport GpisModel::refit(bool renormalise) {
     bool duplicate = false;
     const double value = targetOf(p, m.scale);
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = targetOf(kept[j], m.scale) == value && (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
+      duplicate = kept_values[j] == value && (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
     }
+    kept_values.push_back(value);
     m.x.col(m.n) = xn;
     m.y[m.n] = target;
     m.noise_var[m.n] = p.noise_sigma * p.noise_sigma;
@@ -441,6 +429,11 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   // Screen against the domain and duplicates in the current frame.
   std::vector<TrainingPoint> kept;
   std::vector<Vector3> kept_x;
+  std::vector<double> kept_residuals;  // their targets for the GP
+  std::vector<double> kept_values;  // label values (targets before the prior), as for the model's
+  std::vector<double> observation_values;
+  observation_values.reserve(m.observations.size());
+  for (const auto& o : m.observations) observation_values.push_back(targetOf(o, m.scale));
   std::size_t out_of_domain = 0, duplicates = 0, bad_prior = 0;
   const double dup2 = c.duplicate_distance * c.duplicate_distance;
   for (const auto& p : accepted) {
@@ -449,21 +442,24 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
       ++out_of_domain;
       continue;
     }
-    if (!std::isfinite(m.residualOf(p))) {
+    const double residual = m.residualOf(p);
+    if (!std::isfinite(residual)) {
       ++bad_prior;
       continue;
     }
     const double value = targetOf(p, m.scale);
     bool duplicate = false;
     for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
-      duplicate = targetOf(m.observations[j], m.scale) == value &&
+      duplicate = observation_values[j] == value &&
                   (m.x.col(m.num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = targetOf(kept[j], m.scale) == value && (kept_x[j] - xn).squaredNorm() <= dup2;
+      duplicate = kept_values[j] == value && (kept_x[j] - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
     }
+    kept_values.push_back(value);
+    kept_residuals.push_back(residual);
     kept.push_back(p);
     kept_x.push_back(xn);
   }
@@ -505,7 +501,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   m.reserve(n + k);
   for (Eigen::Index j = 0; j < k; ++j) {
     m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
-    m.y[n + j] = m.residualOf(kept[static_cast<std::size_t>(j)]);
+    m.y[n + j] = kept_residuals[static_cast<std::size_t>(j)];
     const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
     m.noise_var[n + j] = s * s;
   }
@@ -570,10 +566,11 @@ FitReport GpisModel::setPriorMean(std::shared_ptr<const PriorMean> prior) {
     report.message = "prior mean set; takes effect at the first fit";
     return report;
   }
-  Impl backup(m);
+  // refit() leaves the model as it was when it fails: only the prior must be put back.
+  std::shared_ptr<const PriorMean> previous = std::move(m.prior_mean);
   m.prior_mean = std::move(prior);
   FitReport report = refit(false);
-  if (!report.ok) *impl_ = std::move(backup);
+  if (!report.ok) m.prior_mean = std::move(previous);
   return report;
 }
 

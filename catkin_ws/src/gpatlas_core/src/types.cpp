@@ -1,5 +1,8 @@
 #include "gpatlas_core/types.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace gpatlas_core {
 
 const char* toString(PointSource source) {
@@ -10,6 +13,19 @@ const char* toString(PointSource source) {
     case PointSource::kPseudo: return "pseudo";
   }
   return "unknown";
+}
+
+std::vector<Vector3> fibonacciSphere(int count) {
+  std::vector<Vector3> dirs;
+  dirs.reserve(static_cast<std::size_t>(std::max(count, 0)));
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / count;
+    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = golden * i;
+    dirs.emplace_back(rho * std::cos(phi), rho * std::sin(phi), z);
+  }
+  return dirs;
 }
 
 }  // namespace gpatlas_core

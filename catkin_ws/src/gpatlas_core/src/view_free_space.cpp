@@ -12,11 +12,13 @@
 namespace gpatlas_core {
 namespace {
 
-// The finite points of a view, their centroid and radius (largest distance from the centroid).
+// The finite points of a view, their centroid, radius (largest distance from the centroid)
+// and bounding box.
 struct View {
   std::vector<Vector3> points;
   Vector3 centroid{Vector3::Zero()};
   double radius{0.0};
+  Vector3 lo{Vector3::Zero()}, hi{Vector3::Zero()};  // bounding box
 };
 
 // Empty message: ok; otherwise why the view cannot be used.
@@ -31,7 +33,12 @@ std::string finiteView(const std::vector<Vector3>& surface_points, std::size_t m
   for (const auto& p : view->points) view->centroid += p;
   view->centroid /= static_cast<double>(view->points.size());
   view->radius = 0.0;
-  for (const auto& p : view->points) view->radius = std::max(view->radius, (p - view->centroid).norm());
+  view->lo = view->hi = view->points.front();
+  for (const auto& p : view->points) {
+    view->radius = std::max(view->radius, (p - view->centroid).norm());
+    view->lo = view->lo.cwiseMin(p);
+    view->hi = view->hi.cwiseMax(p);
+  }
   if (!(view->radius > 0.0)) return "the view's points all coincide";
   return "";
 }
@@ -89,9 +96,6 @@ ViewFreeSpace sampleViewFreeSpace(const std::vector<Vector3>& surface_points, co
   return out;
 }
 
-}  // namespace gpatlas_core
-
-namespace gpatlas_core {
 
 ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
                                      const OccludedInteriorConfig& config) {
@@ -166,23 +170,15 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
 
   // The convex hull, approximated from outside by its support planes in evenly spread
   // directions (Fibonacci lattice), shrunk by the margin.
-  std::vector<Vector3> directions;
+  const std::vector<Vector3> directions = fibonacciSphere(config.hull_directions);
   std::vector<double> support;
-  const double golden = M_PI * (3.0 - std::sqrt(5.0));
-  for (int k = 0; k < config.hull_directions; ++k) {
-    const double z = 1.0 - 2.0 * (k + 0.5) / config.hull_directions;
-    const double r = std::sqrt(std::max(0.0, 1.0 - z * z));
-    const Vector3 u(r * std::cos(golden * k), r * std::sin(golden * k), z);
+  for (const Vector3& u : directions) {
     double h = -std::numeric_limits<double>::infinity();
     for (const auto& p : points) h = std::max(h, u.dot(p));
-    directions.push_back(u);
     support.push_back(h - margin);
   }
-  Vector3 lo = points.front(), hi = points.front();
-  for (const auto& p : points) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
+  const Vector3& lo = view.lo;
+  const Vector3& hi = view.hi;
 
   // Cheap tests first (hull, range image) on the whole grid, then the O(view) distance test on
   // a random order of the survivors until max_points are accepted.
@@ -224,9 +220,6 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
   return out;
 }
 
-}  // namespace gpatlas_core
-
-namespace gpatlas_core {
 
 std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<Vector3>& surface_points,
                                                              const Vector3& sensor_origin,
@@ -243,13 +236,9 @@ std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<V
   sampling.max_points = std::numeric_limits<int>::max();
   const ViewFreeSpace interior = sampleOccludedInterior(surface_points, sensor_origin, sampling);
   if (!interior.ok) return fail(interior.message);
-  Vector3 lo = Vector3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
-  for (const auto& p : surface_points)
-    if (p.allFinite()) {
-      lo = lo.cwiseMin(p);
-      hi = hi.cwiseMax(p);
-    }
-  const double cell = (hi - lo).maxCoeff() / sampling.grid_cells;
+  View view;  // sampling succeeded, so the view is valid
+  finiteView(surface_points, 4, &view);
+  const double cell = (view.hi - view.lo).maxCoeff() / sampling.grid_cells;
   std::vector<Vector3> centres;
   centres.reserve(interior.points.size());
   for (const auto& p : interior.points) centres.push_back(p.position);
@@ -257,9 +246,6 @@ std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<V
   return std::make_shared<InteriorPriorMean>(std::move(centres), config.bump_radius_cells * cell, config.depth);
 }
 
-}  // namespace gpatlas_core
-
-namespace gpatlas_core {
 
 ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, const SupportPlane& plane,
                                  const BelowSupportConfig& config) {

@@ -18,6 +18,10 @@ enum class PointSource : std::uint8_t { kVision = 0, kTouch = 1, kFreeSpace = 2,
 
 const char* toString(PointSource source);
 
+// `count` evenly spread directions on the unit sphere (Fibonacci lattice): deterministic and
+// isotropic (the GP's outside pseudo-points, the view hull's support planes).
+std::vector<Vector3> fibonacciSphere(int count);
+
 // Training label of a point: on the surface (f = 0), outside (f = +1) or inside (f = -1).
 enum class PointLabel : std::int8_t { kInside = -1, kSurface = 0, kOutside = 1 };
 
