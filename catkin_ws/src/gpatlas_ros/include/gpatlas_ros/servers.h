@@ -101,10 +101,16 @@ class GpModelServer {
   bool use_support_plane_{true};
   double support_clearance_m_{0.005};
   gpatlas_core::BelowSupportConfig below_support_config_;
-  // A plane belongs to the cloud with the same stamp (segmentation stamps both with the
-  // camera's); a plane stamped 0 (a fixed table, published by hand) belongs to every cloud.
+  // A plane (in world_frame) belongs to the cloud with the same stamp (segmentation stamps
+  // both with the camera's); a plane stamped 0 (a fixed table, published by hand) belongs to
+  // every cloud.
+  struct StampedPlane {
+    gpatlas_core::SupportPlane plane;
+    ros::Time stamp;
+    bool belongsTo(const ros::Time& cloud_stamp) const { return stamp.isZero() || stamp == cloud_stamp; }
+  };
   std::mutex plane_mutex_;  // guards the three below
-  gpatlas_msgs::SupportPlane::ConstPtr support_plane_;
+  std::optional<StampedPlane> support_plane_;
   sensor_msgs::PointCloud2::ConstPtr last_cloud_;
   bool last_fit_had_plane_{false};
   tf2_ros::Buffer tf_buffer_;

@@ -89,13 +89,11 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
       return;
     }
     // Kept in the world frame (stamp 0: the latest transform).
-    gpatlas_msgs::SupportPlane::Ptr in_world(new gpatlas_msgs::SupportPlane(*msg));
     if (!msg->header.frame_id.empty() && msg->header.frame_id != world_frame_) {
       try {
         const geometry_msgs::TransformStamped tf = tf_buffer_.lookupTransform(
             world_frame_, msg->header.frame_id, msg->header.stamp, ros::Duration(tf_timeout_s_));
-        *in_world = toMsg(transformPlane(plane, tf2::transformToEigen(tf)), world_frame_);
-        in_world->header.stamp = msg->header.stamp;
+        plane = transformPlane(plane, tf2::transformToEigen(tf));
       } catch (const tf2::TransformException& e) {
         ROS_WARN_STREAM("gp_model: support plane ignored: no transform from '" << msg->header.frame_id << "' to '"
                                                                               << world_frame_ << "': " << e.what());
@@ -105,11 +103,10 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
     sensor_msgs::PointCloud2::ConstPtr refit;
     {
       std::lock_guard<std::mutex> lock(plane_mutex_);
-      support_plane_ = in_world;
+      support_plane_ = StampedPlane{plane, msg->header.stamp};
       // The plane and its cloud come on two topics: if the cloud it belongs to was fitted
       // before the plane arrived, fit that cloud again.
-      if (last_cloud_ && !last_fit_had_plane_ &&
-          (msg->header.stamp.isZero() || msg->header.stamp == last_cloud_->header.stamp))
+      if (last_cloud_ && !last_fit_had_plane_ && support_plane_->belongsTo(last_cloud_->header.stamp))
         refit = last_cloud_;
     }
     if (refit) fitCloud(*refit);
@@ -135,10 +132,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   std::optional<gpatlas_core::SupportPlane> plane;
   if (use_support_plane_) {
     std::lock_guard<std::mutex> lock(plane_mutex_);
-    gpatlas_core::SupportPlane p;
-    if (support_plane_ && (support_plane_->header.stamp.isZero() || support_plane_->header.stamp == cloud.header.stamp) &&
-        fromMsg(*support_plane_, &p, nullptr))
-      plane = p;
+    if (support_plane_ && support_plane_->belongsTo(cloud.header.stamp)) plane = support_plane_->plane;
   }
   // The camera's rays crossed free space up to the object: outside points that keep the model
   // from closing cavities the camera looked into. Labels use the whole view, before the subset.
