@@ -145,6 +145,27 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   std::size_t next_candidate = 0;
   int trees = 1;
 
+  // EXPANDCHART toward the chart's highest-variance candidate (eq. 16): the new chart, not yet
+  // added (ok false when the projection or the chart failed). The candidate is consumed
+  // whatever happens, which bounds the search by the total number of candidates.
+  const auto expand = [&](int parent_index) {
+    const Chart& parent = atlas.chart(parent_index);
+    const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
+                                       [](const ChartCandidate& a, const ChartCandidate& b) {
+                                         return a.variance < b.variance;
+                                       });
+    Points3 start_point(3, 1), direction(3, 1);
+    start_point.col(0) = best->ambient;
+    direction.col(0) = parent.normal;
+    atlas.removeCandidate(parent_index, static_cast<std::size_t>(best - parent.candidates.begin()));
+    ++result.expansions;
+    const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
+    ChartCreation created;
+    if (projected.ok) created = createChart(model, projected, parent_index, config_.chart, rng);
+    if (!created.ok) ++result.failed_projections;
+    return created;
+  };
+
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   for (;;) {
     while (atlas.isExpandable()) {
@@ -161,29 +182,8 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
         selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng)];
       }
 
-      // EXPANDCHART toward the highest-variance candidate (eq. 16). The candidate is consumed
-      // whatever happens next, which bounds the loop by the total number of candidates.
-      const Chart& parent = atlas.chart(selected);
-      const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
-                                         [](const ChartCandidate& a, const ChartCandidate& b) {
-                                           return a.variance < b.variance;
-                                         });
-      const std::size_t best_index = static_cast<std::size_t>(best - parent.candidates.begin());
-      Points3 start_point(3, 1), direction(3, 1);
-      start_point.col(0) = best->ambient;
-      direction.col(0) = parent.normal;
-      atlas.removeCandidate(selected, best_index);
-      ++result.expansions;
-      const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
-      if (!projected.ok) {
-        ++result.failed_projections;
-        continue;
-      }
-      ChartCreation created = createChart(model, projected, selected, config_.chart, rng);
-      if (!created.ok) {
-        ++result.failed_projections;
-        continue;
-      }
+      ChartCreation created = expand(selected);
+      if (!created.ok) continue;
       const double new_variance = created.chart.variance;
       continuation = atlas.addChart(std::move(created.chart));
       if (progress) progress(atlas);
@@ -191,24 +191,9 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
         int last = continuation;
         for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
           if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
-          const Chart& tip = atlas.chart(last);
-          if (tip.candidates.empty()) break;
-          const auto next = std::max_element(tip.candidates.begin(), tip.candidates.end(),
-                                             [](const ChartCandidate& a, const ChartCandidate& b) {
-                                               return a.variance < b.variance;
-                                             });
-          Points3 from(3, 1), along(3, 1);
-          from.col(0) = next->ambient;
-          along.col(0) = tip.normal;
-          atlas.removeCandidate(last, static_cast<std::size_t>(next - tip.candidates.begin()));
-          ++result.expansions;
-          const SurfacePoint reached = projectOntoSurface(model, from, along, config_.projection).front();
-          ChartCreation extension;
-          if (reached.ok) extension = createChart(model, reached, last, config_.chart, rng);
-          if (!reached.ok || !extension.ok) {
-            ++result.failed_projections;
-            break;
-          }
+          if (atlas.chart(last).candidates.empty()) break;
+          ChartCreation extension = expand(last);
+          if (!extension.ok) break;
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);
