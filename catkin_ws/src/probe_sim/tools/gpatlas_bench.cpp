@@ -424,25 +424,21 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     if (!free.ok) return failed("view free space: " + free.message);
     initial.insert(initial.end(), free.points.begin(), free.points.end());
   }
-  std::size_t inside_count = 0;  // the occluded interior's points, last in `initial`
+  // The table top (z = 0, the object rests on it), as segmentation would find it.
+  const gpatlas_core::SupportPlane table;
+  const bool use_table = o.table && o.support_plane;
   if (o.occluded_inside_points > 0) {
     gpatlas_core::OccludedInteriorConfig inside_config;
     inside_config.max_points = o.occluded_inside_points;
     inside_config.noise_sigma = o.occluded_inside_sigma;
     inside_config.margin_fraction = o.occluded_margin;
     inside_config.seed = static_cast<std::uint64_t>(seed) + 1;
-    const auto inside = gpatlas_core::sampleOccludedInterior(view, eye, inside_config);
+    auto inside = gpatlas_core::sampleOccludedInterior(view, eye, inside_config);
     if (!inside.ok) return failed("occluded interior: " + inside.message);
+    if (use_table) gpatlas_core::dropNearOrBelowPlane(&inside.points, table, kSupportClearanceM);
     initial.insert(initial.end(), inside.points.begin(), inside.points.end());
-    inside_count = inside.points.size();
   }
-  if (o.table && o.support_plane) {
-    // The table top (z = 0, the object rests on it), as segmentation would find it.
-    const gpatlas_core::SupportPlane table;
-    std::vector<gpatlas_core::TrainingPoint> guesses(initial.end() - inside_count, initial.end());
-    initial.resize(initial.size() - inside_count);
-    gpatlas_core::dropNearOrBelowPlane(&guesses, table, kSupportClearanceM);
-    initial.insert(initial.end(), guesses.begin(), guesses.end());
+  if (use_table) {
     const auto below = gpatlas_core::sampleBelowSupport(view, table);
     if (!below.ok) return failed("support plane: " + below.message);
     initial.insert(initial.end(), below.points.begin(), below.points.end());
