@@ -30,4 +30,12 @@ else
   lint_failed=1
 fi
 
-/usr/bin/python3 "$root/scripts/summarize_test_results.py" "$results" "$build_status" "$lint_failed"
+summary=$(/usr/bin/python3 "$root/scripts/summarize_test_results.py" "$results" "$build_status" "$lint_failed")
+status=$?
+if [ $status -ne 0 ]; then
+  # CI keeps only the end of this output: the warnings before a failure usually say why.
+  echo "[test] the last warnings and errors of the log:"
+  grep -E "WARN|ERROR|Error|error:|FAIL" "$log_dir/run_tests.log" | tail -n 60
+fi
+echo "$summary"
+exit $status

@@ -138,7 +138,6 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   tf.transform.rotation.y = q.y();
   tf.transform.rotation.z = q.z();
   tf.transform.rotation.w = q.w();
-  broadcaster.sendTransform(tf);
 
   std::mutex training_mutex;
   gpatlas_msgs::TrainingSet::ConstPtr latest_training;
@@ -163,12 +162,17 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
       "/gpatlas/collision_map/octomap_binary", 1, [&](const gpatlas_msgs::OctomapBinary::ConstPtr& m) { octomap = m; });
   ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("/test/camera_points", 1, true);
 
+  // One capture, published before the camera's transform exists (as when the camera driver
+  // starts before robot_state_publisher): the pipeline must wait for tf, not drop the cloud
+  // after tf_timeout_s (0.5 s).
   sensor_msgs::PointCloud2 cloud = syntheticView();
+  cloud.header.stamp = ros::Time::now();
+  cloud_pub.publish(cloud);
+  ros::Duration(2.0).sleep();
+  broadcaster.sendTransform(tf);
   const ros::Time deadline = ros::Time::now() + ros::Duration(60.0);
   while (ros::ok() && !withSupportPlane(training) && ros::Time::now() < deadline) {
-    cloud.header.stamp = ros::Time::now();
-    cloud_pub.publish(cloud);
-    ros::Duration(1.0).sleep();
+    ros::Duration(0.2).sleep();
     std::lock_guard<std::mutex> lock(training_mutex);
     training = latest_training;
   }

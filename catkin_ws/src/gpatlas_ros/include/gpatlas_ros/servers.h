@@ -17,6 +17,7 @@
 #include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/TrainingSet.h>
 #include <gpatlas_ros/ros_params.h>
+#include <gpatlas_ros/tf_gated_subscriber.h>
 
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -32,6 +33,10 @@
 #include <vector>
 
 namespace gpatlas_ros {
+
+// A cloud that waits this long for its transform is reported (it is still processed when the
+// transform comes).
+constexpr double kTfWaitWarningS = 3.0;
 
 // Transforms points stamped in `frame` into `world_frame` with tf2 (waiting up to timeout_s).
 bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_frame, const std::string& frame,
@@ -58,7 +63,7 @@ class SegmentationServer {
   gpatlas_core::ObjectSegmenter segmenter_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
-  ros::Subscriber points_sub_;
+  std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
   ros::Publisher object_pub_, plane_pub_;
 };
 
@@ -119,7 +124,8 @@ class GpModelServer {
   std::mutex mutex_;  // guards model_ (callbacks may run concurrently in a multi-threaded manager)
   gpatlas_core::GpisModel model_;
 
-  ros::Subscriber points_sub_, contacts_sub_, plane_sub_;
+  std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
+  ros::Subscriber contacts_sub_, plane_sub_;
   ros::ServiceServer add_srv_, reset_srv_;
   ros::Publisher training_pub_, surface_pub_, mesh_marker_pub_, mesh_shape_pub_;
 };

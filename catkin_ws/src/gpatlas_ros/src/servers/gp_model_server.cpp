@@ -59,11 +59,13 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   mesh_shape_pub_ = pnh_.advertise<shape_msgs::Mesh>("surface_shape", 1, true);
   add_srv_ = pnh_.advertiseService("add_observations", &GpModelServer::onAddObservations, this);
   reset_srv_ = pnh_.advertiseService("reset", &GpModelServer::onReset, this);
-  points_sub_ = nh_.subscribe("points", 1, &GpModelServer::onPoints, this);
+  points_sub_ = std::make_unique<TfGatedCloudSubscriber>(
+      nh_, "points", &tf_buffer_, world_frame_, "gp_model", kTfWaitWarningS,
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
   contacts_sub_ = nh_.subscribe("contacts", 10, &GpModelServer::onContacts, this);
   if (use_support_plane_) plane_sub_ = nh_.subscribe("support_plane", 1, &GpModelServer::onSupportPlane, this);
   ROS_INFO_STREAM("gp_model: kernel " << gpis_config_.kernel << ", waiting for object points on "
-                                      << points_sub_.getTopic());
+                                      << points_sub_->topic());
 }
 
 void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {

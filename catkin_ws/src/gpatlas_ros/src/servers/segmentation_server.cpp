@@ -43,8 +43,10 @@ SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   segmenter_ = gpatlas_core::ObjectSegmenter(config);
   object_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("object_points", 1, true);
   plane_pub_ = pnh_.advertise<gpatlas_msgs::SupportPlane>("support_plane", 1, true);
-  points_sub_ = nh_.subscribe("points", 1, &SegmentationServer::onPoints, this);
-  ROS_INFO_STREAM("segmentation: listening on " << points_sub_.getTopic() << ", publishing "
+  points_sub_ = std::make_unique<TfGatedCloudSubscriber>(
+      nh_, "points", &tf_buffer_, world_frame_, "segmentation", kTfWaitWarningS,
+      [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
+  ROS_INFO_STREAM("segmentation: listening on " << points_sub_->topic() << ", publishing "
                                                 << object_pub_.getTopic() << " in '" << world_frame_ << "'");
 }
 
