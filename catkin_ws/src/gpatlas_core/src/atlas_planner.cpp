@@ -118,15 +118,24 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   std::string error;
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
-  ChartCreation root = createChart(model, root_point, -1, config_.chart, rng);
+  const SurfaceEvidence evidence(model, config_.max_evidence_distance * model.scale());
+  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt.
+  const auto needsTouch = [&](const Chart& chart) {
+    return chart.variance > v_max || evidence.isUnsupported(chart.centre);
+  };
+  const auto makeChart = [&](const SurfacePoint& point, int parent) {
+    return createChart(model, point, parent, config_.chart, rng,
+                       evidence.radiusCap(point.position, config_.chart.rho_min_m));
+  };
+  ChartCreation root = makeChart(root_point, -1);
   if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
   Atlas& atlas = result.atlas;
-  const double root_variance = root.chart.variance;
+  const bool root_needs_touch = needsTouch(root.chart);
   int continuation = atlas.addChart(std::move(root.chart));
   if (progress) progress(atlas);
   // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
   // (its candidates may all be covered or out of the domain).
-  if (root_variance > v_max) {
+  if (root_needs_touch) {
     result.path = atlas.pathTo(continuation);
     return finish(PlanStatus::kTouch, "the root chart's variance is above V_max");
   }
@@ -161,7 +170,7 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
     ++result.expansions;
     const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
     ChartCreation created;
-    if (projected.ok) created = createChart(model, projected, parent_index, config_.chart, rng);
+    if (projected.ok) created = makeChart(projected, parent_index);
     if (!created.ok) ++result.failed_projections;
     return created;
   };
@@ -184,10 +193,10 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
 
       ChartCreation created = expand(selected);
       if (!created.ok) continue;
-      const double new_variance = created.chart.variance;
+      const bool new_needs_touch = needsTouch(created.chart);
       continuation = atlas.addChart(std::move(created.chart));
       if (progress) progress(atlas);
-      if (new_variance > v_max) {
+      if (new_needs_touch) {
         int last = continuation;
         for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
           if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
@@ -209,13 +218,13 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
       if (atlas.coveredByOtherChart(observation, -1)) continue;
       const SurfacePoint projected = projectFreePoint(model, observation, config_.projection);
       if (!projected.ok || atlas.coveredByOtherChart(projected.position, -1)) continue;
-      ChartCreation created = createChart(model, projected, -1, config_.chart, rng);
+      ChartCreation created = makeChart(projected, -1);
       if (!created.ok) continue;
-      const double new_variance = created.chart.variance;
+      const bool new_needs_touch = needsTouch(created.chart);
       continuation = atlas.addChart(std::move(created.chart));
       ++trees;
       if (progress) progress(atlas);
-      if (new_variance > v_max) {
+      if (new_needs_touch) {
         result.path = atlas.pathTo(continuation);
         return finish(PlanStatus::kTouch, "a new tree's root has variance above V_max");
       }

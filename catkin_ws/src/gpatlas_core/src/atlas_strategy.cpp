@@ -11,6 +11,7 @@ PlanResult AtlasStrategy::plan(const GpisModel& model, const PlanRequest& reques
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
+  config.max_evidence_distance = request.max_evidence_distance;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start);
 
   PlanResult result;

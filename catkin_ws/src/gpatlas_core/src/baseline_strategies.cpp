@@ -1,4 +1,5 @@
 #include "gpatlas_core/baseline_strategies.h"
+#include "gpatlas_core/surface_evidence.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,24 +11,38 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A sampled surface and, per point, whether it needs a touch: variance above V_max or no
+// measured surface point within the request's evidence distance.
+struct NeedySample {
+  SurfaceSample sample;
+  std::vector<char> unsupported;
+  bool anyNeedsTouch(double v_max) const {
+    for (std::size_t i = 0; i < sample.points.size(); ++i)
+      if (sample.variances[i] > v_max || unsupported[i]) return true;
+    return false;
+  }
+};
+
 // Samples the surface and handles the shared outcomes: errors and the convergence rule.
-// Returns nullopt when a touch must be chosen from `sample`.
+// Returns nullopt when a touch must be chosen from `needy`.
 std::optional<PlanResult> sampleOrFinish(const GpisModel& model, const PlanRequest& request,
-                                         SurfaceSampler::Config config, std::uint64_t seed,
-                                         SurfaceSample* sample) {
+                                         SurfaceSampler::Config config, std::uint64_t seed, NeedySample* needy) {
   if (auto error = checkPlanInput(model, request)) return error;
   config.seed = seed;
-  *sample = SurfaceSampler(config).sample(model);
+  needy->sample = SurfaceSampler(config).sample(model);
   PlanResult result;
-  if (!sample->ok) {
+  if (!needy->sample.ok) {
     result.status = PlanStatus::kError;
-    result.message = "surface sampling failed: " + sample->message;
+    result.message = "surface sampling failed: " + needy->sample.message;
     return result;
   }
-  result.max_surface_variance = sample->maxVariance();
-  if (result.max_surface_variance <= request.v_max) {
+  const SurfaceEvidence evidence(model, request.max_evidence_distance * model.scale());
+  needy->unsupported.clear();
+  for (const Vector3& point : needy->sample.points) needy->unsupported.push_back(evidence.isUnsupported(point));
+  result.max_surface_variance = needy->sample.maxVariance();
+  if (!needy->anyNeedsTouch(request.v_max)) {
     result.status = PlanStatus::kConverged;
-    result.message = "no sampled surface point has variance above V_max";
+    result.message = "no sampled surface point has variance above V_max or lacks evidence";
     return result;
   }
   return std::nullopt;
@@ -53,12 +68,12 @@ template <typename Pick>
 PlanResult planOnSample(const GpisModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
                         std::uint64_t seed, const std::string& name, Pick pick) {
   const Clock::time_point started = Clock::now();
-  SurfaceSample sample;
-  if (auto finished = sampleOrFinish(model, request, config, seed, &sample)) {
+  NeedySample needy;
+  if (auto finished = sampleOrFinish(model, request, config, seed, &needy)) {
     finished->elapsed_s = secondsSince(started);
     return *finished;
   }
-  PlanResult result = pokeAt(sample, pick(sample, seed), name);
+  PlanResult result = pokeAt(needy.sample, pick(needy, request, seed), name);
   result.elapsed_s = secondsSince(started);
   return result;
 }
@@ -70,9 +85,9 @@ RandomStrategy::RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed
 
 PlanResult RandomStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
-                      [](const SurfaceSample& sample, std::uint64_t seed) {
+                      [](const NeedySample& needy, const PlanRequest&, std::uint64_t seed) {
                         std::mt19937_64 rng(mixSeeds(seed, 1));
-                        return std::uniform_int_distribution<std::size_t>(0, sample.points.size() - 1)(rng);
+                        return std::uniform_int_distribution<std::size_t>(0, needy.sample.points.size() - 1)(rng);
                       });
 }
 
@@ -81,9 +96,13 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, std::uin
 
 PlanResult MaxVarianceStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
-                      [](const SurfaceSample& sample, std::uint64_t) {
-                        const auto best = std::max_element(sample.variances.begin(), sample.variances.end());
-                        return static_cast<std::size_t>(best - sample.variances.begin());
+                      [](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
+                        const std::vector<double>& variances = needy.sample.variances;
+                        const auto best = std::max_element(variances.begin(), variances.end());
+                        if (*best > request.v_max) return static_cast<std::size_t>(best - variances.begin());
+                        // Every variance is below V_max: the first point without evidence.
+                        const auto unsupported = std::find(needy.unsupported.begin(), needy.unsupported.end(), 1);
+                        return static_cast<std::size_t>(unsupported - needy.unsupported.begin());
                       });
 }
 

@@ -34,7 +34,7 @@ int candidateCount(double radius, const ChartConfig& config) {
 }
 
 ChartCreation createChart(const GpisModel& model, const SurfacePoint& centre, int parent,
-                          const ChartConfig& config, std::mt19937_64& rng) {
+                          const ChartConfig& config, std::mt19937_64& rng, double max_radius_m) {
   ChartCreation creation;
   if (!centre.ok || !centre.position.allFinite() || !centre.gradient.allFinite() ||
       !std::isfinite(centre.variance)) {
@@ -53,7 +53,7 @@ ChartCreation createChart(const GpisModel& model, const SurfacePoint& centre, in
   chart.variance = centre.variance;
   chart.mean = centre.mean;
   chart.parent = parent;
-  chart.radius = chartRadius(centre.variance, config);
+  chart.radius = std::min(chartRadius(centre.variance, config), max_radius_m);
 
   const int count = candidateCount(chart.radius, config);
   std::uniform_real_distribution<double> unit(0.0, 1.0);

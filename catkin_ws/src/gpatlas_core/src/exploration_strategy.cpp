@@ -81,6 +81,10 @@ std::optional<PlanResult> checkPlanInput(const GpisModel& model, const PlanReque
     error.message = "V_max must be a positive finite number";
     return error;
   }
+  if (!(request.max_evidence_distance >= 0.0) || !std::isfinite(request.max_evidence_distance)) {
+    error.message = "max_evidence_distance must be finite and >= 0";
+    return error;
+  }
   if (request.start && !request.start->allFinite()) {
     error.message = "start point is not finite";
     return error;

@@ -53,10 +53,14 @@ std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const
   return thinToSpacing(sorted, spacing_m);
 }
 
-std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Vector3>& contacts,
+std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,
                                                const std::vector<Vector3>& free_space, const Explorer::Config& config,
-                                               std::size_t* num_contacts) {
-  const std::vector<Vector3> kept_contacts = thinToSpacing(contacts, config.min_point_spacing_m);
+                                               TouchPointCounts* counts) {
+  std::vector<Vector3> positions;
+  positions.reserve(contacts.size());
+  for (const Contact& contact : contacts) positions.push_back(contact.position);
+  const std::vector<Vector3> kept_contacts = thinToSpacing(positions, config.min_point_spacing_m);
+  TouchPointCounts counted;
   std::vector<TrainingPoint> points;
   for (const Vector3& contact : kept_contacts) {
     TrainingPoint point;
@@ -66,7 +70,26 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
     point.source = PointSource::kTouch;
     points.push_back(point);
   }
-  if (num_contacts) *num_contacts = points.size();
+  counted.contacts = points.size();
+  if (config.contact_inside_depth_m > 0.0) {
+    // thinToSpacing keeps the first of near-duplicates in order, so the kept contacts are a
+    // subsequence of `contacts`: walk both to find each kept contact's normal.
+    std::size_t next = 0;
+    for (const Vector3& kept : kept_contacts) {
+      while (next < contacts.size() && contacts[next].position != kept) ++next;
+      if (next == contacts.size()) break;
+      const Vector3& normal = contacts[next].normal;
+      if (!normal.allFinite() || normal.norm() < 0.5) continue;
+      TrainingPoint point;
+      point.position = kept - config.contact_inside_depth_m * normal.normalized();
+      point.label = PointLabel::kInside;
+      point.noise_sigma = config.contact_inside_noise_sigma;
+      point.source = PointSource::kTouch;
+      point.surface_distance_m = config.contact_inside_depth_m;
+      if (model.inDomain(point.position)) points.push_back(point);
+    }
+  }
+  counted.contact_inside = points.size() - counted.contacts;
   // Outside the domain the model has its own outside pseudo-points and would reject them:
   // filtered before the thinning, so that they cannot crowd out points the model keeps.
   std::vector<Vector3> free_in_domain;
@@ -81,6 +104,8 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
     if (config.free_space_distance_targets) point.surface_distance_m = model.nearestSurfaceDistance(free, kept_contacts);
     points.push_back(point);
   }
+  counted.free_space = points.size() - counted.contacts - counted.contact_inside;
+  if (counts) *counts = counted;
   return points;
 }
 
@@ -98,6 +123,12 @@ std::string validate(const Explorer::Config& config) {
   if (!(config.min_point_spacing_m >= 0.0) || !std::isfinite(config.min_point_spacing_m) ||
       !(config.min_free_space_spacing_m >= 0.0) || !std::isfinite(config.min_free_space_spacing_m))
     problem << "min_point_spacing_m and min_free_space_spacing_m must be finite and >= 0; ";
+  if (!(config.contact_inside_depth_m >= 0.0) || !std::isfinite(config.contact_inside_depth_m))
+    problem << "contact_inside_depth_m must be finite and >= 0; ";
+  if (!(config.contact_inside_noise_sigma >= 0.0) || !std::isfinite(config.contact_inside_noise_sigma))
+    problem << "contact_inside_noise_sigma must be finite and >= 0; ";
+  if (!(config.max_evidence_distance >= 0.0) || !std::isfinite(config.max_evidence_distance))
+    problem << "max_evidence_distance must be finite and >= 0; ";
   return problem.str();
 }
 
@@ -122,6 +153,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     PlanRequest request;
     request.v_max = config_.v_max;
+    request.max_evidence_distance = config_.max_evidence_distance;
     request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
     const Clock::time_point plan_started = Clock::now();
     PlanResult plan = strategy.plan(model, request);
@@ -155,28 +187,28 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     record.probe_success = probed.success;
     record.probe_reason = probed.reason;
 
-    std::vector<Vector3> contact_positions;
-    for (const Contact& contact : probed.contacts) contact_positions.push_back(contact.position);
-    std::size_t num_contacts = 0;
-    std::vector<TrainingPoint> new_points =
-        touchTrainingPoints(model, contact_positions, probed.free_space, config_, &num_contacts);
+    TouchPointCounts counts;
+    std::vector<TrainingPoint> new_points = touchTrainingPoints(model, probed.contacts, probed.free_space, config_, &counts);
+    const std::size_t num_contact_points = counts.contacts + counts.contact_inside;
 
     const Clock::time_point update_started = Clock::now();
     if (!new_points.empty()) {
       FitReport report = model.addPoints(new_points);
-      if (!report.ok && num_contacts > 0 && num_contacts < new_points.size()) {
+      if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
         // The model refuses a batch that makes its covariance numerically singular (e.g. a
         // free-space point right next to a surface point). Contacts are what the touch was
-        // for, so they are retried alone rather than losing the action.
-        new_points.resize(num_contacts);
+        // for, so they are retried alone (with the points behind them) rather than losing the
+        // action.
+        new_points.resize(num_contact_points);
         report = model.addPoints(new_points);
       }
       if (report.ok) {
         // The model reports acceptance as a total; free-space points are the ones it drops
         // (duplicates, out of domain), so rejections are attributed to them first.
         const int accepted = static_cast<int>(report.num_added);
-        record.contacts_added = std::min(accepted, static_cast<int>(num_contacts));
-        record.free_points_added = accepted - record.contacts_added;
+        record.contacts_added = std::min(accepted, static_cast<int>(counts.contacts));
+        record.free_points_added =
+            std::max(0, accepted - static_cast<int>(num_contact_points));
       } else {
         // The model is unchanged; the action counts as a failed touch and exploration goes on.
         record.update_message = report.message;

@@ -142,10 +142,19 @@ TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
   const ExplorationResult result = Explorer(config).run(model, *strategy, prober);
   ASSERT_EQ(result.actions, 1) << result.stop_reason;
 
-  std::vector<Vector3> kept_contacts, kept_free;
+  std::vector<Vector3> kept_contacts, kept_free, behind_contacts;
   for (std::size_t i = before; i < model.observations().size(); ++i) {
     const TrainingPoint& p = model.observations()[i];
-    (p.source == PointSource::kTouch ? kept_contacts : kept_free).push_back(p.position);
+    if (p.source == PointSource::kFreeSpace) kept_free.push_back(p.position);
+    else if (p.label == PointLabel::kSurface) kept_contacts.push_back(p.position);
+    else behind_contacts.push_back(p.position);
+  }
+  // Behind every kept contact, one inside point at contact_inside_depth_m below the sphere's
+  // surface (the contacts' normals are the sphere's).
+  ASSERT_EQ(behind_contacts.size(), kept_contacts.size());
+  for (std::size_t i = 0; i < behind_contacts.size(); ++i) {
+    EXPECT_NEAR(sphere.signedDistance(behind_contacts[i]), -config.contact_inside_depth_m, 1e-9);
+    EXPECT_NEAR((behind_contacts[i] - kept_contacts[i]).norm(), config.contact_inside_depth_m, 1e-9);
   }
   const auto check = [](const std::vector<Vector3>& all, const std::vector<Vector3>& kept, double spacing,
                         std::size_t min_kept, std::size_t max_kept) {

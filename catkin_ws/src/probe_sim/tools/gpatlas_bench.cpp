@@ -86,6 +86,8 @@ struct Options {
   double interior_prior_radius_cells{1.5};
   int interior_prior_cells{16};
   int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
+  double evidence_distance{gpatlas_core::Explorer::Config().max_evidence_distance};
+  double contact_inside_depth_m{gpatlas_core::Explorer::Config().contact_inside_depth_m};
   double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
   double min_free_space_spacing_m{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
   bool free_space_distance_targets{true};
@@ -117,6 +119,10 @@ void printUsage() {
   --interior-prior-radius C      its bumps' radius in grid cells [1.5]
   --interior-prior-cells N       its grid cells per axis [16]
   --slide-extension N            atlas_slide: charts added to the path past the first above V_max [6]
+  --evidence-distance D          a predicted surface point farther than D (normalised: the view's
+                                 radius is 1) from every view point and contact needs a touch
+                                 whatever its variance; every strategy; 0: V_max alone (the paper) [0.4]
+  --contact-inside-depth-m D     an inside point D metres behind each contact; 0: none (the paper) [0.003]
   --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
   --min-free-spacing-m D         ... and its free-space points to this one [0.015]
   --vision-sigma S               noise sigma of the vision points (reference units, see
@@ -245,6 +251,8 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--interior-prior-radius") o.interior_prior_radius_cells = parseDouble(a, next());
     else if (a == "--interior-prior-cells") o.interior_prior_cells = parseInt(a, next());
     else if (a == "--slide-extension") o.slide_extension_charts = parseInt(a, next());
+    else if (a == "--evidence-distance") o.evidence_distance = parseDouble(a, next());
+    else if (a == "--contact-inside-depth-m") o.contact_inside_depth_m = parseDouble(a, next());
     else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
     else if (a == "--min-free-spacing-m") o.min_free_space_spacing_m = parseDouble(a, next());
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
@@ -277,6 +285,8 @@ Options parseArgs(int argc, char** argv) {
   if (o.interior_prior_depth > 0.0 && !occluded_inside_given) o.occluded_inside_points = 0;
   if (!(o.occluded_inside_sigma > 0.0)) throw std::invalid_argument("--occluded-inside-sigma must be > 0");
   if (o.slide_extension_charts < 0) throw std::invalid_argument("--slide-extension must be >= 0");
+  if (!(o.evidence_distance >= 0.0)) throw std::invalid_argument("--evidence-distance must be >= 0");
+  if (!(o.contact_inside_depth_m >= 0.0)) throw std::invalid_argument("--contact-inside-depth-m must be >= 0");
   if (!(o.min_point_spacing_m >= 0.0) || !(o.min_free_space_spacing_m >= 0.0))
     throw std::invalid_argument("--min-spacing-m and --min-free-spacing-m must be >= 0");
   if (!seeds_given && o.seeds.empty()) o.seeds = {0};
@@ -473,6 +483,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.free_space_distance_targets = o.free_space_distance_targets;
   explorer_config.min_point_spacing_m = o.min_point_spacing_m;
   explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
+  explorer_config.max_evidence_distance = o.evidence_distance;
+  explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
   if (o.touch_noise_sigma >= 0.0) {
     explorer_config.contact_noise_sigma = o.touch_noise_sigma;
     explorer_config.free_space_noise_sigma = o.touch_noise_sigma;

@@ -3,6 +3,7 @@
 #include "gpatlas_core/atlas.h"
 #include "gpatlas_core/chart.h"
 #include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_evidence.h"
 #include "gpatlas_core/surface_projection.h"
 
 #include <cstdint>
@@ -57,6 +58,11 @@ class AtlasPlanner {
     // each grown toward the highest-variance candidate of the previous one: a slide then runs
     // on into the unknown instead of stopping at its edge. 0: Algorithm 1 verbatim.
     int extend_path_charts{0};
+    // A chart whose centre lies farther than this (normalised units) from every measured
+    // surface point (SurfaceEvidence) needs a touch whatever its variance, and charts are
+    // kept small enough that none hides such a point. 0: variance alone (Algorithm 1).
+    // AtlasStrategy sets it from PlanRequest::max_evidence_distance.
+    double max_evidence_distance{0.0};
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.

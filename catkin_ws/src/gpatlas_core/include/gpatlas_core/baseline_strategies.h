@@ -6,7 +6,8 @@
 namespace gpatlas_core {
 
 // Both baselines sample the predicted surface (SurfaceSampler) and share one stopping rule:
-// converged when no sampled surface point has variance above V_max. This is a sample-based
+// converged when no sampled surface point has variance above V_max (or, with an evidence
+// distance in the request, lies that far from every measured surface point). This is a sample-based
 // certificate, weaker than the atlas's coverage argument, and is documented as such.
 
 // The paper's Random Poke: a uniformly random point among the sampled surface points,
@@ -22,7 +23,8 @@ class RandomStrategy : public ExplorationStrategy {
   std::uint64_t seed_;
 };
 
-// The usual GPIS baseline: the highest-variance point of a dense surface sample.
+// The usual GPIS baseline: the highest-variance point of a dense surface sample (once all are
+// below V_max, a point without evidence).
 class MaxVarianceStrategy : public ExplorationStrategy {
  public:
   MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed);

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <random>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -65,8 +66,10 @@ struct ChartCreation {
 // Builds the chart at a projected surface point: tangent basis from the gradient, radius from
 // the variance, candidates in the annulus with their variances from one batched query.
 // Candidates whose ambient point lies outside the model's domain are not kept.
+// `max_radius_m` caps the variance's radius (see SurfaceEvidence::radiusCap).
 ChartCreation createChart(const GpisModel& model, const SurfacePoint& centre, int parent,
-                          const ChartConfig& config, std::mt19937_64& rng);
+                          const ChartConfig& config, std::mt19937_64& rng,
+                          double max_radius_m = std::numeric_limits<double>::infinity());
 
 // Reports a problem with the configuration, or an empty string when it is usable.
 std::string validate(const ChartConfig& config);

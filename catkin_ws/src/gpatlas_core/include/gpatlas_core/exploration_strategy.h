@@ -16,6 +16,10 @@ namespace gpatlas_core {
 
 struct PlanRequest {
   double v_max{0.1};  // reported (paper-equivalent) variance units
+  // A predicted surface point farther than this (normalised units) from every measured surface
+  // point needs a touch whatever its variance (SurfaceEvidence); every strategy applies it to
+  // its convergence test. 0: V_max alone (the paper).
+  double max_evidence_distance{0.0};
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
   // Mixed with the strategy's own seed so that successive plans of one exploration differ

@@ -78,6 +78,20 @@ class Explorer {
     // (measured: 5000 of the 6500 training points after 15 slides on the jug), each costing
     // as much as a contact in every later query.
     double min_free_space_spacing_m{0.015};
+    // A point this far behind each contact (against the contact's normal, which faces the side
+    // the probe came from) is labelled inside with that depth. Without it a thin wall touched
+    // from one side has surface points and free space but nothing inside, so the GP's level
+    // set can vanish there (measured: a container's carved cavity lost its walls and bottom).
+    // It must stay below the thinnest wall to be explored; 0: contacts alone (the paper).
+    // Contacts without a normal (zero vector) get none.
+    double contact_inside_depth_m{0.003};
+    // Their noise, in reference units: tighter than contact_noise_sigma, or the tiny target
+    // (-depth / scale) would be lost in the noise.
+    double contact_inside_noise_sigma{0.1};
+    // A predicted surface point farther than this (normalised units: the initial view's radius
+    // is 1) from every measured surface point needs a touch whatever its variance (see
+    // SurfaceEvidence); exploration has converged only when none is left. 0: V_max alone.
+    double max_evidence_distance{0.4};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
     int retune_every{0};
     HyperparameterTuner::Config tuner;
@@ -98,13 +112,20 @@ class Explorer {
   Config config_;
 };
 
+// How many of touchTrainingPoints' points are of each kind (in this order in its output).
+struct TouchPointCounts {
+  std::size_t contacts{0};
+  std::size_t contact_inside{0};
+  std::size_t free_space{0};
+};
+
 // A touch's observations as training points for `model` (used by the Explorer and by the GP
-// model nodelet): contacts thinned to config.min_point_spacing_m; free space inside the model's
+// model nodelet): contacts thinned to config.min_point_spacing_m; behind each kept contact with
+// a normal, an inside point at config.contact_inside_depth_m; free space inside the model's
 // domain thinned to config.min_free_space_spacing_m, nearest the contacts first, and labelled
-// with its distance to the surface when config.free_space_distance_targets. Contacts come
-// first; their number goes to *num_contacts when given.
-std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Vector3>& contacts,
+// with its distance to the surface when config.free_space_distance_targets.
+std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,
                                                const std::vector<Vector3>& free_space, const Explorer::Config& config,
-                                               std::size_t* num_contacts = nullptr);
+                                               TouchPointCounts* counts = nullptr);
 
 }  // namespace gpatlas_core

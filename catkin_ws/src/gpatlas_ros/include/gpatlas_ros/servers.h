@@ -145,6 +145,9 @@ class AtlasPlannerServer {
   std::string world_frame_;
   std::string default_strategy_;
   double default_v_max_{0.1};
+  // Surface farther than this (normalised) from every view point and contact needs a touch
+  // (gpatlas_core::PlanRequest::max_evidence_distance); 0: V_max alone.
+  double max_evidence_distance_{gpatlas_core::Explorer::Config().max_evidence_distance};
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::StrategyConfig strategy_config_;
 

@@ -13,6 +13,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   ParamReader reader(pnh_);
   world_frame_ = reader.text("world_frame", "world");
   default_v_max_ = reader.number("v_max", default_v_max_, 1e-12, 1e12);
+  max_evidence_distance_ = reader.number("max_evidence_distance", max_evidence_distance_, 0.0, 100.0);
   default_strategy_ = reader.text("strategy", "atlas_poke");
   readGpis(reader, &gpis_config_);
   readStrategy(reader, &strategy_config_);
@@ -100,6 +101,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   }
   gpatlas_core::PlanRequest request;
   request.v_max = v_max;
+  request.max_evidence_distance = max_evidence_distance_;
   if (req.use_start) request.start = fromMsg(req.start);
   request.seed = ++plan_count_;
   const gpatlas_core::PlanResult plan = chosen->plan(*model_, request);

@@ -37,6 +37,10 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   touch_config_.min_point_spacing_m = reader.number("min_point_spacing_m", touch_config_.min_point_spacing_m, 0.0, 1.0);
   touch_config_.min_free_space_spacing_m =
       reader.number("min_free_space_spacing_m", touch_config_.min_free_space_spacing_m, 0.0, 1.0);
+  touch_config_.contact_inside_depth_m =
+      reader.number("contact_inside/depth_m", touch_config_.contact_inside_depth_m, 0.0, 0.1);
+  touch_config_.contact_inside_noise_sigma =
+      reader.number("contact_inside/noise_sigma", touch_config_.contact_inside_noise_sigma, 0.0, 10.0);
   tune_ = reader.flag("tuning/enabled", tune_);
   display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
   readGpis(reader, &gpis_config_);
@@ -247,13 +251,23 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   *num_added = 0;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
-  std::vector<Eigen::Vector3d> contacts, free_space = observed.free_space;
-  for (const auto& c : observed.contacts) contacts.push_back(c.position);
+  // Normals move with the contacts: each as the difference of two transformed points.
+  std::vector<Eigen::Vector3d> contacts, normal_tips, free_space = observed.free_space;
+  for (const auto& c : observed.contacts) {
+    contacts.push_back(c.position);
+    normal_tips.push_back(c.position + c.normal);
+  }
   if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &contacts,
+                        message) ||
+      !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &normal_tips,
                         message) ||
       !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &free_space,
                         message))
     return false;
+  for (std::size_t i = 0; i < contacts.size(); ++i) {
+    observed.contacts[i].position = contacts[i];
+    observed.contacts[i].normal = normal_tips[i] - contacts[i];
+  }
   if (contacts.empty() && free_space.empty()) {
     *message = "no observation in the message";
     return false;
@@ -266,7 +280,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   // As the Explorer does: thinned (near-duplicates of a slide cost every later query and add
   // nothing), free space in the domain and labelled with its distance to the surface.
   const std::vector<gpatlas_core::TrainingPoint> points =
-      gpatlas_core::touchTrainingPoints(model_, contacts, free_space, touch_config_);
+      gpatlas_core::touchTrainingPoints(model_, observed.contacts, free_space, touch_config_);
   if (points.empty()) {
     *message = "no observation inside the model's domain";
     return false;

@@ -1,0 +1,44 @@
+#pragma once
+
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/types.h"
+
+#include <cstdint>
+#include <limits>
+#include <unordered_map>
+#include <vector>
+
+namespace gpatlas_core {
+
+// Where the predicted surface rests on measurements. The GP's variance falls within a
+// correlation length of any data, and its correlation length is about the object's size, so a
+// wrong but nearby guess (a container's cavity closed by a lid a few centimetres below the rim,
+// the filled hole of a handle) has a low variance and is never touched. The distance from a
+// predicted surface point to the nearest measured surface point (a view point or a contact;
+// not the guessed inside points, the free space or the pseudo-points) says whether anything
+// was ever seen or felt there.
+class SurfaceEvidence {
+ public:
+  // `max_distance_m` > 0: the distance beyond which a surface point is unsupported; 0 turns
+  // the test off (isUnsupported is always false, radiusCap is infinite).
+  SurfaceEvidence(const GpisModel& model, double max_distance_m);
+
+  bool enabled() const { return max_distance_m_ > 0.0; }
+  double maxDistance() const { return max_distance_m_; }
+  // Distance (metres) to the nearest measured surface point, or infinity when none lies
+  // within max_distance_m (only that range is searched).
+  double distance(const Vector3& x) const;
+  bool isUnsupported(const Vector3& x) const { return enabled() && distance(x) > max_distance_m_; }
+  // The largest chart radius around x whose whole ball stays supported: a chart that reaches
+  // farther could hide an unsupported surface point inside its ball. Never below `floor_m`.
+  double radiusCap(const Vector3& x, double floor_m) const;
+  std::size_t size() const { return points_.size(); }
+
+ private:
+  std::int64_t key(const Vector3& x) const;
+  double max_distance_m_{0.0};
+  std::vector<Vector3> points_;
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side max_distance_m
+};
+
+}  // namespace gpatlas_core

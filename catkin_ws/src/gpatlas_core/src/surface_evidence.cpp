@@ -1,0 +1,63 @@
+#include "gpatlas_core/surface_evidence.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gpatlas_core {
+
+namespace {
+constexpr std::int64_t kCellRange = 1 << 20;  // cells per axis: enough for any scene in metres
+std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
+  return ((i + kCellRange / 2) * kCellRange + (j + kCellRange / 2)) * kCellRange + (k + kCellRange / 2);
+}
+}  // namespace
+
+SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m)
+    : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0) {
+  if (!enabled()) return;
+  for (const TrainingPoint& point : model.observations()) {
+    if (point.label != PointLabel::kSurface || !point.position.allFinite()) continue;
+    if (point.source != PointSource::kVision && point.source != PointSource::kTouch) continue;
+    cells_[key(point.position)].push_back(static_cast<std::uint32_t>(points_.size()));
+    points_.push_back(point.position);
+  }
+}
+
+std::int64_t SurfaceEvidence::key(const Vector3& x) const {
+  const Vector3 cell = (x / max_distance_m_).array().floor();
+  return packCell(static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),
+                  static_cast<std::int64_t>(cell.z()));
+}
+
+double SurfaceEvidence::distance(const Vector3& x) const {
+  const double infinity = std::numeric_limits<double>::infinity();
+  if (!enabled() || !x.allFinite()) return infinity;
+  const Vector3 cell = (x / max_distance_m_).array().floor();
+  double best_squared = max_distance_m_ * max_distance_m_;
+  bool found = false;
+  // Cells of side max_distance_m: every point within that distance is in the 27 around x.
+  for (int di = -1; di <= 1; ++di)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int dk = -1; dk <= 1; ++dk) {
+        const auto it = cells_.find(packCell(static_cast<std::int64_t>(cell.x()) + di,
+                                             static_cast<std::int64_t>(cell.y()) + dj,
+                                             static_cast<std::int64_t>(cell.z()) + dk));
+        if (it == cells_.end()) continue;
+        for (const std::uint32_t index : it->second) {
+          const double squared = (points_[index] - x).squaredNorm();
+          if (squared <= best_squared) {
+            best_squared = squared;
+            found = true;
+          }
+        }
+      }
+  return found ? std::sqrt(best_squared) : infinity;
+}
+
+double SurfaceEvidence::radiusCap(const Vector3& x, double floor_m) const {
+  if (!enabled()) return std::numeric_limits<double>::infinity();
+  const double d = distance(x);
+  return std::max(floor_m, std::isfinite(d) ? max_distance_m_ - d : 0.0);
+}
+
+}  // namespace gpatlas_core

@@ -1,0 +1,157 @@
+// SurfaceEvidence and the evidence test of the planners: checked against brute-force distances
+// to the measured surface points.
+
+#include "gpatlas_core/atlas_planner.h"
+#include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/surface_evidence.h"
+
+#include "analytic_sphere.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <random>
+
+using namespace gpatlas_core;
+using gpatlas_core::testing::AnalyticSphere;
+
+namespace {
+
+constexpr double kNoiseSigma = 0.316;
+// So large that no variance exceeds it: only the evidence test can ask for a touch.
+constexpr double kHugeVMax = 1e9;
+
+double bruteForceDistance(const GpisModel& model, const Vector3& x) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const TrainingPoint& p : model.observations())
+    if (p.label == PointLabel::kSurface && (p.source == PointSource::kVision || p.source == PointSource::kTouch))
+      best = std::min(best, (p.position - x).norm());
+  return best;
+}
+
+// The sphere seen all over except a cap around +z (directions with z > 0.6).
+GpisModel modelWithAHoleOnTop(const AnalyticSphere& sphere) {
+  std::vector<TrainingPoint> points;
+  for (const TrainingPoint& p : sphere.view(1200, -1.0, kNoiseSigma, 3))
+    if ((p.position - sphere.centre).normalized().z() <= 0.6) points.push_back(p);
+  GpisModel model;
+  const FitReport report = model.fit(points);
+  EXPECT_TRUE(report.ok) << report.message;
+  return model;
+}
+
+TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOnly) {
+  const AnalyticSphere sphere;
+  std::vector<TrainingPoint> points = sphere.view(150, 0.2, kNoiseSigma, 1);
+  // Touches on the other side; free space, guessed inside points and a far surface guess that
+  // is not a measurement must all be ignored.
+  for (const TrainingPoint& p : sphere.view(20, -1.0, kNoiseSigma, 2)) {
+    TrainingPoint touch = p;
+    touch.source = PointSource::kTouch;
+    if ((p.position - sphere.centre).z() < 0.0) points.push_back(touch);
+  }
+  TrainingPoint free;
+  free.position = sphere.centre + Vector3(0.0, 0.0, -1.5 * sphere.radius);
+  free.label = PointLabel::kOutside;
+  free.source = PointSource::kFreeSpace;
+  free.noise_sigma = kNoiseSigma;
+  points.push_back(free);
+  TrainingPoint inside = free;
+  inside.position = sphere.centre + Vector3(0.0, 0.3 * sphere.radius, 0.0);
+  inside.label = PointLabel::kInside;
+  inside.source = PointSource::kVision;
+  points.push_back(inside);
+  GpisModel model;
+  ASSERT_TRUE(model.fit(points).ok);
+
+  const double max_distance = 0.03;
+  const SurfaceEvidence evidence(model, max_distance);
+  ASSERT_TRUE(evidence.enabled());
+  std::mt19937 rng(4);
+  std::uniform_real_distribution<double> u(-1.5, 1.5);
+  int unsupported = 0, supported = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
+    const double truth = bruteForceDistance(model, x);
+    const double found = evidence.distance(x);
+    if (truth <= max_distance) {
+      EXPECT_NEAR(found, truth, 1e-12);
+      EXPECT_FALSE(evidence.isUnsupported(x));
+      EXPECT_NEAR(evidence.radiusCap(x, 0.005), std::max(0.005, max_distance - truth), 1e-12);
+      ++supported;
+    } else {
+      EXPECT_TRUE(std::isinf(found));
+      EXPECT_TRUE(evidence.isUnsupported(x));
+      EXPECT_EQ(evidence.radiusCap(x, 0.005), 0.005);
+      ++unsupported;
+    }
+  }
+  EXPECT_GT(supported, 100);
+  EXPECT_GT(unsupported, 100);
+  // The free-space and inside points are far from every surface point: unsupported there.
+  EXPECT_TRUE(evidence.isUnsupported(free.position));
+  EXPECT_TRUE(evidence.isUnsupported(inside.position));
+
+  const SurfaceEvidence off(model, 0.0);
+  EXPECT_FALSE(off.enabled());
+  EXPECT_FALSE(off.isUnsupported(free.position));
+  EXPECT_TRUE(std::isinf(off.radiusCap(free.position, 0.005)));
+  EXPECT_FALSE(SurfaceEvidence(model, std::nan("")).enabled());
+}
+
+// A hole in the data that the variance does not flag (V_max is out of reach): the planners
+// converge on variance alone, and with an evidence distance they poke into the hole.
+TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) {
+  const AnalyticSphere sphere;
+  const GpisModel model = modelWithAHoleOnTop(sphere);
+  AtlasPlanner::Config config;
+  config.seed = 3;
+  const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, kHugeVMax);
+  EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
+
+  config.max_evidence_distance = 0.3;
+  const double max_distance_m = config.max_evidence_distance * model.scale();
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    config.seed = seed;
+    const AtlasPlanResult result = AtlasPlanner(config).plan(model, kHugeVMax);
+    ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
+    const Chart& end = result.atlas.chart(result.path.back());
+    EXPECT_GT(bruteForceDistance(model, end.centre), max_distance_m);
+    // In the hole: on top of the sphere.
+    EXPECT_GT((end.centre - sphere.centre).normalized().z(), 0.6);
+    // Every other chart's ball is supported (its radius is capped by its evidence), or the
+    // planner would have stopped there.
+    for (std::size_t i = 0; i < result.atlas.size(); ++i) {
+      if (static_cast<int>(i) == result.path.back()) continue;
+      const Chart& chart = result.atlas.chart(static_cast<int>(i));
+      const double d = bruteForceDistance(model, chart.centre);
+      EXPECT_LE(d, max_distance_m) << "chart " << i;
+      EXPECT_LE(chart.radius, std::max(config.chart.rho_min_m, max_distance_m - d) + 1e-12) << "chart " << i;
+    }
+  }
+}
+
+TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
+  const AnalyticSphere sphere;
+  const GpisModel model = modelWithAHoleOnTop(sphere);
+  PlanRequest request;
+  request.v_max = kHugeVMax;
+  for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"}) {
+    request.max_evidence_distance = 0.0;
+    const PlanResult converged = makeStrategy(name)->plan(model, request);
+    EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
+
+    request.max_evidence_distance = 0.3;
+    const PlanResult touch = makeStrategy(name)->plan(model, request);
+    ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
+    ASSERT_FALSE(touch.touch.points.empty());
+    // The poke (or the slide's end) lies in the hole; random pokes anywhere.
+    if (name != "random")
+      EXPECT_GT(bruteForceDistance(model, touch.touch.points.back()), 0.3 * model.scale()) << name;
+  }
+  request.max_evidence_distance = -1.0;
+  EXPECT_EQ(makeStrategy("max_variance")->plan(model, request).status, PlanStatus::kError);
+}
+
+}  // namespace
