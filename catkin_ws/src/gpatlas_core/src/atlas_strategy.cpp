@@ -12,6 +12,8 @@ PlanResult AtlasStrategy::plan(const GpisModel& model, const PlanRequest& reques
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
   config.max_evidence_distance = request.max_evidence_distance;
+  config.support_plane = request.support_plane;
+  config.approach_distance_m = request.approach_distance_m;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start);
 
   PlanResult result;

@@ -36,9 +36,11 @@ std::optional<PlanResult> sampleOrFinish(const GpisModel& model, const PlanReque
     result.message = "surface sampling failed: " + needy->sample.message;
     return result;
   }
-  const SurfaceEvidence evidence(model, request.max_evidence_distance * model.scale());
+  const SurfaceEvidence evidence(model, request.max_evidence_distance * model.scale(), request.support_plane,
+                                 request.approach_distance_m);
   needy->unsupported.clear();
-  for (const Vector3& point : needy->sample.points) needy->unsupported.push_back(evidence.isUnsupported(point));
+  for (std::size_t i = 0; i < needy->sample.points.size(); ++i)
+    needy->unsupported.push_back(evidence.isUnsupported(needy->sample.points[i], needy->sample.normals[i]));
   result.max_surface_variance = needy->sample.maxVariance();
   if (!needy->anyNeedsTouch(request.v_max)) {
     result.status = PlanStatus::kConverged;

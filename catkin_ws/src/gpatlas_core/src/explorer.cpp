@@ -154,6 +154,8 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     PlanRequest request;
     request.v_max = config_.v_max;
     request.max_evidence_distance = config_.max_evidence_distance;
+    request.support_plane = config_.support_plane;
+    request.approach_distance_m = config_.approach_distance_m;
     request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
     const Clock::time_point plan_started = Clock::now();
     PlanResult plan = strategy.plan(model, request);

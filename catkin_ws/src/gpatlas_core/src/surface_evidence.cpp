@@ -23,6 +23,22 @@ SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m)
   }
 }
 
+SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
+                                 const std::optional<SupportPlane>& support, double approach_m)
+    : SurfaceEvidence(model, max_distance_m) {
+  if (support && support->normal.allFinite() && support->normal.norm() > 0.5 && std::isfinite(support->offset)) {
+    support_ = SupportPlane{support->normal.normalized(), support->offset / support->normal.norm()};
+    approach_m_ = std::isfinite(approach_m) ? std::max(0.0, approach_m) : 0.0;
+  }
+}
+
+bool SurfaceEvidence::isUnsupported(const Vector3& x, const Vector3& normal) const {
+  if (!isUnsupported(x)) return false;
+  if (!support_ || !normal.allFinite() || !(normal.norm() > 0.0)) return true;
+  const Vector3 approach_start = x + approach_m_ * normal.normalized();
+  return support_->height(approach_start) >= 0.0 && support_->height(x) >= 0.0;
+}
+
 std::int64_t SurfaceEvidence::key(const Vector3& x) const {
   const Vector3 cell = (x / max_distance_m_).array().floor();
   return packCell(static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),

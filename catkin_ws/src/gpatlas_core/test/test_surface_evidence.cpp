@@ -30,11 +30,11 @@ double bruteForceDistance(const GpisModel& model, const Vector3& x) {
   return best;
 }
 
-// The sphere seen all over except a cap around +z (directions with z > 0.6).
-GpisModel modelWithAHoleOnTop(const AnalyticSphere& sphere) {
+// The sphere seen all over except a cap around +z (directions with z > 0.6), or around -z.
+GpisModel modelWithAHoleOnTop(const AnalyticSphere& sphere, double hole_side = 1.0) {
   std::vector<TrainingPoint> points;
   for (const TrainingPoint& p : sphere.view(1200, -1.0, kNoiseSigma, 3))
-    if ((p.position - sphere.centre).normalized().z() <= 0.6) points.push_back(p);
+    if (hole_side * (p.position - sphere.centre).normalized().z() <= 0.6) points.push_back(p);
   GpisModel model;
   const FitReport report = model.fit(points);
   EXPECT_TRUE(report.ok) << report.message;
@@ -152,6 +152,42 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
   }
   request.max_evidence_distance = -1.0;
   EXPECT_EQ(makeStrategy("max_variance")->plan(model, request).status, PlanStatus::kError);
+}
+
+// The sphere resting on a table, unseen underneath: the underside cannot be touched (every
+// approach along its normal would start under the table), so with the table it needs no touch.
+TEST(SurfaceEvidence, TheTableIsEvidenceForTheUnderside) {
+  const AnalyticSphere sphere;
+  const GpisModel model = modelWithAHoleOnTop(sphere, -1.0);
+  SupportPlane table;
+  table.offset = -(sphere.centre.z() - sphere.radius);  // tangent to the sphere's bottom
+  const double max_distance_m = 0.3 * model.scale();
+
+  const Vector3 bottom = sphere.centre - sphere.radius * Vector3::UnitZ();
+  const SurfaceEvidence without_table(model, max_distance_m);
+  const SurfaceEvidence with_table(model, max_distance_m, table, 0.1);
+  EXPECT_TRUE(without_table.isUnsupported(bottom, -Vector3::UnitZ()));
+  EXPECT_FALSE(with_table.isUnsupported(bottom, -Vector3::UnitZ()));
+  // A probe approaching from the side reaches a point above the table: still unsupported.
+  const Vector3 side_point = bottom + Vector3(0.0, 0.0, 0.05);
+  EXPECT_TRUE(with_table.isUnsupported(side_point, Vector3::UnitX()));
+  // Only 1 cm of approach: it starts above the table.
+  EXPECT_TRUE(SurfaceEvidence(model, max_distance_m, table, 0.01).isUnsupported(side_point, -Vector3::UnitZ()));
+
+  PlanRequest request;
+  request.v_max = kHugeVMax;
+  request.max_evidence_distance = 0.3;
+  for (const std::string name : {"atlas_poke", "max_variance"}) {
+    request.support_plane.reset();
+    const PlanResult touch = makeStrategy(name)->plan(model, request);
+    ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
+    EXPECT_LT((touch.touch.points.back() - sphere.centre).normalized().z(), -0.6) << name;
+    request.support_plane = table;
+    const PlanResult converged = makeStrategy(name)->plan(model, request);
+    EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
+  }
+  request.approach_distance_m = std::nan("");
+  EXPECT_EQ(makeStrategy("atlas_poke")->plan(model, request).status, PlanStatus::kError);
 }
 
 }  // namespace

@@ -485,6 +485,10 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
   explorer_config.max_evidence_distance = o.evidence_distance;
   explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
+  // The object's underside on the table cannot be touched: the table is its evidence. Both
+  // simulated probes start their approach this far out along the normal.
+  if (use_table) explorer_config.support_plane = table;
+  explorer_config.approach_distance_m = probe_sim::ProbeModelConfig().ray.start_offset_m;
   if (o.touch_noise_sigma >= 0.0) {
     explorer_config.contact_noise_sigma = o.touch_noise_sigma;
     explorer_config.free_space_noise_sigma = o.touch_noise_sigma;

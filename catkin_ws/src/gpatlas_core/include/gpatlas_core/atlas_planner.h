@@ -63,6 +63,10 @@ class AtlasPlanner {
     // kept small enough that none hides such a point. 0: variance alone (Algorithm 1).
     // AtlasStrategy sets it from PlanRequest::max_evidence_distance.
     double max_evidence_distance{0.0};
+    // The table under the object and the probe's approach distance (SurfaceEvidence); set by
+    // AtlasStrategy from the PlanRequest.
+    std::optional<SupportPlane> support_plane;
+    double approach_distance_m{0.1};
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.

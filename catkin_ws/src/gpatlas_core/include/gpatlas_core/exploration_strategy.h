@@ -1,6 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/atlas_planner.h"
+#include "gpatlas_core/view_free_space.h"
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/surface_sampler.h"
 #include "gpatlas_core/types.h"
@@ -20,6 +21,10 @@ struct PlanRequest {
   // point needs a touch whatever its variance (SurfaceEvidence); every strategy applies it to
   // its convergence test. 0: V_max alone (the paper).
   double max_evidence_distance{0.0};
+  // The table the object rests on, if known, and how far along the normal a probe approaches
+  // a touch: surface whose approach would start under the table needs no evidence.
+  std::optional<SupportPlane> support_plane;
+  double approach_distance_m{0.1};
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
   // Mixed with the strategy's own seed so that successive plans of one exploration differ

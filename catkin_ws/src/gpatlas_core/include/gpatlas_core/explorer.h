@@ -5,6 +5,7 @@
 #include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/prober.h"
 #include "gpatlas_core/types.h"
+#include "gpatlas_core/view_free_space.h"
 
 #include <cstdint>
 #include <functional>
@@ -92,6 +93,10 @@ class Explorer {
     // is 1) from every measured surface point needs a touch whatever its variance (see
     // SurfaceEvidence); exploration has converged only when none is left. 0: V_max alone.
     double max_evidence_distance{0.4};
+    // The table the object rests on, if known, and the probe's approach distance along the
+    // normal (PlanRequest): the object's underside needs no evidence.
+    std::optional<SupportPlane> support_plane;
+    double approach_distance_m{0.1};
     // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
     int retune_every{0};
     HyperparameterTuner::Config tuner;

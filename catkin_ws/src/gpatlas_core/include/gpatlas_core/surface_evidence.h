@@ -2,9 +2,11 @@
 
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/types.h"
+#include "gpatlas_core/view_free_space.h"
 
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <unordered_map>
 #include <vector>
 
@@ -22,6 +24,11 @@ class SurfaceEvidence {
   // `max_distance_m` > 0: the distance beyond which a surface point is unsupported; 0 turns
   // the test off (isUnsupported is always false, radiusCap is infinite).
   SurfaceEvidence(const GpisModel& model, double max_distance_m);
+  // With the table the object rests on: a surface point whose probe approach (approach_m
+  // along its outward normal) would start below the table cannot be touched, and the table
+  // is its evidence (an object's underside; touches there hit the table).
+  SurfaceEvidence(const GpisModel& model, double max_distance_m, const std::optional<SupportPlane>& support,
+                  double approach_m);
 
   bool enabled() const { return max_distance_m_ > 0.0; }
   double maxDistance() const { return max_distance_m_; }
@@ -29,6 +36,8 @@ class SurfaceEvidence {
   // within max_distance_m (only that range is searched).
   double distance(const Vector3& x) const;
   bool isUnsupported(const Vector3& x) const { return enabled() && distance(x) > max_distance_m_; }
+  // The same for a surface point with its outward normal, with the support plane's exemption.
+  bool isUnsupported(const Vector3& x, const Vector3& normal) const;
   // The largest chart radius around x whose whole ball stays supported: a chart that reaches
   // farther could hide an unsupported surface point inside its ball. Never below `floor_m`.
   double radiusCap(const Vector3& x, double floor_m) const;
@@ -37,6 +46,8 @@ class SurfaceEvidence {
  private:
   std::int64_t key(const Vector3& x) const;
   double max_distance_m_{0.0};
+  std::optional<SupportPlane> support_;
+  double approach_m_{0.0};
   std::vector<Vector3> points_;
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side max_distance_m
 };

@@ -43,6 +43,11 @@ bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_fr
                       const ros::Time& stamp, double timeout_s, std::vector<Eigen::Vector3d>* points,
                       std::string* error);
 
+// A support plane message moved to world_frame (tf2 for another frame; an empty frame is taken
+// to be world_frame); false with the reason when it is malformed or there is no transform.
+bool planeToWorld(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& buffer, const std::string& world_frame,
+                  double timeout_s, gpatlas_core::SupportPlane* plane, std::string* error);
+
 // The finite points of a cloud, in world_frame; false with the reason when the cloud has no
 // x/y/z or there is no transform.
 bool cloudToWorld(const sensor_msgs::PointCloud2& cloud, const tf2_ros::Buffer& buffer, const std::string& world_frame,
@@ -148,8 +153,17 @@ class AtlasPlannerServer {
   // Surface farther than this (normalised) from every view point and contact needs a touch
   // (gpatlas_core::PlanRequest::max_evidence_distance); 0: V_max alone.
   double max_evidence_distance_{gpatlas_core::Explorer::Config().max_evidence_distance};
+  // The probe's approach along the normal: with the table (`support_plane`), surface whose
+  // approach would start under it needs no evidence.
+  double approach_distance_m_{gpatlas_core::Explorer::Config().approach_distance_m};
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::StrategyConfig strategy_config_;
+  void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
+  double tf_timeout_s_{0.5};
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+  std::optional<gpatlas_core::SupportPlane> support_plane_;  // the latest, world frame (guarded by mutex_)
+  ros::Subscriber plane_sub_;
 
   std::mutex mutex_;
   std::unique_ptr<gpatlas_core::GpisModel> model_;

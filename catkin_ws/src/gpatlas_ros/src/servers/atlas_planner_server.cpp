@@ -9,11 +9,15 @@
 
 namespace gpatlas_ros {
 
-AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
+AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
   world_frame_ = reader.text("world_frame", "world");
   default_v_max_ = reader.number("v_max", default_v_max_, 1e-12, 1e12);
   max_evidence_distance_ = reader.number("max_evidence_distance", max_evidence_distance_, 0.0, 100.0);
+  approach_distance_m_ = reader.number("approach_distance_m", approach_distance_m_, 0.0, 10.0);
+  tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
+  const bool use_support_plane = reader.flag("support_plane/enabled", true);
   default_strategy_ = reader.text("strategy", "atlas_poke");
   readGpis(reader, &gpis_config_);
   readStrategy(reader, &strategy_config_);
@@ -26,6 +30,8 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   touch_pub_ = pnh_.advertise<gpatlas_msgs::Touch>("touch", 1, true);
   next_touch_srv_ = pnh_.advertiseService("next_touch", &AtlasPlannerServer::onNextTouch, this);
   training_sub_ = nh_.subscribe("training_set", 1, &AtlasPlannerServer::onTrainingSet, this);
+  if (use_support_plane)
+    plane_sub_ = nh_.subscribe("support_plane", 1, &AtlasPlannerServer::onSupportPlane, this);
   ROS_INFO_STREAM("atlas_planner: strategy " << default_strategy_ << ", V_max " << default_v_max_ << "; call "
                                              << next_touch_srv_.getService());
 }
@@ -41,6 +47,22 @@ const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std:
   } catch (const std::exception& e) {
     *error = e.what();
     return nullptr;
+  }
+}
+
+void AtlasPlannerServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
+  // roscpp does not catch exceptions thrown by callbacks: one would end the nodelet manager.
+  try {
+    gpatlas_core::SupportPlane plane;
+    std::string error;
+    if (!planeToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &plane, &error)) {
+      ROS_WARN_STREAM("atlas_planner: support plane ignored: " << error);
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    support_plane_ = plane;
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("atlas_planner: support plane ignored: " << e.what());
   }
 }
 
@@ -102,6 +124,8 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   gpatlas_core::PlanRequest request;
   request.v_max = v_max;
   request.max_evidence_distance = max_evidence_distance_;
+  request.approach_distance_m = approach_distance_m_;
+  request.support_plane = support_plane_;
   if (req.use_start) request.start = fromMsg(req.start);
   request.seed = ++plan_count_;
   const gpatlas_core::PlanResult plan = chosen->plan(*model_, request);

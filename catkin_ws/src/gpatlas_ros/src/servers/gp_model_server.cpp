@@ -90,21 +90,9 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
   try {
     gpatlas_core::SupportPlane plane;
     std::string error;
-    if (!fromMsg(*msg, &plane, &error)) {
+    if (!planeToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &plane, &error)) {
       ROS_WARN_STREAM("gp_model: support plane ignored: " << error);
       return;
-    }
-    // Kept in the world frame (stamp 0: the latest transform).
-    if (!msg->header.frame_id.empty() && msg->header.frame_id != world_frame_) {
-      try {
-        const geometry_msgs::TransformStamped tf = tf_buffer_.lookupTransform(
-            world_frame_, msg->header.frame_id, msg->header.stamp, ros::Duration(tf_timeout_s_));
-        plane = transformPlane(plane, tf2::transformToEigen(tf));
-      } catch (const tf2::TransformException& e) {
-        ROS_WARN_STREAM("gp_model: support plane ignored: no transform from '" << msg->header.frame_id << "' to '"
-                                                                              << world_frame_ << "': " << e.what());
-        return;
-      }
     }
     sensor_msgs::PointCloud2::ConstPtr refit;
     {

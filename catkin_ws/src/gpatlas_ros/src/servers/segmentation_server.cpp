@@ -27,6 +27,21 @@ bool cloudToWorld(const sensor_msgs::PointCloud2& cloud, const tf2_ros::Buffer& 
          transformToWorld(buffer, world_frame, cloud.header.frame_id, cloud.header.stamp, timeout_s, points, error);
 }
 
+bool planeToWorld(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& buffer, const std::string& world_frame,
+                  double timeout_s, gpatlas_core::SupportPlane* plane, std::string* error) {
+  if (!fromMsg(msg, plane, error)) return false;
+  if (msg.header.frame_id.empty() || msg.header.frame_id == world_frame) return true;
+  try {
+    const geometry_msgs::TransformStamped tf =
+        buffer.lookupTransform(world_frame, msg.header.frame_id, msg.header.stamp, ros::Duration(timeout_s));
+    *plane = transformPlane(*plane, tf2::transformToEigen(tf));
+    return true;
+  } catch (const tf2::TransformException& e) {
+    *error = "no transform from '" + msg.header.frame_id + "' to '" + world_frame + "': " + e.what();
+    return false;
+  }
+}
+
 SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
