@@ -269,6 +269,39 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", add));
   EXPECT_FALSE(add.response.success);
 
+  // A contact with its normal, in the camera's frame: the model adds it and an inside point
+  // 3 mm behind it (contact_inside/depth_m), both moved to the world frame.
+  const Eigen::Vector3d side_normal = Eigen::Vector3d(0.0, 1.0, 1.0).normalized();
+  const Eigen::Vector3d side_contact = kCentre + kRadius * side_normal;
+  const Eigen::Isometry3d world_to_camera = cameraPose().inverse();
+  gpatlas_msgs::AddObservations with_normal;
+  with_normal.request.observations.header.frame_id = "test_camera";
+  with_normal.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(world_to_camera * side_contact));
+  with_normal.request.observations.contact_normals.push_back(
+      gpatlas_ros::toVectorMsg(world_to_camera.linear() * side_normal));
+  const ros::Time before_add = ros::Time::now();
+  ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", with_normal));
+  EXPECT_TRUE(with_normal.response.success) << with_normal.response.message;
+  EXPECT_EQ(with_normal.response.num_added, 2u);
+  gpatlas_msgs::TrainingSet::ConstPtr updated;
+  for (int i = 0; i < 50; ++i) {
+    {
+      std::lock_guard<std::mutex> lock(training_mutex);
+      if (latest_training && latest_training->header.stamp >= before_add) updated = latest_training;
+    }
+    if (updated) break;
+    ros::Duration(0.1).sleep();
+  }
+  ASSERT_TRUE(updated) << "no training set after add_observations";
+  const Eigen::Vector3d expected_inside = side_contact - 0.003 * side_normal;
+  bool found_inside = false;
+  for (std::size_t i = 0; i < updated->points.size(); ++i)
+    if (updated->labels[i] == -1 && (gpatlas_ros::fromMsg(updated->points[i]) - expected_inside).norm() < 1e-6) {
+      found_inside = true;
+      EXPECT_NEAR(updated->surface_distances_m[i], 0.003, 1e-9);
+    }
+  EXPECT_TRUE(found_inside) << "no inside point 3 mm behind the contact";
+
   gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
