@@ -121,7 +121,7 @@ void printUsage() {
   --slide-extension N            atlas_slide: charts added to the path past the first above V_max [6]
   --evidence-distance D          a predicted surface point farther than D (normalised: the view's
                                  radius is 1) from every view point and contact needs a touch
-                                 whatever its variance; every strategy; 0: V_max alone (the paper) [0.4]
+                                 whatever its variance; every strategy; 0: V_max alone (the paper) [0.5]
   --contact-inside-depth-m D     an inside point D metres behind each contact; 0: none (the paper) [0.003]
   --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
   --min-free-spacing-m D         ... and its free-space points to this one [0.015]

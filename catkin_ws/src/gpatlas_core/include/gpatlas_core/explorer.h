@@ -92,7 +92,7 @@ class Explorer {
     // A predicted surface point farther than this (normalised units: the initial view's radius
     // is 1) from every measured surface point needs a touch whatever its variance (see
     // SurfaceEvidence); exploration has converged only when none is left. 0: V_max alone.
-    double max_evidence_distance{0.4};
+    double max_evidence_distance{0.5};
     // The table the object rests on, if known, and the probe's approach distance along the
     // normal (PlanRequest): the object's underside needs no evidence.
     std::optional<SupportPlane> support_plane;
