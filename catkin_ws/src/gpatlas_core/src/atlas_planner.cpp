@@ -138,7 +138,7 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   // (its candidates may all be covered or out of the domain).
   if (root_needs_touch) {
     result.path = atlas.pathTo(continuation);
-    return finish(PlanStatus::kTouch, "the root chart's variance is above V_max");
+    return finish(PlanStatus::kTouch, "the root chart needs a touch (variance above V_max or no evidence nearby)");
   }
 
   // Surface observations in random order: when the tree runs out of candidates, a new tree
@@ -207,7 +207,7 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);
-        return finish(PlanStatus::kTouch, "found a chart with variance above V_max");
+        return finish(PlanStatus::kTouch, "found a chart that needs a touch (variance above V_max or no evidence nearby)");
       }
     }
     // The current tree is exhausted: root a new one at an uncovered surface observation.
@@ -227,14 +227,14 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
       if (progress) progress(atlas);
       if (new_needs_touch) {
         result.path = atlas.pathTo(continuation);
-        return finish(PlanStatus::kTouch, "a new tree's root has variance above V_max");
+        return finish(PlanStatus::kTouch, "a new tree's root needs a touch (variance above V_max or no evidence nearby)");
       }
       rooted = true;
     }
     if (!rooted) break;
   }
   return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(trees) +
-                                            " tree(s) covering the surface observations: the predicted surface is below V_max");
+                                            " tree(s) covering the surface observations: the predicted surface is below V_max and near evidence");
 }
 
 }  // namespace gpatlas_core
