@@ -12,7 +12,8 @@ std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
 }
 }  // namespace
 
-SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m)
+SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
+                                 const std::optional<SupportPlane>& support, double approach_m)
     : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0) {
   if (!enabled()) return;
   for (const TrainingPoint& point : model.observations()) {
@@ -21,11 +22,6 @@ SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m)
     cells_[key(point.position)].push_back(static_cast<std::uint32_t>(points_.size()));
     points_.push_back(point.position);
   }
-}
-
-SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
-                                 const std::optional<SupportPlane>& support, double approach_m)
-    : SurfaceEvidence(model, max_distance_m) {
   if (support && support->normal.allFinite() && support->normal.norm() > 0.5 && std::isfinite(support->offset)) {
     support_ = SupportPlane{support->normal.normalized(), support->offset / support->normal.norm()};
     approach_m_ = std::isfinite(approach_m) ? std::max(0.0, approach_m) : 0.0;
@@ -39,25 +35,22 @@ bool SurfaceEvidence::isUnsupported(const Vector3& x, const Vector3& normal) con
   return support_->height(approach_start) >= 0.0 && support_->height(x) >= 0.0;
 }
 
-std::int64_t SurfaceEvidence::key(const Vector3& x) const {
+std::int64_t SurfaceEvidence::key(const Vector3& x, int di, int dj, int dk) const {
   const Vector3 cell = (x / max_distance_m_).array().floor();
-  return packCell(static_cast<std::int64_t>(cell.x()), static_cast<std::int64_t>(cell.y()),
-                  static_cast<std::int64_t>(cell.z()));
+  return packCell(static_cast<std::int64_t>(cell.x()) + di, static_cast<std::int64_t>(cell.y()) + dj,
+                  static_cast<std::int64_t>(cell.z()) + dk);
 }
 
 double SurfaceEvidence::distance(const Vector3& x) const {
   const double infinity = std::numeric_limits<double>::infinity();
   if (!enabled() || !x.allFinite()) return infinity;
-  const Vector3 cell = (x / max_distance_m_).array().floor();
   double best_squared = max_distance_m_ * max_distance_m_;
   bool found = false;
   // Cells of side max_distance_m: every point within that distance is in the 27 around x.
   for (int di = -1; di <= 1; ++di)
     for (int dj = -1; dj <= 1; ++dj)
       for (int dk = -1; dk <= 1; ++dk) {
-        const auto it = cells_.find(packCell(static_cast<std::int64_t>(cell.x()) + di,
-                                             static_cast<std::int64_t>(cell.y()) + dj,
-                                             static_cast<std::int64_t>(cell.z()) + dk));
+        const auto it = cells_.find(key(x, di, dj, dk));
         if (it == cells_.end()) continue;
         for (const std::uint32_t index : it->second) {
           const double squared = (points_[index] - x).squaredNorm();

@@ -23,12 +23,11 @@ class SurfaceEvidence {
  public:
   // `max_distance_m` > 0: the distance beyond which a surface point is unsupported; 0 turns
   // the test off (isUnsupported is always false, radiusCap is infinite).
-  SurfaceEvidence(const GpisModel& model, double max_distance_m);
-  // With the table the object rests on: a surface point whose probe approach (approach_m
-  // along its outward normal) would start below the table cannot be touched, and the table
-  // is its evidence (an object's underside; touches there hit the table).
-  SurfaceEvidence(const GpisModel& model, double max_distance_m, const std::optional<SupportPlane>& support,
-                  double approach_m);
+  // With `support`, the table the object rests on: a surface point whose probe approach
+  // (approach_m along its outward normal) would start below the table cannot be touched, and
+  // the table is its evidence (an object's underside; touches there hit the table).
+  SurfaceEvidence(const GpisModel& model, double max_distance_m,
+                  const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0);
 
   bool enabled() const { return max_distance_m_ > 0.0; }
   double maxDistance() const { return max_distance_m_; }
@@ -44,7 +43,8 @@ class SurfaceEvidence {
   std::size_t size() const { return points_.size(); }
 
  private:
-  std::int64_t key(const Vector3& x) const;
+  // The cell of x (side max_distance_m), moved by (di, dj, dk) cells, packed into one key.
+  std::int64_t key(const Vector3& x, int di = 0, int dj = 0, int dk = 0) const;
   double max_distance_m_{0.0};
   std::optional<SupportPlane> support_;
   double approach_m_{0.0};

@@ -239,24 +239,24 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   *num_added = 0;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
-  // Normals move with the contacts: each as the difference of two transformed points.
-  std::vector<Eigen::Vector3d> contacts, normal_tips, free_space = observed.free_space;
-  for (const auto& c : observed.contacts) {
-    contacts.push_back(c.position);
-    normal_tips.push_back(c.position + c.normal);
-  }
-  if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &contacts,
-                        message) ||
-      !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &normal_tips,
-                        message) ||
-      !transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &free_space,
+  // One transform for everything: contacts, then the tips of their normals (a normal moves as
+  // the difference of two transformed points), then the free space.
+  const std::size_t num_contacts = observed.contacts.size();
+  std::vector<Eigen::Vector3d> in_world;
+  in_world.reserve(2 * num_contacts + observed.free_space.size());
+  for (const auto& c : observed.contacts) in_world.push_back(c.position);
+  for (const auto& c : observed.contacts) in_world.push_back(c.position + c.normal);
+  in_world.insert(in_world.end(), observed.free_space.begin(), observed.free_space.end());
+  if (!transformToWorld(tf_buffer_, world_frame_, msg.header.frame_id, msg.header.stamp, tf_timeout_s_, &in_world,
                         message))
     return false;
-  for (std::size_t i = 0; i < contacts.size(); ++i) {
-    observed.contacts[i].position = contacts[i];
-    observed.contacts[i].normal = normal_tips[i] - contacts[i];
+  for (std::size_t i = 0; i < num_contacts; ++i) {
+    observed.contacts[i].position = in_world[i];
+    observed.contacts[i].normal = in_world[num_contacts + i] - in_world[i];
   }
-  if (contacts.empty() && free_space.empty()) {
+  const std::vector<Eigen::Vector3d> free_space(in_world.begin() + static_cast<std::ptrdiff_t>(2 * num_contacts),
+                                                in_world.end());
+  if (observed.contacts.empty() && free_space.empty()) {
     *message = "no observation in the message";
     return false;
   }
