@@ -14,6 +14,7 @@ PlanResult AtlasStrategy::plan(const GpisModel& model, const PlanRequest& reques
   config.max_evidence_distance = request.max_evidence_distance;
   config.support_plane = request.support_plane;
   config.approach_distance_m = request.approach_distance_m;
+  config.attempted_targets = request.attempted_targets;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start);
 
   PlanResult result;

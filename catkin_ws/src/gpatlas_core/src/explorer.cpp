@@ -109,6 +109,25 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
   return points;
 }
 
+FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new_points,
+                         const std::vector<Vector3>& evidence, const Explorer::Config& config,
+                         InteriorRetraction* retraction) {
+  if (retraction) *retraction = InteriorRetraction();
+  if (!model.isFitted() || !config.retract_contradicted_guesses) return model.addPoints(new_points);
+  std::vector<TrainingPoint> observations = model.observations();
+  const InteriorRetraction retracted =
+      retractContradictedInterior(&observations, evidence, config.guess_min_depth_fraction * model.scale());
+  if (!retracted.any()) return model.addPoints(new_points);
+  const std::size_t retained = observations.size();
+  observations.insert(observations.end(), new_points.begin(), new_points.end());
+  FitReport report = model.fitInFrame(observations, model.centroid(), model.scale());
+  if (report.ok) {
+    report.num_added = model.observations().size() > retained ? model.observations().size() - retained : 0;
+    if (retraction) *retraction = retracted;
+  }
+  return report;
+}
+
 namespace {
 
 std::string validate(const Explorer::Config& config) {
@@ -127,6 +146,8 @@ std::string validate(const Explorer::Config& config) {
     problem << "contact_inside_depth_m must be finite and >= 0; ";
   if (!(config.contact_inside_noise_sigma >= 0.0) || !std::isfinite(config.contact_inside_noise_sigma))
     problem << "contact_inside_noise_sigma must be finite and >= 0; ";
+  if (!(config.guess_min_depth_fraction >= 0.0) || !std::isfinite(config.guess_min_depth_fraction))
+    problem << "guess_min_depth_fraction must be finite and >= 0; ";
   if (!(config.max_evidence_distance >= 0.0) || !std::isfinite(config.max_evidence_distance))
     problem << "max_evidence_distance must be finite and >= 0; ";
   return problem.str();
@@ -147,6 +168,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
   }
   const HyperparameterTuner tuner(config_.tuner);
   int consecutive_failures = 0;
+  std::vector<Vector3> attempted_targets;
   for (int action = 0;; ++action) {
     ExplorationRecord record;
     record.index = action;
@@ -156,6 +178,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     request.max_evidence_distance = config_.max_evidence_distance;
     request.support_plane = config_.support_plane;
     request.approach_distance_m = config_.approach_distance_m;
+    request.attempted_targets = attempted_targets;
     request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
     const Clock::time_point plan_started = Clock::now();
     PlanResult plan = strategy.plan(model, request);
@@ -185,6 +208,12 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     record.touch = plan.touch;
     const ProbeResult probed = prober.probe(plan.touch);
+    if (config_.attempts_are_evidence) {
+      if (plan.touch.kind == Touch::Kind::kPoke && !plan.touch.points.empty())
+        attempted_targets.push_back(plan.touch.points.back());
+      else
+        attempted_targets.insert(attempted_targets.end(), plan.touch.points.begin(), plan.touch.points.end());
+    }
     ++result.actions;
     record.probe_success = probed.success;
     record.probe_reason = probed.reason;
@@ -195,14 +224,16 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     const Clock::time_point update_started = Clock::now();
     if (!new_points.empty()) {
-      FitReport report = model.addPoints(new_points);
+      std::vector<Vector3> evidence = probed.free_space;
+      for (const Contact& contact : probed.contacts) evidence.push_back(contact.position);
+      FitReport report = addTouchPoints(model, new_points, evidence, config_, &record.retraction);
       if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
         // The model refuses a batch that makes its covariance numerically singular (e.g. a
         // free-space point right next to a surface point). Contacts are what the touch was
         // for, so they are retried alone (with the points behind them) rather than losing the
         // action.
         new_points.resize(num_contact_points);
-        report = model.addPoints(new_points);
+        report = addTouchPoints(model, new_points, evidence, config_, &record.retraction);
       }
       if (report.ok) {
         // The model reports acceptance as a total; free-space points are the ones it drops

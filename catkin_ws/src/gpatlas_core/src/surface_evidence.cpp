@@ -13,15 +13,21 @@ std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
 }  // namespace
 
 SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
-                                 const std::optional<SupportPlane>& support, double approach_m)
+                                 const std::optional<SupportPlane>& support, double approach_m,
+                                 const std::vector<Vector3>& attempted)
     : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0) {
   if (!enabled()) return;
+  const auto add = [&](const Vector3& p) {
+    if (!p.allFinite()) return;
+    cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
+    points_.push_back(p);
+  };
   for (const TrainingPoint& point : model.observations()) {
-    if (point.label != PointLabel::kSurface || !point.position.allFinite()) continue;
+    if (point.label != PointLabel::kSurface) continue;
     if (point.source != PointSource::kVision && point.source != PointSource::kTouch) continue;
-    cells_[key(point.position)].push_back(static_cast<std::uint32_t>(points_.size()));
-    points_.push_back(point.position);
+    add(point.position);
   }
+  for (const Vector3& p : attempted) add(p);
   if (support && support->normal.allFinite() && support->normal.norm() > 0.5 && std::isfinite(support->offset)) {
     support_ = SupportPlane{support->normal.normalized(), support->offset / support->normal.norm()};
     approach_m_ = std::isfinite(approach_m) ? std::max(0.0, approach_m) : 0.0;

@@ -329,4 +329,34 @@ std::size_t dropNearOrBelowPlane(std::vector<TrainingPoint>* points, const Suppo
   return before - points->size();
 }
 
+bool isOccludedInteriorGuess(const TrainingPoint& point) {
+  return point.label == PointLabel::kInside && point.source == PointSource::kVision;
+}
+
+InteriorRetraction retractContradictedInterior(std::vector<TrainingPoint>* observations,
+                                               const std::vector<Vector3>& evidence, double min_depth_m) {
+  InteriorRetraction result;
+  if (!observations || evidence.empty()) return result;
+  std::vector<TrainingPoint> kept;
+  kept.reserve(observations->size());
+  for (TrainingPoint& point : *observations) {
+    if (isOccludedInteriorGuess(point) && std::isfinite(point.surface_distance_m)) {
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const Vector3& e : evidence)
+        if (e.allFinite()) nearest = std::min(nearest, (e - point.position).norm());
+      if (nearest < point.surface_distance_m) {
+        if (!(nearest >= min_depth_m)) {
+          ++result.dropped;
+          continue;
+        }
+        point.surface_distance_m = nearest;
+        ++result.shrunk;
+      }
+    }
+    kept.push_back(point);
+  }
+  if (result.any()) *observations = std::move(kept);
+  return result;
+}
+
 }  // namespace gpatlas_core

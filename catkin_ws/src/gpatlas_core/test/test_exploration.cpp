@@ -178,6 +178,71 @@ TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
   EXPECT_EQ(result.records.front().free_points_added, static_cast<int>(kept_free.size()));
 }
 
+// A touch that passes through guessed interior: the guesses it contradicts go, by a full refit
+// in the model's frame that must equal fitting the corrected data from scratch in that frame;
+// a touch that contradicts nothing is an incremental update.
+TEST(Explorer, TouchesRetractTheGuessedInteriorTheyContradict) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 5);
+  // Guessed interior: a wrong guess 1 cm outside the sphere's side, a right one at its centre.
+  const auto guess = [](const Vector3& at, double depth) {
+    TrainingPoint t;
+    t.position = at;
+    t.label = PointLabel::kInside;
+    t.source = PointSource::kVision;
+    t.noise_sigma = 1.0;
+    t.surface_distance_m = depth;
+    return t;
+  };
+  const Vector3 side = sphere.centre + (sphere.radius + 0.01) * Vector3::UnitX();
+  std::vector<TrainingPoint> data = model.observations();
+  data.push_back(guess(side, 0.03));
+  data.push_back(guess(sphere.centre, 0.9 * sphere.radius));
+  ASSERT_TRUE(model.fitInFrame(data, model.centroid(), model.scale()).ok);
+  const Vector3 centroid = model.centroid();
+  const double scale = model.scale();
+
+  Explorer::Config config;
+  // Free space 2 mm from the wrong guess (below the minimum depth), and a contact on the side.
+  const Vector3 contact = sphere.centre + sphere.radius * Vector3::UnitX();
+  const std::vector<Vector3> free{side + Vector3(0.002, 0.0, 0.0)};
+  const std::vector<TrainingPoint> touch = touchTrainingPoints(model, {{contact, Vector3::UnitX()}}, free, config);
+  InteriorRetraction retraction;
+  std::vector<Vector3> evidence = free;
+  evidence.push_back(contact);
+  const FitReport report = addTouchPoints(model, touch, evidence, config, &retraction);
+  ASSERT_TRUE(report.ok) << report.message;
+  EXPECT_TRUE(report.full_refit);
+  EXPECT_EQ(retraction.dropped, 1u);
+  EXPECT_EQ(retraction.shrunk, 0u);  // the centre's claim (9 cm) holds: the contact is 10 cm away
+  EXPECT_EQ(report.num_added, touch.size());
+
+  std::vector<TrainingPoint> expected(data.begin(), data.end() - 2);
+  expected.push_back(data.back());
+  expected.insert(expected.end(), touch.begin(), touch.end());
+  GpisModel recomputed(model.config());
+  ASSERT_TRUE(recomputed.fitInFrame(expected, centroid, scale).ok);
+  ASSERT_EQ(model.observations().size(), expected.size());
+  for (const Vector3& q : {side, sphere.centre, contact, Vector3(sphere.centre + Vector3(0.0, 0.05, 0.02))}) {
+    EXPECT_NEAR(model.mean(q), recomputed.mean(q), 1e-9);
+    EXPECT_NEAR(model.variance(q), recomputed.variance(q), 1e-9);
+  }
+  // The wrong guess no longer holds f down outside the sphere.
+  EXPECT_GT(model.mean(side), 0.0);
+
+  // The same touch again: nothing left to retract, so an incremental update.
+  const FitReport again = addTouchPoints(model, touch, evidence, config, &retraction);
+  EXPECT_FALSE(retraction.any());
+  EXPECT_FALSE(again.full_refit);
+  // Retraction off: the guesses stay whatever the evidence.
+  config.retract_contradicted_guesses = false;
+  GpisModel kept(model.config());
+  ASSERT_TRUE(kept.fitInFrame(data, centroid, scale).ok);
+  ASSERT_TRUE(addTouchPoints(kept, touch, evidence, config, &retraction).ok);
+  EXPECT_FALSE(retraction.any());
+  EXPECT_EQ(kept.observations().size(), data.size() + touch.size());
+}
+
 TEST(Explorer, BadInputStopsWithAReason) {
   const AnalyticSphere sphere;
   AnalyticSphereProber prober(sphere);

@@ -3,6 +3,7 @@
 
 #include "gpatlas_core/atlas_planner.h"
 #include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/explorer.h"
 #include "gpatlas_core/surface_evidence.h"
 
 #include "analytic_sphere.h"
@@ -152,6 +153,63 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
   }
   request.max_evidence_distance = -1.0;
   EXPECT_EQ(makeStrategy("max_variance")->plan(model, request).status, PlanStatus::kError);
+}
+
+// Touches whose approach is blocked: every poke lands on the (measured) bottom of the sphere,
+// far from the hole it aimed at. Counting the aimed-at points as evidence ends the exploration;
+// counting contacts only, the hole never gets any and the run uses up its actions.
+TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
+  const AnalyticSphere sphere;
+  struct BlockedProber : Prober {
+    Vector3 centre;
+    double radius{0.0};
+    std::vector<Vector3> targets;
+    ProbeResult probe(const Touch& touch) override {
+      targets.push_back(touch.points.back());
+      ProbeResult result;
+      result.success = true;
+      // A fresh point near the bottom each time (a repeated one would be refused as a duplicate).
+      const Vector3 direction = (-Vector3::UnitZ() + 0.01 * static_cast<double>(targets.size()) * Vector3::UnitX()).normalized();
+      result.contacts.push_back({centre + radius * direction, direction});
+      return result;
+    }
+  };
+  const auto strategy = makeStrategy("atlas_poke");
+  Explorer::Config config;
+  config.v_max = kHugeVMax;
+  config.max_evidence_distance = 0.3;
+  config.max_actions = 40;
+  for (const bool attempts_count : {true, false}) {
+    config.attempts_are_evidence = attempts_count;
+    GpisModel model = modelWithAHoleOnTop(sphere);
+    const GpisModel initial = model;
+    BlockedProber prober;
+    prober.centre = sphere.centre;
+    prober.radius = sphere.radius;
+    const ExplorationResult result = Explorer(config).run(model, *strategy, prober);
+    if (attempts_count) {
+      EXPECT_TRUE(result.converged) << result.stop_reason;
+      EXPECT_LT(result.actions, 20);
+      // Each poke went to a point that neither data nor an earlier aim supported.
+      for (std::size_t i = 0; i < prober.targets.size(); ++i) {
+        double nearest_aim = std::numeric_limits<double>::infinity();
+        for (std::size_t j = 0; j < i; ++j) nearest_aim = std::min(nearest_aim, (prober.targets[j] - prober.targets[i]).norm());
+        EXPECT_GT(std::min(nearest_aim, bruteForceDistance(initial, prober.targets[i])), 0.3 * initial.scale()) << i;
+      }
+    } else {
+      EXPECT_EQ(result.stop_reason, "max_actions");
+      EXPECT_EQ(result.actions, config.max_actions);
+    }
+  }
+  // The aimed-at points enter the distance like measurements.
+  const GpisModel model = modelWithAHoleOnTop(sphere);
+  const Vector3 top = sphere.centre + sphere.radius * Vector3::UnitZ();
+  const Vector3 near_top = top + Vector3(0.01, 0.0, 0.0);
+  const SurfaceEvidence with_aim(model, 0.05, std::nullopt, 0.0, {top});
+  EXPECT_DOUBLE_EQ(with_aim.distance(top), 0.0);
+  EXPECT_NEAR(with_aim.distance(near_top), std::min(0.01, bruteForceDistance(model, near_top)), 1e-12);
+  EXPECT_TRUE(SurfaceEvidence(model, 0.05).isUnsupported(top));
+  EXPECT_FALSE(with_aim.isUnsupported(top));
 }
 
 // The sphere resting on a table, unseen underneath: the underside cannot be touched (every

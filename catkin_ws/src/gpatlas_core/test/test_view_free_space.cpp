@@ -366,6 +366,56 @@ TEST(SupportPlane, DropsExactlyThePointsTooCloseToOrBelowIt) {
   EXPECT_DOUBLE_EQ(points[1].position.z(), 0.2);
 }
 
+// Guesses claim a solid ball of radius surface_distance_m around them; evidence inside that
+// ball cuts the claim to the evidence's distance, or removes the guess when that is below the
+// minimum depth. Expectations computed by hand from the layout.
+TEST(OccludedInterior, TouchEvidenceShrinksOrDropsExactlyTheGuessesItContradicts) {
+  const auto guess = [](double x, double depth) {
+    TrainingPoint t;
+    t.position = Vector3(x, 0.0, 0.0);
+    t.label = PointLabel::kInside;
+    t.source = PointSource::kVision;
+    t.surface_distance_m = depth;
+    return t;
+  };
+  std::vector<TrainingPoint> points{guess(0.0, 0.03), guess(1.0, 0.03), guess(2.0, 0.03), guess(3.0, 0.03)};
+  // Not guesses: a contact's inside point and a vision surface point, both right at the evidence.
+  TrainingPoint touch_inside = guess(1.0, 0.03);
+  touch_inside.source = PointSource::kTouch;
+  TrainingPoint surface;
+  surface.position = Vector3(2.0, 0.0, 0.0);
+  points.push_back(touch_inside);
+  points.push_back(surface);
+  const std::vector<Vector3> evidence{
+      Vector3(0.0, 0.02, 0.0),    // 20 mm from guess 0: shrinks it to 20 mm
+      Vector3(1.004, 0.0, 0.0),   // 4 mm from guess 1: below the 5 mm minimum, dropped
+      Vector3(2.0, 0.0, 0.031),   // 31 mm from guess 2: outside its claim
+      Vector3(std::numeric_limits<double>::quiet_NaN(), 3.0, 0.0)};  // ignored
+  const InteriorRetraction retraction = retractContradictedInterior(&points, evidence, 0.005);
+  EXPECT_EQ(retraction.shrunk, 1u);
+  EXPECT_EQ(retraction.dropped, 1u);
+  ASSERT_EQ(points.size(), 5u);
+  EXPECT_DOUBLE_EQ(points[0].position.x(), 0.0);
+  EXPECT_NEAR(points[0].surface_distance_m, 0.02, 1e-12);
+  EXPECT_DOUBLE_EQ(points[1].position.x(), 2.0);
+  EXPECT_DOUBLE_EQ(points[1].surface_distance_m, 0.03);
+  EXPECT_DOUBLE_EQ(points[2].surface_distance_m, 0.03);  // guess 3, no evidence near it
+  EXPECT_EQ(points[3].source, PointSource::kTouch);
+  EXPECT_DOUBLE_EQ(points[3].surface_distance_m, 0.03);
+  EXPECT_EQ(points[4].label, PointLabel::kSurface);
+
+  // No evidence near any guess: nothing changes.
+  const std::vector<TrainingPoint> before = points;
+  EXPECT_FALSE(retractContradictedInterior(&points, {Vector3(10.0, 0.0, 0.0)}, 0.005).any());
+  ASSERT_EQ(points.size(), before.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    EXPECT_EQ(points[i].position, before[i].position);
+    if (std::isfinite(before[i].surface_distance_m))
+      EXPECT_DOUBLE_EQ(points[i].surface_distance_m, before[i].surface_distance_m);
+  }
+  EXPECT_FALSE(retractContradictedInterior(nullptr, evidence, 0.005).any());
+}
+
 // A ball resting on a table, seen from the side and above, the table hiding its lowest band:
 // without the table the model leaves the unseen bottom to the GP's smoothness (here it cuts the
 // ball off above its lowest point); the plane's outside points, labelled with their small depth,

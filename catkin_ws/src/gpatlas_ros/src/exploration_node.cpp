@@ -128,12 +128,15 @@ class ExplorationNode {
 
     int failures_in_row = 0;
     int contacts_total = 0;
+    // As the Explorer does: where touches aimed counts as evidence (GetNextTouch).
+    std::vector<geometry_msgs::Point> attempted_targets;
     for (int action = 1; ros::ok(); ++action) {
       ActionRecord record;
       record.index = action;
       gpatlas_msgs::GetNextTouch plan;
       plan.request.v_max = v_max_;
       plan.request.strategy = strategy_;
+      plan.request.attempted_targets = attempted_targets;
       if (!callService("next_touch", plan)) return finish("error: next_touch unavailable", 1);
       record.plan_ms = plan.response.plan_time_s * 1000.0;
       record.max_surface_variance = plan.response.max_surface_variance;
@@ -150,6 +153,11 @@ class ExplorationNode {
       probe.request.touch = plan.response.touch;
       const ros::WallTime probe_start = ros::WallTime::now();
       if (!callService("probe", probe)) return finish("error: probe unavailable", 1);
+      const auto& aimed = plan.response.touch.points;
+      if (plan.response.touch.kind == gpatlas_msgs::Touch::POKE && !aimed.empty())
+        attempted_targets.push_back(aimed.back());
+      else
+        attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
       record.probe_ms = (ros::WallTime::now() - probe_start).toSec() * 1000.0;
       record.probe_success = probe.response.success;
       record.probe_reason = probe.response.reason;

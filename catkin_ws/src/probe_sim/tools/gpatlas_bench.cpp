@@ -88,6 +88,8 @@ struct Options {
   int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
   double evidence_distance{gpatlas_core::Explorer::Config().max_evidence_distance};
   double contact_inside_depth_m{gpatlas_core::Explorer::Config().contact_inside_depth_m};
+  bool retract_guesses{gpatlas_core::Explorer::Config().retract_contradicted_guesses};
+  bool attempts_are_evidence{gpatlas_core::Explorer::Config().attempts_are_evidence};
   double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
   double min_free_space_spacing_m{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
   bool free_space_distance_targets{true};
@@ -123,6 +125,10 @@ void printUsage() {
                                  radius is 1) from every view point and contact needs a touch
                                  whatever its variance; every strategy; 0: V_max alone (the paper) [0.5]
   --contact-inside-depth-m D     an inside point D metres behind each contact; 0: none (the paper) [0.003]
+  --no-attempt-evidence          only measurements count as evidence, not the points earlier
+                                 touches aimed at [they count]
+  --keep-guesses                 touches do not retract the occluded-interior guesses they
+                                 contradict [retracted]
   --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
   --min-free-spacing-m D         ... and its free-space points to this one [0.015]
   --vision-sigma S               noise sigma of the vision points (reference units, see
@@ -253,6 +259,8 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--slide-extension") o.slide_extension_charts = parseInt(a, next());
     else if (a == "--evidence-distance") o.evidence_distance = parseDouble(a, next());
     else if (a == "--contact-inside-depth-m") o.contact_inside_depth_m = parseDouble(a, next());
+    else if (a == "--keep-guesses") o.retract_guesses = false;
+    else if (a == "--no-attempt-evidence") o.attempts_are_evidence = false;
     else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
     else if (a == "--min-free-spacing-m") o.min_free_space_spacing_m = parseDouble(a, next());
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
@@ -485,6 +493,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
   explorer_config.max_evidence_distance = o.evidence_distance;
   explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
+  explorer_config.retract_contradicted_guesses = o.retract_guesses;
+  explorer_config.attempts_are_evidence = o.attempts_are_evidence;
   // The object's underside on the table cannot be touched: the table is its evidence. Both
   // simulated probes start their approach this far out along the normal.
   if (use_table) explorer_config.support_plane = table;

@@ -67,6 +67,8 @@ class AtlasPlanner {
     // AtlasStrategy from the PlanRequest.
     std::optional<SupportPlane> support_plane;
     double approach_distance_m{0.1};
+    // AtlasStrategy sets it from PlanRequest::attempted_targets.
+    std::vector<Vector3> attempted_targets;
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.

@@ -25,6 +25,9 @@ struct PlanRequest {
   // a touch: surface whose approach would start under the table needs no evidence.
   std::optional<SupportPlane> support_plane;
   double approach_distance_m{0.1};
+  // Surface points earlier touches aimed at (world frame): evidence whatever the touch found
+  // (see SurfaceEvidence). The Explorer fills it; empty: only measurements count.
+  std::vector<Vector3> attempted_targets;
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
   // Mixed with the strategy's own seed so that successive plans of one exploration differ

@@ -18,7 +18,7 @@ namespace gpatlas_core {
 // the filled hole of a handle) has a low variance and is never touched. The distance from a
 // predicted surface point to the nearest measured surface point (a view point or a contact;
 // not the guessed inside points, the free space or the pseudo-points) says whether anything
-// was ever seen or felt there.
+// was ever seen or felt there, or tried (a touch aimed there).
 class SurfaceEvidence {
  public:
   // `max_distance_m` > 0: the distance beyond which a surface point is unsupported; 0 turns
@@ -26,8 +26,12 @@ class SurfaceEvidence {
   // With `support`, the table the object rests on: a surface point whose probe approach
   // (approach_m along its outward normal) would start below the table cannot be touched, and
   // the table is its evidence (an object's underside; touches there hit the table).
+  // `attempted`: surface points that touches already aimed at (PlanRequest::attempted_targets)
+  // count as evidence too, whatever the touch found: a point the probe cannot reach (its
+  // approach blocked by another part of the object) is not asked for again and again.
   SurfaceEvidence(const GpisModel& model, double max_distance_m,
-                  const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0);
+                  const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0,
+                  const std::vector<Vector3>& attempted = {});
 
   bool enabled() const { return max_distance_m_ > 0.0; }
   double maxDistance() const { return max_distance_m_; }

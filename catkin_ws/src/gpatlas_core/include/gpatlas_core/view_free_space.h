@@ -86,6 +86,28 @@ struct OccludedInteriorConfig {
 ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
                                      const OccludedInteriorConfig& config = OccludedInteriorConfig());
 
+// True for sampleOccludedInterior's guesses (label kInside, source kVision): the only inside
+// observations that nothing measured.
+bool isOccludedInteriorGuess(const TrainingPoint& point);
+
+// What retractContradictedInterior changed.
+struct InteriorRetraction {
+  std::size_t shrunk{0};
+  std::size_t dropped{0};
+  bool any() const { return shrunk + dropped > 0; }
+};
+
+// An occluded-interior guess at depth d (its surface_distance_m) claims that the surface is at
+// least d away, i.e. that the ball of radius d around it is solid. A measured contact or
+// free-space point at distance e < d contradicts that claim: the guess's depth becomes e, and
+// the guess is dropped when e < min_depth_m (closer to measured surface or air than the
+// sampling's own clearance). Why: the guess fills cavities hidden behind a rim, and the
+// variance there can fall below V_max before any touch, so the touches that do pass through
+// the cavity must be able to empty it; a few free-space points against 60 weak guesses are
+// otherwise outvoted. Other points are left as they are. `evidence` in world coordinates.
+InteriorRetraction retractContradictedInterior(std::vector<TrainingPoint>* observations,
+                                               const std::vector<Vector3>& evidence, double min_depth_m);
+
 // The occluded interior as a prior mean for the GPIS (see InteriorPriorMean): a bump on every
 // occluded-interior sample (max_points does not apply), of radius bump_radius_cells grid cells
 // (the largest edge of a cell), never below -depth (amid the samples, -0.63 depth at 1.5 cells,

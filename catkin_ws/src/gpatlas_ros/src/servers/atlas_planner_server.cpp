@@ -127,6 +127,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   request.approach_distance_m = approach_distance_m_;
   request.support_plane = support_plane_;
   if (req.use_start) request.start = fromMsg(req.start);
+  for (const auto& p : req.attempted_targets) request.attempted_targets.push_back(fromMsg(p));
   request.seed = ++plan_count_;
   const gpatlas_core::PlanResult plan = chosen->plan(*model_, request);
   res.plan_time_s = (ros::WallTime::now() - start).toSec();

@@ -50,6 +50,10 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readViewFreeSpace(reader, &view_free_config_, &sensor_frame_);
   view_free_config_.noise_sigma = noise_.free_space_sigma;
   readOccludedInterior(reader, &occluded_config_);
+  touch_config_.retract_contradicted_guesses =
+      reader.flag("occluded_interior/retract_on_touch", touch_config_.retract_contradicted_guesses);
+  // A guess left shallower than the sampling's own clearance is dropped (same meaning).
+  touch_config_.guess_min_depth_fraction = occluded_config_.margin_fraction;
   readSupportPlane(reader, &use_support_plane_, &support_clearance_m_, &below_support_config_);
   below_support_config_.noise_sigma = noise_.free_space_sigma;
   touch_config_.contact_noise_sigma = noise_.touch_sigma;
@@ -273,9 +277,17 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     *message = "no observation inside the model's domain";
     return false;
   }
-  const gpatlas_core::FitReport report = model_.addPoints(points);
+  std::vector<Eigen::Vector3d> evidence = free_space;
+  for (const auto& c : observed.contacts) evidence.push_back(c.position);
+  gpatlas_core::InteriorRetraction retraction;
+  const gpatlas_core::FitReport report =
+      gpatlas_core::addTouchPoints(model_, points, evidence, touch_config_, &retraction);
   *num_added = static_cast<std::uint32_t>(report.num_added);
   *message = report.message;
+  if (retraction.any())
+    *message += "; the touch contradicted " + std::to_string(retraction.shrunk + retraction.dropped) +
+                " occluded-interior guesses (" + std::to_string(retraction.dropped) + " dropped, " +
+                std::to_string(retraction.shrunk) + " made shallower)";
   for (const auto& w : report.warnings) *message += "; " + w;
   if (!report.ok) return false;
   publishModel();
