@@ -302,6 +302,37 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
     }
   EXPECT_TRUE(found_inside) << "no inside point 3 mm behind the contact";
 
+  // Free space 1 mm from the deepest occluded-interior guess contradicts its claim (a solid
+  // ball of its depth around it): the model drops it (occluded_interior/retract_on_touch).
+  Eigen::Vector3d deepest_guess = Eigen::Vector3d::Zero();
+  double deepest = 0.0;
+  for (std::size_t i = 0; i < training->points.size(); ++i)
+    if (training->labels[i] == -1 && training->surface_distances_m[i] > deepest) {
+      deepest = training->surface_distances_m[i];
+      deepest_guess = gpatlas_ros::fromMsg(training->points[i]);
+    }
+  ASSERT_GT(deepest, 0.01);
+  gpatlas_msgs::AddObservations contradicting;
+  contradicting.request.observations.header.frame_id = "world";
+  contradicting.request.observations.free_space.push_back(
+      gpatlas_ros::toPointMsg(deepest_guess + Eigen::Vector3d(0.001, 0.0, 0.0)));
+  const ros::Time before_contradiction = ros::Time::now();
+  ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", contradicting));
+  EXPECT_TRUE(contradicting.response.success) << contradicting.response.message;
+  EXPECT_NE(contradicting.response.message.find("1 dropped"), std::string::npos) << contradicting.response.message;
+  gpatlas_msgs::TrainingSet::ConstPtr retracted;
+  for (int i = 0; i < 50 && !retracted; ++i) {
+    {
+      std::lock_guard<std::mutex> lock(training_mutex);
+      if (latest_training && latest_training->header.stamp >= before_contradiction) retracted = latest_training;
+    }
+    if (!retracted) ros::Duration(0.1).sleep();
+  }
+  ASSERT_TRUE(retracted) << "no training set after the contradicting observation";
+  EXPECT_EQ(retracted->points.size(), updated->points.size());  // one guess out, one free point in
+  for (std::size_t i = 0; i < retracted->points.size(); ++i)
+    EXPECT_GT((gpatlas_ros::fromMsg(retracted->points[i]) - deepest_guess).norm(), 1e-6) << "the guess is still there";
+
   gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
