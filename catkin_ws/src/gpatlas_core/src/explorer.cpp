@@ -122,7 +122,17 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
   observations.insert(observations.end(), new_points.begin(), new_points.end());
   FitReport report = model.fitInFrame(observations, model.centroid(), model.scale());
   if (report.ok) {
-    report.num_added = model.observations().size() > retained ? model.observations().size() - retained : 0;
+    // Screening only removes points and keeps the order, so the accepted new points are among
+    // the last new_points.size() observations (a renormalised refit can also drop old ones).
+    const std::vector<TrainingPoint>& kept = model.observations();
+    std::size_t accepted = 0;
+    for (std::size_t i = kept.size() > new_points.size() ? kept.size() - new_points.size() : 0; i < kept.size(); ++i)
+      for (const TrainingPoint& p : new_points)
+        if (p.position == kept[i].position && p.label == kept[i].label) {
+          ++accepted;
+          break;
+        }
+    report.num_added = accepted;
     if (retraction) *retraction = retracted;
   }
   return report;
@@ -231,7 +241,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
         // The model refuses a batch that makes its covariance numerically singular (e.g. a
         // free-space point right next to a surface point). Contacts are what the touch was
         // for, so they are retried alone (with the points behind them) rather than losing the
-        // action.
+        // action. The refused free space still retracts guesses: it was measured all the same.
         new_points.resize(num_contact_points);
         report = addTouchPoints(model, new_points, evidence, config_, &record.retraction);
       }

@@ -230,10 +230,14 @@ TEST(Explorer, TouchesRetractTheGuessedInteriorTheyContradict) {
   // The wrong guess no longer holds f down outside the sphere.
   EXPECT_GT(model.mean(side), 0.0);
 
-  // The same touch again: nothing left to retract, so an incremental update.
-  const FitReport again = addTouchPoints(model, touch, evidence, config, &retraction);
+  // A touch on the other side, far from the remaining guess's claim: an incremental update.
+  const Vector3 other = sphere.centre - sphere.radius * Vector3::UnitY();
+  const std::vector<TrainingPoint> other_touch = touchTrainingPoints(model, {{other, -Vector3::UnitY()}}, {}, config);
+  const FitReport incremental = addTouchPoints(model, other_touch, {other}, config, &retraction);
+  ASSERT_TRUE(incremental.ok) << incremental.message;
   EXPECT_FALSE(retraction.any());
-  EXPECT_FALSE(again.full_refit);
+  EXPECT_FALSE(incremental.full_refit);
+  EXPECT_EQ(incremental.num_added, other_touch.size());
   // Retraction off: the guesses stay whatever the evidence.
   config.retract_contradicted_guesses = false;
   GpisModel kept(model.config());
@@ -241,6 +245,29 @@ TEST(Explorer, TouchesRetractTheGuessedInteriorTheyContradict) {
   ASSERT_TRUE(addTouchPoints(kept, touch, evidence, config, &retraction).ok);
   EXPECT_FALSE(retraction.any());
   EXPECT_EQ(kept.observations().size(), data.size() + touch.size());
+
+  // The Explorer does the same with what its prober measured, and records it.
+  struct FreeNextToGuessProber : Prober {
+    Vector3 contact, free;
+    ProbeResult probe(const Touch&) override {
+      ProbeResult result;
+      result.success = true;
+      result.contacts.push_back({contact, Vector3::UnitX()});
+      result.free_space.push_back(free);
+      return result;
+    }
+  } prober;
+  prober.contact = contact;
+  prober.free = free.front();
+  GpisModel explored(model.config());
+  ASSERT_TRUE(explored.fitInFrame(data, centroid, scale).ok);
+  Explorer::Config run_config;
+  run_config.max_actions = 1;
+  const ExplorationResult result = Explorer(run_config).run(explored, *makeStrategy("atlas_poke"), prober);
+  ASSERT_EQ(result.records.size(), 1u) << result.stop_reason;
+  EXPECT_EQ(result.records.front().retraction.dropped, 1u);
+  EXPECT_GT(result.records.front().contacts_added, 0);
+  for (const TrainingPoint& p : explored.observations()) EXPECT_GT((p.position - side).norm(), 1e-9);
 }
 
 TEST(Explorer, BadInputStopsWithAReason) {

@@ -494,6 +494,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.max_evidence_distance = o.evidence_distance;
   explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
   explorer_config.retract_contradicted_guesses = o.retract_guesses;
+  explorer_config.guess_min_depth_fraction = o.occluded_margin;
   explorer_config.attempts_are_evidence = o.attempts_are_evidence;
   // The object's underside on the table cannot be touched: the table is its evidence. Both
   // simulated probes start their approach this far out along the normal.

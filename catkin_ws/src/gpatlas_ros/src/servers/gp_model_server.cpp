@@ -52,7 +52,8 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readOccludedInterior(reader, &occluded_config_);
   touch_config_.retract_contradicted_guesses =
       reader.flag("occluded_interior/retract_on_touch", touch_config_.retract_contradicted_guesses);
-  // A guess left shallower than the sampling's own clearance is dropped (same meaning).
+  // A guess left shallower than the sampling's own clearance is dropped (same fraction, of the
+  // model's scale rather than of the view's radius: equal at the first fit).
   touch_config_.guess_min_depth_fraction = occluded_config_.margin_fraction;
   readSupportPlane(reader, &use_support_plane_, &support_clearance_m_, &below_support_config_);
   below_support_config_.noise_sigma = noise_.free_space_sigma;
@@ -180,8 +181,18 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   appendTrainingPoints(points, gpatlas_core::PointLabel::kSurface, noise_.vision_sigma,
                        gpatlas_core::PointSource::kVision, &data);
   data.insert(data.end(), view_free.begin(), view_free.end());
-  for (const auto& t : model_.observations())
-    if (t.source != gpatlas_core::PointSource::kVision) data.push_back(t);
+  std::vector<Eigen::Vector3d> touch_evidence;
+  for (const auto& t : model_.observations()) {
+    if (t.source == gpatlas_core::PointSource::kVision) continue;
+    data.push_back(t);
+    if (t.source == gpatlas_core::PointSource::kFreeSpace || t.label == gpatlas_core::PointLabel::kSurface)
+      touch_evidence.push_back(t.position);
+  }
+  // The new view's guesses must not bring back what earlier touches retracted (their kept,
+  // thinned points stand for the touches here).
+  if (touch_config_.retract_contradicted_guesses && model_.isFitted())
+    gpatlas_core::retractContradictedInterior(&data, touch_evidence,
+                                              touch_config_.guess_min_depth_fraction * model_.scale());
   const ros::WallTime start = ros::WallTime::now();
   const gpatlas_core::FitReport report = model_.fit(data);
   if (!report.ok) {
