@@ -120,7 +120,7 @@ void printUsage() {
                                  instead of the inside points unless --occluded-inside is given; 0: none [0]
   --interior-prior-radius C      its bumps' radius in grid cells [1.5]
   --interior-prior-cells N       its grid cells per axis [16]
-  --slide-extension N            atlas_slide: charts added to the path past the first above V_max [6]
+  --slide-extension N            atlas_slide: charts added to the path past the first above V_max [20]
   --evidence-distance D          a predicted surface point farther than D (normalised: the view's
                                  radius is 1) from every view point and contact needs a touch
                                  whatever its variance; every strategy; 0: V_max alone (the paper) [0.5]
