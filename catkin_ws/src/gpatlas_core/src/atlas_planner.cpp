@@ -118,8 +118,7 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   std::string error;
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
-  const SurfaceEvidence evidence(model, config_.max_evidence_distance * model.scale(), config_.support_plane,
-                                 config_.approach_distance_m, config_.attempted_targets);
+  const SurfaceEvidence evidence(model, config_.evidence);
   // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt.
   const auto needsTouch = [&](const Chart& chart) {
     return chart.variance > v_max || evidence.isUnsupported(chart.centre, chart.normal);

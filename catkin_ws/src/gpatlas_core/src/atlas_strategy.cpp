@@ -11,10 +11,7 @@ PlanResult AtlasStrategy::plan(const GpisModel& model, const PlanRequest& reques
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
-  config.max_evidence_distance = request.max_evidence_distance;
-  config.support_plane = request.support_plane;
-  config.approach_distance_m = request.approach_distance_m;
-  config.attempted_targets = request.attempted_targets;
+  config.evidence = request.evidence;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start);
 
   PlanResult result;

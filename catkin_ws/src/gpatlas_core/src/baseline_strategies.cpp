@@ -36,8 +36,7 @@ std::optional<PlanResult> sampleOrFinish(const GpisModel& model, const PlanReque
     result.message = "surface sampling failed: " + needy->sample.message;
     return result;
   }
-  const SurfaceEvidence evidence(model, request.max_evidence_distance * model.scale(), request.support_plane,
-                                 request.approach_distance_m, request.attempted_targets);
+  const SurfaceEvidence evidence(model, request.evidence);
   needy->unsupported.clear();
   for (std::size_t i = 0; i < needy->sample.points.size(); ++i)
     needy->unsupported.push_back(evidence.isUnsupported(needy->sample.points[i], needy->sample.normals[i]));

@@ -81,12 +81,8 @@ std::optional<PlanResult> checkPlanInput(const GpisModel& model, const PlanReque
     error.message = "V_max must be a positive finite number";
     return error;
   }
-  if (!(request.approach_distance_m >= 0.0) || !std::isfinite(request.approach_distance_m)) {
-    error.message = "approach_distance_m must be finite and >= 0";
-    return error;
-  }
-  if (!(request.max_evidence_distance >= 0.0) || !std::isfinite(request.max_evidence_distance)) {
-    error.message = "max_evidence_distance must be finite and >= 0";
+  if (std::string problem = validate(request.evidence); !problem.empty()) {
+    error.message = problem;
     return error;
   }
   if (request.start && !request.start->allFinite()) {

@@ -158,8 +158,7 @@ std::string validate(const Explorer::Config& config) {
     problem << "contact_inside_noise_sigma must be finite and >= 0; ";
   if (!(config.guess_min_depth_fraction >= 0.0) || !std::isfinite(config.guess_min_depth_fraction))
     problem << "guess_min_depth_fraction must be finite and >= 0; ";
-  if (!(config.max_evidence_distance >= 0.0) || !std::isfinite(config.max_evidence_distance))
-    problem << "max_evidence_distance must be finite and >= 0; ";
+  if (const std::string evidence = validate(config.evidence); !evidence.empty()) problem << evidence << "; ";
   return problem.str();
 }
 
@@ -178,17 +177,14 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
   }
   const HyperparameterTuner tuner(config_.tuner);
   int consecutive_failures = 0;
-  std::vector<Vector3> attempted_targets;
+  EvidenceRule evidence = config_.evidence;  // its attempted targets grow with every touch
   for (int action = 0;; ++action) {
     ExplorationRecord record;
     record.index = action;
 
     PlanRequest request;
     request.v_max = config_.v_max;
-    request.max_evidence_distance = config_.max_evidence_distance;
-    request.support_plane = config_.support_plane;
-    request.approach_distance_m = config_.approach_distance_m;
-    request.attempted_targets = attempted_targets;
+    request.evidence = evidence;
     request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
     const Clock::time_point plan_started = Clock::now();
     PlanResult plan = strategy.plan(model, request);
@@ -219,10 +215,8 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
     record.touch = plan.touch;
     const ProbeResult probed = prober.probe(plan.touch);
     if (config_.attempts_are_evidence) {
-      if (plan.touch.kind == Touch::Kind::kPoke && !plan.touch.points.empty())
-        attempted_targets.push_back(plan.touch.points.back());
-      else
-        attempted_targets.insert(attempted_targets.end(), plan.touch.points.begin(), plan.touch.points.end());
+      const std::vector<Vector3> aimed = aimedPoints(plan.touch);
+      evidence.attempted_targets.insert(evidence.attempted_targets.end(), aimed.begin(), aimed.end());
     }
     ++result.actions;
     record.probe_success = probed.success;

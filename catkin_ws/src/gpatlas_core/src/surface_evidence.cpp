@@ -34,6 +34,18 @@ SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
   }
 }
 
+SurfaceEvidence::SurfaceEvidence(const GpisModel& model, const EvidenceRule& rule)
+    : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
+                      rule.attempted_targets) {}
+
+std::string validate(const EvidenceRule& rule) {
+  if (!(rule.approach_distance_m >= 0.0) || !std::isfinite(rule.approach_distance_m))
+    return "approach_distance_m must be finite and >= 0";
+  if (!(rule.max_distance >= 0.0) || !std::isfinite(rule.max_distance))
+    return "max_evidence_distance must be finite and >= 0";
+  return "";
+}
+
 bool SurfaceEvidence::isUnsupported(const Vector3& x, const Vector3& normal) const {
   if (!isUnsupported(x)) return false;
   if (!support_ || !normal.allFinite() || !(normal.norm() > 0.0)) return true;

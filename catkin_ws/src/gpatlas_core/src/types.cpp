@@ -28,4 +28,9 @@ std::vector<Vector3> fibonacciSphere(int count) {
   return dirs;
 }
 
+std::vector<Vector3> aimedPoints(const Touch& touch) {
+  if (touch.kind == Touch::Kind::kPoke && !touch.points.empty()) return {touch.points.back()};
+  return touch.points;
+}
+
 }  // namespace gpatlas_core

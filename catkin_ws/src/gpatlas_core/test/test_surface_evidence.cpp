@@ -111,8 +111,8 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, kHugeVMax);
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
-  config.max_evidence_distance = 0.3;
-  const double max_distance_m = config.max_evidence_distance * model.scale();
+  config.evidence.max_distance = 0.3;
+  const double max_distance_m = config.evidence.max_distance * model.scale();
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
     const AtlasPlanResult result = AtlasPlanner(config).plan(model, kHugeVMax);
@@ -139,11 +139,11 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
   PlanRequest request;
   request.v_max = kHugeVMax;
   for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"}) {
-    request.max_evidence_distance = 0.0;
+    request.evidence.max_distance = 0.0;
     const PlanResult converged = makeStrategy(name)->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
 
-    request.max_evidence_distance = 0.3;
+    request.evidence.max_distance = 0.3;
     const PlanResult touch = makeStrategy(name)->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     ASSERT_FALSE(touch.touch.points.empty());
@@ -151,7 +151,7 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
     if (name != "random")
       EXPECT_GT(bruteForceDistance(model, touch.touch.points.back()), 0.3 * model.scale()) << name;
   }
-  request.max_evidence_distance = -1.0;
+  request.evidence.max_distance = -1.0;
   EXPECT_EQ(makeStrategy("max_variance")->plan(model, request).status, PlanStatus::kError);
 }
 
@@ -177,7 +177,7 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
   const auto strategy = makeStrategy("atlas_poke");
   Explorer::Config config;
   config.v_max = kHugeVMax;
-  config.max_evidence_distance = 0.3;
+  config.evidence.max_distance = 0.3;
   config.max_actions = 40;
   for (const bool attempts_count : {true, false}) {
     config.attempts_are_evidence = attempts_count;
@@ -234,17 +234,17 @@ TEST(SurfaceEvidence, TheTableIsEvidenceForTheUnderside) {
 
   PlanRequest request;
   request.v_max = kHugeVMax;
-  request.max_evidence_distance = 0.3;
+  request.evidence.max_distance = 0.3;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
-    request.support_plane.reset();
+    request.evidence.support_plane.reset();
     const PlanResult touch = makeStrategy(name)->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     EXPECT_LT((touch.touch.points.back() - sphere.centre).normalized().z(), -0.6) << name;
-    request.support_plane = table;
+    request.evidence.support_plane = table;
     const PlanResult converged = makeStrategy(name)->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
   }
-  request.approach_distance_m = std::nan("");
+  request.evidence.approach_distance_m = std::nan("");
   EXPECT_EQ(makeStrategy("atlas_poke")->plan(model, request).status, PlanStatus::kError);
 }
 

@@ -153,11 +153,10 @@ class ExplorationNode {
       probe.request.touch = plan.response.touch;
       const ros::WallTime probe_start = ros::WallTime::now();
       if (!callService("probe", probe)) return finish("error: probe unavailable", 1);
-      const auto& aimed = plan.response.touch.points;
-      if (plan.response.touch.kind == gpatlas_msgs::Touch::POKE && !aimed.empty())
-        attempted_targets.push_back(aimed.back());
-      else
-        attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
+      gpatlas_core::Touch aimed;
+      std::string malformed;  // the planner's touches are well formed; a malformed one aimed nowhere
+      if (fromMsg(plan.response.touch, &aimed, &malformed))
+        for (const auto& p : gpatlas_core::aimedPoints(aimed)) attempted_targets.push_back(toPointMsg(p));
       record.probe_ms = (ros::WallTime::now() - probe_start).toSec() * 1000.0;
       record.probe_success = probe.response.success;
       record.probe_reason = probe.response.reason;

@@ -86,7 +86,7 @@ struct Options {
   double interior_prior_radius_cells{1.5};
   int interior_prior_cells{16};
   int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
-  double evidence_distance{gpatlas_core::Explorer::Config().max_evidence_distance};
+  double evidence_distance{gpatlas_core::Explorer::Config().evidence.max_distance};
   double contact_inside_depth_m{gpatlas_core::Explorer::Config().contact_inside_depth_m};
   bool retract_guesses{gpatlas_core::Explorer::Config().retract_contradicted_guesses};
   bool attempts_are_evidence{gpatlas_core::Explorer::Config().attempts_are_evidence};
@@ -491,15 +491,15 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.free_space_distance_targets = o.free_space_distance_targets;
   explorer_config.min_point_spacing_m = o.min_point_spacing_m;
   explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
-  explorer_config.max_evidence_distance = o.evidence_distance;
+  explorer_config.evidence.max_distance = o.evidence_distance;
   explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
   explorer_config.retract_contradicted_guesses = o.retract_guesses;
   explorer_config.guess_min_depth_fraction = o.occluded_margin;
   explorer_config.attempts_are_evidence = o.attempts_are_evidence;
   // The object's underside on the table cannot be touched: the table is its evidence. Both
   // simulated probes start their approach this far out along the normal.
-  if (use_table) explorer_config.support_plane = table;
-  explorer_config.approach_distance_m = probe_sim::ProbeModelConfig().ray.start_offset_m;
+  if (use_table) explorer_config.evidence.support_plane = table;
+  explorer_config.evidence.approach_distance_m = probe_sim::ProbeModelConfig().ray.start_offset_m;
   if (o.touch_noise_sigma >= 0.0) {
     explorer_config.contact_noise_sigma = o.touch_noise_sigma;
     explorer_config.free_space_noise_sigma = o.touch_noise_sigma;

@@ -58,17 +58,10 @@ class AtlasPlanner {
     // each grown toward the highest-variance candidate of the previous one: a slide then runs
     // on into the unknown instead of stopping at its edge. 0: Algorithm 1 verbatim.
     int extend_path_charts{0};
-    // A chart whose centre lies farther than this (normalised units) from every measured
-    // surface point (SurfaceEvidence) needs a touch whatever its variance, and charts are
-    // kept small enough that none hides such a point. 0: variance alone (Algorithm 1).
-    // AtlasStrategy sets it from PlanRequest::max_evidence_distance.
-    double max_evidence_distance{0.0};
-    // The table under the object and the probe's approach distance (SurfaceEvidence); set by
-    // AtlasStrategy from the PlanRequest.
-    std::optional<SupportPlane> support_plane;
-    double approach_distance_m{0.1};
-    // AtlasStrategy sets it from PlanRequest::attempted_targets.
-    std::vector<Vector3> attempted_targets;
+    // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
+    // charts are kept small enough that none hides such a point. Default: off, variance alone
+    // (Algorithm 1). AtlasStrategy sets it from PlanRequest::evidence.
+    EvidenceRule evidence;
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.

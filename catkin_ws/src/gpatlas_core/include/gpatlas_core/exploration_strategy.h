@@ -1,7 +1,6 @@
 #pragma once
 
 #include "gpatlas_core/atlas_planner.h"
-#include "gpatlas_core/view_free_space.h"
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/surface_sampler.h"
 #include "gpatlas_core/types.h"
@@ -17,17 +16,9 @@ namespace gpatlas_core {
 
 struct PlanRequest {
   double v_max{0.1};  // reported (paper-equivalent) variance units
-  // A predicted surface point farther than this (normalised units) from every measured surface
-  // point needs a touch whatever its variance (SurfaceEvidence); every strategy applies it to
-  // its convergence test. 0: V_max alone (the paper).
-  double max_evidence_distance{0.0};
-  // The table the object rests on, if known, and how far along the normal a probe approaches
-  // a touch: surface whose approach would start under the table needs no evidence.
-  std::optional<SupportPlane> support_plane;
-  double approach_distance_m{0.1};
-  // Surface points earlier touches aimed at (world frame): evidence whatever the touch found
-  // (see SurfaceEvidence). The Explorer fills it; empty: only measurements count.
-  std::vector<Vector3> attempted_targets;
+  // Every strategy applies the evidence test (SurfaceEvidence) to its convergence test; the
+  // Explorer fills attempted_targets. Default: off, V_max alone (the paper).
+  EvidenceRule evidence;
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
   // Mixed with the strategy's own seed so that successive plans of one exploration differ

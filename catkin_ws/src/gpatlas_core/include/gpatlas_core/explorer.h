@@ -4,6 +4,7 @@
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/prober.h"
+#include "gpatlas_core/surface_evidence.h"
 #include "gpatlas_core/types.h"
 #include "gpatlas_core/view_free_space.h"
 
@@ -90,16 +91,12 @@ class Explorer {
     // Their noise, in reference units: tighter than contact_noise_sigma, or the tiny target
     // (-depth / scale) would be lost in the noise.
     double contact_inside_noise_sigma{0.1};
-    // A predicted surface point farther than this (normalised units: the initial view's radius
-    // is 1) from every measured surface point needs a touch whatever its variance (see
-    // SurfaceEvidence); exploration has converged only when none is left. 0: V_max alone.
-    double max_evidence_distance{0.5};
-    // The table the object rests on, if known, and the probe's approach distance along the
-    // normal (PlanRequest): the object's underside needs no evidence.
-    std::optional<SupportPlane> support_plane;
-    double approach_distance_m{0.1};
+    // The evidence test (SurfaceEvidence): exploration has converged only when no predicted
+    // surface point lacks evidence. A distance of 0.5 by default; attempted_targets given here
+    // count from the start.
+    EvidenceRule evidence{0.5, std::nullopt, 0.1, {}};
     // The surface points touches aimed at (a poke's target, a slide's path) count as evidence
-    // (PlanRequest::attempted_targets), whatever the touch found: otherwise a point whose
+    // (EvidenceRule::attempted_targets), whatever the touch found: otherwise a point whose
     // approach another part of the object blocks is asked for again after every touch
     // (measured: 60 pokes on the scanned mug at evidence distance 0.3).
     bool attempts_are_evidence{true};

@@ -7,10 +7,29 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <string>
 #include <unordered_map>
 #include <vector>
 
 namespace gpatlas_core {
+
+// The evidence test's settings, carried together by PlanRequest, AtlasPlanner::Config and
+// Explorer::Config.
+struct EvidenceRule {
+  // A predicted surface point farther than this (normalised units: the initial view's radius
+  // is 1) from every measured surface point needs a touch whatever its variance. 0: V_max alone
+  // (the paper).
+  double max_distance{0.0};
+  // The table the object rests on, if known, and how far along the normal a probe approaches
+  // a touch: surface whose approach would start under the table needs no evidence.
+  std::optional<SupportPlane> support_plane;
+  double approach_distance_m{0.1};
+  // Surface points earlier touches aimed at (world frame): evidence whatever the touch found.
+  std::vector<Vector3> attempted_targets;
+};
+
+// Empty when the rule is usable; otherwise what is wrong with it.
+std::string validate(const EvidenceRule& rule);
 
 // Where the predicted surface rests on measurements. The GP's variance falls within a
 // correlation length of any data, and its correlation length is about the object's size, so a
@@ -26,12 +45,14 @@ class SurfaceEvidence {
   // With `support`, the table the object rests on: a surface point whose probe approach
   // (approach_m along its outward normal) would start below the table cannot be touched, and
   // the table is its evidence (an object's underside; touches there hit the table).
-  // `attempted`: surface points that touches already aimed at (PlanRequest::attempted_targets)
+  // `attempted`: surface points that touches already aimed at (EvidenceRule::attempted_targets)
   // count as evidence too, whatever the touch found: a point the probe cannot reach (its
   // approach blocked by another part of the object) is not asked for again and again.
   SurfaceEvidence(const GpisModel& model, double max_distance_m,
                   const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0,
                   const std::vector<Vector3>& attempted = {});
+  // The same from a rule, its distance converted with the model's scale.
+  SurfaceEvidence(const GpisModel& model, const EvidenceRule& rule);
 
   bool enabled() const { return max_distance_m_ > 0.0; }
   double maxDistance() const { return max_distance_m_; }

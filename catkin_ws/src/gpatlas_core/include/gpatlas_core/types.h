@@ -59,4 +59,8 @@ struct Touch {
   std::string strategy;
 };
 
+// The surface points a touch aims at: a poke's target (its path's end), every waypoint of a
+// slide. They count as evidence once touched, whatever the probe found (EvidenceRule).
+std::vector<Vector3> aimedPoints(const Touch& touch);
+
 }  // namespace gpatlas_core

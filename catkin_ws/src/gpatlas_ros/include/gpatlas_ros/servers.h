@@ -151,11 +151,11 @@ class AtlasPlannerServer {
   std::string default_strategy_;
   double default_v_max_{0.1};
   // Surface farther than this (normalised) from every view point and contact needs a touch
-  // (gpatlas_core::PlanRequest::max_evidence_distance); 0: V_max alone.
-  double max_evidence_distance_{gpatlas_core::Explorer::Config().max_evidence_distance};
+  // (gpatlas_core::EvidenceRule::max_distance); 0: V_max alone.
+  double max_evidence_distance_{gpatlas_core::Explorer::Config().evidence.max_distance};
   // The probe's approach along the normal: with the table (`support_plane`), surface whose
   // approach would start under it needs no evidence.
-  double approach_distance_m_{gpatlas_core::Explorer::Config().approach_distance_m};
+  double approach_distance_m_{gpatlas_core::Explorer::Config().evidence.approach_distance_m};
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::StrategyConfig strategy_config_;
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);

@@ -123,11 +123,11 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   }
   gpatlas_core::PlanRequest request;
   request.v_max = v_max;
-  request.max_evidence_distance = max_evidence_distance_;
-  request.approach_distance_m = approach_distance_m_;
-  request.support_plane = support_plane_;
+  request.evidence.max_distance = max_evidence_distance_;
+  request.evidence.approach_distance_m = approach_distance_m_;
+  request.evidence.support_plane = support_plane_;
   if (req.use_start) request.start = fromMsg(req.start);
-  for (const auto& p : req.attempted_targets) request.attempted_targets.push_back(fromMsg(p));
+  for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
   request.seed = ++plan_count_;
   const gpatlas_core::PlanResult plan = chosen->plan(*model_, request);
   res.plan_time_s = (ros::WallTime::now() - start).toSec();
