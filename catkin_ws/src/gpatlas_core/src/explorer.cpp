@@ -118,7 +118,6 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
   const InteriorRetraction retracted =
       retractContradictedInterior(&observations, evidence, config.guess_min_depth_fraction * model.scale());
   if (!retracted.any()) return model.addPoints(new_points);
-  const std::size_t retained = observations.size();
   observations.insert(observations.end(), new_points.begin(), new_points.end());
   FitReport report = model.fitInFrame(observations, model.centroid(), model.scale());
   if (report.ok) {

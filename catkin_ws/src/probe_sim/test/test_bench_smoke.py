@@ -57,10 +57,27 @@ class BenchSmokeTest(unittest.TestCase):
             fscore = float(r["fscore_5mm"])
             self.assertTrue(0.0 <= fscore <= 1.0)
             self.assertGreater(float(r["wall_s"]), 0.0)
+        # A sphere's surface is all reachable from outside (no table in the paper's protocol), so
+        # the floor is zero and the reachable-truth RMSE is the whole truth's, up to sampling.
+        with open(os.path.join(self.out, "reachability.csv")) as f:
+            reader = csv.DictReader(f)
+            self.assertEqual(reader.fieldnames, ["object", "strategy", "seed", "reachable_area_fraction",
+                                                 "floor_rmse_gt_to_pred_m", "rmse_gt_to_pred_reachable_m"])
+            reach = {r["strategy"]: r for r in reader}
+        self.assertEqual(sorted(reach), ["atlas_poke", "random"])
+        for r in rows:
+            row = reach[r["strategy"]]
+            self.assertGreater(float(row["reachable_area_fraction"]), 0.999, row)
+            self.assertLess(float(row["floor_rmse_gt_to_pred_m"]), 1e-5, row)
+            reachable = float(row["rmse_gt_to_pred_reachable_m"])
+            whole = float(r["rmse_gt_to_pred_m"])
+            self.assertTrue(math.isfinite(reachable) and abs(reachable - whole) <= 0.1 * whole + 1e-4,
+                            (reachable, whole))
         with open(os.path.join(self.out, "summary.md")) as f:
             summary = f.read()
         self.assertIn("| sphere |", summary)
         self.assertIn("atlas_poke steps", summary)
+        self.assertIn("g->p reachable", summary)
 
     def test_bad_arguments_are_refused(self):
         for args in (["--vmax", "0"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],

@@ -4,7 +4,7 @@
 // view from a fixed camera pose (a partial view), downsample it to the initial training set,
 // fit the GPIS, then run the exploration loop (Algorithm 2) with the chosen strategy against the
 // simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
-// Writes runs.csv, history.csv, summary.md and one PNG per object into --out.
+// Writes runs.csv, history.csv, reachability.csv, summary.md and one PNG per object into --out.
 
 #include <gpatlas_core/exploration_strategy.h>
 #include <gpatlas_core/explorer.h>
@@ -17,6 +17,7 @@
 #include <probe_sim/depth_camera.h>
 #include <probe_sim/object_mesh.h>
 #include <probe_sim/probe.h>
+#include <probe_sim/reachability.h>
 #include <probe_sim/scene.h>
 
 #include <algorithm>
@@ -75,6 +76,7 @@ struct Options {
   int retune_every{0};
   int curve_every{5};
   double mesh_resolution_m{0.005};
+  bool reachability{true};
   bool verbose{false};
   bool plot{true};
   bool save_meshes{false};
@@ -161,7 +163,9 @@ void printUsage() {
                                  distance to the nearest surface point, at most 1)
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
+  --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
   --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
+                                 and each object as OBJECT_truth.ply
 )";
 }
 
@@ -228,6 +232,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--retune-every") o.retune_every = parseInt(a, next());
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
     else if (a == "--mesh-res-m") o.mesh_resolution_m = parseDouble(a, next());
+    else if (a == "--no-reachability") o.reachability = false;
     else if (a == "--data-radius") o.gpis.data_radius = parseDouble(a, next()), frame_given = true;
     else if (a == "--renormalise-radius") o.gpis.renormalise_radius = parseDouble(a, next()), frame_given = true;
     else if (a == "--kernel") o.gpis.kernel = next();
@@ -315,7 +320,42 @@ Options parseArgs(int argc, char** argv) {
 struct GroundTruth {
   std::string name;
   probe_sim::TriangleMesh mesh;
+  // Truth samples on the part of the surface a camera or a ray probe outside the object can
+  // reach (probe_sim::splitReachableSurface), and the floor that the rest sets under the
+  // truth-to-predicted RMSE: that of a prediction equal to the reachable surface.
+  bool reachability_measured{false};
+  double reachable_area_fraction{1.0};
+  double floor_rmse_gt_to_pred{0.0};
+  std::vector<gpatlas_core::Vector3> reachable_samples;
 };
+
+// Number of truth samples for the reachable part's metrics (the shape metrics' own count).
+constexpr std::size_t kReachabilitySamples = 20000;
+
+void measureReachability(GroundTruth& gt, bool with_table) {
+  probe_sim::Scene::Config scene_config;
+  scene_config.add_table = with_table;
+  const probe_sim::Scene scene(gt.mesh, scene_config);
+  const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene);
+  gt.reachable_area_fraction = split.reachable_area_fraction;
+  gt.reachable_samples.clear();
+  const std::vector<gpatlas_core::Vector3> samples = gpatlas_core::sampleMeshSurface(gt.mesh, kReachabilitySamples, 5);
+  if (split.reachable.triangles.empty() || samples.empty()) {
+    gt.floor_rmse_gt_to_pred = std::nan("");
+    gt.reachability_measured = true;
+    return;
+  }
+  const gpatlas_core::MeshDistanceIndex onto_reachable(split.reachable);
+  double sum_squared = 0.0;
+  for (const auto& x : samples) {
+    const double d = onto_reachable.distance(x);
+    sum_squared += d * d;
+    // On a reachable triangle (up to rounding): part of the reachable truth.
+    if (d <= 1e-7) gt.reachable_samples.push_back(x);
+  }
+  gt.floor_rmse_gt_to_pred = std::sqrt(sum_squared / static_cast<double>(samples.size()));
+  gt.reachability_measured = true;
+}
 
 
 GroundTruth loadObject(const std::string& spec, double scale, const Options& o) {
@@ -351,6 +391,8 @@ struct RunResult {
   bool converged{false};
   std::size_t n_train{0};
   gpatlas_core::ShapeMetricsResult metrics;
+  // Truth-to-predicted RMSE over the reachable truth only (GroundTruth::reachable_samples).
+  double rmse_gt_to_pred_reachable{std::nan("")};
   double max_surface_variance{0.0};
   double wall_s{0.0};
   double plan_ms_median{0.0};
@@ -370,8 +412,10 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
+// `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured.
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
-                                         const Options& o, const std::string& save_as = "") {
+                                         const Options& o, const std::string& save_as = "",
+                                         double* rmse_reachable = nullptr) {
   gpatlas_core::SurfaceMesher::Config mesher_config;
   mesher_config.resolution_m = o.mesh_resolution_m;
   const auto surface = gpatlas_core::SurfaceMesher(mesher_config).mesh(model);
@@ -383,6 +427,12 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, c
   if (!save_as.empty()) {
     const std::string error = gpatlas_core::writePly(surface.mesh, save_as);
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
+  }
+  if (rmse_reachable && gt.reachability_measured && !gt.reachable_samples.empty()) {
+    const gpatlas_core::MeshDistanceIndex onto_predicted(surface.mesh);
+    double sum_squared = 0.0;
+    for (const auto& x : gt.reachable_samples) sum_squared += std::pow(onto_predicted.distance(x), 2);
+    *rmse_reachable = std::sqrt(sum_squared / static_cast<double>(gt.reachable_samples.size()));
   }
   return gpatlas_core::ShapeMetrics().compare(surface.mesh, gt.mesh);
 }
@@ -573,7 +623,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const std::string mesh_file =
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
-  r.metrics = measure(model, gt, o, mesh_file);
+  r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
   if (!r.metrics.ok) r.error = r.metrics.message;
   if (!r.history.empty() && r.history.back().action == r.actions && r.metrics.ok) {
     r.history.back().rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
@@ -624,7 +674,20 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
         << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << '\n';
 }
 
-void writeSummary(const std::vector<RunResult>& runs, const Options& o, const fs::path& path) {
+void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& objects,
+                          const fs::path& path) {
+  std::ofstream f(path);
+  f << "object,strategy,seed,reachable_area_fraction,floor_rmse_gt_to_pred_m,rmse_gt_to_pred_reachable_m\n";
+  for (const auto& r : runs) {
+    const auto gt = std::find_if(objects.begin(), objects.end(), [&](const GroundTruth& g) { return g.name == r.object; });
+    if (gt == objects.end() || !gt->reachability_measured) continue;
+    f << r.object << ',' << r.strategy << ',' << r.seed << ',' << num(gt->reachable_area_fraction) << ','
+      << num(gt->floor_rmse_gt_to_pred) << ',' << num(r.rmse_gt_to_pred_reachable) << '\n';
+  }
+}
+
+void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths, const Options& o,
+                  const fs::path& path) {
   std::vector<std::string> objects, strategies;
   for (const auto& r : runs) {
     if (std::find(objects.begin(), objects.end(), r.object) == objects.end()) objects.push_back(r.object);
@@ -675,6 +738,46 @@ void writeSummary(const std::vector<RunResult>& runs, const Options& o, const fs
   f << "| **mean** |";
   for (const auto& s : strategies) f << cells(mean_of_strategy[s]);
   f << '\n';
+
+  if (std::none_of(truths.begin(), truths.end(), [](const GroundTruth& g) { return g.reachability_measured; })) return;
+  f << "\nThe truth a camera or a ray probe outside the object can reach (reachability.csv): its share of "
+       "the truth's area, the floor under truth->predicted RMSE that the rest sets (m), and per strategy "
+       "the mean truth->predicted RMSE over the reachable truth only (m).\n\n| object | reachable area | floor g->p |";
+  for (const auto& s : strategies) f << ' ' << s << " g->p reachable |";
+  f << "\n|---|---|---|";
+  for (std::size_t i = 0; i < strategies.size(); ++i) f << "---|";
+  f << '\n';
+  std::map<std::string, std::pair<double, int>> strategy_mean;
+  double fraction_sum = 0.0, floor_sum = 0.0;
+  int measured_objects = 0;
+  for (const auto& gt : truths) {
+    if (!gt.reachability_measured) continue;
+    ++measured_objects;
+    fraction_sum += gt.reachable_area_fraction;
+    floor_sum += gt.floor_rmse_gt_to_pred;
+    f << "| " << gt.name << " | " << std::fixed << std::setprecision(2) << gt.reachable_area_fraction << " | "
+      << std::setprecision(4) << gt.floor_rmse_gt_to_pred << " |";
+    for (const auto& s : strategies) {
+      double sum = 0.0;
+      int n = 0;
+      for (const auto& r : runs)
+        if (r.object == gt.name && r.strategy == s && std::isfinite(r.rmse_gt_to_pred_reachable)) {
+          sum += r.rmse_gt_to_pred_reachable;
+          ++n;
+          strategy_mean[s].first += r.rmse_gt_to_pred_reachable;
+          ++strategy_mean[s].second;
+        }
+      f << ' ' << (n ? std::to_string(sum / n).substr(0, 6) : std::string("-")) << " |";
+    }
+    f << '\n';
+  }
+  f << "| **mean** | " << std::setprecision(2) << fraction_sum / std::max(1, measured_objects) << " | "
+    << std::setprecision(4) << floor_sum / std::max(1, measured_objects) << " |";
+  for (const auto& s : strategies) {
+    const auto& m = strategy_mean[s];
+    f << ' ' << (m.second ? std::to_string(m.first / m.second).substr(0, 6) : std::string("-")) << " |";
+  }
+  f << '\n';
 }
 
 }  // namespace
@@ -701,6 +804,36 @@ int main(int argc, char** argv) {
   if (ec) {
     std::cerr << "gpatlas_bench: cannot create output folder '" << o.out << "': " << ec.message() << std::endl;
     return 2;
+  }
+  if (o.save_meshes) {
+    // The truth as the runs saw it (scaled and placed on the table), to compare with the saved
+    // predictions in other tools.
+    for (const auto& gt : objects) {
+      const std::string error = gpatlas_core::writePly(gt.mesh, (fs::path(o.out) / (gt.name + "_truth.ply")).string());
+      if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
+    }
+  }
+
+  if (o.reachability) {
+    // Once per object, before the runs, on the same workers (10-20 s per 40k-triangle scan).
+    std::atomic<std::size_t> next_object{0};
+    std::mutex reach_print_mutex;
+    auto reach_worker = [&] {
+      for (std::size_t i = next_object++; i < objects.size(); i = next_object++) {
+        GroundTruth& gt = objects[i];
+        const auto started = std::chrono::steady_clock::now();
+        measureReachability(gt, o.table);
+        std::lock_guard<std::mutex> lock(reach_print_mutex);
+        std::cout << "gpatlas_bench: " << gt.name << ": " << std::setprecision(3) << 100.0 * gt.reachable_area_fraction
+                  << " % of the truth's area is reachable from outside; the rest sets a floor of "
+                  << 1000.0 * gt.floor_rmse_gt_to_pred << " mm under truth->predicted RMSE ("
+                  << std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() << " s)"
+                  << std::defaultfloat << std::endl;
+      }
+    };
+    std::vector<std::thread> reach_threads;
+    for (int t = 0; t < std::min<int>(o.jobs, static_cast<int>(objects.size())); ++t) reach_threads.emplace_back(reach_worker);
+    for (auto& t : reach_threads) t.join();
   }
 
   struct Job {
@@ -742,6 +875,8 @@ int main(int argc, char** argv) {
       if (r.metrics.ok)
         std::cout << ", RMSE " << std::setprecision(3) << r.metrics.rmse_predicted_to_truth * 1000 << " / "
                   << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;
+      if (std::isfinite(r.rmse_gt_to_pred_reachable))
+        std::cout << ", reachable truth->predicted " << r.rmse_gt_to_pred_reachable * 1000 << " mm";
       std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
                 << r.wall_s << " s";
       if (!r.error.empty()) std::cout << " (" << r.error << ")";
@@ -755,10 +890,12 @@ int main(int argc, char** argv) {
   const fs::path out(o.out);
   writeRunsCsv(runs, out / "runs.csv");
   writeHistoryCsv(runs, out / "history.csv");
-  writeSummary(runs, o, out / "summary.md");
+  writeReachabilityCsv(runs, objects, out / "reachability.csv");
+  writeSummary(runs, objects, o, out / "summary.md");
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count();
   std::cout << "gpatlas_bench: done in " << std::setprecision(4) << total_s << " s; wrote " << (out / "runs.csv").string()
-            << ", " << (out / "history.csv").string() << ", " << (out / "summary.md").string() << std::endl;
+            << ", " << (out / "history.csv").string() << ", " << (out / "reachability.csv").string() << ", "
+            << (out / "summary.md").string() << std::endl;
 #ifdef GPATLAS_PLOT_SCRIPT
   if (o.plot) {
     const std::string cmd = "/usr/bin/python3 \"" GPATLAS_PLOT_SCRIPT "\" \"" + out.string() + "\"";
