@@ -81,7 +81,7 @@ class BenchSmokeTest(unittest.TestCase):
 
     def test_bad_arguments_are_refused(self):
         for args in (["--vmax", "0"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],
-                     ["--probe", "laser"]):
+                     ["--probe", "laser"], ["--reach-directions", "0"]):
             proc = self.run_bench(*args, "--out", self.out)
             self.assertEqual(proc.returncode, 2, args)
             self.assertIn("gpatlas_bench:", proc.stderr)

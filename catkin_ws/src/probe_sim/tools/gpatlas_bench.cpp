@@ -77,6 +77,7 @@ struct Options {
   int curve_every{5};
   double mesh_resolution_m{0.005};
   bool reachability{true};
+  int reach_directions{probe_sim::ReachabilityConfig().directions};
   bool verbose{false};
   bool plot{true};
   bool save_meshes{false};
@@ -164,6 +165,7 @@ void printUsage() {
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
   --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
+  --reach-directions N           escape lines tried per truth triangle for it [256]
   --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
                                  and each object as OBJECT_truth.ply
 )";
@@ -233,6 +235,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
     else if (a == "--mesh-res-m") o.mesh_resolution_m = parseDouble(a, next());
     else if (a == "--no-reachability") o.reachability = false;
+    else if (a == "--reach-directions") o.reach_directions = parseInt(a, next());
     else if (a == "--data-radius") o.gpis.data_radius = parseDouble(a, next()), frame_given = true;
     else if (a == "--renormalise-radius") o.gpis.renormalise_radius = parseDouble(a, next()), frame_given = true;
     else if (a == "--kernel") o.gpis.kernel = next();
@@ -282,6 +285,7 @@ Options parseArgs(int argc, char** argv) {
   if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
   if (!(o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
   if (o.max_actions < 0) throw std::invalid_argument("--max-actions must be >= 0");
+  if (o.reach_directions < 1) throw std::invalid_argument("--reach-directions must be >= 1");
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
   if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
@@ -332,11 +336,13 @@ struct GroundTruth {
 // Number of truth samples for the reachable part's metrics (the shape metrics' own count).
 constexpr std::size_t kReachabilitySamples = 20000;
 
-void measureReachability(GroundTruth& gt, bool with_table) {
+void measureReachability(GroundTruth& gt, bool with_table, int directions) {
   probe_sim::Scene::Config scene_config;
   scene_config.add_table = with_table;
   const probe_sim::Scene scene(gt.mesh, scene_config);
-  const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene);
+  probe_sim::ReachabilityConfig config;
+  config.directions = directions;
+  const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene, config);
   gt.reachable_area_fraction = split.reachable_area_fraction;
   gt.reachable_samples.clear();
   const std::vector<gpatlas_core::Vector3> samples = gpatlas_core::sampleMeshSurface(gt.mesh, kReachabilitySamples, 5);
@@ -815,14 +821,14 @@ int main(int argc, char** argv) {
   }
 
   if (o.reachability) {
-    // Once per object, before the runs, on the same workers (10-20 s per 40k-triangle scan).
+    // Once per object, before the runs, on the same workers (40-60 s per 40k-triangle scan).
     std::atomic<std::size_t> next_object{0};
     std::mutex reach_print_mutex;
     auto reach_worker = [&] {
       for (std::size_t i = next_object++; i < objects.size(); i = next_object++) {
         GroundTruth& gt = objects[i];
         const auto started = std::chrono::steady_clock::now();
-        measureReachability(gt, o.table);
+        measureReachability(gt, o.table, o.reach_directions);
         std::lock_guard<std::mutex> lock(reach_print_mutex);
         std::cout << "gpatlas_bench: " << gt.name << ": " << std::setprecision(3) << 100.0 * gt.reachable_area_fraction
                   << " % of the truth's area is reachable from outside; the rest sets a floor of "

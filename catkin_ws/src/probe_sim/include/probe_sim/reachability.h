@@ -17,8 +17,10 @@ namespace probe_sim {
 // along their line, so no shape learnt from them can contain those parts, and they set a floor
 // under the truth-to-predicted error of any exploration.
 struct ReachabilityConfig {
-  // Straight escape lines tried per point (a Fibonacci lattice on the sphere).
-  int directions{64};
+  // Straight escape lines tried per point (a Fibonacci lattice on the sphere). A point seen
+  // only through a narrow opening needs many: on the scans, 64 instead of 256 counted 1-2.5 %
+  // less of the area as reachable and put the floor 0.1-0.4 mm higher.
+  int directions{256};
   // Lines start this far off the surface along their direction, so that they do not hit the
   // triangle they start on.
   double start_offset_m{5e-4};
