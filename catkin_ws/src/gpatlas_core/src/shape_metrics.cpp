@@ -48,8 +48,10 @@ double pointTriangleDistance(const Vector3& p, const Vector3& a, const Vector3& 
   return (p - (a + v * ab + w * ac)).norm();
 }
 
-std::vector<Vector3> sampleMeshSurface(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed) {
+std::vector<Vector3> sampleMeshSurface(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed,
+                                       std::vector<std::size_t>* owner_triangles) {
   std::vector<Vector3> samples;
+  if (owner_triangles) owner_triangles->clear();
   if (!validate(mesh).empty() || mesh.triangles.empty() || count == 0) return samples;
   std::vector<double> cumulative_area(mesh.triangles.size());
   double total = 0.0;
@@ -73,6 +75,7 @@ std::vector<Vector3> sampleMeshSurface(const TriangleMesh& mesh, std::size_t cou
     samples.push_back((1.0 - r1) * mesh.vertices[static_cast<std::size_t>(tri[0])] +
                       r1 * (1.0 - r2) * mesh.vertices[static_cast<std::size_t>(tri[1])] +
                       r1 * r2 * mesh.vertices[static_cast<std::size_t>(tri[2])]);
+    if (owner_triangles) owner_triangles->push_back(t);
   }
   return samples;
 }
@@ -115,26 +118,9 @@ MeshDistanceIndex::MeshDistanceIndex(const TriangleMesh& mesh, Config config) : 
          mesh.vertices[static_cast<std::size_t>(tri[2])]) / 3.0,
         static_cast<int>(t));
   }
-  // Same area-weighted draw as sampleMeshSurface, but the owning triangle must be kept.
-  std::vector<double> cumulative_area(mesh.triangles.size());
-  double total = 0.0;
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) cumulative_area[t] = (total += triangleArea(mesh, t));
-  if (total > 0.0) {
-    std::mt19937_64 rng(config.seed);
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
-    for (std::size_t s = 0; s < config.index_samples; ++s) {
-      const std::size_t t = std::min(
-          static_cast<std::size_t>(std::upper_bound(cumulative_area.begin(), cumulative_area.end(), unit(rng) * total) -
-                                   cumulative_area.begin()),
-          mesh.triangles.size() - 1);
-      const Eigen::Vector3i& tri = mesh.triangles[t];
-      const double r1 = std::sqrt(unit(rng)), r2 = unit(rng);
-      add((1.0 - r1) * mesh.vertices[static_cast<std::size_t>(tri[0])] +
-              r1 * (1.0 - r2) * mesh.vertices[static_cast<std::size_t>(tri[1])] +
-              r1 * r2 * mesh.vertices[static_cast<std::size_t>(tri[2])],
-          static_cast<int>(t));
-    }
-  }
+  std::vector<std::size_t> owners;
+  const std::vector<Vector3> samples = sampleMeshSurface(mesh, config.index_samples, config.seed, &owners);
+  for (std::size_t s = 0; s < samples.size(); ++s) add(samples[s], static_cast<int>(owners[s]));
   // A query on one triangle near its edge can have all its nearest samples on the
   // neighbouring triangle; widening each proposal to the triangles around it catches that.
   std::vector<std::vector<int>> triangles_of_vertex(mesh.vertices.size());
@@ -223,7 +209,7 @@ ShapeMetricsResult ShapeMetrics::compare(const TriangleMesh& predicted, const Tr
     return Direction{std::sqrt(sum_squared / n), sum / n, within / n};
   };
   const Direction forward = measure(predicted, to_truth, config_.seed * 2 + 1);
-  const Direction backward = measure(truth, to_predicted, config_.seed * 2 + 2);
+  const Direction backward = measure(truth, to_predicted, truthSampleSeed(config_.seed));
   result.rmse_predicted_to_truth = forward.rmse;
   result.rmse_truth_to_predicted = backward.rmse;
   result.mean_predicted_to_truth = forward.mean;

@@ -58,6 +58,7 @@ ReachableSurface splitReachableSurface(const Scene& scene, const ReachabilityCon
     centroids.push_back((mesh.vertices[t[0]] + mesh.vertices[t[1]] + mesh.vertices[t[2]]) / 3.0);
   const std::vector<bool> reachable = reachableFromOutside(scene, centroids, config);
   ReachableSurface result;
+  result.triangle_reachable = reachable;
   result.triangles_tested = mesh.triangles.size();
   result.reachable.vertices = mesh.vertices;
   double total_area = 0.0, reachable_area = 0.0;

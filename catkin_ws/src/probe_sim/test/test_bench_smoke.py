@@ -58,7 +58,7 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertTrue(0.0 <= fscore <= 1.0)
             self.assertGreater(float(r["wall_s"]), 0.0)
         # A sphere's surface is all reachable from outside (no table in the paper's protocol), so
-        # the floor is zero and the reachable-truth RMSE is the whole truth's, up to sampling.
+        # the floor is zero and the reachable truth is the whole truth: the same samples.
         with open(os.path.join(self.out, "reachability.csv")) as f:
             reader = csv.DictReader(f)
             self.assertEqual(reader.fieldnames, ["object", "strategy", "seed", "reachable_area_fraction",
@@ -71,13 +71,28 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertLess(float(row["floor_rmse_gt_to_pred_m"]), 1e-5, row)
             reachable = float(row["rmse_gt_to_pred_reachable_m"])
             whole = float(r["rmse_gt_to_pred_m"])
-            self.assertTrue(math.isfinite(reachable) and abs(reachable - whole) <= 0.1 * whole + 1e-4,
+            self.assertTrue(math.isfinite(reachable) and abs(reachable - whole) <= 1e-4 * whole,
                             (reachable, whole))
         with open(os.path.join(self.out, "summary.md")) as f:
             summary = f.read()
         self.assertIn("| sphere |", summary)
         self.assertIn("atlas_poke steps", summary)
         self.assertIn("g->p reachable", summary)
+
+    def test_the_face_on_the_table_is_unreachable_and_sets_the_floor(self):
+        # A 10 cm cube on the table: its bottom face (1/6 of the area) is covered. A prediction
+        # that is exactly the other five faces is, from a bottom point, as far as the nearest
+        # edge of the square: E[d^2] = a^2 / 24 over a square of side a, so the floor is
+        # sqrt(1/6 * a^2 / 24) = a / 12.
+        proc = self.run_bench("--object", "procedural:box", "--size-m", "0.1", "--table", "--strategy",
+                              "atlas_poke", "--seeds", "0", "--max-actions", "1", "--points", "200",
+                              "--out", self.out, "--no-plot")
+        self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
+        with open(os.path.join(self.out, "reachability.csv")) as f:
+            (row,) = list(csv.DictReader(f))
+        self.assertAlmostEqual(float(row["reachable_area_fraction"]), 5.0 / 6.0, places=6)
+        self.assertAlmostEqual(float(row["floor_rmse_gt_to_pred_m"]) / (0.1 / 12.0), 1.0, delta=0.05)
+        self.assertTrue(math.isfinite(float(row["rmse_gt_to_pred_reachable_m"])), row)
 
     def test_bad_arguments_are_refused(self):
         for args in (["--vmax", "0"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],

@@ -325,16 +325,14 @@ struct GroundTruth {
   std::string name;
   probe_sim::TriangleMesh mesh;
   // Truth samples on the part of the surface a camera or a ray probe outside the object can
-  // reach (probe_sim::splitReachableSurface), and the floor that the rest sets under the
-  // truth-to-predicted RMSE: that of a prediction equal to the reachable surface.
+  // reach (probe_sim::splitReachableSurface; a subset of the shape metrics' truth samples), and
+  // the floor the rest sets: the truth-to-predicted RMSE of a prediction that is exactly the
+  // reachable surface (a prediction that also guesses hidden layers could come closer).
   bool reachability_measured{false};
   double reachable_area_fraction{1.0};
   double floor_rmse_gt_to_pred{0.0};
   std::vector<gpatlas_core::Vector3> reachable_samples;
 };
-
-// Number of truth samples for the reachable part's metrics (the shape metrics' own count).
-constexpr std::size_t kReachabilitySamples = 20000;
 
 void measureReachability(GroundTruth& gt, bool with_table, int directions) {
   probe_sim::Scene::Config scene_config;
@@ -345,20 +343,25 @@ void measureReachability(GroundTruth& gt, bool with_table, int directions) {
   const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene, config);
   gt.reachable_area_fraction = split.reachable_area_fraction;
   gt.reachable_samples.clear();
-  const std::vector<gpatlas_core::Vector3> samples = gpatlas_core::sampleMeshSurface(gt.mesh, kReachabilitySamples, 5);
+  // The very points ShapeMetrics::compare measures truth-to-predicted on, with their triangles.
+  const gpatlas_core::ShapeMetrics::Config metrics;
+  std::vector<std::size_t> owners;
+  const std::vector<gpatlas_core::Vector3> samples = gpatlas_core::sampleMeshSurface(
+      gt.mesh, metrics.samples_per_mesh, gpatlas_core::truthSampleSeed(metrics.seed), &owners);
   if (split.reachable.triangles.empty() || samples.empty()) {
     gt.floor_rmse_gt_to_pred = std::nan("");
     gt.reachability_measured = true;
     return;
   }
-  const gpatlas_core::MeshDistanceIndex onto_reachable(split.reachable);
+  const gpatlas_core::MeshDistanceIndex onto_reachable(split.reachable, metrics.index);
   if (!onto_reachable.ok()) throw std::runtime_error("reachable surface index: " + onto_reachable.message());
   double sum_squared = 0.0;
-  for (const auto& x : samples) {
-    const double d = onto_reachable.distance(x);
-    sum_squared += d * d;
-    // On a reachable triangle (up to rounding): part of the reachable truth.
-    if (d <= 1e-7) gt.reachable_samples.push_back(x);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (split.triangle_reachable[owners[i]]) {
+      gt.reachable_samples.push_back(samples[i]);
+      continue;
+    }
+    sum_squared += std::pow(onto_reachable.distance(samples[i]), 2);
   }
   gt.floor_rmse_gt_to_pred = std::sqrt(sum_squared / static_cast<double>(samples.size()));
   gt.reachability_measured = true;
@@ -436,7 +439,7 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, c
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
   }
   if (rmse_reachable && gt.reachability_measured && !gt.reachable_samples.empty()) {
-    const gpatlas_core::MeshDistanceIndex onto_predicted(surface.mesh);
+    const gpatlas_core::MeshDistanceIndex onto_predicted(surface.mesh, gpatlas_core::ShapeMetrics::Config().index);
     if (onto_predicted.ok()) {
       double sum_squared = 0.0;
       for (const auto& x : gt.reachable_samples) sum_squared += std::pow(onto_predicted.distance(x), 2);
@@ -758,12 +761,15 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   f << '\n';
   std::map<std::string, std::pair<double, int>> strategy_mean;
   double fraction_sum = 0.0, floor_sum = 0.0;
-  int measured_objects = 0;
+  int measured_objects = 0, floor_objects = 0;
   for (const auto& gt : truths) {
     if (!gt.reachability_measured) continue;
     ++measured_objects;
     fraction_sum += gt.reachable_area_fraction;
-    floor_sum += gt.floor_rmse_gt_to_pred;
+    if (std::isfinite(gt.floor_rmse_gt_to_pred)) {
+      floor_sum += gt.floor_rmse_gt_to_pred;
+      ++floor_objects;
+    }
     f << "| " << gt.name << " | " << std::fixed << std::setprecision(2) << gt.reachable_area_fraction << " | "
       << std::setprecision(4) << gt.floor_rmse_gt_to_pred << " |";
     for (const auto& s : strategies) {
@@ -776,15 +782,17 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
           strategy_mean[s].first += r.rmse_gt_to_pred_reachable;
           ++strategy_mean[s].second;
         }
-      f << ' ' << (n ? std::to_string(sum / n).substr(0, 6) : std::string("-")) << " |";
+      if (n) f << ' ' << sum / n << " |";
+      else f << " - |";
     }
     f << '\n';
   }
   f << "| **mean** | " << std::setprecision(2) << fraction_sum / std::max(1, measured_objects) << " | "
-    << std::setprecision(4) << floor_sum / std::max(1, measured_objects) << " |";
+    << std::setprecision(4) << floor_sum / std::max(1, floor_objects) << " |";
   for (const auto& s : strategies) {
     const auto& m = strategy_mean[s];
-    f << ' ' << (m.second ? std::to_string(m.first / m.second).substr(0, 6) : std::string("-")) << " |";
+    if (m.second) f << ' ' << m.first / m.second << " |";
+    else f << " - |";
   }
   f << '\n';
 }

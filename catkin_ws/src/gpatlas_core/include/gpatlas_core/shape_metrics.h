@@ -10,8 +10,12 @@
 namespace gpatlas_core {
 
 // Area-weighted random points on a mesh (seeded): each point picks a triangle with probability
-// proportional to its area, then a uniform point inside it.
-std::vector<Vector3> sampleMeshSurface(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed);
+// proportional to its area, then a uniform point inside it. `owner_triangles`, if given,
+// receives each point's triangle index.
+std::vector<Vector3> sampleMeshSurface(const TriangleMesh& mesh, std::size_t count, std::uint64_t seed,
+                                       std::vector<std::size_t>* owner_triangles = nullptr);
+// The truth samples ShapeMetrics::compare draws (for measuring on a subset of the same points).
+inline std::uint64_t truthSampleSeed(std::uint64_t metrics_seed) { return metrics_seed * 2 + 2; }
 
 // Exact distance from a point to a triangle (closest point by Voronoi regions).
 double pointTriangleDistance(const Vector3& p, const Vector3& a, const Vector3& b, const Vector3& c);

@@ -14,16 +14,16 @@ namespace probe_sim {
 // Which parts of an object's surface anything outside it can see or touch. A scanned mesh
 // often has surface no exterior sensor reaches: the inner layers of a wall scanned as several
 // sheets, the inside of a closed vessel. A camera and a ray probe meet only the first surface
-// along their line, so no shape learnt from them can contain those parts, and they set a floor
-// under the truth-to-predicted error of any exploration.
+// along their line, so nothing they measure is on those parts: a prediction that is exactly the
+// reachable surface still has their distance to it as truth-to-predicted error.
 struct ReachabilityConfig {
   // Straight escape lines tried per point (a Fibonacci lattice on the sphere). A point seen
   // only through a narrow opening needs many: on the scans, 64 instead of 256 counted 1-2.5 %
   // less of the area as reachable and put the floor 0.1-0.4 mm higher.
   int directions{256};
   // Lines start this far off the surface along their direction, so that they do not hit the
-  // triangle they start on.
-  double start_offset_m{5e-4};
+  // triangle they start on; sheets closer together than this are not told apart.
+  double start_offset_m{1e-5};
   // The surfaces that block a line (SurfaceKind bits): the object, and the table where the
   // scene has one (what stands on a table is not reachable from below it).
   unsigned blocking_kinds{kAllSurfaces};
@@ -37,6 +37,7 @@ std::vector<bool> reachableFromOutside(const Scene& scene, const std::vector<Eig
 // The scene's object mesh split by reachability of each triangle's centroid.
 struct ReachableSurface {
   TriangleMesh reachable;            // the triangles whose centroid is reachable
+  std::vector<bool> triangle_reachable;  // per triangle of the object mesh
   double reachable_area_fraction{0.0};
   std::size_t triangles_tested{0};
 };
