@@ -41,6 +41,8 @@ TEST(Reachability, ABoxSealedInsideAnotherIsUnreachableAndTheOuterOneIsReachable
   const Scene scene(nested, noTable());
   const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene);
   EXPECT_EQ(split.triangles_tested, 24u);
+  ASSERT_EQ(split.triangle_reachable.size(), 24u);
+  for (std::size_t t = 0; t < 24; ++t) EXPECT_EQ(split.triangle_reachable[t], t < 12) << "triangle " << t;
   ASSERT_EQ(split.reachable.triangles.size(), 12u);
   // Areas 6 * 0.1^2 and 6 * 0.05^2: the outer box is 0.06 / 0.075 of the whole.
   EXPECT_NEAR(split.reachable_area_fraction, 0.8, 1e-9);
