@@ -109,6 +109,12 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
   return points;
 }
 
+std::vector<Vector3> measuredPositions(const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space) {
+  std::vector<Vector3> positions = free_space;
+  for (const Contact& contact : contacts) positions.push_back(contact.position);
+  return positions;
+}
+
 FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new_points,
                          const std::vector<Vector3>& evidence, const Explorer::Config& config,
                          InteriorRetraction* retraction) {
@@ -227,16 +233,15 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     const Clock::time_point update_started = Clock::now();
     if (!new_points.empty()) {
-      std::vector<Vector3> evidence = probed.free_space;
-      for (const Contact& contact : probed.contacts) evidence.push_back(contact.position);
-      FitReport report = addTouchPoints(model, new_points, evidence, config_, &record.retraction);
+      const std::vector<Vector3> measured = measuredPositions(probed.contacts, probed.free_space);
+      FitReport report = addTouchPoints(model, new_points, measured, config_, &record.retraction);
       if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
         // The model refuses a batch that makes its covariance numerically singular (e.g. a
         // free-space point right next to a surface point). Contacts are what the touch was
         // for, so they are retried alone (with the points behind them) rather than losing the
         // action. The refused free space still retracts guesses: it was measured all the same.
         new_points.resize(num_contact_points);
-        report = addTouchPoints(model, new_points, evidence, config_, &record.retraction);
+        report = addTouchPoints(model, new_points, measured, config_, &record.retraction);
       }
       if (report.ok) {
         // The model reports acceptance as a total; free-space points are the ones it drops

@@ -196,11 +196,13 @@ ShapeMetricsResult ShapeMetrics::compare(const TriangleMesh& predicted, const Tr
   struct Direction {
     double rmse, mean, within;
   };
-  auto measure = [&](const TriangleMesh& from, const MeshDistanceIndex& onto, std::uint64_t seed) {
+  auto measure = [&](const TriangleMesh& from, const MeshDistanceIndex& onto, std::uint64_t seed,
+                     std::vector<double>* distances) {
     const std::vector<Vector3> samples = sampleMeshSurface(from, config_.samples_per_mesh, seed);
     double sum = 0.0, sum_squared = 0.0, within = 0.0;
     for (const Vector3& s : samples) {
       const double d = onto.distance(s);
+      if (distances) distances->push_back(d);
       sum += d;
       sum_squared += d * d;
       within += d <= config_.f_score_threshold_m ? 1.0 : 0.0;
@@ -208,8 +210,9 @@ ShapeMetricsResult ShapeMetrics::compare(const TriangleMesh& predicted, const Tr
     const double n = static_cast<double>(samples.size());
     return Direction{std::sqrt(sum_squared / n), sum / n, within / n};
   };
-  const Direction forward = measure(predicted, to_truth, config_.seed * 2 + 1);
-  const Direction backward = measure(truth, to_predicted, truthSampleSeed(config_.seed));
+  const Direction forward = measure(predicted, to_truth, config_.seed * 2 + 1, nullptr);
+  const Direction backward = measure(truth, to_predicted, truthSampleSeed(config_.seed),
+                                     config_.keep_truth_distances ? &result.truth_to_predicted_distances : nullptr);
   result.rmse_predicted_to_truth = forward.rmse;
   result.rmse_truth_to_predicted = backward.rmse;
   result.mean_predicted_to_truth = forward.mean;

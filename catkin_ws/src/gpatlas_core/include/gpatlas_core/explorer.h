@@ -141,8 +141,12 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
                                                const std::vector<Vector3>& free_space, const Explorer::Config& config,
                                                TouchPointCounts* counts = nullptr);
 
+// Where a touch measured something: its contacts' positions and its free space (before
+// thinning), the points that retract the guesses they contradict (addTouchPoints).
+std::vector<Vector3> measuredPositions(const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space);
+
 // Adds a touch's training points (from touchTrainingPoints) to a fitted model. First the
-// touch's measured points (`evidence`: its contacts and free space, before thinning) retract
+// touch's measured points (`evidence`: measuredPositions of the touch) retract
 // the occluded-interior guesses they contradict, when config.retract_contradicted_guesses; the
 // update is incremental when nothing was retracted, and a full refit in the model's current
 // frame otherwise. On failure the model is unchanged. The report's num_added counts the new

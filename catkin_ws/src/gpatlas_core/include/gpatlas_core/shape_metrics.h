@@ -61,6 +61,9 @@ struct ShapeMetricsResult {
   double recall{0.0};      // fraction of truth samples within the threshold
   double f_score{0.0};
   std::size_t samples_per_mesh{0};
+  // With Config::keep_truth_distances: each truth sample's distance to the predicted mesh, in
+  // the order of sampleMeshSurface(truth, samples_per_mesh, truthSampleSeed(seed)).
+  std::vector<double> truth_to_predicted_distances;
 };
 
 // Compares a predicted mesh with a ground-truth mesh in both directions.
@@ -71,6 +74,7 @@ class ShapeMetrics {
     double f_score_threshold_m{0.005};
     MeshDistanceIndex::Config index;
     std::uint64_t seed{3};
+    bool keep_truth_distances{false};
   };
   ShapeMetrics() = default;
   explicit ShapeMetrics(Config config) : config_(std::move(config)) {}

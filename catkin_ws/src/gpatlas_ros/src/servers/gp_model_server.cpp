@@ -288,11 +288,9 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     *message = "no observation inside the model's domain";
     return false;
   }
-  std::vector<Eigen::Vector3d> evidence = free_space;
-  for (const auto& c : observed.contacts) evidence.push_back(c.position);
   gpatlas_core::InteriorRetraction retraction;
-  const gpatlas_core::FitReport report =
-      gpatlas_core::addTouchPoints(model_, points, evidence, touch_config_, &retraction);
+  const gpatlas_core::FitReport report = gpatlas_core::addTouchPoints(
+      model_, points, gpatlas_core::measuredPositions(observed.contacts, free_space), touch_config_, &retraction);
   *num_added = static_cast<std::uint32_t>(report.num_added);
   *message = report.message;
   if (retraction.any())
