@@ -66,6 +66,15 @@ void BM_PredictMeanVariance(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * q.cols());
 }
 
+// The mean alone (what the mesher asks for at every grid node).
+void BM_PredictMean(benchmark::State& state) {
+  GpisModel model;
+  model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const auto q = queryPoints(1000, 3);
+  for (auto _ : state) benchmark::DoNotOptimize(model.predictBatch(q, false, false, false).mean.sum());
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
 void BM_PredictLoop(benchmark::State& state) {
   GpisModel model;
   model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
@@ -98,6 +107,7 @@ void BM_Tune(benchmark::State& state) {
 BENCHMARK(BM_FullFit)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_AddPoints)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PredictMeanVariance)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PredictMean)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PredictLoop)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Tune)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond)->Iterations(1);
 

@@ -2,6 +2,8 @@
 //   BM_PlanNextTouch/N     one GPAtlasRRT plan (atlas_poke) on a GP of N observations of the top
 //                          of a 10 cm sphere; the time includes growing the atlas until a chart
 //                          above V_max is found.
+//   BM_PlanBaseline/N/S    one plan of a baseline (S: 0 random, 1 max_variance) on the same GP:
+//                          600 seeds projected onto the surface, their variance and evidence.
 //   BM_ExploreSphere/S     whole explorations of the analytic sphere with strategy S (0 atlas_poke,
 //                          1 atlas_slide, 2 random, 3 max_variance) over 5 seeds; the counters
 //                          give the mean actions to converge and the final shape RMSE.
@@ -50,6 +52,30 @@ void BM_PlanNextTouch(benchmark::State& state) {
   state.counters["charts"] = benchmark::Counter(charts, benchmark::Counter::kAvgIterations);
 }
 
+void BM_PlanBaseline(benchmark::State& state) {
+  static const char* const kStrategies[] = {"random", "max_variance"};
+  const std::string name = kStrategies[state.range(1)];
+  state.SetLabel(name);
+  const AnalyticSphere sphere;
+  gpatlas_core::GpisModel model;
+  if (!model.fit(sphere.view(static_cast<int>(state.range(0)), 0.3, kNoiseSigma, 1)).ok) {
+    state.SkipWithError("fit failed");
+    return;
+  }
+  const auto strategy = gpatlas_core::makeStrategy(name, gpatlas_core::StrategyConfig());
+  gpatlas_core::PlanRequest request;
+  request.v_max = kVMax;
+  std::uint64_t plan_index = 0;
+  for (auto _ : state) {
+    request.seed = plan_index++;
+    const gpatlas_core::PlanResult result = strategy->plan(model, request);
+    if (result.status != gpatlas_core::PlanStatus::kTouch) {
+      state.SkipWithError(result.message.c_str());
+      return;
+    }
+  }
+}
+
 void BM_ExploreSphere(benchmark::State& state) {
   static const char* const kStrategies[] = {"atlas_poke", "atlas_slide", "random", "max_variance"};
   const std::string name = kStrategies[state.range(0)];
@@ -92,4 +118,5 @@ void BM_ExploreSphere(benchmark::State& state) {
 }  // namespace
 
 BENCHMARK(BM_PlanNextTouch)->Arg(250)->Arg(1000)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlanBaseline)->ArgsProduct({{250, 1000}, {0, 1}})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ExploreSphere)->DenseRange(0, 3)->Unit(benchmark::kSecond)->Iterations(1);

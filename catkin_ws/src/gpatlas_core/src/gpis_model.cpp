@@ -603,29 +603,47 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
   if (q == 0) return out;
 
   Points3 xq = (x_world.colwise() - m.centroid) / m.scale;
-  const auto train = m.x.leftCols(n);
+  // The training inputs as three contiguous coordinate arrays, so that the distances and the
+  // kernel for one query and all n training points are array operations.
+  const Eigen::ArrayXd train_x = m.x.row(0).head(n).transpose().array();
+  const Eigen::ArrayXd train_y = m.x.row(1).head(n).transpose().array();
+  const Eigen::ArrayXd train_z = m.x.row(2).head(n).transpose().array();
+  const bool any_gradient = with_gradient || with_variance_gradient;
   Eigen::MatrixXd cross(n, q);  // k(x_i, x*_j)
+  // dk/dr / r at each (training point, query), for the gradients below.
+  Eigen::MatrixXd cross_slope(any_gradient ? n : 0, any_gradient ? q : 0);
+  Eigen::ArrayXd distance(n), k(n), slope(n);
   for (Eigen::Index j = 0; j < q; ++j) {
     out.in_domain[j] = xq.col(j).allFinite() && xq.col(j).norm() <= m.config.domain_radius;
-    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.kernel->value((train.col(i) - xq.col(j)).norm());
+    const Eigen::ArrayXd dx = train_x - xq(0, j), dy = train_y - xq(1, j), dz = train_z - xq(2, j);
+    distance = (dx * dx + dy * dy + dz * dz).sqrt();
+    m.kernel->values(distance, &k);
+    cross.col(j) = k.matrix();
+    if (any_gradient) {
+      m.kernel->derivativesOverDistance(distance, &slope);
+      cross_slope.col(j) = slope.matrix();
+    }
   }
   out.mean.noalias() = cross.transpose() * m.alpha;
 
+  // Gradient of sum_i w_i k(|x - x_i|) at query j: sum_i w_i (dk/dr / r)_i (x - x_i).
+  const double inv_scale = 1.0 / m.scale;
+  const auto weightedGradient = [&](Eigen::Index j, const auto& weights) {
+    Vector3 sum = Vector3::Zero();
+    const Vector3 xj = xq.col(j);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double w = cross_slope(i, j) * weights[i];
+      sum.x() += w * (xj.x() - train_x[i]);
+      sum.y() += w * (xj.y() - train_y[i]);
+      sum.z() += w * (xj.z() - train_z[i]);
+    }
+    return sum;
+  };
+
   if (!with_variance && !with_variance_gradient) {
     out.variance.setConstant(std::numeric_limits<double>::quiet_NaN());
-    if (with_gradient) {
-      const double inv_scale = 1.0 / m.scale;
-      for (Eigen::Index j = 0; j < q; ++j) {
-        Vector3 grad_mean = Vector3::Zero();
-        const Vector3 xj = xq.col(j);
-        for (Eigen::Index i = 0; i < n; ++i) {
-          const Vector3 d = xj - train.col(i);
-          const double r = d.norm();
-          if (r > 0.0) grad_mean += (m.kernel->derivative(r) / r * m.alpha[i]) * d;
-        }
-        out.gradient.col(j) = grad_mean * inv_scale;
-      }
-    }
+    if (with_gradient)
+      for (Eigen::Index j = 0; j < q; ++j) out.gradient.col(j) = weightedGradient(j, m.alpha) * inv_scale;
     m.addPriorMean(x_world, with_gradient, &out);
     return out;
   }
@@ -639,24 +657,11 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
   out.variance = ((prior - solved.colwise().squaredNorm().array()).max(0.0) * unit).matrix();
   if (with_variance_gradient) lower.transpose().solveInPlace(solved);
 
-  if (with_gradient || with_variance_gradient) {
-    const double inv_scale = 1.0 / m.scale;
-    for (Eigen::Index j = 0; j < q; ++j) {
-      Vector3 grad_mean = Vector3::Zero();
-      Vector3 grad_var = Vector3::Zero();
-      const Vector3 xj = xq.col(j);
-      for (Eigen::Index i = 0; i < n; ++i) {
-        const Vector3 d = xj - train.col(i);
-        const double r = d.norm();
-        if (r <= 0.0) continue;
-        const Vector3 dk = (m.kernel->derivative(r) / r) * d;
-        if (with_gradient) grad_mean += dk * m.alpha[i];
-        if (with_variance_gradient) grad_var += dk * solved(i, j);
-      }
-      if (with_gradient) out.gradient.col(j) = grad_mean * inv_scale;
-      // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*
-      if (with_variance_gradient) out.variance_gradient.col(j) = -2.0 * unit * inv_scale * grad_var;
-    }
+  for (Eigen::Index j = 0; j < q && any_gradient; ++j) {
+    if (with_gradient) out.gradient.col(j) = weightedGradient(j, m.alpha) * inv_scale;
+    // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*
+    if (with_variance_gradient)
+      out.variance_gradient.col(j) = -2.0 * unit * inv_scale * weightedGradient(j, solved.col(j));
   }
   m.addPriorMean(x_world, with_gradient, &out);
   return out;

@@ -18,6 +18,16 @@ Eigen::Vector3d Kernel::gradient(const Eigen::Vector3d& x, const Eigen::Vector3d
   return derivative(r) / r * d;
 }
 
+void Kernel::values(const Eigen::ArrayXd& r, Eigen::ArrayXd* k) const {
+  k->resize(r.size());
+  for (Eigen::Index i = 0; i < r.size(); ++i) (*k)[i] = value(r[i]);
+}
+
+void Kernel::derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk_over_r) const {
+  dk_over_r->resize(r.size());
+  for (Eigen::Index i = 0; i < r.size(); ++i) (*dk_over_r)[i] = r[i] > 0.0 ? derivative(r[i]) / r[i] : 0.0;
+}
+
 // ------------------------------------------------------------------ thin plate
 Eigen::VectorXd RadiusKernel::logParams() const {
   Eigen::VectorXd p(1);
@@ -54,6 +64,22 @@ double WendlandKernel::derivative(double r) const {
   if (t >= 1.0) return 0.0;
   const double u = 1.0 - t;
   return -20.0 * radius_ * radius_ * t * u * u * u;
+}
+
+// The array forms repeat value() and derivative() operation for operation, so a prediction gives
+// the same bits whichever it uses; (1 - t) clamped at 0 replaces the branch for t >= 1.
+void WendlandKernel::values(const Eigen::ArrayXd& r, Eigen::ArrayXd* k) const {
+  const double cube = radius_ * radius_ * radius_;
+  const Eigen::ArrayXd t = r / radius_;
+  const Eigen::ArrayXd u = (1.0 - t).max(0.0);
+  *k = cube * u * u * u * u * (4.0 * t + 1.0);
+}
+
+void WendlandKernel::derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk_over_r) const {
+  const double scale = -20.0 * radius_ * radius_;
+  const Eigen::ArrayXd t = r / radius_;
+  const Eigen::ArrayXd u = (1.0 - t).max(0.0);
+  *dk_over_r = (r > 0.0).select(scale * t * u * u * u / r, 0.0);
 }
 
 void WendlandKernel::paramGradient(double r, double* out) const {

@@ -51,6 +51,25 @@ TEST(Kernel, SpatialGradientMatchesFiniteDifferences) {
   }
 }
 
+// The predictions use the array forms; they must give the scalar forms' numbers exactly (same
+// bits), at the origin and beyond a compact support too.
+TEST(Kernel, ArrayFormsEqualScalarForms) {
+  Eigen::ArrayXd r(9);
+  r << 0.0, 1e-9, 0.05, 0.4, 0.9, 1.6, 2.0, 3.64, 5.0;
+  for (const auto& k : allKernels()) {
+    Eigen::ArrayXd values, slopes;
+    k->values(r, &values);
+    k->derivativesOverDistance(r, &slopes);
+    ASSERT_EQ(values.size(), r.size()) << k->name();
+    ASSERT_EQ(slopes.size(), r.size()) << k->name();
+    for (Eigen::Index i = 0; i < r.size(); ++i) {
+      EXPECT_EQ(values[i], k->value(r[i])) << k->name() << " r=" << r[i];
+      const double expected_slope = r[i] > 0.0 ? k->derivative(r[i]) / r[i] : 0.0;
+      EXPECT_EQ(slopes[i], expected_slope) << k->name() << " r=" << r[i];
+    }
+  }
+}
+
 TEST(Kernel, ParameterGradientMatchesFiniteDifferences) {
   for (const auto& k : allKernels()) {
     const Eigen::VectorXd base = k->logParams();

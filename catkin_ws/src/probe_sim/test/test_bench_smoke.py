@@ -73,11 +73,26 @@ class BenchSmokeTest(unittest.TestCase):
             whole = float(r["rmse_gt_to_pred_m"])
             self.assertTrue(math.isfinite(reachable) and abs(reachable - whole) <= 1e-4 * whole,
                             (reachable, whole))
+        # history.csv: each plan's model size. The first plan sees the initial model (the row
+        # before any action), later plans never see fewer points, and none more than the run ends with.
+        with open(os.path.join(self.out, "history.csv")) as f:
+            history = list(csv.DictReader(f))
+        for r in rows:
+            steps = sorted((h for h in history if h["strategy"] == r["strategy"]), key=lambda h: int(h["action"]))
+            self.assertEqual(steps[0]["action"], "0")
+            sizes = [int(h["n_train"]) for h in steps]
+            self.assertGreaterEqual(sizes[0], 200)
+            if len(steps) > 1:
+                self.assertEqual(sizes[1], sizes[0], steps[:2])
+            self.assertEqual(sizes, sorted(sizes), steps)
+            self.assertLessEqual(sizes[-1], int(r["n_train"]))
         with open(os.path.join(self.out, "summary.md")) as f:
             summary = f.read()
         self.assertIn("| sphere |", summary)
         self.assertIn("atlas_poke steps", summary)
         self.assertIn("g->p reachable", summary)
+        self.assertIn("- atlas_poke: median", summary)
+        self.assertIn("planning time, random: median", proc.stdout)
 
     def test_the_face_on_the_table_is_unreachable_and_sets_the_floor(self):
         # A 10 cm cube on the table: its bottom face (1/6 of the area) is covered. A prediction

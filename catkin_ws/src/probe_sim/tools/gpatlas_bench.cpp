@@ -382,6 +382,7 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
 struct HistoryRow {
   int action{0};
   int contacts_total{0};
+  std::size_t n_train{0};  // observations in the model the action's plan was made on
   double max_surface_variance{0.0};
   double rmse_pred_to_gt{std::nan("")};
   double rmse_gt_to_pred{std::nan("")};
@@ -574,12 +575,14 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const gpatlas_core::Explorer explorer(explorer_config);
 
   int contacts_total = 0;
+  std::size_t n_train_at_plan = model.size();
   std::unique_ptr<gpatlas_core::MeshDistanceIndex> gt_index;
   if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.mesh);
   if (o.curve_every > 0) {
     const auto m0 = measure(model, gt, o);
     HistoryRow row;
     row.action = 0;
+    row.n_train = model.size();
     row.rmse_pred_to_gt = m0.ok ? m0.rmse_predicted_to_truth : std::nan("");
     row.rmse_gt_to_pred = m0.ok ? m0.rmse_truth_to_predicted : std::nan("");
     row.max_surface_variance = std::nan("");
@@ -590,6 +593,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     HistoryRow row;
     row.action = rec.index + 1;
     row.contacts_total = contacts_total;
+    row.n_train = n_train_at_plan;
+    n_train_at_plan = m.size();
     row.max_surface_variance = rec.max_surface_variance;
     row.plan_ms = rec.plan_ms;
     row.update_ms = rec.update_ms;
@@ -648,6 +653,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     HistoryRow last;
     last.action = r.actions;
     last.contacts_total = contacts_total;
+    last.n_train = model.size();
     last.max_surface_variance = r.max_surface_variance;
     last.rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
     last.rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
@@ -682,12 +688,12 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,seed,action,contacts_total,max_surface_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
-       "plan_ms,update_ms\n";
+       "plan_ms,update_ms,n_train\n";
   for (const auto& r : runs)
     for (const auto& h : r.history)
       f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.action << ',' << h.contacts_total << ','
         << num(h.max_surface_variance) << ',' << num(h.rmse_pred_to_gt) << ',' << num(h.rmse_gt_to_pred) << ','
-        << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << '\n';
+        << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << ',' << h.n_train << '\n';
 }
 
 void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& objects,
@@ -700,6 +706,38 @@ void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<
     f << r.object << ',' << r.strategy << ',' << r.seed << ',' << num(gt->reachable_area_fraction) << ','
       << num(gt->floor_rmse_gt_to_pred) << ',' << num(r.rmse_gt_to_pred_reachable) << '\n';
   }
+}
+
+// The planning-time criterion is stated at n_train of about 1000; a run's median mixes
+// plans made on models of very different sizes, so the plans are also pooled by model size.
+constexpr std::size_t kPlanBandLow = 800, kPlanBandHigh = 1200;
+
+struct PlanTimes {
+  std::string strategy;
+  std::vector<double> all_ms, band_ms;  // every plan; the plans made at n_train in the band
+};
+
+std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs) {
+  std::vector<PlanTimes> out;
+  for (const auto& r : runs) {
+    auto it = std::find_if(out.begin(), out.end(), [&](const PlanTimes& p) { return p.strategy == r.strategy; });
+    if (it == out.end()) it = out.insert(out.end(), PlanTimes{r.strategy, {}, {}});
+    for (const auto& h : r.history) {
+      if (h.action < 1) continue;  // the row before the first action has no plan
+      it->all_ms.push_back(h.plan_ms);
+      if (h.n_train >= kPlanBandLow && h.n_train <= kPlanBandHigh) it->band_ms.push_back(h.plan_ms);
+    }
+  }
+  return out;
+}
+
+std::string describePlanTimes(const PlanTimes& p) {
+  std::ostringstream s;
+  s << p.strategy << ": median " << std::fixed << std::setprecision(1) << median(p.all_ms) << " ms over "
+    << p.all_ms.size() << " plans; at n_train " << kPlanBandLow << "-" << kPlanBandHigh << ": ";
+  if (p.band_ms.empty()) s << "no plans";
+  else s << "median " << median(p.band_ms) << " ms over " << p.band_ms.size() << " plans";
+  return s.str();
 }
 
 void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths, const Options& o,
@@ -754,6 +792,9 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   f << "| **mean** |";
   for (const auto& s : strategies) f << cells(mean_of_strategy[s]);
   f << '\n';
+
+  f << "\nPlanning time per touch (history.csv: plan_ms, and n_train, the model size each plan saw):\n\n";
+  for (const auto& p : planTimesByStrategy(runs)) f << "- " << describePlanTimes(p) << '\n';
 
   if (std::none_of(truths.begin(), truths.end(), [](const GroundTruth& g) { return g.reachability_measured; })) return;
   f << "\nThe truth a camera or a ray probe outside the object can reach (reachability.csv): its share of "
@@ -921,6 +962,7 @@ int main(int argc, char** argv) {
   writeHistoryCsv(runs, out / "history.csv");
   writeReachabilityCsv(runs, objects, out / "reachability.csv");
   writeSummary(runs, objects, o, out / "summary.md");
+  for (const auto& p : planTimesByStrategy(runs)) std::cout << "planning time, " << describePlanTimes(p) << std::endl;
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count();
   std::cout << "gpatlas_bench: done in " << std::setprecision(4) << total_s << " s; wrote " << (out / "runs.csv").string()
             << ", " << (out / "history.csv").string() << ", " << (out / "reachability.csv").string() << ", "

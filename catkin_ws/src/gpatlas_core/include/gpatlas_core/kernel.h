@@ -28,6 +28,12 @@ class Kernel {
   virtual double value(double r) const = 0;
   // dk/dr; zero at r = 0 for every kernel here (they are all differentiable at the origin).
   virtual double derivative(double r) const = 0;
+  // k(r) and dk/dr / r for many distances at once: the inner loop of every prediction, where a
+  // virtual call per training point costs more than the kernel itself. dk/dr / r is 0 at r = 0
+  // (the direction (x - x') / r it multiplies vanishes there). The defaults call value() and
+  // derivative(); a kernel overrides them with array code giving the same numbers.
+  virtual void values(const Eigen::ArrayXd& r, Eigen::ArrayXd* k) const;
+  virtual void derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk_over_r) const;
   // dk/d(log theta_j) for every hyperparameter, written into out (size numParams()).
   virtual void paramGradient(double r, double* out) const = 0;
 
@@ -93,6 +99,8 @@ class WendlandKernel : public RadiusKernel {
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<WendlandKernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
+  void values(const Eigen::ArrayXd& r, Eigen::ArrayXd* k) const override;
+  void derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk_over_r) const override;
   void paramGradient(double r, double* out) const override;
 };
 
