@@ -80,6 +80,12 @@ std::string ParamReader::text(const std::string& name, const std::string& fallba
   return value;
 }
 
+std::vector<std::string> ParamReader::texts(const std::string& name, const std::vector<std::string>& fallback) {
+  std::vector<std::string> value = fallback;
+  if (present(name) && !nh_.getParam(name, value)) invalid(name, "is not a list of strings");
+  return value;
+}
+
 Eigen::Vector3d ParamReader::vector3(const std::string& name, const Eigen::Vector3d& fallback) {
   if (!present(name)) return fallback;
   std::vector<double> values;

@@ -246,6 +246,16 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_FALSE(octomap->data.empty());
   EXPECT_EQ(octomap->id, "OcTree");
 
+  // A strategy from a library named in strategy_libraries answers like the built-in ones.
+  gpatlas_msgs::GetNextTouch own;
+  own.request.v_max = 0.1;
+  own.request.strategy = "farthest_from_evidence";
+  ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", own));
+  ASSERT_EQ(own.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << own.response.message;
+  EXPECT_EQ(own.response.touch.strategy, "farthest_from_evidence");
+  ASSERT_EQ(own.response.touch.points.size(), 1u);
+  EXPECT_LT(sphereError(own.response.touch.points[0]), 0.5 * kRadius);
+
   // Bad requests get a status and a message, and the nodelets keep answering.
   gpatlas_msgs::GetNextTouch bad;
   bad.request.v_max = -1.0;

@@ -109,9 +109,29 @@ class BenchSmokeTest(unittest.TestCase):
         self.assertAlmostEqual(float(row["floor_rmse_gt_to_pred_m"]) / (0.1 / 12.0), 1.0, delta=0.05)
         self.assertTrue(math.isfinite(float(row["rmse_gt_to_pred_reachable_m"])), row)
 
+    def test_a_strategy_from_a_library_runs_like_the_built_in_ones(self):
+        # The example library of gpatlas_core, found where the workspace's setup file points
+        # the dynamic linker.
+        dirs = [d for d in os.environ.get("LD_LIBRARY_PATH", "").split(":") if d]
+        found = [os.path.join(d, "libgpatlas_example_strategies.so") for d in dirs
+                 if os.path.exists(os.path.join(d, "libgpatlas_example_strategies.so"))]
+        self.assertTrue(found, "libgpatlas_example_strategies.so not on LD_LIBRARY_PATH: %s" % dirs)
+        proc = self.run_bench("--strategy-library", found[0], "--object", "procedural:sphere", "--size-m", "0.12",
+                              "--strategy", "farthest_from_evidence,atlas_poke", "--seeds", "0", "--max-actions",
+                              "2", "--points", "200", "--no-reachability", "--out", self.out, "--no-plot")
+        self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
+        self.assertIn("adds the strategies: farthest_from_evidence", proc.stdout)
+        with open(os.path.join(self.out, "runs.csv")) as f:
+            rows = {r["strategy"]: r for r in csv.DictReader(f)}
+        self.assertEqual(sorted(rows), ["atlas_poke", "farthest_from_evidence"])
+        row = rows["farthest_from_evidence"]
+        self.assertEqual(int(row["actions"]), 2, row)  # a partial view of a sphere needs more than 2
+        self.assertTrue(0.0 <= float(row["rmse_pred_to_gt_m"]) < 0.015, row)
+
     def test_bad_arguments_are_refused(self):
         for args in (["--vmax", "0"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],
-                     ["--probe", "laser"], ["--reach-directions", "0"]):
+                     ["--probe", "laser"], ["--reach-directions", "0"],
+                     ["--strategy-library", "/no/such/libstrategies.so"]):
             proc = self.run_bench(*args, "--out", self.out)
             self.assertEqual(proc.returncode, 2, args)
             self.assertIn("gpatlas_bench:", proc.stderr)

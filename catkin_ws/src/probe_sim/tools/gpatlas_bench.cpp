@@ -11,6 +11,7 @@
 #include <gpatlas_core/gpis_model.h>
 #include <gpatlas_core/hyperparameter_tuner.h>
 #include <gpatlas_core/shape_metrics.h>
+#include <gpatlas_core/strategy_library.h>
 #include <gpatlas_core/surface_mesher.h>
 #include <gpatlas_core/triangle_mesh.h>
 #include <gpatlas_core/view_free_space.h>
@@ -107,7 +108,10 @@ void printUsage() {
   --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
   --size-m S                     size of procedural objects in metres [0.15]
   --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
-                                 [atlas_poke]
+                                 [atlas_poke], or one from a --strategy-library
+  --strategy-library FILE        a shared library that registers strategies of your own
+                                 (GPATLAS_REGISTER_STRATEGY, gpatlas_core/strategy_library.h;
+                                 example: libgpatlas_example_strategies.so) (repeatable)
   --probe ray|sphere             simulated probe model [ray]
   --vmax V                       variance threshold, paper-equivalent units, > 0 [0.1]
   --seeds 0,1,2                  seeds (camera noise, subsampling, planner) [0]
@@ -215,6 +219,13 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--size-m") o.procedural_size_m = parseDouble(a, next());
     else if (a == "--strategy") {
       for (const auto& s : splitList(next())) o.strategies.push_back(s);
+    } else if (a == "--strategy-library") {
+      const std::string file = next();
+      const auto load = gpatlas_core::loadStrategyLibrary(file);
+      if (!load.ok) throw std::invalid_argument(load.message);
+      std::string names;
+      for (const auto& name : load.added) names += " " + name;
+      std::cout << "gpatlas_bench: " << file << " adds the strategies:" << names << std::endl;
     } else if (a == "--probe") o.probe = next();
     else if (a == "--vmax") o.v_max = parseDouble(a, next());
     else if (a == "--seeds") {

@@ -28,6 +28,7 @@ class ParamReader {
   int integer(const std::string& name, int fallback, int min, int max);
   bool flag(const std::string& name, bool fallback);
   std::string text(const std::string& name, const std::string& fallback);
+  std::vector<std::string> texts(const std::string& name, const std::vector<std::string>& fallback);
   Eigen::Vector3d vector3(const std::string& name, const Eigen::Vector3d& fallback);
 
   // Records a problem found by the caller's own check (e.g. an unknown plugin name).

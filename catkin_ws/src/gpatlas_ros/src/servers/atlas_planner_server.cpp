@@ -5,6 +5,8 @@
 #include <gpatlas_msgs/Atlas.h>
 #include <gpatlas_msgs/Touch.h>
 
+#include <gpatlas_core/strategy_library.h>
+
 #include <cmath>
 
 namespace gpatlas_ros {
@@ -21,6 +23,17 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   default_strategy_ = reader.text("strategy", "atlas_poke");
   readGpis(reader, &gpis_config_);
   readStrategy(reader, &strategy_config_);
+  // Strategies of your own (gpatlas_core/strategy_library.h), before the default is looked up.
+  for (const std::string& library : reader.texts("strategy_libraries", {})) {
+    const gpatlas_core::StrategyLibraryLoad load = gpatlas_core::loadStrategyLibrary(library);
+    if (!load.ok) {
+      reader.invalid("strategy_libraries", load.message);
+      continue;
+    }
+    std::string names;
+    for (const std::string& name : load.added) names += " " + name;
+    ROS_INFO_STREAM("atlas_planner: " << library << " adds the strategies:" << names);
+  }
   std::string error;
   if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
   reader.report("atlas_planner");

@@ -1,0 +1,95 @@
+// An exploration strategy of your own, built as a shared library and loaded by path
+// (gpatlas_bench --strategy-library FILE --strategy farthest_from_evidence). It is also a
+// baseline worth having: pure geometric coverage, blind to the GP's variance except for when to
+// stop. It pokes, among the sampled surface points that still need a touch, the one farthest
+// from everything measured (view points and contacts). It stops by the built-in baselines' rule:
+// no sampled surface point above V_max or without evidence.
+#include <gpatlas_core/exploration_strategy.h>
+#include <gpatlas_core/strategy_library.h>
+#include <gpatlas_core/surface_evidence.h>
+#include <gpatlas_core/surface_sampler.h>
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <memory>
+
+namespace {
+
+using gpatlas_core::GpisModel;
+using gpatlas_core::PlanRequest;
+using gpatlas_core::PlanResult;
+using gpatlas_core::PlanStatus;
+using gpatlas_core::Vector3;
+
+class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
+ public:
+  explicit FarthestFromEvidenceStrategy(const gpatlas_core::StrategyConfig& config)
+      : sampler_config_(config.sampler), seed_(config.seed) {}
+
+  std::string name() const override { return "farthest_from_evidence"; }
+
+  PlanResult plan(const GpisModel& model, const PlanRequest& request) const override {
+    const auto started = std::chrono::steady_clock::now();
+    PlanResult result = choose(model, request);
+    result.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    return result;
+  }
+
+ private:
+  PlanResult choose(const GpisModel& model, const PlanRequest& request) const {
+    if (auto error = gpatlas_core::checkPlanInput(model, request)) return *error;
+    gpatlas_core::SurfaceSampler::Config sampler_config = sampler_config_;
+    sampler_config.seed = gpatlas_core::mixSeeds(gpatlas_core::mixSeeds(seed_, sampler_config_.seed), request.seed);
+    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler(sampler_config).sample(model);
+    PlanResult result;
+    if (!sample.ok) {
+      result.status = PlanStatus::kError;
+      result.message = "surface sampling failed: " + sample.message;
+      return result;
+    }
+    result.max_surface_variance = sample.maxVariance();
+
+    // Measured surface: view points and contacts (not free space, guesses or pseudo-points).
+    std::vector<Vector3> measured;
+    for (const auto& point : model.observations())
+      if (point.label == gpatlas_core::PointLabel::kSurface) measured.push_back(point.position);
+    const gpatlas_core::SurfaceEvidence evidence(model, request.evidence);
+
+    double farthest = -1.0;
+    std::size_t chosen = 0;
+    for (std::size_t i = 0; i < sample.points.size(); ++i) {
+      const bool needs_touch =
+          sample.variances[i] > request.v_max || evidence.isUnsupported(sample.points[i], sample.normals[i]);
+      if (!needs_touch) continue;
+      double nearest = std::numeric_limits<double>::infinity();
+      for (const Vector3& m : measured) nearest = std::min(nearest, (m - sample.points[i]).squaredNorm());
+      if (nearest > farthest) {
+        farthest = nearest;
+        chosen = i;
+      }
+    }
+    if (farthest < 0.0) {
+      result.status = PlanStatus::kConverged;
+      result.message = "no sampled surface point has variance above V_max or lacks evidence";
+      return result;
+    }
+    result.status = PlanStatus::kTouch;
+    result.message = "touch at the sampled surface point farthest from the measurements";
+    result.touch.kind = gpatlas_core::Touch::Kind::kPoke;
+    result.touch.strategy = name();
+    result.touch.points.push_back(sample.points[chosen]);
+    result.touch.normals.push_back(sample.normals[chosen]);
+    result.touch.variances.push_back(sample.variances[chosen]);
+    return result;
+  }
+
+  gpatlas_core::SurfaceSampler::Config sampler_config_;
+  std::uint64_t seed_;
+};
+
+}  // namespace
+
+GPATLAS_REGISTER_STRATEGY("farthest_from_evidence", [](const gpatlas_core::StrategyConfig& config) {
+  return std::make_unique<FarthestFromEvidenceStrategy>(config);
+});

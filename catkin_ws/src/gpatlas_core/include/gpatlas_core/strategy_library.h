@@ -1,0 +1,38 @@
+#pragma once
+
+#include "gpatlas_core/exploration_strategy.h"
+
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// Your own exploration strategy, compared with the built-in ones by the tools that run them
+// (gpatlas_bench --strategy-library) without rebuilding them: compile the strategy into a shared
+// library that registers it when it is loaded,
+//
+//   GPATLAS_REGISTER_STRATEGY("my_strategy", [](const gpatlas_core::StrategyConfig& config) {
+//     return std::make_unique<MyStrategy>(config);
+//   });
+//
+// link it against gpatlas_core, and load it by path (examples/farthest_from_evidence_strategy.cpp).
+struct StrategyLibraryLoad {
+  bool ok{false};
+  std::string message;             // what went wrong, when !ok
+  std::vector<std::string> added;  // the strategy names the library registered
+};
+
+// Loads the library once (later calls with the same file give the names of the first load). Fails
+// with a message when the file cannot be loaded (dlerror's reason) or registers no new strategy
+// (no GPATLAS_REGISTER_STRATEGY, or only names that are already taken). The library stays loaded
+// for the life of the process: the factories it registered live in it.
+StrategyLibraryLoad loadStrategyLibrary(const std::string& path);
+
+}  // namespace gpatlas_core
+
+#define GPATLAS_STRATEGY_CONCAT_INNER(a, b) a##b
+#define GPATLAS_STRATEGY_CONCAT(a, b) GPATLAS_STRATEGY_CONCAT_INNER(a, b)
+// Registers a strategy factory when the translation unit (or the library holding it) is loaded.
+#define GPATLAS_REGISTER_STRATEGY(name, factory)                                                \
+  static const bool GPATLAS_STRATEGY_CONCAT(gpatlas_strategy_registered_, __LINE__) [[maybe_unused]] = \
+      ::gpatlas_core::registerStrategy(name, factory)

@@ -1,0 +1,80 @@
+#include "gpatlas_core/explorer.h"
+#include "gpatlas_core/strategy_library.h"
+
+#include "analytic_sphere.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <limits>
+
+namespace {
+
+using gpatlas_core::loadStrategyLibrary;
+using gpatlas_core::testing::AnalyticSphere;
+using gpatlas_core::testing::AnalyticSphereProber;
+
+constexpr const char* kStrategy = "farthest_from_evidence";
+
+bool known(const std::string& name) {
+  const auto names = gpatlas_core::strategyNames();
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {
+  ASSERT_FALSE(known(kStrategy));
+  const auto load = loadStrategyLibrary(GPATLAS_EXAMPLE_STRATEGY_LIBRARY);
+  ASSERT_TRUE(load.ok) << load.message;
+  EXPECT_EQ(load.added, std::vector<std::string>{kStrategy});
+  EXPECT_TRUE(known(kStrategy));
+  const auto again = loadStrategyLibrary(GPATLAS_EXAMPLE_STRATEGY_LIBRARY);
+  ASSERT_TRUE(again.ok) << again.message;
+  EXPECT_EQ(again.added, load.added);
+
+  // A sphere seen from above (the cap z >= 0.3 r): the predicted surface farthest from every view
+  // point is the unseen bottom, more than a radius from the cap's rim (a point on the equator
+  // would be 0.3 r from it).
+  const AnalyticSphere sphere;
+  const auto view = sphere.view(200, 0.3, 0.316, 1);
+  gpatlas_core::GpisModel model;
+  ASSERT_TRUE(model.fit(view).ok);
+  const auto strategy = gpatlas_core::makeStrategy(kStrategy);
+  EXPECT_EQ(strategy->name(), kStrategy);
+  gpatlas_core::PlanRequest request;
+  request.v_max = 0.1;
+  const gpatlas_core::PlanResult plan = strategy->plan(model, request);
+  ASSERT_EQ(plan.status, gpatlas_core::PlanStatus::kTouch) << plan.message;
+  ASSERT_EQ(plan.touch.points.size(), 1u);
+  const gpatlas_core::Vector3 chosen = plan.touch.points[0];
+  double nearest_view = std::numeric_limits<double>::infinity();
+  for (const auto& point : view) nearest_view = std::min(nearest_view, (point.position - chosen).norm());
+  EXPECT_LT(chosen.z(), sphere.centre.z() - 0.3 * sphere.radius) << chosen.transpose();
+  EXPECT_GT(nearest_view, 0.8 * sphere.radius) << chosen.transpose();
+  EXPECT_GT(plan.touch.variances[0], request.v_max);
+
+  // Its stopping rule ends an exploration, and the touches are what brought the variance down.
+  AnalyticSphereProber prober(sphere);
+  gpatlas_core::Explorer::Config config;
+  config.v_max = 0.1;
+  config.max_actions = 60;
+  const auto run = gpatlas_core::Explorer(config).run(model, *strategy, prober);
+  EXPECT_TRUE(run.converged) << run.stop_reason << " after " << run.actions << " actions";
+  EXPECT_GT(run.actions, 0);
+  EXPECT_LE(run.final_max_surface_variance, config.v_max);
+}
+
+TEST(StrategyLibrary, ReportsWhatWentWrong) {
+  const auto missing = loadStrategyLibrary("/nonexistent/libno_strategies.so");
+  EXPECT_FALSE(missing.ok);
+  EXPECT_NE(missing.message.find("/nonexistent/libno_strategies.so"), std::string::npos) << missing.message;
+  const auto unknown_name = loadStrategyLibrary("libno_such_strategy_library.so");
+  EXPECT_FALSE(unknown_name.ok);
+  EXPECT_NE(unknown_name.message.find("libno_such_strategy_library.so"), std::string::npos) << unknown_name.message;
+  // A real library that registers nothing new (the core is already loaded).
+  const auto nothing = loadStrategyLibrary(GPATLAS_CORE_LIBRARY);
+  EXPECT_FALSE(nothing.ok);
+  EXPECT_NE(nothing.message.find("registered no new strategy"), std::string::npos) << nothing.message;
+  EXPECT_FALSE(loadStrategyLibrary("").ok);
+}
+
+}  // namespace
