@@ -608,42 +608,41 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
   const Eigen::ArrayXd train_x = m.x.row(0).head(n).transpose().array();
   const Eigen::ArrayXd train_y = m.x.row(1).head(n).transpose().array();
   const Eigen::ArrayXd train_z = m.x.row(2).head(n).transpose().array();
-  const bool any_gradient = with_gradient || with_variance_gradient;
-  Eigen::MatrixXd cross(n, q);  // k(x_i, x*_j)
-  // dk/dr / r at each (training point, query), for the gradients below.
-  Eigen::MatrixXd cross_slope(any_gradient ? n : 0, any_gradient ? q : 0);
-  Eigen::ArrayXd distance(n), k(n), slope(n);
-  for (Eigen::Index j = 0; j < q; ++j) {
-    out.in_domain[j] = xq.col(j).allFinite() && xq.col(j).norm() <= m.config.domain_radius;
+  const auto distancesTo = [&](Eigen::Index j, Eigen::ArrayXd* distance) {
     const Eigen::ArrayXd dx = train_x - xq(0, j), dy = train_y - xq(1, j), dz = train_z - xq(2, j);
-    distance = (dx * dx + dy * dy + dz * dz).sqrt();
-    m.kernel->values(distance, &k);
-    cross.col(j) = k.matrix();
-    if (any_gradient) {
-      m.kernel->derivativesOverDistance(distance, &slope);
-      cross_slope.col(j) = slope.matrix();
-    }
-  }
-  out.mean.noalias() = cross.transpose() * m.alpha;
-
-  // Gradient of sum_i w_i k(|x - x_i|) at query j: sum_i w_i (dk/dr / r)_i (x - x_i).
+    *distance = (dx * dx + dy * dy + dz * dz).sqrt();
+  };
+  // Gradient of sum_i w_i k(|x - x_i|) at query j, given slope_i = (dk/dr / r)(|x - x_i|):
+  // sum_i w_i slope_i (x - x_i), in world units.
   const double inv_scale = 1.0 / m.scale;
-  const auto weightedGradient = [&](Eigen::Index j, const auto& weights) {
+  const auto weightedGradient = [&](Eigen::Index j, const Eigen::ArrayXd& slope, const auto& weights) {
     Vector3 sum = Vector3::Zero();
     const Vector3 xj = xq.col(j);
     for (Eigen::Index i = 0; i < n; ++i) {
-      const double w = cross_slope(i, j) * weights[i];
+      const double w = slope[i] * weights[i];
       sum.x() += w * (xj.x() - train_x[i]);
       sum.y() += w * (xj.y() - train_y[i]);
       sum.z() += w * (xj.z() - train_z[i]);
     }
-    return sum;
+    return Vector3(sum * inv_scale);
   };
+
+  Eigen::MatrixXd cross(n, q);  // k(x_i, x*_j)
+  Eigen::ArrayXd distance, k, slope;
+  for (Eigen::Index j = 0; j < q; ++j) {
+    out.in_domain[j] = xq.col(j).allFinite() && xq.col(j).norm() <= m.config.domain_radius;
+    distancesTo(j, &distance);
+    m.kernel->values(distance, &k);
+    cross.col(j) = k.matrix();
+    if (with_gradient) {
+      m.kernel->derivativesOverDistance(distance, &slope);
+      out.gradient.col(j) = weightedGradient(j, slope, m.alpha);
+    }
+  }
+  out.mean.noalias() = cross.transpose() * m.alpha;
 
   if (!with_variance && !with_variance_gradient) {
     out.variance.setConstant(std::numeric_limits<double>::quiet_NaN());
-    if (with_gradient)
-      for (Eigen::Index j = 0; j < q; ++j) out.gradient.col(j) = weightedGradient(j, m.alpha) * inv_scale;
     m.addPriorMean(x_world, with_gradient, &out);
     return out;
   }
@@ -655,13 +654,15 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
   const double prior = m.kernel->value(0.0);
   const double unit = m.varianceUnitFactor();
   out.variance = ((prior - solved.colwise().squaredNorm().array()).max(0.0) * unit).matrix();
-  if (with_variance_gradient) lower.transpose().solveInPlace(solved);
-
-  for (Eigen::Index j = 0; j < q && any_gradient; ++j) {
-    if (with_gradient) out.gradient.col(j) = weightedGradient(j, m.alpha) * inv_scale;
-    // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*
-    if (with_variance_gradient)
-      out.variance_gradient.col(j) = -2.0 * unit * inv_scale * weightedGradient(j, solved.col(j));
+  if (with_variance_gradient) {
+    lower.transpose().solveInPlace(solved);
+    // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*; the slopes are recomputed rather than
+    // kept for every query (an n x q matrix) from the loop above.
+    for (Eigen::Index j = 0; j < q; ++j) {
+      distancesTo(j, &distance);
+      m.kernel->derivativesOverDistance(distance, &slope);
+      out.variance_gradient.col(j) = -2.0 * unit * weightedGradient(j, slope, solved.col(j));
+    }
   }
   m.addPriorMean(x_world, with_gradient, &out);
   return out;
