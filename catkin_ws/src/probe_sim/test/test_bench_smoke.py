@@ -90,6 +90,13 @@ class BenchSmokeTest(unittest.TestCase):
             summary = f.read()
         self.assertIn("| sphere |", summary)
         self.assertIn("atlas_poke steps", summary)
+        self.assertIn("atlas_poke mean NN", summary)
+        # The mean row's mean NN per strategy is the mean of runs.csv's chamfer_l1_m (one run each).
+        mean_row = next(line for line in summary.splitlines() if line.startswith("| **mean** |"))
+        cells = [c.strip() for c in mean_row.strip("|").split("|")]
+        for i, strategy in enumerate(["atlas_poke", "random"]):
+            expected = float(next(r for r in rows if r["strategy"] == strategy)["chamfer_l1_m"])
+            self.assertAlmostEqual(float(cells[1 + 4 * i + 2]), expected, delta=1e-4, msg=mean_row)
         self.assertIn("g->p reachable", summary)
         self.assertIn("- atlas_poke: median", summary)
         self.assertIn("planning time, random: median", proc.stdout)
