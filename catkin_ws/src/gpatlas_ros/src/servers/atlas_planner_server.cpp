@@ -142,7 +142,20 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   if (req.use_start) request.start = fromMsg(req.start);
   for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
   request.seed = ++plan_count_;
-  const gpatlas_core::PlanResult plan = chosen->plan(*model_, request);
+  gpatlas_core::PlanResult plan;
+  try {
+    plan = chosen->plan(*model_, request);
+  } catch (const std::exception& e) {
+    // A strategy from a library of the user's own (strategy_libraries) may throw: an answer, not
+    // an exception out of the service callback.
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' failed: " + e.what();
+  }
+  if (plan.status == gpatlas_core::PlanStatus::kTouch &&
+      (plan.touch.points.empty() || plan.touch.points.size() != plan.touch.normals.size())) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' returned a touch without matching points and normals";
+  }
   res.plan_time_s = (ros::WallTime::now() - start).toSec();
   res.message = plan.message;
   res.max_surface_variance = plan.max_surface_variance;
