@@ -66,20 +66,20 @@ double WendlandKernel::derivative(double r) const {
   return -20.0 * radius_ * radius_ * t * u * u * u;
 }
 
-// The array forms repeat value() and derivative() operation for operation, so a prediction gives
-// the same bits whichever it uses; (1 - t) clamped at 0 replaces the branch for t >= 1.
+// The array forms repeat value() and derivative() operation for operation, so they give the same
+// bits, with the same branch for t >= 1 (infinite distances included) and NaN for NaN.
 void WendlandKernel::values(const Eigen::ArrayXd& r, Eigen::ArrayXd* k) const {
   const double cube = radius_ * radius_ * radius_;
   const Eigen::ArrayXd t = r / radius_;
-  const Eigen::ArrayXd u = (1.0 - t).max(0.0);
-  *k = cube * u * u * u * u * (4.0 * t + 1.0);
+  const Eigen::ArrayXd u = 1.0 - t;
+  *k = (t >= 1.0).select(0.0, cube * u * u * u * u * (4.0 * t + 1.0));
 }
 
 void WendlandKernel::derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk_over_r) const {
   const double scale = -20.0 * radius_ * radius_;
   const Eigen::ArrayXd t = r / radius_;
-  const Eigen::ArrayXd u = (1.0 - t).max(0.0);
-  *dk_over_r = (r > 0.0).select(scale * t * u * u * u / r, 0.0);
+  const Eigen::ArrayXd u = 1.0 - t;
+  *dk_over_r = (t >= 1.0).select(0.0, (r > 0.0).select(scale * t * u * u * u / r, 0.0));
 }
 
 void WendlandKernel::paramGradient(double r, double* out) const {

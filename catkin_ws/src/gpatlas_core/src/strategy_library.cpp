@@ -3,7 +3,6 @@
 #include <dlfcn.h>
 
 #include <algorithm>
-#include <filesystem>
 #include <map>
 #include <mutex>
 
@@ -11,43 +10,45 @@ namespace gpatlas_core {
 
 StrategyLibraryLoad loadStrategyLibrary(const std::string& path) {
   static std::mutex mutex;
-  static std::map<std::string, std::vector<std::string>> loaded;  // canonical path -> names it added
+  // Keyed by dlopen's handle, which is the same however the file is named (a bare name found on
+  // LD_LIBRARY_PATH, a relative or absolute path, a symbolic link): its static initialisers ran
+  // once, at the first load, so later loads answer with the names recorded then.
+  static std::map<void*, std::vector<std::string>> loaded;
   StrategyLibraryLoad result;
-  // A bare file name is left to dlopen's search (LD_LIBRARY_PATH, as set by a catkin workspace's
-  // setup file); a path is made canonical so that one file loads once however it is named.
-  std::string file = path;
-  if (path.find('/') != std::string::npos) {
-    std::error_code error;
-    file = std::filesystem::canonical(path, error).string();
-    if (error) {
-      result.message = "cannot load strategy library '" + path + "': " + error.message();
-      return result;
-    }
+  if (path.empty()) {
+    result.message = "cannot load strategy library: no file name given";
+    return result;
   }
   std::lock_guard<std::mutex> lock(mutex);
-  const auto known = loaded.find(file);
+  const std::vector<std::string> before = strategyNames();
+  dlerror();
+  // RTLD_NOW: an unresolved symbol is reported here, not as a crash in the middle of a run. A
+  // name without '/' is searched for as dlopen does (LD_LIBRARY_PATH, as a catkin workspace's
+  // setup file sets it).
+  void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+  if (!handle) {
+    const char* reason = dlerror();
+    result.message = "cannot load strategy library '" + path + "': " + (reason ? reason : "unknown dlopen error");
+    return result;
+  }
+  const auto known = loaded.find(handle);
   if (known != loaded.end()) {
+    dlclose(handle);  // the reference taken just now; the first load's stays
     result.ok = true;
     result.added = known->second;
     return result;
   }
-  const std::vector<std::string> before = strategyNames();
-  dlerror();
-  // RTLD_NOW: an unresolved symbol is reported here, not as a crash in the middle of a run.
-  if (path.empty() || !dlopen(file.c_str(), RTLD_NOW | RTLD_LOCAL)) {
-    const char* reason = dlerror();
-    result.message =
-        "cannot load strategy library '" + path + "': " + (reason ? reason : "no file name given");
-    return result;
-  }
+  // The names that appeared during the load are the library's. (A registerStrategy call from
+  // another thread at the same moment would be counted too: load libraries before planning starts.)
   for (const std::string& name : strategyNames())
     if (std::find(before.begin(), before.end(), name) == before.end()) result.added.push_back(name);
   if (result.added.empty()) {
     result.message = "strategy library '" + path +
-                     "' registered no new strategy (no GPATLAS_REGISTER_STRATEGY, or its names are taken)";
+                     "' registered no new strategy (no GPATLAS_REGISTER_STRATEGY, its names are taken, or it was "
+                     "already part of the program)";
     return result;
   }
-  loaded[file] = result.added;
+  loaded[handle] = result.added;
   result.ok = true;
   return result;
 }

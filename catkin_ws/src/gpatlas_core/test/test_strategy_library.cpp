@@ -30,6 +30,12 @@ TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {
   const auto again = loadStrategyLibrary(GPATLAS_EXAMPLE_STRATEGY_LIBRARY);
   ASSERT_TRUE(again.ok) << again.message;
   EXPECT_EQ(again.added, load.added);
+  // The same file under another name (a relative path through its own directory) is the same library.
+  const std::string path = GPATLAS_EXAMPLE_STRATEGY_LIBRARY;
+  const std::string slash_dot = path.substr(0, path.rfind('/')) + "/./" + path.substr(path.rfind('/') + 1);
+  const auto renamed = loadStrategyLibrary(slash_dot);
+  ASSERT_TRUE(renamed.ok) << renamed.message;
+  EXPECT_EQ(renamed.added, load.added);
 
   // A sphere seen from above (the cap z >= 0.3 r): the predicted surface farthest from every view
   // point is the unseen bottom, more than a radius from the cap's rim (a point on the equator
@@ -61,6 +67,41 @@ TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {
   EXPECT_TRUE(run.converged) << run.stop_reason << " after " << run.actions << " actions";
   EXPECT_GT(run.actions, 0);
   EXPECT_LE(run.final_max_surface_variance, config.v_max);
+}
+
+// The macro, twice in one file, with a factory whose capture list has a comma.
+class FixedAnswerStrategy : public gpatlas_core::ExplorationStrategy {
+ public:
+  FixedAnswerStrategy(std::string name, gpatlas_core::PlanStatus status) : name_(std::move(name)), status_(status) {}
+  std::string name() const override { return name_; }
+  gpatlas_core::PlanResult plan(const gpatlas_core::GpisModel&, const gpatlas_core::PlanRequest&) const override {
+    gpatlas_core::PlanResult result;
+    result.status = status_;
+    return result;
+  }
+
+ private:
+  std::string name_;
+  gpatlas_core::PlanStatus status_;
+};
+
+const std::string kFirstName = "test_macro_first";
+const gpatlas_core::PlanStatus kFirstStatus = gpatlas_core::PlanStatus::kConverged;
+GPATLAS_REGISTER_STRATEGY("test_macro_first", [name = kFirstName, status = kFirstStatus](const gpatlas_core::StrategyConfig&) {
+  return std::make_unique<FixedAnswerStrategy>(name, status);
+});
+GPATLAS_REGISTER_STRATEGY("test_macro_second", [](const gpatlas_core::StrategyConfig&) {
+  return std::make_unique<FixedAnswerStrategy>("test_macro_second", gpatlas_core::PlanStatus::kError);
+});
+
+TEST(StrategyLibrary, TheMacroRegistersEachUse) {
+  ASSERT_TRUE(known("test_macro_first"));
+  ASSERT_TRUE(known("test_macro_second"));
+  const gpatlas_core::GpisModel unfitted;
+  EXPECT_EQ(gpatlas_core::makeStrategy("test_macro_first")->plan(unfitted, {}).status,
+            gpatlas_core::PlanStatus::kConverged);
+  EXPECT_EQ(gpatlas_core::makeStrategy("test_macro_second")->plan(unfitted, {}).status,
+            gpatlas_core::PlanStatus::kError);
 }
 
 TEST(StrategyLibrary, ReportsWhatWentWrong) {

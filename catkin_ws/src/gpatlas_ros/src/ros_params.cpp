@@ -81,9 +81,13 @@ std::string ParamReader::text(const std::string& name, const std::string& fallba
 }
 
 std::vector<std::string> ParamReader::texts(const std::string& name, const std::vector<std::string>& fallback) {
-  std::vector<std::string> value = fallback;
-  if (present(name) && !nh_.getParam(name, value)) invalid(name, "is not a list of strings");
-  return value;
+  if (!present(name)) return fallback;
+  std::vector<std::string> value;
+  if (nh_.getParam(name, value)) return value;
+  std::string single;  // one item given without the list's brackets
+  if (nh_.getParam(name, single)) return {single};
+  invalid(name, "is not a list of strings");
+  return fallback;
 }
 
 Eigen::Vector3d ParamReader::vector3(const std::string& name, const Eigen::Vector3d& fallback) {

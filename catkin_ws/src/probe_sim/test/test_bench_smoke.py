@@ -74,7 +74,8 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertTrue(math.isfinite(reachable) and abs(reachable - whole) <= 1e-4 * whole,
                             (reachable, whole))
         # history.csv: each plan's model size. The first plan sees the initial model (the row
-        # before any action), later plans never see fewer points, and none more than the run ends with.
+        # before any action); each row's size is what the model held before that action's update.
+        # (Sizes need not grow: a touch retracts the guesses it contradicts.)
         with open(os.path.join(self.out, "history.csv")) as f:
             history = list(csv.DictReader(f))
         for r in rows:
@@ -82,10 +83,8 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertEqual(steps[0]["action"], "0")
             sizes = [int(h["n_train"]) for h in steps]
             self.assertGreaterEqual(sizes[0], 200)
-            if len(steps) > 1:
-                self.assertEqual(sizes[1], sizes[0], steps[:2])
-            self.assertEqual(sizes, sorted(sizes), steps)
-            self.assertLessEqual(sizes[-1], int(r["n_train"]))
+            self.assertGreater(int(r["actions"]), 0, r)
+            self.assertEqual(sizes[1], sizes[0], steps[:2])
         with open(os.path.join(self.out, "summary.md")) as f:
             summary = f.read()
         self.assertIn("| sphere |", summary)

@@ -744,8 +744,10 @@ std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs) {
 
 std::string describePlanTimes(const PlanTimes& p) {
   std::ostringstream s;
-  s << p.strategy << ": median " << std::fixed << std::setprecision(1) << median(p.all_ms) << " ms over "
-    << p.all_ms.size() << " plans; at n_train " << kPlanBandLow << "-" << kPlanBandHigh << ": ";
+  s << p.strategy << ": " << std::fixed << std::setprecision(1);
+  if (p.all_ms.empty()) s << "no plans";
+  else s << "median " << median(p.all_ms) << " ms over " << p.all_ms.size() << " plans";
+  s << "; at n_train " << kPlanBandLow << "-" << kPlanBandHigh << ": ";
   if (p.band_ms.empty()) s << "no plans";
   else s << "median " << median(p.band_ms) << " ms over " << p.band_ms.size() << " plans";
   return s.str();

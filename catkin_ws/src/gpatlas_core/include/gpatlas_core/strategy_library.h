@@ -22,17 +22,20 @@ struct StrategyLibraryLoad {
   std::vector<std::string> added;  // the strategy names the library registered
 };
 
-// Loads the library once (later calls with the same file give the names of the first load). Fails
-// with a message when the file cannot be loaded (dlerror's reason) or registers no new strategy
-// (no GPATLAS_REGISTER_STRATEGY, or only names that are already taken). The library stays loaded
-// for the life of the process: the factories it registered live in it.
+// Loads the library once: later calls with the same file, under any name, give the names of the
+// first load. Fails with a message when the file cannot be loaded (dlerror's reason) or registers
+// no new strategy (no GPATLAS_REGISTER_STRATEGY, only names that are already taken, or a library
+// the program already holds). The library stays loaded for the life of the process: the factories
+// it registered live in it. Its static initialisers run in the caller's process (a nodelet
+// manager, for the AtlasPlanner): a library that throws or crashes there takes the process down.
 StrategyLibraryLoad loadStrategyLibrary(const std::string& path);
 
 }  // namespace gpatlas_core
 
 #define GPATLAS_STRATEGY_CONCAT_INNER(a, b) a##b
 #define GPATLAS_STRATEGY_CONCAT(a, b) GPATLAS_STRATEGY_CONCAT_INNER(a, b)
-// Registers a strategy factory when the translation unit (or the library holding it) is loaded.
-#define GPATLAS_REGISTER_STRATEGY(name, factory)                                                \
-  static const bool GPATLAS_STRATEGY_CONCAT(gpatlas_strategy_registered_, __LINE__) [[maybe_unused]] = \
-      ::gpatlas_core::registerStrategy(name, factory)
+// Registers a strategy factory when the translation unit (or the library holding it) is loaded;
+// usable several times in one file. The factory may contain commas (a lambda's captures).
+#define GPATLAS_REGISTER_STRATEGY(name, ...)                                                          \
+  static const bool GPATLAS_STRATEGY_CONCAT(gpatlas_strategy_registered_, __COUNTER__) [[maybe_unused]] = \
+      ::gpatlas_core::registerStrategy(name, __VA_ARGS__)

@@ -60,6 +60,9 @@ const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std:
   } catch (const std::exception& e) {
     *error = e.what();
     return nullptr;
+  } catch (...) {
+    *error = "creating strategy '" + name + "' threw an exception that is not a std::exception";
+    return nullptr;
   }
 }
 
@@ -150,6 +153,9 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
     // an exception out of the service callback.
     plan.status = gpatlas_core::PlanStatus::kError;
     plan.message = "strategy '" + name + "' failed: " + e.what();
+  } catch (...) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' failed with an exception that is not a std::exception";
   }
   if (plan.status == gpatlas_core::PlanStatus::kTouch &&
       (plan.touch.points.empty() || plan.touch.points.size() != plan.touch.normals.size())) {
