@@ -7,9 +7,8 @@
 //   BM_ExploreSphere/S     whole explorations of the analytic sphere with strategy S (0 atlas_poke,
 //                          1 atlas_slide, 2 random, 3 max_variance) over 5 seeds; the counters
 //                          give the mean actions to converge and the final shape RMSE.
-// V_max = 0.1 in the model's reported units, which with the default thin-plate kernel (R = 2)
-// are the paper's (normalised-frame posterior variance); noise variance 0.1 on every point as
-// in the paper's reference code.
+// V_max = 0.1 in the model's reported units, which are the paper's whatever the kernel (posterior
+// variance x 8 / k(0)); noise variance 0.1 on every point as in the paper's reference code.
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/shape_metrics.h"
