@@ -63,6 +63,7 @@ struct Options {
   int initial_points{400};
   double vision_noise_sigma{0.1};
   double touch_noise_sigma{-1.0};  // contacts and free-space points; < 0 keeps the explorer's default
+  double free_space_noise_sigma{-1.0};  // the probe's free space alone, after --touch-sigma; < 0: as above
   double camera_noise_m{0.001};
   // ML-II tuning after the first fit. Measured on a single view: it keeps the thin-plate R at
   // its lower bound and drives the noise scale to its lower bound (1 -> 0.01), which divides
@@ -143,6 +144,7 @@ void printUsage() {
   --tune                         tune the kernel's parameters (ML-II, noise fixed) after the
                                  initial fit [off: the paper's fixed hyperparameters]
   --touch-sigma S                noise sigma of contacts and free-space points (reference units)
+  --free-space-sigma S           noise sigma of the probe's free-space points alone (reference units)
                                  [the explorer's default]
   --no-tune                      do not tune (the default)
   --table                        put a table under the object (touches can hit it) [off: the
@@ -238,6 +240,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--points") o.initial_points = parseInt(a, next());
     else if (a == "--vision-sigma") o.vision_noise_sigma = parseDouble(a, next());
     else if (a == "--touch-sigma") o.touch_noise_sigma = parseDouble(a, next());
+    else if (a == "--free-space-sigma") o.free_space_noise_sigma = parseDouble(a, next());
     else if (a == "--no-tune") o.tune = false;
     else if (a == "--tune") o.tune = true;
     else if (a == "--table") o.table = true;
@@ -582,6 +585,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     explorer_config.contact_noise_sigma = o.touch_noise_sigma;
     explorer_config.free_space_noise_sigma = o.touch_noise_sigma;
   }
+  if (o.free_space_noise_sigma >= 0.0) explorer_config.free_space_noise_sigma = o.free_space_noise_sigma;
   explorer_config.seed = static_cast<std::uint64_t>(seed) + 1;
   const gpatlas_core::Explorer explorer(explorer_config);
 
