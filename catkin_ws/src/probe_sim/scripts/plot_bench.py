@@ -28,8 +28,10 @@ def main(out_dir):
             label = strategy if seed == min(s for (st, s) in runs if st == strategy) else None
             err = [(int(h["action"]), 1000 * 0.5 * (float(h["rmse_pred_to_gt_m"]) + float(h["rmse_gt_to_pred_m"])))
                    for h in hist if h["rmse_pred_to_gt_m"] != "nan"]
-            var = [(int(h["action"]), float(h["max_surface_variance"])) for h in hist
-                   if h["max_surface_variance"] != "nan" and math.isfinite(float(h["max_surface_variance"]))]
+            # The bench's own sample (the same for every strategy); older files lack it.
+            key = "sampled_max_variance" if "sampled_max_variance" in hist[0] else "max_surface_variance"
+            var = [(int(h["action"]), float(h[key])) for h in hist
+                   if h[key] != "nan" and math.isfinite(float(h[key]))]
             if err:
                 ax_err.plot(*zip(*err), color=colour, marker="o", ms=3, label=label)
             if var:
@@ -38,7 +40,7 @@ def main(out_dir):
         ax_err.set_ylabel("shape RMSE, mean of both directions (mm)")
         ax_err.set_title(f"{obj}: shape error")
         ax_var.set_xlabel("actions")
-        ax_var.set_ylabel("max surface variance")
+        ax_var.set_ylabel("largest variance of a surface sample")
         ax_var.set_yscale("log")
         ax_var.set_title(f"{obj}: largest variance on the surface")
         for ax in (ax_err, ax_var):

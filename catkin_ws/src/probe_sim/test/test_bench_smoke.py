@@ -85,6 +85,16 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertGreaterEqual(sizes[0], 200)
             self.assertGreater(int(r["actions"]), 0, r)
             self.assertEqual(sizes[1], sizes[0], steps[:2])
+            # The bench's own variance sample, at action 0 and every --curve-every actions.
+            for h in steps:
+                if int(h["action"]) % 2 == 0:
+                    self.assertTrue(math.isfinite(float(h["sampled_max_variance"])), h)
+                    self.assertGreaterEqual(float(h["sampled_max_variance"]), 0.0, h)
+        # Both strategies start from the same model (same seed, same view), so the bench's sample of
+        # it, unlike each strategy's own estimate, is the same number.
+        initial = [float(h["sampled_max_variance"]) for h in history if h["action"] == "0"]
+        self.assertEqual(len(initial), 2)
+        self.assertEqual(initial[0], initial[1])
         with open(os.path.join(self.out, "summary.md")) as f:
             summary = f.read()
         self.assertIn("| sphere |", summary)

@@ -12,6 +12,7 @@
 #include <gpatlas_core/hyperparameter_tuner.h>
 #include <gpatlas_core/shape_metrics.h>
 #include <gpatlas_core/strategy_library.h>
+#include <gpatlas_core/surface_sampler.h>
 #include <gpatlas_core/surface_mesher.h>
 #include <gpatlas_core/triangle_mesh.h>
 #include <gpatlas_core/view_free_space.h>
@@ -397,7 +398,11 @@ struct HistoryRow {
   int action{0};
   int contacts_total{0};
   std::size_t n_train{0};  // observations in the model the action's plan was made on
-  double max_surface_variance{0.0};
+  double max_surface_variance{0.0};  // the strategy's own estimate, when it planned this action
+  // The largest variance of the bench's own surface sample after the action (the same sampler
+  // and seed for every strategy, so the curves compare; the atlas strategies' estimate is only
+  // the largest variance of the charts grown until one exceeded V_max). NaN where not measured.
+  double sampled_max_variance{std::nan("")};
   double rmse_pred_to_gt{std::nan("")};
   double rmse_gt_to_pred{std::nan("")};
   double plan_ms{0.0};
@@ -435,6 +440,13 @@ double median(std::vector<double> v) {
 }
 
 // `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured.
+// The largest variance over one fixed surface sample (SurfaceSampler's defaults: 600 seeds, seed
+// 7); NaN when the surface cannot be sampled.
+double sampledMaxVariance(const gpatlas_core::GpisModel& model) {
+  const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
+  return sample.ok ? sample.maxVariance() : std::nan("");
+}
+
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
                                          double* rmse_reachable = nullptr) {
@@ -598,6 +610,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     HistoryRow row;
     row.action = 0;
     row.n_train = model.size();
+    row.sampled_max_variance = sampledMaxVariance(model);
     row.rmse_pred_to_gt = m0.ok ? m0.rmse_predicted_to_truth : std::nan("");
     row.rmse_gt_to_pred = m0.ok ? m0.rmse_truth_to_predicted : std::nan("");
     row.max_surface_variance = std::nan("");
@@ -614,6 +627,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     row.plan_ms = rec.plan_ms;
     row.update_ms = rec.update_ms;
     if (o.curve_every > 0 && row.action % o.curve_every == 0) {
+      row.sampled_max_variance = sampledMaxVariance(m);
       const auto mk = measure(m, gt, o);
       if (mk.ok) {
         row.rmse_pred_to_gt = mk.rmse_predicted_to_truth;
@@ -662,6 +676,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
   if (!r.metrics.ok) r.error = r.metrics.message;
   if (!r.history.empty() && r.history.back().action == r.actions && r.metrics.ok) {
+    if (std::isnan(r.history.back().sampled_max_variance)) r.history.back().sampled_max_variance = sampledMaxVariance(model);
     r.history.back().rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
     r.history.back().rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
   } else if (r.metrics.ok) {
@@ -669,6 +684,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     last.action = r.actions;
     last.contacts_total = contacts_total;
     last.n_train = model.size();
+    last.sampled_max_variance = sampledMaxVariance(model);
     last.max_surface_variance = r.max_surface_variance;
     last.rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
     last.rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
@@ -703,12 +719,13 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,seed,action,contacts_total,max_surface_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
-       "plan_ms,update_ms,n_train\n";
+       "plan_ms,update_ms,n_train,sampled_max_variance\n";
   for (const auto& r : runs)
     for (const auto& h : r.history)
       f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.action << ',' << h.contacts_total << ','
         << num(h.max_surface_variance) << ',' << num(h.rmse_pred_to_gt) << ',' << num(h.rmse_gt_to_pred) << ','
-        << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << ',' << h.n_train << '\n';
+        << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance)
+        << '\n';
 }
 
 void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& objects,
