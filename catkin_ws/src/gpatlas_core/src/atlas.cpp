@@ -17,12 +17,16 @@ int Atlas::addChart(Chart chart) {
   // so only the other charts' balls are tested.
   auto& own = chart.candidates;
   own.erase(std::remove_if(own.begin(), own.end(),
-                           [&](const ChartCandidate& c) { return coveredByOtherChart(c.ambient, -1); }),
+                           [&](const ChartCandidate& c) {
+                             return !(c.variance > keep_above_) && coveredByOtherChart(c.ambient, -1);
+                           }),
             own.end());
   for (Chart& existing : charts_) {
     auto& candidates = existing.candidates;
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
-                                    [&](const ChartCandidate& c) { return chart.ballContains(c.ambient); }),
+                                    [&](const ChartCandidate& c) {
+                                      return !(c.variance > keep_above_) && chart.ballContains(c.ambient);
+                                    }),
                      candidates.end());
   }
   charts_.push_back(std::move(chart));

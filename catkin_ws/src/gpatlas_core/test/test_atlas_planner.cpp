@@ -128,6 +128,40 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   EXPECT_EQ(AtlasPlanner(invalid).plan(model, kVMax).status, PlanStatus::kError);
 }
 
+// ADDCHART drops the candidates that fall inside another chart's ball; with keepCandidatesAbove
+// (AtlasPlanner::Config::keep_high_variance_candidates) those above the threshold stay.
+TEST(Atlas, CoverageKeepsCandidatesAboveTheThresholdWhenAsked) {
+  const auto makeChart = [](const Vector3& centre, double radius, std::vector<ChartCandidate> candidates) {
+    Chart chart;
+    chart.centre = centre;
+    chart.radius = radius;
+    chart.candidates = std::move(candidates);
+    return chart;
+  };
+  const auto candidateAt = [](const Vector3& ambient, double variance) {
+    ChartCandidate c;
+    c.ambient = ambient;
+    c.variance = variance;
+    return c;
+  };
+  // Chart A has two candidates 0.03 m east of its centre: one uncertain, one certain. Chart B,
+  // added next, covers both (its ball has radius 0.02 around them).
+  for (const bool keep : {false, true}) {
+    Atlas atlas;
+    if (keep) atlas.keepCandidatesAbove(kVMax);
+    atlas.addChart(makeChart(Vector3::Zero(), 0.03,
+                             {candidateAt(Vector3(0.03, 0.0, 0.0), 0.2), candidateAt(Vector3(0.03, 0.001, 0.0), 0.05)}));
+    atlas.addChart(makeChart(Vector3(0.04, 0.0, 0.0), 0.02, {}));
+    const auto& left = atlas.chart(0).candidates;
+    if (keep) {
+      ASSERT_EQ(left.size(), 1u);
+      EXPECT_EQ(left[0].variance, 0.2);
+    } else {
+      EXPECT_TRUE(left.empty());
+    }
+  }
+}
+
 TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   const AnalyticSphere sphere;
   GpisModel model;

@@ -151,6 +151,8 @@ void readStrategy(ParamReader& r, gpatlas_core::StrategyConfig* c) {
   c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
   c->atlas.max_start_distance_m = r.number("planner/max_start_distance_m", c->atlas.max_start_distance_m, 0.0, 10.0);
   c->slide_extension_charts = r.integer("planner/slide_extension_charts", c->slide_extension_charts, 0, 100);
+  c->atlas.keep_high_variance_candidates =
+      r.flag("planner/keep_high_variance_candidates", c->atlas.keep_high_variance_candidates);
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
   c->seed = static_cast<std::uint64_t>(r.integer("planner/seed", static_cast<int>(c->seed), 0, 1 << 30));
   c->atlas.seed = c->seed;

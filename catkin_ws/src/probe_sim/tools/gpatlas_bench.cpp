@@ -64,6 +64,7 @@ struct Options {
   int initial_points{400};
   double vision_noise_sigma{0.1};
   double touch_noise_sigma{-1.0};  // contacts and free-space points; < 0 keeps the explorer's default
+  bool keep_high_variance_candidates{false};
   double free_space_noise_sigma{-1.0};  // the probe's free space alone, after --touch-sigma; < 0: as above
   double camera_noise_m{0.001};
   // ML-II tuning after the first fit. Measured on a single view: it keeps the thin-plate R at
@@ -146,6 +147,8 @@ void printUsage() {
                                  initial fit [off: the paper's fixed hyperparameters]
   --touch-sigma S                noise sigma of contacts and free-space points (reference units)
   --free-space-sigma S           noise sigma of the probe's free-space points alone (reference units)
+  --keep-high-variance-candidates  atlas strategies: a candidate above V_max inside another chart
+                                 stays a candidate (AtlasPlanner::Config)
                                  [the explorer's default]
   --no-tune                      do not tune (the default)
   --table                        put a table under the object (touches can hit it) [off: the
@@ -242,6 +245,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--vision-sigma") o.vision_noise_sigma = parseDouble(a, next());
     else if (a == "--touch-sigma") o.touch_noise_sigma = parseDouble(a, next());
     else if (a == "--free-space-sigma") o.free_space_noise_sigma = parseDouble(a, next());
+    else if (a == "--keep-high-variance-candidates") o.keep_high_variance_candidates = true;
     else if (a == "--no-tune") o.tune = false;
     else if (a == "--tune") o.tune = true;
     else if (a == "--table") o.table = true;
@@ -574,6 +578,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   gpatlas_core::StrategyConfig strategy_config;
   strategy_config.seed = static_cast<std::uint64_t>(seed) + 1;
   strategy_config.slide_extension_charts = o.slide_extension_charts;
+  strategy_config.atlas.keep_high_variance_candidates = o.keep_high_variance_candidates;
   const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
   probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(o.probe));
 
