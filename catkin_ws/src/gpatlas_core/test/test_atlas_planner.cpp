@@ -145,7 +145,7 @@ TEST(Atlas, CoverageKeepsCandidatesAboveTheThresholdWhenAsked) {
     return c;
   };
   // Chart A has two candidates 0.03 m east of its centre: one uncertain, one certain. Chart B,
-  // added next, covers both (its ball has radius 0.02 around them).
+  // added next (centre 0.04 m east, radius 0.02 m), covers both: they are 0.010 m from its centre.
   for (const bool keep : {false, true}) {
     Atlas atlas;
     if (keep) atlas.keepCandidatesAbove(kVMax);

@@ -35,7 +35,7 @@ def main(out_dir):
             if err:
                 ax_err.plot(*zip(*err), color=colour, marker="o", ms=3, label=label)
             if var:
-                ax_var.plot(*zip(*var), color=colour, label=label)
+                ax_var.plot(*zip(*var), color=colour, marker="o", ms=3, label=label)
         ax_err.set_xlabel("actions")
         ax_err.set_ylabel("shape RMSE, mean of both directions (mm)")
         ax_err.set_title(f"{obj}: shape error")

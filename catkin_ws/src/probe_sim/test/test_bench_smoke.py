@@ -13,6 +13,9 @@ COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,stop_reas
            "plan_ms_median,update_ms_median").split(",")
 
 
+CURVE_EVERY = 2
+
+
 class BenchSmokeTest(unittest.TestCase):
     def setUp(self):
         self.out = tempfile.mkdtemp(prefix="gpatlas_bench_test_")
@@ -27,7 +30,7 @@ class BenchSmokeTest(unittest.TestCase):
     def test_small_run_writes_plausible_csv(self):
         proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.12", "--strategy", "atlas_poke",
                               "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--points", "200",
-                              "--curve-every", "2", "--jobs", "2", "--out", self.out, "--no-plot")
+                              "--curve-every", str(CURVE_EVERY), "--jobs", "2", "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         self.assertIn("[2/2]", proc.stdout)
         with open(os.path.join(self.out, "runs.csv")) as f:
@@ -85,11 +88,15 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertGreaterEqual(sizes[0], 200)
             self.assertGreater(int(r["actions"]), 0, r)
             self.assertEqual(sizes[1], sizes[0], steps[:2])
-            # The bench's own variance sample, at action 0 and every --curve-every actions.
+            # The bench's own variance sample: at action 0, every --curve-every (2) actions and
+            # after the last action, nowhere else.
             for h in steps:
-                if int(h["action"]) % 2 == 0:
-                    self.assertTrue(math.isfinite(float(h["sampled_max_variance"])), h)
-                    self.assertGreaterEqual(float(h["sampled_max_variance"]), 0.0, h)
+                action = int(h["action"])
+                sampled = float(h["sampled_max_variance"])
+                if action % CURVE_EVERY == 0 or action == int(r["actions"]):
+                    self.assertTrue(math.isfinite(sampled) and sampled >= 0.0, h)
+                else:
+                    self.assertTrue(math.isnan(sampled), h)
         # Both strategies start from the same model (same seed, same view), so the bench's sample of
         # it, unlike each strategy's own estimate, is the same number.
         initial = [float(h["sampled_max_variance"]) for h in history if h["action"] == "0"]

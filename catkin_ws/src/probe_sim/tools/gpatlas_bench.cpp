@@ -146,10 +146,11 @@ void printUsage() {
   --tune                         tune the kernel's parameters (ML-II, noise fixed) after the
                                  initial fit [off: the paper's fixed hyperparameters]
   --touch-sigma S                noise sigma of contacts and free-space points (reference units)
-  --free-space-sigma S           noise sigma of the probe's free-space points alone (reference units)
-  --keep-high-variance-candidates  atlas strategies: a candidate above V_max inside another chart
-                                 stays a candidate (AtlasPlanner::Config)
                                  [the explorer's default]
+  --free-space-sigma S           noise sigma of the probe's free-space points alone (reference
+                                 units) [as --touch-sigma]
+  --keep-high-variance-candidates  atlas strategies: a candidate above V_max inside another chart
+                                 stays a candidate (AtlasPlanner::Config) [off]
   --no-tune                      do not tune (the default)
   --table                        put a table under the object (touches can hit it) [off: the
                                  paper's protocol casts rays on the object mesh alone]
@@ -443,7 +444,6 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
-// `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured.
 // The largest variance over one fixed surface sample (SurfaceSampler's defaults: 600 seeds, seed
 // 7); NaN when the surface cannot be sampled.
 double sampledMaxVariance(const gpatlas_core::GpisModel& model) {
@@ -451,6 +451,7 @@ double sampledMaxVariance(const gpatlas_core::GpisModel& model) {
   return sample.ok ? sample.maxVariance() : std::nan("");
 }
 
+// `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured.
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
                                          double* rmse_reachable = nullptr) {
@@ -680,8 +681,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
                     : std::string();
   r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
   if (!r.metrics.ok) r.error = r.metrics.message;
+  // The final model's sample does not depend on meshing: filled whether or not the metrics are.
+  if (!r.history.empty() && r.history.back().action == r.actions &&
+      std::isnan(r.history.back().sampled_max_variance))
+    r.history.back().sampled_max_variance = sampledMaxVariance(model);
   if (!r.history.empty() && r.history.back().action == r.actions && r.metrics.ok) {
-    if (std::isnan(r.history.back().sampled_max_variance)) r.history.back().sampled_max_variance = sampledMaxVariance(model);
     r.history.back().rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
     r.history.back().rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
   } else if (r.metrics.ok) {
