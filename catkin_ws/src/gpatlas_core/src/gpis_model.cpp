@@ -608,8 +608,11 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
   const Eigen::ArrayXd train_x = m.x.row(0).head(n).transpose().array();
   const Eigen::ArrayXd train_y = m.x.row(1).head(n).transpose().array();
   const Eigen::ArrayXd train_z = m.x.row(2).head(n).transpose().array();
+  Eigen::ArrayXd dx(n), dy(n), dz(n);  // reused for every query: no allocation per query
   const auto distancesTo = [&](Eigen::Index j, Eigen::ArrayXd* distance) {
-    const Eigen::ArrayXd dx = train_x - xq(0, j), dy = train_y - xq(1, j), dz = train_z - xq(2, j);
+    dx = train_x - xq(0, j);
+    dy = train_y - xq(1, j);
+    dz = train_z - xq(2, j);
     *distance = (dx * dx + dy * dy + dz * dz).sqrt();
   };
   // Gradient of sum_i w_i k(|x - x_i|) at query j, given slope_i = (dk/dr / r)(|x - x_i|):

@@ -681,13 +681,14 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
                     : std::string();
   r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
   if (!r.metrics.ok) r.error = r.metrics.message;
-  // The final model's sample does not depend on meshing: filled whether or not the metrics are.
-  if (!r.history.empty() && r.history.back().action == r.actions &&
-      std::isnan(r.history.back().sampled_max_variance))
-    r.history.back().sampled_max_variance = sampledMaxVariance(model);
-  if (!r.history.empty() && r.history.back().action == r.actions && r.metrics.ok) {
-    r.history.back().rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
-    r.history.back().rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
+  if (!r.history.empty() && r.history.back().action == r.actions) {
+    // The final model's sample does not depend on meshing: filled whether or not the metrics are.
+    HistoryRow& final_row = r.history.back();
+    if (std::isnan(final_row.sampled_max_variance)) final_row.sampled_max_variance = sampledMaxVariance(model);
+    if (r.metrics.ok) {
+      final_row.rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
+      final_row.rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
+    }
   } else if (r.metrics.ok) {
     HistoryRow last;
     last.action = r.actions;
@@ -783,8 +784,8 @@ std::string describePlanTimes(const PlanTimes& p) {
   return s.str();
 }
 
-void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths, const Options& o,
-                  const fs::path& path) {
+void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths,
+                  const std::vector<PlanTimes>& plan_times, const Options& o, const fs::path& path) {
   std::vector<std::string> objects, strategies;
   for (const auto& r : runs) {
     if (std::find(objects.begin(), objects.end(), r.object) == objects.end()) objects.push_back(r.object);
@@ -842,7 +843,7 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   f << '\n';
 
   f << "\nPlanning time per touch (history.csv: plan_ms, and n_train, the model size each plan saw):\n\n";
-  for (const auto& p : planTimesByStrategy(runs)) f << "- " << describePlanTimes(p) << '\n';
+  for (const auto& p : plan_times) f << "- " << describePlanTimes(p) << '\n';
 
   if (std::none_of(truths.begin(), truths.end(), [](const GroundTruth& g) { return g.reachability_measured; })) return;
   f << "\nThe truth a camera or a ray probe outside the object can reach (reachability.csv): its share of "
@@ -1009,8 +1010,9 @@ int main(int argc, char** argv) {
   writeRunsCsv(runs, out / "runs.csv");
   writeHistoryCsv(runs, out / "history.csv");
   writeReachabilityCsv(runs, objects, out / "reachability.csv");
-  writeSummary(runs, objects, o, out / "summary.md");
-  for (const auto& p : planTimesByStrategy(runs)) std::cout << "planning time, " << describePlanTimes(p) << std::endl;
+  const std::vector<PlanTimes> plan_times = planTimesByStrategy(runs);
+  writeSummary(runs, objects, plan_times, o, out / "summary.md");
+  for (const auto& p : plan_times) std::cout << "planning time, " << describePlanTimes(p) << std::endl;
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count();
   std::cout << "gpatlas_bench: done in " << std::setprecision(4) << total_s << " s; wrote " << (out / "runs.csv").string()
             << ", " << (out / "history.csv").string() << ", " << (out / "reachability.csv").string() << ", "
