@@ -1,5 +1,7 @@
 #include "gpatlas_core/explorer.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -71,7 +73,9 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
     points.push_back(point);
   }
   counted.contacts = points.size();
-  if (config.contact_inside_depth_m > 0.0) {
+  const bool tangents = config.contact_tangent_noise_sigma >= 0.0;
+  std::vector<TrainingPoint> slope_points;  // after the inside points, as TouchPointCounts says
+  if (config.contact_inside_depth_m > 0.0 || tangents) {
     // thinToSpacing keeps the first of near-duplicates in order, so the kept contacts are a
     // subsequence of `contacts`: walk both to find each kept contact's normal.
     std::size_t next = 0;
@@ -80,16 +84,36 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
       if (next == contacts.size()) break;
       const Vector3& normal = contacts[next].normal;
       if (!normal.allFinite() || normal.norm() < 0.5) continue;
-      TrainingPoint point;
-      point.position = kept - config.contact_inside_depth_m * normal.normalized();
-      point.label = PointLabel::kInside;
-      point.noise_sigma = config.contact_inside_noise_sigma;
-      point.source = PointSource::kTouch;
-      point.surface_distance_m = config.contact_inside_depth_m;
-      if (model.inDomain(point.position)) points.push_back(point);
+      if (config.contact_inside_depth_m > 0.0) {
+        TrainingPoint point;
+        point.position = kept - config.contact_inside_depth_m * normal.normalized();
+        point.label = PointLabel::kInside;
+        point.noise_sigma = config.contact_inside_noise_sigma;
+        point.source = PointSource::kTouch;
+        point.surface_distance_m = config.contact_inside_depth_m;
+        if (model.inDomain(point.position)) points.push_back(point);
+      }
+      if (tangents) {
+        // f does not change across the measured normal: two slopes, target 0, that fix the
+        // normal's direction whatever f's slope along it.
+        const Vector3 unit_normal = normal.normalized();
+        const Vector3 across = unit_normal.unitOrthogonal();
+        for (const Vector3& tangent : {across, Vector3(unit_normal.cross(across))}) {
+          TrainingPoint point;
+          point.position = kept;
+          point.label = PointLabel::kSurface;
+          point.noise_sigma = config.contact_tangent_noise_sigma;
+          point.source = PointSource::kTouch;
+          point.slope_direction = tangent;
+          point.target_override = 0.0;
+          slope_points.push_back(point);
+        }
+      }
     }
   }
   counted.contact_inside = points.size() - counted.contacts;
+  points.insert(points.end(), slope_points.begin(), slope_points.end());
+  counted.contact_tangents = slope_points.size();
   // Outside the domain the model has its own outside pseudo-points and would reject them:
   // filtered before the thinning, so that they cannot crowd out points the model keeps.
   std::vector<Vector3> free_in_domain;
@@ -104,7 +128,7 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
     if (config.free_space_distance_targets) point.surface_distance_m = model.nearestSurfaceDistance(free, kept_contacts);
     points.push_back(point);
   }
-  counted.free_space = points.size() - counted.contacts - counted.contact_inside;
+  counted.free_space = points.size() - counted.contacts - counted.contact_inside - counted.contact_tangents;
   if (counts) *counts = counted;
   return points;
 }
@@ -133,7 +157,7 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
     std::size_t accepted = 0;
     for (std::size_t i = kept.size() > new_points.size() ? kept.size() - new_points.size() : 0; i < kept.size(); ++i)
       for (const TrainingPoint& p : new_points)
-        if (p.position == kept[i].position && p.label == kept[i].label) {
+        if (p.position == kept[i].position && p.label == kept[i].label && p.slope_direction == kept[i].slope_direction) {
           ++accepted;
           break;
         }
@@ -161,6 +185,8 @@ std::string validate(const Explorer::Config& config) {
     problem << "contact_inside_depth_m must be finite and >= 0; ";
   if (!(config.contact_inside_noise_sigma >= 0.0) || !std::isfinite(config.contact_inside_noise_sigma))
     problem << "contact_inside_noise_sigma must be finite and >= 0; ";
+  if (!std::isfinite(config.contact_tangent_noise_sigma))
+    problem << "contact_tangent_noise_sigma must be finite (negative: no tangent slopes); ";
   if (!(config.guess_min_depth_fraction >= 0.0) || !std::isfinite(config.guess_min_depth_fraction))
     problem << "guess_min_depth_fraction must be finite and >= 0; ";
   if (const std::string evidence = validate(config.evidence); !evidence.empty()) problem << evidence << "; ";
@@ -229,7 +255,7 @@ ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& str
 
     TouchPointCounts counts;
     std::vector<TrainingPoint> new_points = touchTrainingPoints(model, probed.contacts, probed.free_space, config_, &counts);
-    const std::size_t num_contact_points = counts.contacts + counts.contact_inside;
+    const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
 
     const Clock::time_point update_started = Clock::now();
     if (!new_points.empty()) {

@@ -20,11 +20,43 @@ bool isFinite(const Vector3& v) { return v.allFinite(); }
 // target is that distance in normalised units, so it follows every renormalisation.
 double targetOf(const TrainingPoint& p, double scale) {
   if (std::isfinite(p.target_override)) return p.target_override;
+  if (observesSlope(p)) return 1.0;
   if (p.label != PointLabel::kSurface && std::isfinite(p.surface_distance_m) && scale > 0.0)
     return static_cast<double>(static_cast<int>(p.label)) * std::min(1.0, std::max(0.0, p.surface_distance_m) / scale);
   return static_cast<double>(static_cast<int>(p.label));
 }
 
+
+// Covariance between two observations at normalised positions a and b: of f itself where the
+// direction is zero, else of f's slope along that unit direction. With d = a - b and k' = dk/dr:
+//   cov(f(a), f(b))         = k(r)
+//   cov(D_u f(a), f(b))     = (k'/r) d.u
+//   cov(D_u f(a), D_v f(b)) = -(k'' - k'/r) (d.u)(d.v) / r^2 - (k'/r) u.v
+// (the derivatives of k(|a - b|) in a and b); k'/r tends to k''(0) as r -> 0.
+double observationCovariance(const Kernel& kernel, const Vector3& a, const Vector3& u, const Vector3& b,
+                             const Vector3& v) {
+  const Vector3 d = a - b;
+  const double r = d.norm();
+  const bool slope_a = u.squaredNorm() > 0.0, slope_b = v.squaredNorm() > 0.0;
+  if (!slope_a && !slope_b) return kernel.value(r);
+  const double slope_over_r = r > 0.0 ? kernel.derivative(r) / r : kernel.secondDerivative(0.0);
+  if (!slope_b) return slope_over_r * d.dot(u);
+  if (!slope_a) return -slope_over_r * d.dot(v);
+  if (!(r > 0.0)) return -slope_over_r * u.dot(v);
+  const Vector3 along = d / r;
+  return -(kernel.secondDerivative(r) - slope_over_r) * along.dot(u) * along.dot(v) - slope_over_r * u.dot(v);
+}
+
+// Gradient with respect to the query x of cov(f(x), D_u f(b)) = -(k'/r) e.u, e = x - b:
+// -(k'' - k'/r) (e^.u) e^ - (k'/r) u, with e^ = e / r.
+Vector3 slopeCovarianceGradient(const Kernel& kernel, const Vector3& x, const Vector3& b, const Vector3& u) {
+  const Vector3 e = x - b;
+  const double r = e.norm();
+  if (!(r > 0.0)) return -kernel.secondDerivative(0.0) * u;
+  const double slope_over_r = kernel.derivative(r) / r;
+  const Vector3 along = e / r;
+  return -(kernel.secondDerivative(r) - slope_over_r) * along.dot(u) * along - slope_over_r * u;
+}
 
 }  // namespace
 
@@ -46,6 +78,8 @@ struct GpisModel::Impl {
         n(o.n),
         num_pseudo(o.num_pseudo),
         x(o.x),
+        slope_dir(o.slope_dir),
+        slope_rows(o.slope_rows),
         y(o.y),
         noise_var(o.noise_var),
         chol(o.chol),
@@ -67,6 +101,8 @@ struct GpisModel::Impl {
   Eigen::Index n{0};              // training-set size (pseudo-points first)
   Eigen::Index num_pseudo{0};
   Points3 x;                      // normalised inputs, capacity columns
+  Points3 slope_dir;              // unit direction of a slope observation, zero for a value
+  std::vector<Eigen::Index> slope_rows;  // the rows that observe a slope, ascending
   Eigen::VectorXd y;              // targets, capacity
   Eigen::VectorXd noise_var;      // per-point noise variance before noise_scale, capacity
   Eigen::MatrixXd chol;           // lower Cholesky factor in the top-left n x n block
@@ -83,6 +119,9 @@ struct GpisModel::Impl {
     Points3 new_x(3, new_cap);
     new_x.leftCols(n) = x.leftCols(n);
     x.swap(new_x);
+    Points3 new_dir(3, new_cap);
+    new_dir.leftCols(n) = slope_dir.leftCols(n);
+    slope_dir.swap(new_dir);
     Eigen::VectorXd new_y(new_cap), new_noise(new_cap);
     new_y.head(n) = y.head(n);
     new_noise.head(n) = noise_var.head(n);
@@ -92,6 +131,14 @@ struct GpisModel::Impl {
 
   Vector3 normalise(const Vector3& p) const { return (p - centroid) / scale; }
   double priorAt(const Vector3& world) const { return prior_mean ? prior_mean->value(world) : 0.0; }
+  // The prior's value at an observation, or its slope along the observed direction (per
+  // normalised unit).
+  double priorOf(const TrainingPoint& p) const {
+    if (!prior_mean || !observesSlope(p)) return priorAt(p.position);
+    Vector3 gradient;
+    prior_mean->value(p.position, &gradient);
+    return scale * gradient.dot(p.slope_direction);
+  }
   void addPriorMean(const Points3& x_world, bool with_gradient, BatchPrediction* out) const {
     if (!prior_mean) return;
     Vector3 gradient;
@@ -101,10 +148,23 @@ struct GpisModel::Impl {
     }
   }
   // The GP's target for an observation: its label's value minus the prior mean there.
-  double residualOf(const TrainingPoint& p) const { return targetOf(p, scale) - priorAt(p.position); }
+  double residualOf(const TrainingPoint& p) const { return targetOf(p, scale) - priorOf(p); }
 
+  bool isSlopeRow(Eigen::Index i) const { return slope_dir.col(i).squaredNorm() > 0.0; }
+  void collectSlopeRows() {
+    slope_rows.clear();
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (isSlopeRow(i)) slope_rows.push_back(i);
+  }
+  // Prior covariance of training rows i != j.
+  double covariance(Eigen::Index i, Eigen::Index j) const {
+    if (!isSlopeRow(i) && !isSlopeRow(j)) return kernel->value((x.col(i) - x.col(j)).norm());
+    return observationCovariance(*kernel, x.col(i), slope_dir.col(i), x.col(j), slope_dir.col(j));
+  }
   double diagonal(Eigen::Index i) const {
-    return kernel->value(0.0) + noise_scale * noise_var[i] * noiseUnit(*kernel) + jitter;
+    // A slope's prior variance is -k''(0): the curvature of the correlation at the origin.
+    const double prior = isSlopeRow(i) ? -kernel->secondDerivative(0.0) : kernel->value(0.0);
+    return prior + noise_scale * noise_var[i] * noiseUnit(*kernel) + jitter;
   }
 
   double varianceUnitFactor() const { return config.reference_prior_variance / kernel->value(0.0); }
@@ -138,7 +198,7 @@ struct GpisModel::Impl {
       jitter = trial;
       auto block = chol.topLeftCorner(n, n);
       for (Eigen::Index j = 0; j < n; ++j) {
-        for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = kernel->value((x.col(i) - x.col(j)).norm());
+        for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = covariance(i, j);
         block(j, j) = diagonal(j);
       }
       Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(block);
@@ -188,10 +248,14 @@ namespace {
 std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
   std::vector<TrainingPoint> accepted;
   accepted.reserve(points.size());
-  std::size_t non_finite = 0, bad_noise = 0;
+  std::size_t non_finite = 0, bad_noise = 0, bad_direction = 0;
   for (const auto& p : points) {
-    if (!isFinite(p.position)) {
+    if (!isFinite(p.position) || !isFinite(p.slope_direction)) {
       ++non_finite;
+      continue;
+    }
+    if (observesSlope(p) && !(p.slope_direction.norm() > 1e-9)) {
+      ++bad_direction;
       continue;
     }
     if (!std::isfinite(p.noise_sigma) || p.noise_sigma < 0.0) {
@@ -199,12 +263,15 @@ std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points
       continue;
     }
     accepted.push_back(p);
+    if (observesSlope(p)) accepted.back().slope_direction.normalize();
   }
   if (non_finite > 0)
     report->warnings.push_back(std::to_string(non_finite) + " point(s) with NaN/Inf coordinates dropped");
   if (bad_noise > 0)
     report->warnings.push_back(std::to_string(bad_noise) + " point(s) with a negative or NaN noise sigma dropped");
-  report->num_rejected += non_finite + bad_noise;
+  if (bad_direction > 0)
+    report->warnings.push_back(std::to_string(bad_direction) + " slope observation(s) with a near-zero direction dropped");
+  report->num_rejected += non_finite + bad_noise + bad_direction;
   return accepted;
 }
 
@@ -257,7 +324,7 @@ FitReport GpisModel::refit(bool renormalise) {
   std::size_t num_surface = 0;
   Vector3 sum = Vector3::Zero();
   for (const auto& p : m.observations) {
-    if (p.label == PointLabel::kSurface) {
+    if (isSurfaceValue(p)) {
       ++num_surface;
       sum += p.position;
     }
@@ -268,7 +335,7 @@ FitReport GpisModel::refit(bool renormalise) {
   }
   if ((m.fitted || m.frame_preset) && !renormalise) {
     for (const auto& p : m.observations)
-      if (p.label == PointLabel::kSurface && m.normalise(p.position).norm() > c.renormalise_radius) renormalise = true;
+      if (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius) renormalise = true;
   }
   renormalise = renormalise || !(m.fitted || m.frame_preset);
   m.frame_preset = false;
@@ -278,7 +345,7 @@ FitReport GpisModel::refit(bool renormalise) {
     centroid = sum / static_cast<double>(num_surface);
     double max_dist = 0.0;
     for (const auto& p : m.observations)
-      if (p.label == PointLabel::kSurface) max_dist = std::max(max_dist, (p.position - centroid).norm());
+      if (isSurfaceValue(p)) max_dist = std::max(max_dist, (p.position - centroid).norm());
     if (!(max_dist > 1e-9)) {
       report.message = "degenerate surface data: all surface points coincide";
       return report;
@@ -310,6 +377,7 @@ FitReport GpisModel::refit(bool renormalise) {
   m.num_pseudo = num_pseudo;
   m.chol.resize(0, 0);
   m.x.resize(3, 0);
+  m.slope_dir.resize(3, 0);
   m.y.resize(0);
   m.noise_var.resize(0);
   m.reserve(num_pseudo + static_cast<Eigen::Index>(m.observations.size()));
@@ -317,12 +385,14 @@ FitReport GpisModel::refit(bool renormalise) {
   const double pseudo_var = c.pseudo_point_sigma * c.pseudo_point_sigma;
   for (const auto& dir : outside) {
     m.x.col(m.n) = dir * c.domain_radius;
+    m.slope_dir.col(m.n).setZero();
     m.y[m.n] = 1.0 - m.priorAt(centroid + scale * m.x.col(m.n));
     m.noise_var[m.n] = pseudo_var;
     ++m.n;
   }
   if (use_inside_point) {
     m.x.col(m.n).setZero();
+    m.slope_dir.col(m.n).setZero();
     m.y[m.n] = -1.0 - m.priorAt(centroid);
     m.noise_var[m.n] = pseudo_var;
     ++m.n;
@@ -350,18 +420,20 @@ FitReport GpisModel::refit(bool renormalise) {
       ++bad_prior;
       continue;
     }
-    // Duplicates: the same label's value at (nearly) the same place; kept observations are in
-    // the order of m.x after the pseudo-points.
+    // Duplicates: the same label's value (or the same slope) at (nearly) the same place; kept
+    // observations are in the order of m.x after the pseudo-points.
     bool duplicate = false;
     const double value = targetOf(p, m.scale);
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = kept_values[j] == value && (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
+      duplicate = kept_values[j] == value && kept[j].slope_direction == p.slope_direction &&
+                  (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
     }
     kept_values.push_back(value);
     m.x.col(m.n) = xn;
+    m.slope_dir.col(m.n) = p.slope_direction;
     m.y[m.n] = target;
     m.noise_var[m.n] = p.noise_sigma * p.noise_sigma;
     ++m.n;
@@ -378,6 +450,7 @@ FitReport GpisModel::refit(bool renormalise) {
   }
   report.num_rejected = out_of_domain + duplicates;
   m.observations = std::move(kept);
+  m.collectSlopeRows();
 
   std::string error;
   if (!m.factorise(&error)) {
@@ -413,8 +486,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   // seen so far: renormalise so that every point, old and new, stays within the domain.
   bool needs_renormalise = false;
   for (const auto& p : accepted)
-    if (p.label == PointLabel::kSurface && m.normalise(p.position).norm() > c.renormalise_radius)
-      needs_renormalise = true;
+    if (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius) needs_renormalise = true;
   if (needs_renormalise) {
     const auto previous = m.observations;
     m.observations.insert(m.observations.end(), accepted.begin(), accepted.end());
@@ -450,10 +522,11 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     const double value = targetOf(p, m.scale);
     bool duplicate = false;
     for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
-      duplicate = observation_values[j] == value &&
+      duplicate = observation_values[j] == value && m.observations[j].slope_direction == p.slope_direction &&
                   (m.x.col(m.num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = kept_values[j] == value && (kept_x[j] - xn).squaredNorm() <= dup2;
+      duplicate = kept_values[j] == value && kept[j].slope_direction == p.slope_direction &&
+                  (kept_x[j] - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
       continue;
@@ -501,6 +574,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   m.reserve(n + k);
   for (Eigen::Index j = 0; j < k; ++j) {
     m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
+    m.slope_dir.col(n + j) = kept[static_cast<std::size_t>(j)].slope_direction;
     m.y[n + j] = kept_residuals[static_cast<std::size_t>(j)];
     const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
     m.noise_var[n + j] = s * s;
@@ -510,11 +584,11 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   // L22 L22^T = K22 - L21 L21^T. Cost O(n^2 k) for the triangular solve.
   Eigen::MatrixXd cross(n, k);
   for (Eigen::Index j = 0; j < k; ++j)
-    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.kernel->value((m.x.col(i) - m.x.col(n + j)).norm());
+    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.covariance(i, n + j);
   m.chol.topLeftCorner(n, n).triangularView<Eigen::Lower>().solveInPlace(cross);
   Eigen::MatrixXd schur(k, k);
   for (Eigen::Index j = 0; j < k; ++j) {
-    for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = m.kernel->value((m.x.col(n + i) - m.x.col(n + j)).norm());
+    for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = m.covariance(n + i, n + j);
     schur(j, j) = m.diagonal(n + j);
   }
   schur.triangularView<Eigen::Lower>() -= cross.transpose() * cross;
@@ -537,6 +611,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   m.chol.block(n, n, k, k) = llt.matrixL();
   m.n = n + k;
   m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+  m.collectSlopeRows();
   m.solveAlpha();
   report.ok = true;
   report.num_added = kept.size();
@@ -584,7 +659,7 @@ double GpisModel::nearestSurfaceDistance(const Vector3& point_world,
                                          const std::vector<Vector3>& new_surface_points) const {
   double nearest = std::numeric_limits<double>::infinity();
   for (const auto& p : impl_->observations)
-    if (p.label == PointLabel::kSurface) nearest = std::min(nearest, (p.position - point_world).squaredNorm());
+    if (isSurfaceValue(p)) nearest = std::min(nearest, (p.position - point_world).squaredNorm());
   for (const auto& p : new_surface_points) nearest = std::min(nearest, (p - point_world).squaredNorm());
   return std::sqrt(nearest);
 }
@@ -630,16 +705,28 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
     return Vector3(sum * inv_scale);
   };
 
-  Eigen::MatrixXd cross(n, q);  // k(x_i, x*_j)
+  // The array code is written for rows that observe f's value; a row that observes a slope gets
+  // its covariance and its gradient from observationCovariance and slopeCovarianceGradient.
+  const Vector3 no_slope = Vector3::Zero();
+  const auto gradientOf = [&](Eigen::Index j, Eigen::ArrayXd* slope, const auto& weights) {
+    for (Eigen::Index i : m.slope_rows) (*slope)[i] = 0.0;
+    Vector3 gradient = weightedGradient(j, *slope, weights);
+    for (Eigen::Index i : m.slope_rows)
+      gradient += weights[i] * inv_scale * slopeCovarianceGradient(*m.kernel, xq.col(j), m.x.col(i), m.slope_dir.col(i));
+    return gradient;
+  };
+  Eigen::MatrixXd cross(n, q);  // cov(row i, f(x*_j))
   Eigen::ArrayXd distance, k, slope;
   for (Eigen::Index j = 0; j < q; ++j) {
     out.in_domain[j] = xq.col(j).allFinite() && xq.col(j).norm() <= m.config.domain_radius;
     distancesTo(j, &distance);
     m.kernel->values(distance, &k);
     cross.col(j) = k.matrix();
+    for (Eigen::Index i : m.slope_rows)
+      cross(i, j) = observationCovariance(*m.kernel, m.x.col(i), m.slope_dir.col(i), xq.col(j), no_slope);
     if (with_gradient) {
       m.kernel->derivativesOverDistance(distance, &slope);
-      out.gradient.col(j) = weightedGradient(j, slope, m.alpha);
+      out.gradient.col(j) = gradientOf(j, &slope, m.alpha);
     }
   }
   out.mean.noalias() = cross.transpose() * m.alpha;
@@ -664,7 +751,7 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
     for (Eigen::Index j = 0; j < q; ++j) {
       distancesTo(j, &distance);
       m.kernel->derivativesOverDistance(distance, &slope);
-      out.variance_gradient.col(j) = -2.0 * unit * weightedGradient(j, slope, solved.col(j));
+      out.variance_gradient.col(j) = -2.0 * unit * gradientOf(j, &slope, solved.col(j));
     }
   }
   m.addPriorMean(x_world, with_gradient, &out);
@@ -697,7 +784,8 @@ double GpisModel::logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params
                                         Eigen::VectorXd* gradient) const {
   const Impl& m = *impl_;
   const double nan = std::numeric_limits<double>::quiet_NaN();
-  if (!m.fitted) return nan;
+  // The hyperparameter gradient of slope observations' covariances is not implemented.
+  if (!m.fitted || !m.slope_rows.empty()) return nan;
   std::unique_ptr<Kernel> kernel = m.kernel->clone();
   kernel->setLogParams(kernel_log_params);
   if (2.0 * m.config.domain_radius > kernel->maxValidDistance()) return nan;

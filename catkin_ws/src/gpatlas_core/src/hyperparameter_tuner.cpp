@@ -69,6 +69,11 @@ TuneReport HyperparameterTuner::tune(GpisModel& model) const {
     report.message = "no fitted model to tune";
     return report;
   }
+  for (const TrainingPoint& point : model.observations())
+    if (observesSlope(point)) {
+      report.message = "tuning a model with slope (normal) observations is not supported; hyperparameters unchanged";
+      return report;
+    }
   const Kernel& kernel = model.kernel();
   const int p = kernel.numParams();
   const Eigen::VectorXd log_before = kernel.logParams();

@@ -1,5 +1,6 @@
 #include "gpatlas_core/kernel.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -28,6 +29,13 @@ void Kernel::derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk
   for (Eigen::Index i = 0; i < r.size(); ++i) (*dk_over_r)[i] = r[i] > 0.0 ? derivative(r[i]) / r[i] : 0.0;
 }
 
+double Kernel::secondDerivative(double r) const {
+  // dk/dr vanishes at 0 for every kernel here, so one-sided there; central elsewhere.
+  const double h = 1e-6 * std::max(1.0, r);
+  if (r < h) return (derivative(r + h) - derivative(r)) / h;
+  return (derivative(r + h) - derivative(r - h)) / (2.0 * h);
+}
+
 // ------------------------------------------------------------------ thin plate
 Eigen::VectorXd RadiusKernel::logParams() const {
   Eigen::VectorXd p(1);
@@ -49,6 +57,8 @@ void ThinPlateKernel::paramGradient(double r, double* out) const {
   out[0] = 3.0 * radius_ * (radius_ * radius_ - r * r);
 }
 
+double ThinPlateKernel::secondDerivative(double r) const { return 12.0 * r - 6.0 * radius_; }
+
 // ------------------------------------------------------------------ Wendland psi_{3,1}
 
 double WendlandKernel::value(double r) const {
@@ -64,6 +74,14 @@ double WendlandKernel::derivative(double r) const {
   if (t >= 1.0) return 0.0;
   const double u = 1.0 - t;
   return -20.0 * radius_ * radius_ * t * u * u * u;
+}
+
+double WendlandKernel::secondDerivative(double r) const {
+  // d/dt [-20 t (1 - t)^3] = -20 (1 - t)^2 (1 - 4t)
+  const double t = r / radius_;
+  if (t >= 1.0) return 0.0;
+  const double u = 1.0 - t;
+  return -20.0 * radius_ * u * u * (1.0 - 4.0 * t);
 }
 
 // The array forms repeat value() and derivative() operation for operation, so they give the same
@@ -120,6 +138,11 @@ void SquaredExponentialKernel::paramGradient(double r, double* out) const {
   out[1] = k * r * r / (length_ * length_);
 }
 
+double SquaredExponentialKernel::secondDerivative(double r) const {
+  const double inv_l2 = 1.0 / (length_ * length_);
+  return value(r) * inv_l2 * (r * r * inv_l2 - 1.0);
+}
+
 namespace {
 constexpr double kSqrt3 = 1.7320508075688772;
 constexpr double kSqrt5 = 2.23606797749979;
@@ -134,6 +157,12 @@ double Matern32Kernel::derivative(double r) const {
   const double a = kSqrt3 * r / length_;
   // dk/da = -s^2 a e^-a, da/dr = sqrt(3)/l
   return -sigma_ * sigma_ * a * std::exp(-a) * kSqrt3 / length_;
+}
+
+double Matern32Kernel::secondDerivative(double r) const {
+  const double a = kSqrt3 * r / length_;
+  const double c = kSqrt3 / length_;
+  return -sigma_ * sigma_ * c * c * (1.0 - a) * std::exp(-a);
 }
 
 void Matern32Kernel::paramGradient(double r, double* out) const {
@@ -151,6 +180,12 @@ double Matern52Kernel::derivative(double r) const {
   const double a = kSqrt5 * r / length_;
   const double dk_da = -sigma_ * sigma_ * a * (1.0 + a) / 3.0 * std::exp(-a);
   return dk_da * kSqrt5 / length_;
+}
+
+double Matern52Kernel::secondDerivative(double r) const {
+  const double a = kSqrt5 * r / length_;
+  const double c = kSqrt5 / length_;
+  return -sigma_ * sigma_ * c * c * (1.0 + a - a * a) / 3.0 * std::exp(-a);
 }
 
 void Matern52Kernel::paramGradient(double r, double* out) const {

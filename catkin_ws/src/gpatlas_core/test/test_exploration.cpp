@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
+#include <iostream>
 #include <numeric>
 
 using namespace gpatlas_core;
@@ -181,6 +183,60 @@ TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
 // A touch that passes through guessed interior: the guesses it contradicts go, by a full refit
 // in the model's frame that must equal fitting the corrected data from scratch in that frame;
 // a touch that contradicts nothing is an incremental update.
+// A probe's normal as two tangent slopes: they sit at the contact, across the normal, with
+// target 0, and make the model's normal there the measured one (the sphere's, the truth here).
+TEST(Explorer, ContactNormalsAsTangentSlopesFixTheModelsNormal) {
+  const AnalyticSphere sphere;
+  GpisModel initial;
+  ASSERT_TRUE(initial.fit(sphere.view(150, 0.3, 0.1, 5)).ok);
+  // Pokes on the unseen lower half, where the model's normal is a guess.
+  std::vector<Contact> contacts;
+  for (int k = 0; k < 8; ++k) {
+    const double azimuth = 0.8 * k, polar = 1.9 + 0.12 * (k % 3);
+    const Vector3 normal(std::sin(polar) * std::cos(azimuth), std::sin(polar) * std::sin(azimuth), std::cos(polar));
+    contacts.push_back({sphere.centre + sphere.radius * normal, normal});
+  }
+  Explorer::Config without;
+  Explorer::Config with = without;
+  with.contact_tangent_noise_sigma = 0.05;
+  TouchPointCounts counts;
+  const std::vector<TrainingPoint> points = touchTrainingPoints(initial, contacts, {}, with, &counts);
+  ASSERT_EQ(counts.contacts, contacts.size());
+  ASSERT_EQ(counts.contact_tangents, 2 * contacts.size());
+  for (std::size_t i = 0; i < counts.contact_tangents; ++i) {
+    const TrainingPoint& tangent = points[counts.contacts + counts.contact_inside + i];
+    const Contact& contact = contacts[i / 2];
+    EXPECT_EQ(tangent.position, contact.position);
+    EXPECT_TRUE(observesSlope(tangent));
+    EXPECT_EQ(tangent.target_override, 0.0);
+    EXPECT_NEAR(tangent.slope_direction.norm(), 1.0, 1e-12);
+    EXPECT_NEAR(tangent.slope_direction.dot(contact.normal), 0.0, 1e-12);
+    if (i % 2 == 1)
+      EXPECT_NEAR(tangent.slope_direction.dot(points[counts.contacts + counts.contact_inside + i - 1].slope_direction),
+                  0.0, 1e-12);
+  }
+
+  const auto normalErrorDegrees = [&](const Explorer::Config& config) {
+    GpisModel model = initial;
+    const FitReport report = model.addPoints(touchTrainingPoints(model, contacts, {}, config));
+    EXPECT_TRUE(report.ok) << report.message;
+    double worst = 0.0;
+    for (const Contact& contact : contacts) {
+      const Vector3 gradient = model.predict(contact.position).gradient;
+      worst = std::max(worst, std::acos(std::min(1.0, gradient.normalized().dot(contact.normal))) * 180.0 / M_PI);
+    }
+    return worst;
+  };
+  const double error_without = normalErrorDegrees(without), error_with = normalErrorDegrees(with);
+  EXPECT_GT(error_without, 5.0) << "the test needs normals the contacts alone leave wrong";
+  EXPECT_LT(error_with, 0.5 * error_without);
+  EXPECT_LT(error_with, 5.0);
+  RecordProperty("normal_error_deg_without", std::to_string(error_without));
+  RecordProperty("normal_error_deg_with", std::to_string(error_with));
+  std::cout << "largest normal error at the contacts: " << error_without << " deg without tangent slopes, "
+            << error_with << " deg with them\n";
+}
+
 TEST(Explorer, TouchesRetractTheGuessedInteriorTheyContradict) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 5);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <cmath>
 #include <random>
 
@@ -117,6 +119,165 @@ TEST(GpisModel, GradientsMatchFiniteDifferences) {
       EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var)));
     }
   }
+}
+
+// A model of surface values and slope observations (along outward normals), without
+// pseudo-points, so that its training set is exactly the observations.
+GpisModel::Config bareConfig(const std::string& kernel = "wendland") {
+  GpisModel::Config config;
+  config.kernel = kernel;
+  config.num_outside_points = 0;
+  config.inside_point_at_centroid = false;
+  return config;
+}
+
+std::vector<TrainingPoint> valuesAndSlopes(int count, unsigned seed, double slope_sigma) {
+  std::vector<TrainingPoint> points = surfacePoints(capDirections(count, -0.2, seed), Vector3d::Constant(kRadius));
+  for (int i = 0; i < count; i += 3) {
+    TrainingPoint slope = points[static_cast<std::size_t>(i)];
+    slope.slope_direction = 2.0 * (slope.position - kCentre) / kRadius;  // not unit: the model normalises it
+    slope.noise_sigma = slope_sigma;
+    points.push_back(slope);
+  }
+  return points;
+}
+
+// The posterior from a dense recompute in which every covariance with a slope is a central
+// difference of k itself, not the model's closed forms.
+struct DensePosterior {
+  double mean;
+  double variance;
+};
+DensePosterior densePosterior(const GpisModel& model, const std::vector<TrainingPoint>& points, const Vector3d& query) {
+  const auto& kernel = model.kernel();
+  // Wendland's k has an r^3 term, so the differences' error is O(h) near r = 0: a small step.
+  const double h = 1e-5;
+  struct Row {
+    Vector3d x, u;
+    double target, noise;
+  };
+  std::vector<Row> rows;
+  const double noise_unit = kernel.value(0.0) / model.config().reference_prior_variance;
+  for (const auto& p : points) {
+    const bool slope = gpatlas_core::observesSlope(p);
+    rows.push_back({model.toNormalised(p.position), slope ? Vector3d(p.slope_direction.normalized()) : Vector3d::Zero(),
+                    slope ? 1.0 : 0.0, p.noise_sigma * p.noise_sigma * noise_unit});
+  }
+  // cov(L_a f, L_b f) with L a value or a central-difference slope.
+  const auto cov = [&](const Row& a, const Row& b) {
+    const auto k = [&](const Vector3d& x, const Vector3d& y) { return kernel.value((x - y).norm()); };
+    const bool sa = !a.u.isZero(), sb = !b.u.isZero();
+    if (!sa && !sb) return k(a.x, b.x);
+    if (sa && !sb) return (k(a.x + h * a.u, b.x) - k(a.x - h * a.u, b.x)) / (2 * h);
+    if (!sa && sb) return (k(a.x, b.x + h * b.u) - k(a.x, b.x - h * b.u)) / (2 * h);
+    return (k(a.x + h * a.u, b.x + h * b.u) - k(a.x + h * a.u, b.x - h * b.u) - k(a.x - h * a.u, b.x + h * b.u) +
+            k(a.x - h * a.u, b.x - h * b.u)) /
+           (4 * h * h);
+  };
+  const Eigen::Index n = static_cast<Eigen::Index>(rows.size());
+  Eigen::MatrixXd gram(n, n);
+  Eigen::VectorXd cross(n), targets(n);
+  const Row q{model.toNormalised(query), Vector3d::Zero(), 0.0, 0.0};
+  for (Eigen::Index i = 0; i < n; ++i) {
+    for (Eigen::Index j = 0; j < n; ++j) gram(i, j) = cov(rows[i], rows[j]);
+    gram(i, i) += rows[i].noise;
+    cross[i] = cov(rows[i], q);
+    targets[i] = rows[i].target;
+  }
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(gram);
+  return {cross.dot(ldlt.solve(targets)),
+          (kernel.value(0.0) - cross.dot(ldlt.solve(cross))) * model.varianceUnitFactor()};
+}
+
+TEST(GpisModel, SlopeObservationsMatchADenseRecomputeFromTheKernelAlone) {
+  for (const std::string kernel : {"wendland", "squared_exponential", "matern52"}) {
+    GpisModel model(bareConfig(kernel));
+    const std::vector<TrainingPoint> points = valuesAndSlopes(24, 11, 0.1);
+    const FitReport report = model.fit(points);
+    ASSERT_TRUE(report.ok) << report.message;
+    ASSERT_EQ(model.size(), points.size());
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(-1.3, 1.3);
+    for (int t = 0; t < 10; ++t) {
+      const Vector3d x = kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng));
+      const auto dense = densePosterior(model, points, x);
+      const auto p = model.predict(x);
+      EXPECT_NEAR(p.mean, dense.mean, 1e-4 * std::max(1.0, std::abs(dense.mean))) << kernel;
+      EXPECT_NEAR(p.variance, dense.variance, 1e-4 * std::max(1.0, dense.variance)) << kernel;
+    }
+  }
+}
+
+TEST(GpisModel, GradientsWithSlopeObservationsMatchFiniteDifferences) {
+  GpisModel model;
+  std::vector<TrainingPoint> points = valuesAndSlopes(90, 5, 0.1);
+  ASSERT_TRUE(model.fit(points).ok);
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1.2, 1.2);
+  std::vector<Vector3d> queries;
+  for (int t = 0; t < 15; ++t) queries.push_back(kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng)));
+  queries.push_back(points.back().position);  // on a slope observation: its r = 0 limits
+  for (const Vector3d& x : queries) {
+    const auto p = model.predict(x);
+    const double h = 1e-6;
+    for (int d = 0; d < 3; ++d) {
+      Vector3d e = Vector3d::Zero();
+      e[d] = h;
+      const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / (2 * h);
+      const double fd_var = (model.variance(x + e) - model.variance(x - e)) / (2 * h);
+      EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean)));
+      EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var)));
+    }
+  }
+}
+
+TEST(GpisModel, SlopeObservationsSetTheSlopeAndAreAddedIncrementallyAsAFitWould) {
+  // Surface values alone, then slope 1 per normalised unit along the normals, nearly noise-free:
+  // the mean's slope along each observed normal becomes 1 / scale per metre.
+  std::vector<TrainingPoint> points = surfacePoints(capDirections(80, -0.5, 4), Vector3d::Constant(kRadius));
+  std::vector<TrainingPoint> slopes;
+  for (std::size_t i = 0; i < points.size(); i += 4) {
+    TrainingPoint slope = points[i];
+    slope.slope_direction = (slope.position - kCentre).normalized();
+    slope.noise_sigma = 0.001;
+    slopes.push_back(slope);
+  }
+  GpisModel incremental;
+  ASSERT_TRUE(incremental.fit(points).ok);
+  const FitReport added = incremental.addPoints(slopes);
+  ASSERT_TRUE(added.ok) << added.message;
+  EXPECT_FALSE(added.full_refit);
+  EXPECT_EQ(added.num_added, slopes.size());
+  for (const auto& slope : slopes)
+    EXPECT_NEAR(incremental.predict(slope.position).gradient.dot(slope.slope_direction), 1.0 / incremental.scale(),
+                0.01 / incremental.scale());
+
+  std::vector<TrainingPoint> all = points;
+  all.insert(all.end(), slopes.begin(), slopes.end());
+  GpisModel full;
+  ASSERT_TRUE(full.fit(all).ok);
+  EXPECT_NEAR(full.scale(), incremental.scale(), 1e-12) << "slope observations must not move the frame";
+  for (int t = 0; t < 20; ++t) {
+    const Vector3d x = kCentre + kRadius * 1.1 * capDirections(20, -1.0, 9)[static_cast<std::size_t>(t)];
+    const auto a = incremental.predict(x), b = full.predict(x);
+    EXPECT_NEAR(a.mean, b.mean, 1e-7);
+    EXPECT_NEAR(a.variance, b.variance, 1e-7);
+    EXPECT_LT((a.gradient - b.gradient).norm(), 1e-5);
+  }
+  // The same slope again is a duplicate; the same place along another direction is not.
+  TrainingPoint again = slopes.front();
+  TrainingPoint sideways = slopes.front();
+  sideways.slope_direction = sideways.slope_direction.unitOrthogonal();
+  const FitReport second = incremental.addPoints({again, sideways});
+  ASSERT_TRUE(second.ok) << second.message;
+  EXPECT_EQ(second.num_added, 1u);
+  // A non-finite or vanishing direction is rejected with a reason; tuning refuses slopes.
+  TrainingPoint broken = slopes.front();
+  broken.slope_direction = Vector3d(1e-12, 0.0, 0.0);
+  const FitReport third = incremental.addPoints({broken});
+  EXPECT_EQ(third.num_added, 0u);
+  ASSERT_FALSE(third.warnings.empty());
+  EXPECT_NE(third.warnings.front().find("direction"), std::string::npos);
 }
 
 TEST(GpisModel, GradientsOfOtherKernelsMatchFiniteDifferences) {

@@ -149,6 +149,16 @@ TEST(HyperparameterTuner, FailsClearlyWithoutModelAndWithBadBounds) {
   report = HyperparameterTuner(bad).tune(model);
   EXPECT_FALSE(report.ok);
   EXPECT_DOUBLE_EQ(model.kernel().logParams()[0], before);
+
+  // The likelihood's gradient for slope observations is not implemented: refused, not wrong.
+  TrainingPoint slope = model.observations().front();
+  slope.slope_direction = Vector3d::UnitX();
+  ASSERT_TRUE(model.addPoints({slope}).ok);
+  report = HyperparameterTuner().tune(model);
+  EXPECT_FALSE(report.ok);
+  EXPECT_NE(report.message.find("slope"), std::string::npos) << report.message;
+  EXPECT_DOUBLE_EQ(model.kernel().logParams()[0], before);
+  EXPECT_TRUE(std::isnan(model.logMarginalLikelihood(model.kernel().logParams(), 0.0, nullptr)));
 }
 
 }  // namespace

@@ -38,6 +38,29 @@ TEST(Kernel, RadialDerivativeMatchesFiniteDifferences) {
   }
 }
 
+// Slope observations need d2k/dr2: every kernel's exact form, and the base class's numerical
+// default (used by kernels a user registers), against central differences of dk/dr.
+class DefaultSecondDerivative : public gpatlas_core::WendlandKernel {
+ public:
+  double secondDerivative(double r) const override { return Kernel::secondDerivative(r); }
+};
+
+TEST(Kernel, SecondDerivativeMatchesFiniteDifferences) {
+  auto kernels = allKernels();
+  kernels.push_back(std::make_unique<DefaultSecondDerivative>());
+  for (const auto& k : kernels) {
+    for (double r : {0.05, 0.4, 0.9, 1.6, 2.5}) {
+      const double h = 1e-5;
+      const double fd = (k->derivative(r + h) - k->derivative(r - h)) / (2 * h);
+      EXPECT_NEAR(k->secondDerivative(r), fd, 1e-5 * std::max(1.0, std::abs(fd))) << k->name() << " r=" << r;
+    }
+    // At the origin dk/dr = 0, so d2k/dr2 = lim dk/dr / r.
+    const double h = 1e-7;
+    EXPECT_NEAR(k->secondDerivative(0.0), k->derivative(h) / h, 1e-5 * std::abs(k->secondDerivative(0.0))) << k->name();
+    EXPECT_LT(k->secondDerivative(0.0), 0.0) << k->name() << ": a slope's prior variance is -k''(0)";
+  }
+}
+
 TEST(Kernel, SpatialGradientMatchesFiniteDifferences) {
   const Eigen::Vector3d y(0.1, -0.2, 0.3);
   const Eigen::Vector3d x(0.5, 0.1, -0.2);

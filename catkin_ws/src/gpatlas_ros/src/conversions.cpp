@@ -130,13 +130,29 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
     msg.sources.push_back(static_cast<uint8_t>(p.source));
     msg.surface_distances_m.push_back(p.surface_distance_m);
   }
+  // Slopes and target overrides are rare (a probe's tangents): sent only when present.
+  const auto& observations = model.observations();
+  if (std::any_of(observations.begin(), observations.end(), [](const gpatlas_core::TrainingPoint& p) {
+        return gpatlas_core::observesSlope(p) || std::isfinite(p.target_override);
+      })) {
+    for (const auto& p : observations) {
+      geometry_msgs::Vector3 direction;
+      direction.x = p.slope_direction.x();
+      direction.y = p.slope_direction.y();
+      direction.z = p.slope_direction.z();
+      msg.slope_directions.push_back(direction);
+      msg.target_overrides.push_back(p.target_override);
+    }
+  }
   return msg;
 }
 
 bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error) {
   const std::size_t n = msg.points.size();
   if (msg.labels.size() != n || msg.noise_sigmas.size() != n || msg.sources.size() != n ||
-      (!msg.surface_distances_m.empty() && msg.surface_distances_m.size() != n)) {
+      (!msg.surface_distances_m.empty() && msg.surface_distances_m.size() != n) ||
+      (!msg.slope_directions.empty() && msg.slope_directions.size() != n) ||
+      (!msg.target_overrides.empty() && msg.target_overrides.size() != n)) {
     *error = "training set arrays differ in length";
     return false;
   }
@@ -158,6 +174,9 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents
     p.noise_sigma = msg.noise_sigmas[i];
     p.source = static_cast<gpatlas_core::PointSource>(msg.sources[i]);
     if (!msg.surface_distances_m.empty()) p.surface_distance_m = msg.surface_distances_m[i];
+    if (!msg.slope_directions.empty())
+      p.slope_direction = {msg.slope_directions[i].x, msg.slope_directions[i].y, msg.slope_directions[i].z};
+    if (!msg.target_overrides.empty()) p.target_override = msg.target_overrides[i];
     out.points.push_back(p);
   }
   *contents = std::move(out);

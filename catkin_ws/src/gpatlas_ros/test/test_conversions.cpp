@@ -118,8 +118,14 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   outside.noise_sigma = 0.2;
   outside.surface_distance_m = 0.04;  // its target follows the frame: must survive the trip
   pts.push_back(outside);
+  // A contact's tangent slope (f does not change across the normal): direction and target.
+  gpatlas_core::TrainingPoint tangent = pts.front();
+  tangent.slope_direction = Eigen::Vector3d(0.3, -0.2, 0.1).cross(tangent.position).normalized();
+  tangent.target_override = 0.0;
+  pts.push_back(tangent);
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(pts).ok);
+  ASSERT_TRUE(gpatlas_core::observesSlope(model.observations().back()));
 
   TrainingSetContents contents;
   std::string error;
@@ -132,6 +138,9 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
     EXPECT_EQ(contents.points[i].noise_sigma, model.observations()[i].noise_sigma);
     const double a = contents.points[i].surface_distance_m, b = model.observations()[i].surface_distance_m;
     EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b)));
+    EXPECT_EQ(contents.points[i].slope_direction, model.observations()[i].slope_direction);
+    const double c = contents.points[i].target_override, d = model.observations()[i].target_override;
+    EXPECT_TRUE(c == d || (std::isnan(c) && std::isnan(d)));
   }
   EXPECT_EQ(contents.centroid, model.centroid());
   EXPECT_EQ(contents.scale, model.scale());
@@ -140,6 +149,13 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   const Eigen::Vector3d q(0.02, -0.03, 0.08);
   EXPECT_NEAR(rebuilt.mean(q), model.mean(q), 1e-12);
   EXPECT_NEAR(rebuilt.variance(q), model.variance(q), 1e-12);
+  EXPECT_LT((rebuilt.predict(q).gradient - model.predict(q).gradient).norm(), 1e-9);
+  // Without the slope the replica would differ: the check above can fail.
+  pts.pop_back();
+  gpatlas_core::GpisModel without_slope;
+  ASSERT_TRUE(without_slope.fitInFrame(pts, model.centroid(), model.scale()).ok);
+  EXPECT_GT(std::abs(without_slope.mean(q) - model.mean(q)) + std::abs(without_slope.variance(q) - model.variance(q)),
+            1e-6);
 }
 
 TEST(Conversions, CloudRoundTripSkipsNaN) {

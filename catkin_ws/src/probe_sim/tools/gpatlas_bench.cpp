@@ -95,6 +95,7 @@ struct Options {
   int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
   double evidence_distance{gpatlas_core::Explorer::Config().evidence.max_distance};
   double contact_inside_depth_m{gpatlas_core::Explorer::Config().contact_inside_depth_m};
+  double contact_tangent_sigma{gpatlas_core::Explorer::Config().contact_tangent_noise_sigma};
   bool retract_guesses{gpatlas_core::Explorer::Config().retract_contradicted_guesses};
   bool attempts_are_evidence{gpatlas_core::Explorer::Config().attempts_are_evidence};
   double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
@@ -135,6 +136,9 @@ void printUsage() {
                                  radius is 1) from every view point and contact needs a touch
                                  whatever its variance; every strategy; 0: V_max alone (the paper) [0.5]
   --contact-inside-depth-m D     an inside point D metres behind each contact; 0: none (the paper) [0.003]
+  --contact-tangent-sigma S      each contact with a normal also observes that f does not change
+                                 across it (two tangent slopes, target 0), with this noise sigma
+                                 (reference units); negative: not (the paper) [-1]
   --no-attempt-evidence          only measurements count as evidence, not the points earlier
                                  touches aimed at [they count]
   --keep-guesses                 touches do not retract the occluded-interior guesses they
@@ -287,6 +291,7 @@ Options parseArgs(int argc, char** argv) {
     else if (a == "--slide-extension") o.slide_extension_charts = parseInt(a, next());
     else if (a == "--evidence-distance") o.evidence_distance = parseDouble(a, next());
     else if (a == "--contact-inside-depth-m") o.contact_inside_depth_m = parseDouble(a, next());
+    else if (a == "--contact-tangent-sigma") o.contact_tangent_sigma = parseDouble(a, next());
     else if (a == "--keep-guesses") o.retract_guesses = false;
     else if (a == "--no-attempt-evidence") o.attempts_are_evidence = false;
     else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
@@ -592,6 +597,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
   explorer_config.evidence.max_distance = o.evidence_distance;
   explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
+  explorer_config.contact_tangent_noise_sigma = o.contact_tangent_sigma;
   explorer_config.retract_contradicted_guesses = o.retract_guesses;
   explorer_config.guess_min_depth_fraction = o.occluded_margin;
   explorer_config.attempts_are_evidence = o.attempts_are_evidence;

@@ -91,6 +91,11 @@ class Explorer {
     // Their noise, in reference units: tighter than contact_noise_sigma, or the tiny target
     // (-depth / scale) would be lost in the noise.
     double contact_inside_noise_sigma{0.1};
+    // Each kept contact with a normal also observes that f does not change across that normal:
+    // two slope observations (TrainingPoint::slope_direction) along tangents, target 0, with
+    // this noise sigma (reference units). They give the GP the measured normal's direction
+    // without assuming f's slope along it. Negative: none (the paper).
+    double contact_tangent_noise_sigma{-1.0};
     // The evidence test (SurfaceEvidence): exploration has converged only when no predicted
     // surface point lacks evidence. A distance of 0.5 by default; attempted_targets given here
     // count from the start.
@@ -129,12 +134,14 @@ class Explorer {
 struct TouchPointCounts {
   std::size_t contacts{0};
   std::size_t contact_inside{0};
+  std::size_t contact_tangents{0};
   std::size_t free_space{0};
 };
 
 // A touch's observations as training points for `model` (used by the Explorer and by the GP
 // model nodelet): contacts thinned to config.min_point_spacing_m; behind each kept contact with
-// a normal, an inside point at config.contact_inside_depth_m; free space inside the model's
+// a normal, an inside point at config.contact_inside_depth_m, then (when
+// config.contact_tangent_noise_sigma >= 0) its two tangent slope observations; free space inside the model's
 // domain thinned to config.min_free_space_spacing_m, nearest the contacts first, and labelled
 // with its distance to the surface when config.free_space_distance_targets.
 std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,

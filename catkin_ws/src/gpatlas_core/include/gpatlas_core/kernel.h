@@ -28,6 +28,10 @@ class Kernel {
   virtual double value(double r) const = 0;
   // dk/dr; zero at r = 0 for every kernel here (they are all differentiable at the origin).
   virtual double derivative(double r) const = 0;
+  // d2k/dr2, for observations of f's slope (their covariances hold the kernel's second
+  // derivatives). The default differentiates derivative() numerically; the kernels here override
+  // it with the exact form.
+  virtual double secondDerivative(double r) const;
   // k(r) and dk/dr / r for many distances at once: the inner loop of every prediction, where a
   // virtual call per training point costs more than the kernel itself. dk/dr / r is 0 at r = 0
   // (the direction (x - x') / r it multiplies vanishes there). The defaults call value() and
@@ -77,6 +81,7 @@ class ThinPlateKernel : public RadiusKernel {
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<ThinPlateKernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
+  double secondDerivative(double r) const override;
   void paramGradient(double r, double* out) const override;
   double maxValidDistance() const override { return radius_; }
 };
@@ -99,6 +104,7 @@ class WendlandKernel : public RadiusKernel {
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<WendlandKernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
+  double secondDerivative(double r) const override;
   void values(const Eigen::ArrayXd& r, Eigen::ArrayXd* k) const override;
   void derivativesOverDistance(const Eigen::ArrayXd& r, Eigen::ArrayXd* dk_over_r) const override;
   void paramGradient(double r, double* out) const override;
@@ -127,6 +133,7 @@ class SquaredExponentialKernel : public ScaledKernel {
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<SquaredExponentialKernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
+  double secondDerivative(double r) const override;
   void paramGradient(double r, double* out) const override;
 };
 
@@ -137,6 +144,7 @@ class Matern32Kernel : public ScaledKernel {
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<Matern32Kernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
+  double secondDerivative(double r) const override;
   void paramGradient(double r, double* out) const override;
 };
 
@@ -147,6 +155,7 @@ class Matern52Kernel : public ScaledKernel {
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<Matern52Kernel>(*this); }
   double value(double r) const override;
   double derivative(double r) const override;
+  double secondDerivative(double r) const override;
   void paramGradient(double r, double* out) const override;
 };
 

@@ -39,7 +39,20 @@ struct TrainingPoint {
   // The model then uses min(1, distance / scale) (its negative) as the target, in its current
   // frame (see GpisModel::nearestSurfaceDistance); NaN keeps the label's +1 (-1).
   double surface_distance_m{std::numeric_limits<double>::quiet_NaN()};
+  // Non-zero: the point observes the slope of f along this direction (made unit by the model)
+  // instead of f itself, e.g. a probe's measured outward normal at a contact. Its target is +1
+  // per normalised unit (that of a signed distance in the model's frame, as the distance-labelled
+  // free space assumes; target_override replaces it). Such a point does not count as surface
+  // data (centroid, scale, evidence): the contact it comes with does.
+  Vector3 slope_direction{Vector3::Zero()};
 };
+
+// True for a point that observes f's slope (TrainingPoint::slope_direction), not its value.
+inline bool observesSlope(const TrainingPoint& point) { return (point.slope_direction.array() != 0.0).any(); }
+// A surface point that observes f = 0 (the data that place and scale the model's frame).
+inline bool isSurfaceValue(const TrainingPoint& point) {
+  return point.label == PointLabel::kSurface && !observesSlope(point);
+}
 
 // A contact measured by a probe: a point on the surface and, if the probe can tell, the
 // surface normal there (zero vector when unknown).

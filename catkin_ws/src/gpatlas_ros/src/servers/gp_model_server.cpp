@@ -41,6 +41,8 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
       reader.number("contact_inside/depth_m", touch_config_.contact_inside_depth_m, 0.0, 0.1);
   touch_config_.contact_inside_noise_sigma =
       reader.number("contact_inside/noise_sigma", touch_config_.contact_inside_noise_sigma, 0.0, 10.0);
+  touch_config_.contact_tangent_noise_sigma =
+      reader.number("contact_tangent/noise_sigma", touch_config_.contact_tangent_noise_sigma, -1.0, 10.0);
   tune_ = reader.flag("tuning/enabled", tune_);
   display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
   readGpis(reader, &gpis_config_);
