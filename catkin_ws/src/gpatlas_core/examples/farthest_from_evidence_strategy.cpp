@@ -53,7 +53,7 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
     // Measured surface: view points and contacts (not free space, guesses or pseudo-points).
     std::vector<Vector3> measured;
     for (const auto& point : model.observations())
-      if (point.label == gpatlas_core::PointLabel::kSurface) measured.push_back(point.position);
+      if (gpatlas_core::isSurfaceValue(point)) measured.push_back(point.position);
     const gpatlas_core::SurfaceEvidence evidence(model, request.evidence);
 
     double farthest = -1.0;

@@ -79,7 +79,7 @@ SurfacePoint selectSurfacePoint(const GpisModel& model, const std::optional<Vect
   }
   std::vector<Vector3> surface_points;
   for (const TrainingPoint& point : model.observations())
-    if (point.label == PointLabel::kSurface && point.position.allFinite()) surface_points.push_back(point.position);
+    if (isSurfaceValue(point) && point.position.allFinite()) surface_points.push_back(point.position);
   if (surface_points.empty()) {
     *error = "the model has no surface observations to start from";
     return {};
@@ -148,7 +148,7 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   std::vector<Vector3> uncovered_candidates;
   if (config_.cover_all_observations) {
     for (const TrainingPoint& point : model.observations())
-      if (point.label == PointLabel::kSurface && point.position.allFinite())
+      if (isSurfaceValue(point) && point.position.allFinite())
         uncovered_candidates.push_back(point.position);
     std::shuffle(uncovered_candidates.begin(), uncovered_candidates.end(), rng);
   }

@@ -23,7 +23,7 @@ SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
     points_.push_back(p);
   };
   for (const TrainingPoint& point : model.observations()) {
-    if (point.label != PointLabel::kSurface) continue;
+    if (!isSurfaceValue(point)) continue;  // a contact's slopes add nothing to the contact
     if (point.source != PointSource::kVision && point.source != PointSource::kTouch) continue;
     add(point.position);
   }

@@ -187,7 +187,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   for (const auto& t : model_.observations()) {
     if (t.source == gpatlas_core::PointSource::kVision) continue;
     data.push_back(t);
-    if (t.source == gpatlas_core::PointSource::kFreeSpace || t.label == gpatlas_core::PointLabel::kSurface)
+    if (t.source == gpatlas_core::PointSource::kFreeSpace || gpatlas_core::isSurfaceValue(t))
       touch_evidence.push_back(t.position);
   }
   // The new view's guesses must not bring back what earlier touches retracted (their kept,
