@@ -157,7 +157,7 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
     std::size_t accepted = 0;
     for (std::size_t i = kept.size() > new_points.size() ? kept.size() - new_points.size() : 0; i < kept.size(); ++i)
       for (const TrainingPoint& p : new_points)
-        if (p.position == kept[i].position && p.label == kept[i].label && p.slope_direction == kept[i].slope_direction) {
+        if (p.position == kept[i].position && p.label == kept[i].label && sameSlopeDirection(p, kept[i])) {
           ++accepted;
           break;
         }

@@ -263,7 +263,8 @@ std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points
       continue;
     }
     accepted.push_back(p);
-    if (observesSlope(p)) accepted.back().slope_direction.normalize();
+    // A unit direction is kept as given (bit for bit), so that callers can find their points.
+    if (observesSlope(p) && std::abs(p.slope_direction.norm() - 1.0) > 1e-12) accepted.back().slope_direction.normalize();
   }
   if (non_finite > 0)
     report->warnings.push_back(std::to_string(non_finite) + " point(s) with NaN/Inf coordinates dropped");
@@ -425,7 +426,7 @@ FitReport GpisModel::refit(bool renormalise) {
     bool duplicate = false;
     const double value = targetOf(p, m.scale);
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = kept_values[j] == value && kept[j].slope_direction == p.slope_direction &&
+      duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
                   (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;
@@ -522,10 +523,10 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     const double value = targetOf(p, m.scale);
     bool duplicate = false;
     for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
-      duplicate = observation_values[j] == value && m.observations[j].slope_direction == p.slope_direction &&
+      duplicate = observation_values[j] == value && sameSlopeDirection(m.observations[j], p) &&
                   (m.x.col(m.num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = kept_values[j] == value && kept[j].slope_direction == p.slope_direction &&
+      duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
                   (kept_x[j] - xn).squaredNorm() <= dup2;
     if (duplicate) {
       ++duplicates;

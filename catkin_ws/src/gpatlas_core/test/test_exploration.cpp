@@ -180,9 +180,6 @@ TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
   EXPECT_EQ(result.records.front().free_points_added, static_cast<int>(kept_free.size()));
 }
 
-// A touch that passes through guessed interior: the guesses it contradicts go, by a full refit
-// in the model's frame that must equal fitting the corrected data from scratch in that frame;
-// a touch that contradicts nothing is an incremental update.
 // A probe's normal as two tangent slopes: they sit at the contact, across the normal, with
 // target 0, and make the model's normal there the measured one (the sphere's, the truth here).
 TEST(Explorer, ContactNormalsAsTangentSlopesFixTheModelsNormal) {
@@ -218,8 +215,14 @@ TEST(Explorer, ContactNormalsAsTangentSlopesFixTheModelsNormal) {
 
   const auto normalErrorDegrees = [&](const Explorer::Config& config) {
     GpisModel model = initial;
-    const FitReport report = model.addPoints(touchTrainingPoints(model, contacts, {}, config));
+    const std::vector<TrainingPoint> touch_points = touchTrainingPoints(model, contacts, {}, config);
+    const FitReport report = model.addPoints(touch_points);
     EXPECT_TRUE(report.ok) << report.message;
+    EXPECT_EQ(report.num_added, touch_points.size());
+    // Stored as given, bit for bit (addTouchPoints finds its accepted points by equality).
+    for (std::size_t i = 0; i < touch_points.size(); ++i)
+      EXPECT_EQ(model.observations()[model.observations().size() - touch_points.size() + i].slope_direction,
+                touch_points[i].slope_direction);
     double worst = 0.0;
     for (const Contact& contact : contacts) {
       const Vector3 gradient = model.predict(contact.position).gradient;
@@ -237,6 +240,9 @@ TEST(Explorer, ContactNormalsAsTangentSlopesFixTheModelsNormal) {
             << error_with << " deg with them\n";
 }
 
+// A touch that passes through guessed interior: the guesses it contradicts go, by a full refit
+// in the model's frame that must equal fitting the corrected data from scratch in that frame;
+// a touch that contradicts nothing is an incremental update.
 TEST(Explorer, TouchesRetractTheGuessedInteriorTheyContradict) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 5);

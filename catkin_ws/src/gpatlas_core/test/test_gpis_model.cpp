@@ -138,6 +138,12 @@ std::vector<TrainingPoint> valuesAndSlopes(int count, unsigned seed, double slop
     slope.slope_direction = 2.0 * (slope.position - kCentre) / kRadius;  // not unit: the model normalises it
     slope.noise_sigma = slope_sigma;
     points.push_back(slope);
+    // A second slope at the same place, 45 degrees from the first: the r = 0 slope-slope
+    // covariance with u.v != 0.
+    if (i % 2 == 0) {
+      slope.slope_direction = slope.slope_direction.normalized() + slope.slope_direction.normalized().unitOrthogonal();
+      points.push_back(slope);
+    }
   }
   return points;
 }
@@ -278,6 +284,34 @@ TEST(GpisModel, SlopeObservationsSetTheSlopeAndAreAddedIncrementallyAsAFitWould)
   EXPECT_EQ(third.num_added, 0u);
   ASSERT_FALSE(third.warnings.empty());
   EXPECT_NE(third.warnings.front().find("direction"), std::string::npos);
+}
+
+// The GP models a slope's residual over the prior's slope per normalised unit (scale * grad m . u):
+// with a steep linear prior, the predicted slope still meets the observed one.
+TEST(GpisModel, SlopeObservationsWithAPriorMeanKeepTheirTarget) {
+  struct LinearPrior : gpatlas_core::PriorMean {
+    double value(const Vector3d& x, Vector3d* gradient) const override {
+      const Vector3d w(3.0, -5.0, 2.0);  // per metre
+      if (gradient) *gradient = w;
+      return w.dot(x - kCentre);
+    }
+  };
+  std::vector<TrainingPoint> points = surfacePoints(capDirections(60, -0.5, 12), Vector3d::Constant(kRadius));
+  std::vector<TrainingPoint> slopes;
+  for (std::size_t i = 0; i < points.size(); i += 5) {
+    TrainingPoint slope = points[i];
+    slope.slope_direction = (slope.position - kCentre).normalized();
+    slope.noise_sigma = 0.001;
+    slopes.push_back(slope);
+  }
+  points.insert(points.end(), slopes.begin(), slopes.end());
+  GpisModel model;
+  ASSERT_TRUE(model.fit(points).ok);
+  const FitReport report = model.setPriorMean(std::make_shared<LinearPrior>());
+  ASSERT_TRUE(report.ok) << report.message;
+  for (const auto& slope : slopes)
+    EXPECT_NEAR(model.predict(slope.position).gradient.dot(slope.slope_direction), 1.0 / model.scale(),
+                0.01 / model.scale());
 }
 
 TEST(GpisModel, GradientsOfOtherKernelsMatchFiniteDifferences) {

@@ -53,6 +53,11 @@ inline bool observesSlope(const TrainingPoint& point) { return (point.slope_dire
 inline bool isSurfaceValue(const TrainingPoint& point) {
   return point.label == PointLabel::kSurface && !observesSlope(point);
 }
+// The same observed slope direction (both zero for values). Directions are compared with a
+// tolerance: the model makes them unit, which can change their last bits.
+inline bool sameSlopeDirection(const TrainingPoint& a, const TrainingPoint& b) {
+  return (a.slope_direction - b.slope_direction).squaredNorm() <= 1e-18;
+}
 
 // A contact measured by a probe: a point on the surface and, if the probe can tell, the
 // surface normal there (zero vector when unknown).
