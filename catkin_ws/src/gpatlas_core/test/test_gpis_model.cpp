@@ -101,24 +101,27 @@ TEST(GpisModel, EllipsoidPartialViewSignsAndNormals) {
   EXPECT_LT(worst_angle, 5.0);
 }
 
+// The analytic mean and variance gradients at x against central differences of the model.
+void expectGradientsMatchFiniteDifferences(const GpisModel& model, const Vector3d& x, const std::string& what = "") {
+  const auto p = model.predict(x);
+  const double h = 1e-6;
+  for (int d = 0; d < 3; ++d) {
+    Vector3d e = Vector3d::Zero();
+    e[d] = h;
+    const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / (2 * h);
+    const double fd_var = (model.variance(x + e) - model.variance(x - e)) / (2 * h);
+    EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean))) << what;
+    EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var))) << what;
+  }
+}
+
 TEST(GpisModel, GradientsMatchFiniteDifferences) {
   GpisModel model;
   ASSERT_TRUE(model.fit(sphereCap(150, -0.3, 6)).ok);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-1.2, 1.2);
-  for (int t = 0; t < 20; ++t) {
-    const Vector3d x = kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng));
-    const auto p = model.predict(x);
-    const double h = 1e-6;
-    for (int d = 0; d < 3; ++d) {
-      Vector3d e = Vector3d::Zero();
-      e[d] = h;
-      const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / (2 * h);
-      const double fd_var = (model.variance(x + e) - model.variance(x - e)) / (2 * h);
-      EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean)));
-      EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var)));
-    }
-  }
+  for (int t = 0; t < 20; ++t)
+    expectGradientsMatchFiniteDifferences(model, kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng)));
 }
 
 // A model of surface values and slope observations (along outward normals), without
@@ -223,40 +226,40 @@ TEST(GpisModel, GradientsWithSlopeObservationsMatchFiniteDifferences) {
   std::vector<Vector3d> queries;
   for (int t = 0; t < 15; ++t) queries.push_back(kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng)));
   queries.push_back(points.back().position);  // on a slope observation: its r = 0 limits
-  for (const Vector3d& x : queries) {
-    const auto p = model.predict(x);
-    const double h = 1e-6;
-    for (int d = 0; d < 3; ++d) {
-      Vector3d e = Vector3d::Zero();
-      e[d] = h;
-      const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / (2 * h);
-      const double fd_var = (model.variance(x + e) - model.variance(x - e)) / (2 * h);
-      EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean)));
-      EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var)));
-    }
+  for (const Vector3d& x : queries) expectGradientsMatchFiniteDifferences(model, x);
+}
+
+// Nearly noise-free slopes of 1 per normalised unit along the outward normals of every
+// `every`-th point, and the check that the model's mean meets them: its slope along each is then
+// 1 / scale per metre.
+std::vector<TrainingPoint> outwardSlopes(const std::vector<TrainingPoint>& points, std::size_t every) {
+  std::vector<TrainingPoint> slopes;
+  for (std::size_t i = 0; i < points.size(); i += every) {
+    TrainingPoint slope = points[i];
+    slope.slope_direction = (slope.position - kCentre).normalized();
+    slope.noise_sigma = 0.001;
+    slopes.push_back(slope);
   }
+  return slopes;
+}
+void expectSlopesMet(const GpisModel& model, const std::vector<TrainingPoint>& slopes) {
+  for (const auto& slope : slopes)
+    EXPECT_NEAR(model.predict(slope.position).gradient.dot(slope.slope_direction), 1.0 / model.scale(),
+                0.01 / model.scale());
 }
 
 TEST(GpisModel, SlopeObservationsSetTheSlopeAndAreAddedIncrementallyAsAFitWould) {
   // Surface values alone, then slope 1 per normalised unit along the normals, nearly noise-free:
   // the mean's slope along each observed normal becomes 1 / scale per metre.
   std::vector<TrainingPoint> points = surfacePoints(capDirections(80, -0.5, 4), Vector3d::Constant(kRadius));
-  std::vector<TrainingPoint> slopes;
-  for (std::size_t i = 0; i < points.size(); i += 4) {
-    TrainingPoint slope = points[i];
-    slope.slope_direction = (slope.position - kCentre).normalized();
-    slope.noise_sigma = 0.001;
-    slopes.push_back(slope);
-  }
+  const std::vector<TrainingPoint> slopes = outwardSlopes(points, 4);
   GpisModel incremental;
   ASSERT_TRUE(incremental.fit(points).ok);
   const FitReport added = incremental.addPoints(slopes);
   ASSERT_TRUE(added.ok) << added.message;
   EXPECT_FALSE(added.full_refit);
   EXPECT_EQ(added.num_added, slopes.size());
-  for (const auto& slope : slopes)
-    EXPECT_NEAR(incremental.predict(slope.position).gradient.dot(slope.slope_direction), 1.0 / incremental.scale(),
-                0.01 / incremental.scale());
+  expectSlopesMet(incremental, slopes);
 
   std::vector<TrainingPoint> all = points;
   all.insert(all.end(), slopes.begin(), slopes.end());
@@ -277,7 +280,7 @@ TEST(GpisModel, SlopeObservationsSetTheSlopeAndAreAddedIncrementallyAsAFitWould)
   const FitReport second = incremental.addPoints({again, sideways});
   ASSERT_TRUE(second.ok) << second.message;
   EXPECT_EQ(second.num_added, 1u);
-  // A non-finite or vanishing direction is rejected with a reason; tuning refuses slopes.
+  // A vanishing direction is rejected with a reason.
   TrainingPoint broken = slopes.front();
   broken.slope_direction = Vector3d(1e-12, 0.0, 0.0);
   const FitReport third = incremental.addPoints({broken});
@@ -297,21 +300,13 @@ TEST(GpisModel, SlopeObservationsWithAPriorMeanKeepTheirTarget) {
     }
   };
   std::vector<TrainingPoint> points = surfacePoints(capDirections(60, -0.5, 12), Vector3d::Constant(kRadius));
-  std::vector<TrainingPoint> slopes;
-  for (std::size_t i = 0; i < points.size(); i += 5) {
-    TrainingPoint slope = points[i];
-    slope.slope_direction = (slope.position - kCentre).normalized();
-    slope.noise_sigma = 0.001;
-    slopes.push_back(slope);
-  }
+  const std::vector<TrainingPoint> slopes = outwardSlopes(points, 5);
   points.insert(points.end(), slopes.begin(), slopes.end());
   GpisModel model;
   ASSERT_TRUE(model.fit(points).ok);
   const FitReport report = model.setPriorMean(std::make_shared<LinearPrior>());
   ASSERT_TRUE(report.ok) << report.message;
-  for (const auto& slope : slopes)
-    EXPECT_NEAR(model.predict(slope.position).gradient.dot(slope.slope_direction), 1.0 / model.scale(),
-                0.01 / model.scale());
+  expectSlopesMet(model, slopes);
 }
 
 TEST(GpisModel, GradientsOfOtherKernelsMatchFiniteDifferences) {
@@ -320,16 +315,7 @@ TEST(GpisModel, GradientsOfOtherKernelsMatchFiniteDifferences) {
     config.kernel = name;
     GpisModel model(config);
     ASSERT_TRUE(model.fit(sphereCap(120, -0.3, 8)).ok) << name;
-    const Vector3d x = kCentre + Vector3d(0.03, -0.05, 0.07);
-    const auto p = model.predict(x);
-    for (int d = 0; d < 3; ++d) {
-      Vector3d e = Vector3d::Zero();
-      e[d] = 1e-6;
-      const double fd_mean = (model.mean(x + e) - model.mean(x - e)) / 2e-6;
-      const double fd_var = (model.variance(x + e) - model.variance(x - e)) / 2e-6;
-      EXPECT_NEAR(p.gradient[d], fd_mean, 1e-4 * std::max(1.0, std::abs(fd_mean))) << name;
-      EXPECT_NEAR(p.variance_gradient[d], fd_var, 1e-4 * std::max(1.0, std::abs(fd_var))) << name;
-    }
+    expectGradientsMatchFiniteDifferences(model, kCentre + Vector3d(0.03, -0.05, 0.07), name);
   }
 }
 
