@@ -116,7 +116,8 @@ struct GpisModelConfig {
 // Gaussian Process Implicit Surface (paper section 3.1): a GP with zero prior mean fit to
 // surface points (target 0), outside points (+1) and inside points (-1), evaluated in a
 // normalised frame (centroid at the origin, surface data inside a ball of fixed radius), so
-// that the kernel's parameters and the pseudo-points are fixed numbers.
+// that the kernel's parameters and the pseudo-points are fixed numbers. A point may also observe
+// f's slope along a direction (TrainingPoint::slope_direction), e.g. across a measured normal.
 //
 // World coordinates are stored; the normalised copies are derived on every (re)fit, so a change
 // of centroid or scale can never leave stale points behind. Const queries are thread-safe.
@@ -185,7 +186,8 @@ class GpisModel {
   // Log marginal likelihood of the current fit (normalised frame).
   double logMarginalLikelihood() const;
   // Log marginal likelihood for trial hyperparameters on the current training set and its
-  // gradient with respect to [kernel log-params..., log noise_scale]; NaN if not factorisable.
+  // gradient with respect to [kernel log-params..., log noise_scale]; NaN if not factorisable or
+  // if the model holds slope observations (their covariances' parameter gradients are not written).
   double logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params, double log_noise_scale,
                                Eigen::VectorXd* gradient) const;
   // Factor turning a raw posterior variance into the reported units.
