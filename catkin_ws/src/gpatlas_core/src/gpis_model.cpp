@@ -158,7 +158,6 @@ struct GpisModel::Impl {
   }
   // Prior covariance of training rows i != j.
   double covariance(Eigen::Index i, Eigen::Index j) const {
-    if (!isSlopeRow(i) && !isSlopeRow(j)) return kernel->value((x.col(i) - x.col(j)).norm());
     return observationCovariance(*kernel, x.col(i), slope_dir.col(i), x.col(j), slope_dir.col(j));
   }
   double diagonal(Eigen::Index i) const {

@@ -123,7 +123,8 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
   msg.noise_scale = model.noiseScale();
   msg.centroid = toPointMsg(model.centroid());
   msg.scale = model.scale();
-  for (const auto& p : model.observations()) {
+  const auto& observations = model.observations();
+  for (const auto& p : observations) {
     msg.points.push_back(toPointMsg(p.position));
     msg.labels.push_back(static_cast<int8_t>(p.label));
     msg.noise_sigmas.push_back(p.noise_sigma);
@@ -131,7 +132,6 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
     msg.surface_distances_m.push_back(p.surface_distance_m);
   }
   // Slopes and target overrides are rare (a probe's tangents): sent only when present.
-  const auto& observations = model.observations();
   if (std::any_of(observations.begin(), observations.end(), [](const gpatlas_core::TrainingPoint& p) {
         return gpatlas_core::observesSlope(p) || std::isfinite(p.target_override);
       })) {
