@@ -56,7 +56,7 @@ std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const
 }
 
 std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,
-                                               const std::vector<Vector3>& free_space, const Explorer::Config& config,
+                                               const std::vector<Vector3>& free_space, const TouchObservationConfig& config,
                                                TouchPointCounts* counts) {
   std::vector<Vector3> positions;
   positions.reserve(contacts.size());
@@ -125,7 +125,7 @@ std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std
     point.label = PointLabel::kOutside;
     point.noise_sigma = config.free_space_noise_sigma;
     point.source = PointSource::kFreeSpace;
-    if (config.free_space_distance_targets) point.surface_distance_m = model.nearestSurfaceDistance(free, kept_contacts);
+    point.surface_distance_m = model.nearestSurfaceDistance(free, kept_contacts);
     points.push_back(point);
   }
   counted.free_space = points.size() - counted.contacts - counted.contact_inside - counted.contact_tangents;
@@ -140,10 +140,10 @@ std::vector<Vector3> measuredPositions(const std::vector<Contact>& contacts, con
 }
 
 FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new_points,
-                         const std::vector<Vector3>& evidence, const Explorer::Config& config,
+                         const std::vector<Vector3>& evidence, const TouchObservationConfig& config,
                          InteriorRetraction* retraction) {
   if (retraction) *retraction = InteriorRetraction();
-  if (!model.isFitted() || !config.retract_contradicted_guesses) return model.addPoints(new_points);
+  if (!model.isFitted()) return model.addPoints(new_points);
   std::vector<TrainingPoint> observations = model.observations();
   const InteriorRetraction retracted =
       retractContradictedInterior(&observations, evidence, config.guess_min_depth_fraction * model.scale());
@@ -167,135 +167,179 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
   return report;
 }
 
-namespace {
+TouchUpdate applyTouch(GpisModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
+                       const TouchObservationConfig& config) {
+  TouchUpdate update;
+  if (!model.isFitted()) {
+    update.message = "no model yet: the GP is not fitted";
+    return update;
+  }
+  TouchPointCounts counts;
+  std::vector<TrainingPoint> new_points = touchTrainingPoints(model, contacts, free_space, config, &counts);
+  if (new_points.empty()) {
+    update.message = "no observation inside the model's domain";
+    return update;
+  }
+  const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
+  const std::vector<Vector3> measured = measuredPositions(contacts, free_space);
+  FitReport report = addTouchPoints(model, new_points, measured, config, &update.retraction);
+  if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
+    new_points.resize(num_contact_points);
+    report = addTouchPoints(model, new_points, measured, config, &update.retraction);
+  }
+  update.ok = report.ok;
+  update.message = report.message;
+  update.warnings = report.warnings;
+  if (!report.ok) return update;
+  // The model reports acceptance as a total; free-space points are the ones it drops
+  // (duplicates, out of domain), so rejections are attributed to them first.
+  const int accepted = static_cast<int>(report.num_added);
+  update.contacts_added = std::min(accepted, static_cast<int>(counts.contacts));
+  update.free_points_added = std::max(0, accepted - static_cast<int>(num_contact_points));
+  return update;
+}
+
+std::string validate(const TouchObservationConfig& config) {
+  std::ostringstream problem;
+  const auto nonNegative = [&](double value, const char* name) {
+    if (!(value >= 0.0) || !std::isfinite(value)) problem << name << " must be finite and >= 0; ";
+  };
+  nonNegative(config.contact_noise_sigma, "contact_noise_sigma");
+  nonNegative(config.free_space_noise_sigma, "free_space_noise_sigma");
+  nonNegative(config.min_point_spacing_m, "min_point_spacing_m");
+  nonNegative(config.min_free_space_spacing_m, "min_free_space_spacing_m");
+  nonNegative(config.contact_inside_depth_m, "contact_inside_depth_m");
+  nonNegative(config.contact_inside_noise_sigma, "contact_inside_noise_sigma");
+  nonNegative(config.guess_min_depth_fraction, "guess_min_depth_fraction");
+  if (!std::isfinite(config.contact_tangent_noise_sigma))
+    problem << "contact_tangent_noise_sigma must be finite (negative: no tangent slopes); ";
+  return problem.str();
+}
 
 std::string validate(const Explorer::Config& config) {
   std::ostringstream problem;
   if (!(config.v_max > 0.0) || !std::isfinite(config.v_max)) problem << "v_max must be positive and finite; ";
   if (config.max_actions < 0) problem << "max_actions must be >= 0; ";
   if (config.max_consecutive_failures < 1) problem << "max_consecutive_failures must be >= 1; ";
-  if (!(config.contact_noise_sigma >= 0.0) || !(config.free_space_noise_sigma >= 0.0) ||
-      !std::isfinite(config.contact_noise_sigma) || !std::isfinite(config.free_space_noise_sigma))
-    problem << "noise sigmas must be finite and >= 0; ";
-  if (config.retune_every < 0) problem << "retune_every must be >= 0; ";
-  if (!(config.min_point_spacing_m >= 0.0) || !std::isfinite(config.min_point_spacing_m) ||
-      !(config.min_free_space_spacing_m >= 0.0) || !std::isfinite(config.min_free_space_spacing_m))
-    problem << "min_point_spacing_m and min_free_space_spacing_m must be finite and >= 0; ";
-  if (!(config.contact_inside_depth_m >= 0.0) || !std::isfinite(config.contact_inside_depth_m))
-    problem << "contact_inside_depth_m must be finite and >= 0; ";
-  if (!(config.contact_inside_noise_sigma >= 0.0) || !std::isfinite(config.contact_inside_noise_sigma))
-    problem << "contact_inside_noise_sigma must be finite and >= 0; ";
-  if (!std::isfinite(config.contact_tangent_noise_sigma))
-    problem << "contact_tangent_noise_sigma must be finite (negative: no tangent slopes); ";
-  if (!(config.guess_min_depth_fraction >= 0.0) || !std::isfinite(config.guess_min_depth_fraction))
-    problem << "guess_min_depth_fraction must be finite and >= 0; ";
-  if (const std::string evidence = validate(config.evidence); !evidence.empty()) problem << evidence << "; ";
   return problem.str();
 }
 
-}  // namespace
+PlanResult ModelTouchPlanner::plan(const PlanRequest& request) {
+  PlanRequest full = request;
+  std::vector<Vector3> attempted = std::move(full.evidence.attempted_targets);
+  full.evidence = evidence_;
+  full.evidence.attempted_targets.insert(full.evidence.attempted_targets.end(), attempted.begin(), attempted.end());
+  return strategy_.plan(model_, full);
+}
+
+TouchUpdate ModelTouchUpdater::update(const ProbeResult& probed) {
+  return applyTouch(model_, probed.contacts, probed.free_space, config_);
+}
 
 ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+                                const TouchObservationConfig& touch, const EvidenceRule& evidence,
+                                const Progress& progress) const {
+  if (!model.isFitted()) {
+    ExplorationResult result;
+    result.stop_reason = "planner_error: no model: the GP is not fitted";
+    return result;
+  }
+  if (const std::string problem = validate(touch) + validate(evidence); !problem.empty()) {
+    ExplorationResult result;
+    result.stop_reason = "invalid_config: " + problem;
+    return result;
+  }
+  ModelTouchPlanner planner(model, strategy, evidence);
+  ModelTouchUpdater updater(model, touch);
+  return run(planner, prober, updater, progress);
+}
+
+ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpdater& updater,
                                 const Progress& progress) const {
   ExplorationResult result;
   if (const std::string problem = validate(config_); !problem.empty()) {
     result.stop_reason = "invalid_config: " + problem;
     return result;
   }
-  if (!model.isFitted()) {
-    result.stop_reason = "planner_error: no model: the GP is not fitted";
-    return result;
-  }
-  const HyperparameterTuner tuner(config_.tuner);
   int consecutive_failures = 0;
-  EvidenceRule evidence = config_.evidence;  // its attempted targets grow with every touch
-  for (int action = 0;; ++action) {
-    ExplorationRecord record;
-    record.index = action;
+  // Where touches aimed counts as evidence, whatever they found: otherwise a point whose
+  // approach another part of the object blocks is asked for again after every touch.
+  std::vector<Vector3> attempted_targets;
+  try {
+    for (int action = 0;; ++action) {
+      ExplorationRecord record;
+      record.index = action;
+      record.n_train = planner.modelSize();
 
-    PlanRequest request;
-    request.v_max = config_.v_max;
-    request.evidence = evidence;
-    request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
-    const Clock::time_point plan_started = Clock::now();
-    PlanResult plan = strategy.plan(model, request);
-    record.plan_ms = millisecondsSince(plan_started);
-    record.plan_status = plan.status;
-    record.max_surface_variance = plan.max_surface_variance;
-    result.final_max_surface_variance = plan.max_surface_variance;
+      PlanRequest request;
+      request.v_max = config_.v_max;
+      request.evidence.attempted_targets = attempted_targets;
+      request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
+      const Clock::time_point plan_started = Clock::now();
+      const PlanResult plan = planner.plan(request);
+      record.plan_ms = millisecondsSince(plan_started);
+      record.plan_status = plan.status;
+      record.max_surface_variance = plan.max_surface_variance;
+      result.final_max_surface_variance = plan.max_surface_variance;
 
-    if (plan.status == PlanStatus::kConverged) {
-      result.stop_reason = "converged";
-      result.converged = true;
-      return result;
-    }
-    if (plan.status == PlanStatus::kCapReached) {
-      result.stop_reason = "planner_cap_reached";
-      return result;
-    }
-    if (plan.status == PlanStatus::kError) {
-      result.stop_reason = "planner_error: " + plan.message;
-      return result;
-    }
-    // Checked after planning so that a model that converges exactly at the cap says so.
-    if (action >= config_.max_actions) {
-      result.stop_reason = "max_actions";
-      return result;
-    }
+      if (plan.status == PlanStatus::kConverged) {
+        result.stop_reason = "converged";
+        result.converged = true;
+        return result;
+      }
+      if (plan.status == PlanStatus::kCapReached) {
+        result.stop_reason = "planner_cap_reached";
+        return result;
+      }
+      if (plan.status == PlanStatus::kError) {
+        result.stop_reason = "planner_error: " + plan.message;
+        return result;
+      }
+      // Checked after planning so that a model that converges exactly at the cap says so.
+      if (action >= config_.max_actions) {
+        result.stop_reason = "max_actions";
+        return result;
+      }
 
-    record.touch = plan.touch;
-    const ProbeResult probed = prober.probe(plan.touch);
-    if (config_.attempts_are_evidence) {
+      record.touch = plan.touch;
+      const Clock::time_point probe_started = Clock::now();
+      const ProbeResult probed = prober.probe(plan.touch);
+      record.probe_ms = millisecondsSince(probe_started);
       const std::vector<Vector3> aimed = aimedPoints(plan.touch);
-      evidence.attempted_targets.insert(evidence.attempted_targets.end(), aimed.begin(), aimed.end());
-    }
-    ++result.actions;
-    record.probe_success = probed.success;
-    record.probe_reason = probed.reason;
+      attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
+      ++result.actions;
+      record.probe_success = probed.success;
+      record.probe_reason = probed.reason;
 
-    TouchPointCounts counts;
-    std::vector<TrainingPoint> new_points = touchTrainingPoints(model, probed.contacts, probed.free_space, config_, &counts);
-    const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
-
-    const Clock::time_point update_started = Clock::now();
-    if (!new_points.empty()) {
-      const std::vector<Vector3> measured = measuredPositions(probed.contacts, probed.free_space);
-      FitReport report = addTouchPoints(model, new_points, measured, config_, &record.retraction);
-      if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
-        // The model refuses a batch that makes its covariance numerically singular (e.g. a
-        // free-space point right next to a surface point). Contacts are what the touch was
-        // for, so they are retried alone (with the points behind them) rather than losing the
-        // action. The refused free space still retracts guesses: it was measured all the same.
-        new_points.resize(num_contact_points);
-        report = addTouchPoints(model, new_points, measured, config_, &record.retraction);
+      if (!probed.contacts.empty() || !probed.free_space.empty()) {
+        const Clock::time_point update_started = Clock::now();
+        const TouchUpdate update = updater.update(probed);
+        record.update_ms = millisecondsSince(update_started);
+        if (update.ok) {
+          record.contacts_added = update.contacts_added;
+          record.free_points_added = update.free_points_added;
+          record.retraction = update.retraction;
+        } else {
+          // The model is unchanged; the action counts as a failed touch and exploration goes on.
+          record.update_message = update.message;
+        }
       }
-      if (report.ok) {
-        // The model reports acceptance as a total; free-space points are the ones it drops
-        // (duplicates, out of domain), so rejections are attributed to them first.
-        const int accepted = static_cast<int>(report.num_added);
-        record.contacts_added = std::min(accepted, static_cast<int>(counts.contacts));
-        record.free_points_added =
-            std::max(0, accepted - static_cast<int>(num_contact_points));
-      } else {
-        // The model is unchanged; the action counts as a failed touch and exploration goes on.
-        record.update_message = report.message;
+      result.contacts += record.contacts_added;
+      record.contacts_total = result.contacts;
+
+      const bool touched = probed.success && record.contacts_added > 0;
+      consecutive_failures = touched ? 0 : consecutive_failures + 1;
+      if (progress) progress(record);
+      result.records.push_back(record);
+      if (consecutive_failures >= config_.max_consecutive_failures) {
+        result.stop_reason = "consecutive_failures";
+        return result;
       }
     }
-    if (config_.retune_every > 0 && (action + 1) % config_.retune_every == 0) {
-      // A failed tuning keeps the previous hyperparameters, so exploration can go on.
-      record.retuned = tuner.tune(model).ok;
-    }
-    record.update_ms = millisecondsSince(update_started);
-
-    const bool touched = probed.success && record.contacts_added > 0;
-    consecutive_failures = touched ? 0 : consecutive_failures + 1;
-    result.records.push_back(record);
-    if (progress) progress(record, model);
-    if (consecutive_failures >= config_.max_consecutive_failures) {
-      result.stop_reason = "consecutive_failures";
-      return result;
-    }
+  } catch (const std::exception& e) {
+    result.stop_reason = std::string("error: ") + e.what();
   }
+  return result;
 }
 
 }  // namespace gpatlas_core

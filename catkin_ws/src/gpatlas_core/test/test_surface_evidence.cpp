@@ -108,6 +108,7 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
   config.seed = 3;
+  config.evidence.max_distance = 0.0;  // variance alone (Algorithm 1)
   const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, kHugeVMax);
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
@@ -177,16 +178,31 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
   const auto strategy = makeStrategy("atlas_poke");
   Explorer::Config config;
   config.v_max = kHugeVMax;
-  config.evidence.max_distance = 0.3;
   config.max_actions = 40;
+  EvidenceRule evidence;
+  evidence.max_distance = 0.3;
+  // The loop passes where earlier touches aimed; a planner that drops them shows what they buy.
+  struct ForgetfulPlanner : TouchPlanner {
+    ModelTouchPlanner* inner{nullptr};
+    PlanResult plan(const PlanRequest& request) override {
+      PlanRequest forgetful = request;
+      forgetful.evidence.attempted_targets.clear();
+      return inner->plan(forgetful);
+    }
+    std::size_t modelSize() const override { return inner->modelSize(); }
+  };
   for (const bool attempts_count : {true, false}) {
-    config.attempts_are_evidence = attempts_count;
     GpisModel model = modelWithAHoleOnTop(sphere);
     const GpisModel initial = model;
     BlockedProber prober;
     prober.centre = sphere.centre;
     prober.radius = sphere.radius;
-    const ExplorationResult result = Explorer(config).run(model, *strategy, prober);
+    ModelTouchPlanner planner(model, *strategy, evidence);
+    ForgetfulPlanner forgetful;
+    forgetful.inner = &planner;
+    ModelTouchUpdater updater(model, TouchObservationConfig());
+    const ExplorationResult result = attempts_count ? Explorer(config).run(planner, prober, updater)
+                                                    : Explorer(config).run(forgetful, prober, updater);
     if (attempts_count) {
       EXPECT_TRUE(result.converged) << result.stop_reason;
       EXPECT_LT(result.actions, 20);

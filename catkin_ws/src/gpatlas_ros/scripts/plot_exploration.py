@@ -21,7 +21,7 @@ def main(results_dir):
         return [(r["action"], scale * r[key]) for r in rows if r.get(key) is not None]
 
     fig, ax_var = plt.subplots(figsize=(7, 4))
-    mesh_var = series("mesh_max_variance")
+    mesh_var = series("sampled_max_variance")
     if mesh_var:
         ax_var.plot(*zip(*mesh_var), "b.-", label="max variance on the predicted surface")
     planner_var = series("max_surface_variance")

@@ -3,7 +3,10 @@
 // max_actions, or max_consecutive_failures failed touches. The probe service is probe_sim's in
 // simulation; a real robot driver implements the same gpatlas_msgs/Probe service.
 
+#include <gpatlas_core/exploration_report.h>
+#include <gpatlas_core/explorer.h>
 #include <gpatlas_core/shape_metrics.h>
+#include <gpatlas_core/surface_sampler.h>
 #include <gpatlas_core/surface_mesher.h>
 #include <gpatlas_core/triangle_mesh.h>
 #include <gpatlas_msgs/AddObservations.h>
@@ -41,55 +44,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct ActionRecord {
-  int index{0};
-  std::string plan_status;
-  bool probe_success{false};
-  std::string probe_reason;
-  int contacts{0};
-  int free_points{0};
-  int contacts_total{0};
-  double max_surface_variance{std::nan("")};
-  double plan_ms{0.0};
-  double probe_ms{0.0};
-  double update_ms{0.0};
-  std::size_t n_train{0};
-  double rmse_pred_to_gt_m{std::nan("")};
-  double rmse_gt_to_pred_m{std::nan("")};
-  // Largest variance over the predicted mesh's vertices after the action (independent of the
-  // planner's own estimate, which depends on the tree it grew).
-  double mesh_max_variance{std::nan("")};
-};
-
-std::string jsonNumber(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream s;
-  s << std::setprecision(8) << v;
-  return s.str();
-}
-
-std::string jsonString(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (c == '\n') {
-      out += "\\n";
-      continue;
-    }
-    out += c;
-  }
-  return out + "\"";
-}
-
 class ExplorationNode {
  public:
   ExplorationNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
     ParamReader r(pnh_);
-    world_frame_ = r.text("world_frame", "world");
-    v_max_ = r.number("v_max", 0.1, 1e-12, 1e12);
-    strategy_ = r.text("strategy", "atlas_poke");
-    max_actions_ = r.integer("max_actions", 60, 0, 100000);
-    max_failures_ = r.integer("max_consecutive_failures", 5, 1, 100000);
+    gpatlas_core::PipelineFrames frames;
+    readFrames(r, &frames);
+    world_frame_ = frames.world_frame;
+    readExplorer(r, &loop_);
+    gpatlas_core::StrategyChoice choice;
+    readStrategyChoice(r, &choice);
+    strategy_ = choice.name;
     service_timeout_s_ = r.number("service_timeout_s", 60.0, 0.1, 3600.0);
     call_timeout_s_ = r.number("call_timeout_s", 600.0, 0.1, 86400.0);
     capture_ = r.flag("capture", true);
@@ -110,8 +75,8 @@ class ExplorationNode {
   }
 
   int run() {
-    ROS_INFO_STREAM("exploration: strategy " << strategy_ << ", V_max " << v_max_ << ", at most " << max_actions_
-                                             << " actions; results in " << results_dir_);
+    ROS_INFO_STREAM("exploration: strategy " << strategy_ << ", V_max " << loop_.v_max << ", at most "
+                                             << loop_.max_actions << " actions; results in " << results_dir_);
     std::error_code ec;
     fs::create_directories(results_dir_, ec);
     if (ec) {
@@ -121,77 +86,22 @@ class ExplorationNode {
     loadGroundTruth();
     if (capture_ && !captureView()) return 1;
     if (!waitForModel()) return 1;
-    measure(initial_, 0);
-    ROS_INFO_STREAM("exploration: initial model: max surface variance " << initial_.mesh_max_variance
-                                                                         << ", RMSE " << 1000 * initial_.rmse_pred_to_gt_m
-                                                                         << "/" << 1000 * initial_.rmse_gt_to_pred_m << " mm");
-
-    int failures_in_row = 0;
-    int contacts_total = 0;
-    // As the Explorer does: where touches aimed counts as evidence (GetNextTouch).
-    std::vector<geometry_msgs::Point> attempted_targets;
-    for (int action = 1; ros::ok(); ++action) {
-      ActionRecord record;
-      record.index = action;
-      gpatlas_msgs::GetNextTouch plan;
-      plan.request.v_max = v_max_;
-      plan.request.strategy = strategy_;
-      plan.request.attempted_targets = attempted_targets;
-      if (!callService("next_touch", plan)) return finish("error: next_touch unavailable", 1);
-      record.plan_ms = plan.response.plan_time_s * 1000.0;
-      record.max_surface_variance = plan.response.max_surface_variance;
-      const auto status = plan.response.status;
-      if (status == gpatlas_msgs::GetNextTouch::Response::CONVERGED) {
-        final_max_variance_ = plan.response.max_surface_variance;
-        return finish("converged", 0);
-      }
-      if (status != gpatlas_msgs::GetNextTouch::Response::TOUCH)
-        return finish("planner: " + plan.response.message, 1);
-      if (action > max_actions_) return finish("max_actions", 0);
-
-      gpatlas_msgs::Probe probe;
-      probe.request.touch = plan.response.touch;
-      const ros::WallTime probe_start = ros::WallTime::now();
-      if (!callService("probe", probe)) return finish("error: probe unavailable", 1);
-      gpatlas_core::Touch aimed;
-      std::string malformed;  // the planner's touches are well formed; a malformed one aimed nowhere
-      if (fromMsg(plan.response.touch, &aimed, &malformed))
-        for (const auto& p : gpatlas_core::aimedPoints(aimed)) attempted_targets.push_back(toPointMsg(p));
-      record.probe_ms = (ros::WallTime::now() - probe_start).toSec() * 1000.0;
-      record.probe_success = probe.response.success;
-      record.probe_reason = probe.response.reason;
-      record.contacts = static_cast<int>(probe.response.observations.contacts.size());
-      record.free_points = static_cast<int>(probe.response.observations.free_space.size());
-
-      bool model_updated = false;
-      if (record.contacts + record.free_points > 0) {
-        gpatlas_msgs::AddObservations add;
-        add.request.observations = probe.response.observations;
-        const ros::WallTime update_start = ros::WallTime::now();
-        if (!callService("add_observations", add)) return finish("error: add_observations unavailable", 1);
-        record.update_ms = (ros::WallTime::now() - update_start).toSec() * 1000.0;
-        model_updated = add.response.success;
-        if (!add.response.success) ROS_WARN_STREAM("exploration: the model refused the touch: " << add.response.message);
-        if (model_updated) waitForTrainingSetNewerThan(update_start);
-      }
-      contacts_total += record.contacts;
-      record.contacts_total = contacts_total;
-      failures_in_row = (probe.response.success && model_updated) ? 0 : failures_in_row + 1;
-      measure(record, action);
-      records_.push_back(record);
-      std::ostringstream line;
-      line << "action " << std::setw(3) << action << ": " << (record.probe_success ? "contact   " : "no contact")
-           << " +" << record.contacts << " contacts (" << contacts_total << "), max surface variance "
-           << std::setprecision(3) << record.max_surface_variance << ", plan " << std::fixed << std::setprecision(0)
-           << record.plan_ms << " ms, update " << record.update_ms << " ms";
-      if (std::isfinite(record.rmse_pred_to_gt_m))
-        line << std::setprecision(1) << ", RMSE " << 1000 * record.rmse_pred_to_gt_m << "/"
-             << 1000 * record.rmse_gt_to_pred_m << " mm";
-      if (!record.probe_success) line << " (" << record.probe_reason << ")";
-      ROS_INFO_STREAM("exploration: " << line.str());
-      if (failures_in_row >= max_failures_) return finish("consecutive_failures", 0);
-    }
-    return finish("interrupted", 1);
+    initial_.n_train = latestTraining()->points.size();
+    measure(initial_);
+    ROS_INFO_STREAM("exploration: initial model: max surface variance " << initial_.sampled_max_variance << ", RMSE "
+                                                                         << 1000 * initial_.rmse_pred_to_gt_m << "/"
+                                                                         << 1000 * initial_.rmse_gt_to_pred_m << " mm");
+    // The core's Algorithm 2 over the pipeline's services: the bench runs the same loop.
+    ServicePlanner planner(*this);
+    ServiceProber prober(*this);
+    ServiceUpdater updater(*this);
+    const gpatlas_core::Explorer explorer(loop_);
+    const gpatlas_core::ExplorationResult result =
+        explorer.run(planner, prober, updater, [this](gpatlas_core::ExplorationRecord& record) {
+          if (metrics_every_ > 0 && (record.index + 1) % metrics_every_ == 0) measure(record);
+          ROS_INFO_STREAM("exploration: " << gpatlas_core::describeAction(record));
+        });
+    return finish(result);
   }
 
   // Joins the call workers; call after ros::shutdown(), which makes any blocked call return.
@@ -326,43 +236,54 @@ class ExplorationNode {
     }
   }
 
-  // Rebuilds the GP from the latest training set, meshes it and, with a ground truth, measures it.
-  void measure(ActionRecord& record, int action) {
+  // Rebuilds the GP from the latest training set and measures it as the bench does: the largest
+  // variance of a fixed surface sample and, with a ground truth, the shape error.
+  void measure(gpatlas_core::ExplorationRecord& record) {
     const auto training = latestTraining();
     if (!training) return;
-    record.n_train = training->points.size();
-    if (metrics_every_ <= 0 || action % metrics_every_ != 0) return;
     gpatlas_core::GpisModel model;
     std::string error;
     if (!modelFromMsg(*training, gpis_config_, &model, &error)) return;
+    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
+    if (sample.ok) record.sampled_max_variance = sample.maxVariance();
+    if (ground_truth_.empty()) return;
     const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model);
     if (!surface.ok) return;
-    for (double v : surface.mesh.vertex_variances)
-      if (!(record.mesh_max_variance >= v)) record.mesh_max_variance = v;
-    if (ground_truth_.empty()) return;
     const auto metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
     if (!metrics.ok) return;
     record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
     record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
   }
 
-  int finish(const std::string& stop_reason, int code) {
+  int finish(const gpatlas_core::ExplorationResult& result) {
     const fs::path dir(results_dir_);
-    gpatlas_core::ShapeMetricsResult final_metrics;
-    std::string mesh_path;
+    gpatlas_core::ExplorationReport report;
+    report.strategy = strategy_;
+    report.kernel = gpis_config_.kernel;
+    report.loop = loop_;
+    report.initial = initial_;
+    report.result = result;
+    bool has_surface = false;
+    std::string surface_message = "no model";
     if (const auto training = latestTraining()) {
       gpatlas_core::GpisModel model;
-      std::string error;
-      if (modelFromMsg(*training, gpis_config_, &model, &error)) {
+      if (modelFromMsg(*training, gpis_config_, &model, &surface_message)) {
         const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model);
+        surface_message = surface.message;
+        has_surface = surface.ok;
         if (surface.ok) {
-          mesh_path = (dir / "surface.ply").string();
-          const std::string write_error = gpatlas_core::writePly(surface.mesh, mesh_path);
+          const std::string write_error = gpatlas_core::writePly(surface.mesh, (dir / "surface.ply").string());
           if (!write_error.empty()) ROS_WARN_STREAM("exploration: " << write_error);
-          if (!ground_truth_.empty()) final_metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
+          if (!ground_truth_.empty()) {
+            const auto metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
+            if (metrics.ok)
+              report.final_shape = {true, metrics.rmse_predicted_to_truth, metrics.rmse_truth_to_predicted,
+                                    metrics.chamfer_l1, metrics.f_score};
+          }
         }
       }
     }
+    report.status = gpatlas_core::runStatus(result, has_surface, surface_message);
     gpatlas_msgs::SaveMap save;
     save.request.path = (dir / "collision_map.bt").string();
     const std::string save_name = nh_.resolveName("save_map");
@@ -371,43 +292,8 @@ class ExplorationNode {
         !save.response.success)
       ROS_WARN_STREAM("exploration: " << save.response.message);
 
-    int contacts = 0;
-    for (const auto& r : records_) contacts += r.contacts;
     std::ofstream json(dir / "report.json");
-    json << "{\n  \"settings\": {\"strategy\": " << jsonString(strategy_) << ", \"v_max\": " << jsonNumber(v_max_)
-         << ", \"max_actions\": " << max_actions_ << ", \"max_consecutive_failures\": " << max_failures_
-         << ", \"kernel\": " << jsonString(gpis_config_.kernel) << "},\n";
-    json << "  \"stop_reason\": " << jsonString(stop_reason) << ",\n  \"converged\": "
-         << (stop_reason == "converged" ? "true" : "false") << ",\n  \"actions\": " << records_.size()
-         << ",\n  \"contacts\": " << contacts << ",\n  \"final_max_surface_variance\": "
-         << jsonNumber(final_max_variance_) << ",\n";
-    json << "  \"final_metrics\": ";
-    if (final_metrics.ok)
-      json << "{\"rmse_pred_to_gt_m\": " << jsonNumber(final_metrics.rmse_predicted_to_truth)
-           << ", \"rmse_gt_to_pred_m\": " << jsonNumber(final_metrics.rmse_truth_to_predicted)
-           << ", \"chamfer_l1_m\": " << jsonNumber(final_metrics.chamfer_l1)
-           << ", \"fscore_5mm\": " << jsonNumber(final_metrics.f_score) << "}";
-    else
-      json << "null";
-    json << ",\n  \"initial\": {\"n_train\": " << initial_.n_train
-         << ", \"mesh_max_variance\": " << jsonNumber(initial_.mesh_max_variance)
-         << ", \"rmse_pred_to_gt_m\": " << jsonNumber(initial_.rmse_pred_to_gt_m)
-         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(initial_.rmse_gt_to_pred_m) << "}";
-    json << ",\n  \"history\": [\n";
-    for (std::size_t i = 0; i < records_.size(); ++i) {
-      const auto& r = records_[i];
-      json << "    {\"action\": " << r.index << ", \"probe_success\": " << (r.probe_success ? "true" : "false")
-           << ", \"probe_reason\": " << jsonString(r.probe_reason) << ", \"contacts\": " << r.contacts
-           << ", \"free_points\": " << r.free_points << ", \"contacts_total\": " << r.contacts_total
-           << ", \"max_surface_variance\": " << jsonNumber(r.max_surface_variance)
-           << ", \"plan_ms\": " << jsonNumber(r.plan_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
-           << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"n_train\": " << r.n_train
-           << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
-           << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m)
-           << ", \"mesh_max_variance\": " << jsonNumber(r.mesh_max_variance) << "}"
-           << (i + 1 < records_.size() ? ",\n" : "\n");
-    }
-    json << "  ]\n}\n";
+    json << gpatlas_core::toJson(report);
     json.close();
 
     const std::string script = ros::package::getPath("gpatlas_ros") + "/scripts/plot_exploration.py";
@@ -415,22 +301,116 @@ class ExplorationNode {
     if (std::system(command.c_str()) != 0) ROS_WARN_STREAM("exploration: plotting failed: " << command);
 
     std::ostringstream summary;
-    summary << "exploration finished: " << stop_reason << " after " << records_.size() << " actions (" << contacts
-            << " contacts)";
-    if (final_metrics.ok)
-      summary << std::setprecision(3) << "; shape RMSE " << 1000 * final_metrics.rmse_predicted_to_truth
-              << " mm (predicted->truth), " << 1000 * final_metrics.rmse_truth_to_predicted
-              << " mm (truth->predicted), F-score@5mm " << final_metrics.f_score;
+    summary << "exploration finished: " << report.status << " after " << result.actions << " actions ("
+            << result.contacts << " contacts)";
+    if (report.final_shape.measured)
+      summary << std::setprecision(3) << "; shape RMSE " << 1000 * report.final_shape.rmse_pred_to_gt_m
+              << " mm (predicted->truth), " << 1000 * report.final_shape.rmse_gt_to_pred_m
+              << " mm (truth->predicted), F-score@5mm " << report.final_shape.fscore_5mm;
     summary << "; results in " << results_dir_;
+    if (report.status.rfind("error", 0) == 0) {
+      ROS_ERROR_STREAM(summary.str());
+      return 1;
+    }
     ROS_INFO_STREAM(summary.str());
-    return code;
+    return 0;
   }
+
+  // Algorithm 2's three steps as the pipeline's services (gpatlas_core::Explorer runs the loop).
+  // A service that is missing or does not answer ends the run ("error: ...").
+  class ServicePlanner : public gpatlas_core::TouchPlanner {
+   public:
+    explicit ServicePlanner(ExplorationNode& node) : node_(node) {}
+    gpatlas_core::PlanResult plan(const gpatlas_core::PlanRequest& request) override {
+      gpatlas_msgs::GetNextTouch srv;
+      srv.request.v_max = request.v_max;
+      srv.request.strategy = node_.strategy_;
+      srv.request.seed = request.seed;
+      for (const auto& p : request.evidence.attempted_targets) srv.request.attempted_targets.push_back(toPointMsg(p));
+      if (!node_.callService("next_touch", srv)) throw std::runtime_error("next_touch did not answer");
+      gpatlas_core::PlanResult plan;
+      plan.message = srv.response.message;
+      plan.max_surface_variance = srv.response.max_surface_variance;
+      plan.elapsed_s = srv.response.plan_time_s;
+      switch (srv.response.status) {
+        case gpatlas_msgs::GetNextTouch::Response::TOUCH: {
+          plan.status = gpatlas_core::PlanStatus::kTouch;
+          std::string malformed;
+          if (!fromMsg(srv.response.touch, &plan.touch, &malformed)) {
+            plan.status = gpatlas_core::PlanStatus::kError;
+            plan.message = "malformed touch: " + malformed;
+          }
+          break;
+        }
+        case gpatlas_msgs::GetNextTouch::Response::CONVERGED:
+          plan.status = gpatlas_core::PlanStatus::kConverged;
+          break;
+        default:
+          plan.status = gpatlas_core::PlanStatus::kError;
+      }
+      return plan;
+    }
+    std::size_t modelSize() const override {
+      const auto training = node_.latestTraining();
+      return training ? training->points.size() : 0;
+    }
+
+   private:
+    ExplorationNode& node_;
+  };
+
+  class ServiceProber : public gpatlas_core::Prober {
+   public:
+    explicit ServiceProber(ExplorationNode& node) : node_(node) {}
+    gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override {
+      gpatlas_msgs::Probe srv;
+      srv.request.touch = toMsg(touch);
+      srv.request.touch.header.frame_id = node_.world_frame_;
+      srv.request.touch.header.stamp = ros::Time::now();
+      if (!node_.callService("probe", srv)) throw std::runtime_error("probe did not answer");
+      gpatlas_core::ProbeResult result;
+      std::string error;
+      if (!fromMsg(srv.response.observations, &result, &error)) {
+        result = gpatlas_core::ProbeResult();
+        result.reason = "malformed observations: " + error;
+        return result;
+      }
+      result.success = srv.response.success;
+      result.reason = srv.response.reason;
+      node_.observations_header_ = srv.response.observations.header;
+      return result;
+    }
+
+   private:
+    ExplorationNode& node_;
+  };
+
+  class ServiceUpdater : public gpatlas_core::ModelUpdater {
+   public:
+    explicit ServiceUpdater(ExplorationNode& node) : node_(node) {}
+    gpatlas_core::TouchUpdate update(const gpatlas_core::ProbeResult& probed) override {
+      gpatlas_msgs::AddObservations srv;
+      srv.request.observations = toMsg(probed);
+      srv.request.observations.header = node_.observations_header_;
+      const ros::WallTime started = ros::WallTime::now();
+      if (!node_.callService("add_observations", srv)) throw std::runtime_error("add_observations did not answer");
+      gpatlas_core::TouchUpdate update;
+      update.ok = srv.response.success;
+      update.message = srv.response.message;
+      update.contacts_added = static_cast<int>(srv.response.num_contacts_added);
+      update.free_points_added = static_cast<int>(srv.response.num_added) - update.contacts_added;
+      if (update.ok) node_.waitForTrainingSetNewerThan(started);
+      return update;
+    }
+
+   private:
+    ExplorationNode& node_;
+  };
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_, strategy_, results_dir_;
-  double v_max_{0.1};
-  int max_actions_{60};
-  int max_failures_{5};
+  gpatlas_core::Explorer::Config loop_;
+  std_msgs::Header observations_header_;  // the frame of the last probe's observations
   double service_timeout_s_{60.0};  // for a service to appear
   double call_timeout_s_{600.0};    // for a call to answer (a touch on a slow arm takes minutes)
   // The ground truth and the map's saving: optional, at the start and the end; not worth a wait.
@@ -441,9 +421,7 @@ class ExplorationNode {
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   gpatlas_core::TriangleMesh ground_truth_;
-  ActionRecord initial_;
-  std::vector<ActionRecord> records_;
-  double final_max_variance_{std::nan("")};
+  gpatlas_core::ExplorationRecord initial_;
 
   std::mutex mutex_;
   gpatlas_msgs::TrainingSet::ConstPtr training_;

@@ -26,8 +26,8 @@ class SimExplorationTest(unittest.TestCase):
         self.assertEqual(len(report["history"]), report["actions"])
         self.assertEqual(report["contacts"], sum(h["contacts"] for h in report["history"]))
         # After the simulated actions the largest variance on the predicted surface has dropped.
-        initial = report["initial"]["mesh_max_variance"]
-        last = report["history"][-1]["mesh_max_variance"]
+        initial = report["initial"]["sampled_max_variance"]
+        last = report["history"][-1]["sampled_max_variance"]
         self.assertIsNotNone(initial)
         self.assertIsNotNone(last)
         self.assertEqual(report["actions"], 5, report["stop_reason"])

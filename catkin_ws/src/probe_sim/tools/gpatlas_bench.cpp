@@ -6,6 +6,8 @@
 // simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
 // Writes runs.csv, history.csv, reachability.csv, summary.md and one PNG per object into --out.
 
+#include <gpatlas_core/config_readers.h>
+#include <gpatlas_core/exploration_report.h>
 #include <gpatlas_core/exploration_strategy.h>
 #include <gpatlas_core/explorer.h>
 #include <gpatlas_core/gpis_model.h>
@@ -15,12 +17,15 @@
 #include <gpatlas_core/surface_sampler.h>
 #include <gpatlas_core/surface_mesher.h>
 #include <gpatlas_core/triangle_mesh.h>
-#include <gpatlas_core/view_free_space.h>
+#include <gpatlas_core/parameters.h>
+#include <gpatlas_core/segmentation.h>
+#include <gpatlas_core/view_training.h>
 #include <probe_sim/depth_camera.h>
 #include <probe_sim/object_mesh.h>
 #include <probe_sim/probe.h>
 #include <probe_sim/reachability.h>
 #include <probe_sim/scene.h>
+#include <probe_sim/simulation_settings.h>
 
 #include <algorithm>
 #include <atomic>
@@ -56,133 +61,59 @@ struct Options {
   double procedural_size_m{0.15};
   std::vector<std::string> strategies;
   std::string probe{"ray"};
-  double v_max{0.1};
   std::vector<int> seeds{0};
-  int max_actions{100};
+  int max_actions{-1};  // < 0: the config's exploration/max_actions
   int jobs{1};
   std::string out{"bench_out"};
-  int initial_points{400};
-  double vision_noise_sigma{0.1};
-  double touch_noise_sigma{-1.0};  // contacts and free-space points; < 0 keeps the explorer's default
-  bool keep_high_variance_candidates{false};
-  double free_space_noise_sigma{-1.0};  // the probe's free space alone, after --touch-sigma; < 0: as above
-  double camera_noise_m{0.001};
-  // ML-II tuning after the first fit. Measured on a single view: it keeps the thin-plate R at
-  // its lower bound and drives the noise scale to its lower bound (1 -> 0.01), which divides
-  // the surface variances by ~10 so that runs "converge" after 0 actions. Off by default: the
-  // paper's fixed hyperparameters; --tune tunes the kernel's parameters with the noise fixed.
-  bool tune{false};
+  std::string config_path{GPATLAS_DEFAULT_CONFIG};
+  std::vector<std::string> overrides;  // --set key=value, in order
   // The paper simulates touches by ray casting on the object mesh alone (the object is held
-  // in the air); a table under the object makes every touch aimed at the unseen underside hit
-  // the table, which is no information about the object and ends runs by failed touches.
+  // in the air); with --table the object stands on a table the camera sees (segmentation
+  // removes it) and touches can hit.
   bool table{false};
-  bool support_plane{true};
-  int retune_every{0};
   int curve_every{5};
-  double mesh_resolution_m{0.005};
   bool reachability{true};
   int reach_directions{probe_sim::ReachabilityConfig().directions};
   bool verbose{false};
   bool plot{true};
   bool save_meshes{false};
-  int view_free_rays{300};
-  int occluded_inside_points{60};
-  double occluded_inside_sigma{1.0};
-  double occluded_margin{0.08};
-  double interior_prior_depth{0.0};
-  double interior_prior_radius_cells{1.5};
-  int interior_prior_cells{16};
-  int slide_extension_charts{gpatlas_core::StrategyConfig().slide_extension_charts};
-  double evidence_distance{gpatlas_core::Explorer::Config().evidence.max_distance};
-  double contact_inside_depth_m{gpatlas_core::Explorer::Config().contact_inside_depth_m};
-  double contact_tangent_sigma{gpatlas_core::Explorer::Config().contact_tangent_noise_sigma};
-  bool retract_guesses{gpatlas_core::Explorer::Config().retract_contradicted_guesses};
-  bool attempts_are_evidence{gpatlas_core::Explorer::Config().attempts_are_evidence};
-  double min_point_spacing_m{gpatlas_core::Explorer::Config().min_point_spacing_m};
-  double min_free_space_spacing_m{gpatlas_core::Explorer::Config().min_free_space_spacing_m};
-  bool free_space_distance_targets{true};
-  gpatlas_core::GpisModel::Config gpis;
+  // Everything else comes from the config file: the pipeline's own Configs.
+  gpatlas_core::PipelineConfig pipeline;
 };
 
 void printUsage() {
   std::cout <<
       R"(usage: gpatlas_bench [options]
-  --object FILE|procedural:NAME  object to explore (repeatable); procedural names: sphere box
-                                 cylinder torus bowl mug funnel
+Runs the pipeline's exploration (segmentation of a simulated depth view, the GPIS, Algorithm 2
+with a strategy, the simulated probe) on objects with a known truth, and measures the shape.
+  --config FILE                  the pipeline's parameters [the repository's config/pipeline.yaml]
+  --set KEY=VALUE                override one of them, e.g. --set exploration/v_max=0.05 (repeatable)
+  --object FILE|procedural:NAME  object to explore (repeatable); procedural names: )"
+            << [] {
+                 std::string names;
+                 for (const auto& n : probe_sim::proceduralObjectNames()) names += n + " ";
+                 return names;
+               }() << R"(
   --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
   --size-m S                     size of procedural objects in metres [0.15]
   --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
-                                 [atlas_poke], or one from a --strategy-library
+                                 [the config's strategy], or one from a --strategy-library
   --strategy-library FILE        a shared library that registers strategies of your own
-                                 (GPATLAS_REGISTER_STRATEGY, gpatlas_core/strategy_library.h;
-                                 example: libgpatlas_example_strategies.so) (repeatable)
+                                 (GPATLAS_REGISTER_STRATEGY, gpatlas_core/strategy_library.h) (repeatable)
   --probe ray|sphere             simulated probe model [ray]
-  --vmax V                       variance threshold, paper-equivalent units, > 0 [0.1]
-  --seeds 0,1,2                  seeds (camera noise, subsampling, planner) [0]
-  --max-actions N                cap on tactile actions per run [100]
+  --seeds 0,1,2                  seeds (camera noise, the view's subset, the planner) [the config's seed]
+  --max-actions N                cap on tactile actions per run [the config's exploration/max_actions]
   --jobs N                       runs in parallel [1]
   --out DIR                      output folder [bench_out]
-  --points N                     initial on-surface points taken from the depth view [400]
-  --view-free-rays N             camera rays whose free space (2 samples each) joins the initial data; 0: none [300]
-  --occluded-inside N            inside points sampled behind the view, within its hull; 0: none [60]
-  --occluded-inside-sigma S      their noise sigma (reference units) [1.0]
-  --occluded-margin F            their clearance behind the view, fraction of its radius [0.08]
-  --interior-prior D             prior mean -D (units of f) over the view's occluded interior,
-                                 instead of the inside points unless --occluded-inside is given; 0: none [0]
-  --interior-prior-radius C      its bumps' radius in grid cells [1.5]
-  --interior-prior-cells N       its grid cells per axis [16]
-  --slide-extension N            atlas_slide: charts added to the path past the first above V_max [20]
-  --evidence-distance D          a predicted surface point farther than D (normalised: the view's
-                                 radius is 1) from every view point and contact needs a touch
-                                 whatever its variance; every strategy; 0: V_max alone (the paper) [0.5]
-  --contact-inside-depth-m D     an inside point D metres behind each contact; 0: none (the paper) [0.003]
-  --contact-tangent-sigma S      each contact with a normal also observes that f does not change
-                                 across it (two tangent slopes, target 0), with this noise sigma
-                                 (reference units); negative: not (the paper) [-1]
-  --no-attempt-evidence          only measurements count as evidence, not the points earlier
-                                 touches aimed at [they count]
-  --keep-guesses                 touches do not retract the occluded-interior guesses they
-                                 contradict [retracted]
-  --min-spacing-m D              a touch's contacts are thinned to this spacing in metres [0.004]
-  --min-free-spacing-m D         ... and its free-space points to this one [0.015]
-  --vision-sigma S               noise sigma of the vision points (reference units, see
-                                 GpisModelConfig) [0.1]
-  --tune                         tune the kernel's parameters (ML-II, noise fixed) after the
-                                 initial fit [off: the paper's fixed hyperparameters]
-  --touch-sigma S                noise sigma of contacts and free-space points (reference units)
-                                 [the explorer's default]
-  --free-space-sigma S           noise sigma of the probe's free-space points alone (reference
-                                 units) [as --touch-sigma]
-  --keep-high-variance-candidates  atlas strategies: a candidate above V_max inside another chart
-                                 stays a candidate (AtlasPlanner::Config) [off]
-  --no-tune                      do not tune (the default)
-  --table                        put a table under the object (touches can hit it) [off: the
-                                 paper's protocol casts rays on the object mesh alone]
-  --no-support-plane             with --table: do not tell the model that nothing of the object
-                                 is below the table top [told: outside points under it, no guessed
-                                 inside points in it; the exact top here, segmentation's RANSAC
-                                 plane in the pipeline]
-  --retune-every K               re-tune every K actions (0: never) [0]
+  --table                        a table under the object, seen by the camera and hit by touches
+                                 [off: the paper's protocol casts rays on the object alone]
   --curve-every K                measure the shape error every K actions (0: only at the end) [5]
-  --mesh-res-m R                 marching-cubes resolution in metres [0.005]
-  --kernel NAME                  GPIS kernel: wendland | thin_plate | squared_exponential |
-                                 matern32 | matern52 [wendland]; thin_plate selects its own
-                                 frame (data radius 0.6, domain radius 1) unless given
-  --kernel-params P1[,P2]        kernel parameters in natural units (wendland/thin_plate: R)
-  --data-radius D                normalised radius of the initial surface data [1]
-  --renormalise-radius D         normalised radius beyond which a contact renormalises [1.5]
-  --domain-radius D              normalised radius of the model's domain [2]
-  --no-inside-point              no inside (-1) pseudo-point at the centroid
-  --inside-clearance C           place the inside point only if no surface point is within
-                                 C (normalised) of the centroid [GpisModelConfig's default]
-  --free-space-plus-one          label free-space points +1 (default: their normalised
-                                 distance to the nearest surface point, at most 1)
-  --verbose                      one line per action
-  --no-plot                      skip the PNG plots
   --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
   --reach-directions N           escape lines tried per truth triangle for it [256]
   --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
                                  and each object as OBJECT_truth.ply
+  --verbose                      one line per action
+  --no-plot                      skip the PNG plots
 )";
 }
 
@@ -211,8 +142,6 @@ int parseInt(const std::string& flag, const std::string& value) {
 Options parseArgs(int argc, char** argv) {
   Options o;
   bool seeds_given = false;
-  bool frame_given = false;
-  bool occluded_inside_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -222,7 +151,9 @@ Options parseArgs(int argc, char** argv) {
     if (a == "-h" || a == "--help") {
       printUsage();
       std::exit(0);
-    } else if (a == "--object") o.objects.push_back({next(), o.scale});
+    } else if (a == "--config") o.config_path = next();
+    else if (a == "--set") o.overrides.push_back(next());
+    else if (a == "--object") o.objects.push_back({next(), o.scale});
     else if (a == "--scale") {
       o.scale = parseDouble(a, next());
       if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
@@ -238,7 +169,6 @@ Options parseArgs(int argc, char** argv) {
       for (const auto& name : load.added) names += " " + name;
       std::cout << "gpatlas_bench: " << file << " adds the strategies:" << names << std::endl;
     } else if (a == "--probe") o.probe = next();
-    else if (a == "--vmax") o.v_max = parseDouble(a, next());
     else if (a == "--seeds") {
       o.seeds.clear();
       for (const auto& s : splitList(next())) o.seeds.push_back(parseInt(a, s));
@@ -246,92 +176,44 @@ Options parseArgs(int argc, char** argv) {
     } else if (a == "--max-actions") o.max_actions = parseInt(a, next());
     else if (a == "--jobs") o.jobs = parseInt(a, next());
     else if (a == "--out") o.out = next();
-    else if (a == "--points") o.initial_points = parseInt(a, next());
-    else if (a == "--vision-sigma") o.vision_noise_sigma = parseDouble(a, next());
-    else if (a == "--touch-sigma") o.touch_noise_sigma = parseDouble(a, next());
-    else if (a == "--free-space-sigma") o.free_space_noise_sigma = parseDouble(a, next());
-    else if (a == "--keep-high-variance-candidates") o.keep_high_variance_candidates = true;
-    else if (a == "--no-tune") o.tune = false;
-    else if (a == "--tune") o.tune = true;
     else if (a == "--table") o.table = true;
-    else if (a == "--no-support-plane") o.support_plane = false;
-    else if (a == "--retune-every") o.retune_every = parseInt(a, next());
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
-    else if (a == "--mesh-res-m") o.mesh_resolution_m = parseDouble(a, next());
     else if (a == "--no-reachability") o.reachability = false;
     else if (a == "--reach-directions") o.reach_directions = parseInt(a, next());
-    else if (a == "--data-radius") o.gpis.data_radius = parseDouble(a, next()), frame_given = true;
-    else if (a == "--renormalise-radius") o.gpis.renormalise_radius = parseDouble(a, next()), frame_given = true;
-    else if (a == "--kernel") o.gpis.kernel = next();
-    else if (a == "--pseudo-sigma") o.gpis.pseudo_point_sigma = parseDouble(a, next());
-    else if (a == "--kernel-params") {
-      o.gpis.initial_params.clear();
-      for (const auto& v : splitList(next())) {
-        const double x = parseDouble(a, v);
-        if (!(x > 0.0)) throw std::invalid_argument("--kernel-params needs positive values");
-        o.gpis.initial_params.push_back(std::log(x));
-      }
-    } else if (a == "--domain-radius") o.gpis.domain_radius = parseDouble(a, next()), frame_given = true;
-    else if (a == "--inside-clearance") o.gpis.inside_point_min_clearance = parseDouble(a, next());
-    else if (a == "--no-inside-point") o.gpis.inside_point_at_centroid = false;
     else if (a == "--verbose") o.verbose = true;
-    else if (a == "--free-space-plus-one") o.free_space_distance_targets = false;
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
-    else if (a == "--view-free-rays") o.view_free_rays = parseInt(a, next());
-    else if (a == "--occluded-inside") {
-      o.occluded_inside_points = parseInt(a, next());
-      occluded_inside_given = true;
-    }
-    else if (a == "--occluded-inside-sigma") o.occluded_inside_sigma = parseDouble(a, next());
-    else if (a == "--occluded-margin") o.occluded_margin = parseDouble(a, next());
-    else if (a == "--interior-prior") o.interior_prior_depth = parseDouble(a, next());
-    else if (a == "--interior-prior-radius") o.interior_prior_radius_cells = parseDouble(a, next());
-    else if (a == "--interior-prior-cells") o.interior_prior_cells = parseInt(a, next());
-    else if (a == "--slide-extension") o.slide_extension_charts = parseInt(a, next());
-    else if (a == "--evidence-distance") o.evidence_distance = parseDouble(a, next());
-    else if (a == "--contact-inside-depth-m") o.contact_inside_depth_m = parseDouble(a, next());
-    else if (a == "--contact-tangent-sigma") o.contact_tangent_sigma = parseDouble(a, next());
-    else if (a == "--keep-guesses") o.retract_guesses = false;
-    else if (a == "--no-attempt-evidence") o.attempts_are_evidence = false;
-    else if (a == "--min-spacing-m") o.min_point_spacing_m = parseDouble(a, next());
-    else if (a == "--min-free-spacing-m") o.min_free_space_spacing_m = parseDouble(a, next());
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
   }
-  if (o.gpis.kernel == "thin_plate" && !frame_given) {
-    const auto reference = gpatlas_core::GpisModelConfig::thinPlateReference();
-    o.gpis.data_radius = reference.data_radius;
-    o.gpis.renormalise_radius = reference.renormalise_radius;
-    o.gpis.domain_radius = reference.domain_radius;
+
+  std::string error;
+  const std::unique_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
+  if (!params) throw std::invalid_argument("--config: " + error);
+  for (const std::string& assignment : o.overrides)
+    if (!params->set(assignment, &error)) throw std::invalid_argument("--set: " + error);
+  gpatlas_core::ParamReader reader(*params);
+  gpatlas_core::readPipeline(reader, &o.pipeline);
+  if (!reader.ok()) throw std::invalid_argument(o.config_path + ": " + reader.errors());
+  // A --set of a name no reader knows is a typo, not a setting.
+  for (const std::string& assignment : o.overrides) {
+    const std::string key = assignment.substr(0, assignment.find('='));
+    const auto& read = reader.readNames();
+    if (std::find(read.begin(), read.end(), key) == read.end())
+      throw std::invalid_argument("--set " + assignment + ": no such parameter (see " + o.config_path + ")");
   }
+  for (const std::string& library : o.pipeline.strategy_choice.libraries) {
+    const auto load = gpatlas_core::loadStrategyLibrary(library);
+    if (!load.ok) throw std::invalid_argument(load.message);
+  }
+
   if (o.objects.empty()) o.objects.push_back({"procedural:mug", 1.0});
-  if (o.strategies.empty()) o.strategies.push_back("atlas_poke");
-  if (!(o.v_max > 0.0)) throw std::invalid_argument("--vmax must be > 0");
-  if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
+  if (o.strategies.empty()) o.strategies.push_back(o.pipeline.strategy_choice.name);
+  if (!seeds_given) o.seeds = {static_cast<int>(o.pipeline.seed)};
+  if (o.max_actions >= 0) o.pipeline.exploration.max_actions = o.max_actions;
   if (!(o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
-  if (o.max_actions < 0) throw std::invalid_argument("--max-actions must be >= 0");
   if (o.reach_directions < 1) throw std::invalid_argument("--reach-directions must be >= 1");
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
-  if (o.initial_points < 4) throw std::invalid_argument("--points must be >= 4");
-  if (o.view_free_rays < 0) throw std::invalid_argument("--view-free-rays must be >= 0");
-  if (o.occluded_inside_points < 0) throw std::invalid_argument("--occluded-inside must be >= 0");
-  if (!(o.occluded_margin >= 0.0) || !std::isfinite(o.occluded_margin))
-    throw std::invalid_argument("--occluded-margin must be a finite number >= 0");
-  if (!(o.interior_prior_depth >= 0.0) || !std::isfinite(o.interior_prior_depth))
-    throw std::invalid_argument("--interior-prior must be a finite number >= 0");
-  if (!(o.interior_prior_radius_cells > 0.0) || !std::isfinite(o.interior_prior_radius_cells))
-    throw std::invalid_argument("--interior-prior-radius must be > 0");
-  if (o.interior_prior_cells < 2 || o.interior_prior_cells > 100)
-    throw std::invalid_argument("--interior-prior-cells must be in 2..100");
-  // The prior replaces the inside points unless both are asked for.
-  if (o.interior_prior_depth > 0.0 && !occluded_inside_given) o.occluded_inside_points = 0;
-  if (!(o.occluded_inside_sigma > 0.0)) throw std::invalid_argument("--occluded-inside-sigma must be > 0");
-  if (o.slide_extension_charts < 0) throw std::invalid_argument("--slide-extension must be >= 0");
-  if (!(o.evidence_distance >= 0.0)) throw std::invalid_argument("--evidence-distance must be >= 0");
-  if (!(o.contact_inside_depth_m >= 0.0)) throw std::invalid_argument("--contact-inside-depth-m must be >= 0");
-  if (!(o.min_point_spacing_m >= 0.0) || !(o.min_free_space_spacing_m >= 0.0))
-    throw std::invalid_argument("--min-spacing-m and --min-free-spacing-m must be >= 0");
-  if (!seeds_given && o.seeds.empty()) o.seeds = {0};
+  if (o.seeds.empty()) throw std::invalid_argument("--seeds needs at least one seed");
   const auto probes = probe_sim::probeModelNames();
   if (std::find(probes.begin(), probes.end(), o.probe) == probes.end())
     throw std::invalid_argument("unknown probe '" + o.probe + "' (ray or sphere)");
@@ -345,7 +227,21 @@ Options parseArgs(int argc, char** argv) {
   return o;
 }
 
-// A ground-truth object placed on the table: bounding box centred on x = y = 0, bottom on z = 0.
+// Where the simulator (probe_sim_node's object_position_xy_m) puts the object, so that the
+// segmentation's crop box in config/pipeline.yaml holds it, and its table.
+const Eigen::Vector2d kObjectPositionXY(0.7, 0.0);
+
+probe_sim::Scene::Config sceneConfig(bool with_table) {
+  const probe_sim::SimulationSettings sim;
+  probe_sim::Scene::Config config;
+  config.add_table = with_table;
+  config.table_size_xy = sim.table_size_xy_m;
+  config.table_centre_xy = sim.table_centre_xy_m;
+  config.table_thickness = sim.table_thickness_m;
+  return config;
+}
+
+// A ground-truth object placed on the table: bounding box centred on kObjectPositionXY, bottom on z = 0.
 struct GroundTruth {
   std::string name;
   probe_sim::TriangleMesh mesh;
@@ -360,9 +256,7 @@ struct GroundTruth {
 };
 
 void measureReachability(GroundTruth& gt, bool with_table, int directions) {
-  probe_sim::Scene::Config scene_config;
-  scene_config.add_table = with_table;
-  const probe_sim::Scene scene(gt.mesh, scene_config);
+  const probe_sim::Scene scene(gt.mesh, sceneConfig(with_table));
   probe_sim::ReachabilityConfig config;
   config.directions = directions;
   const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene, config);
@@ -400,27 +294,14 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
     gt.name = fs::path(spec).stem().string();
     gt.mesh = probe_sim::loadMesh(spec, scale);
   }
-  probe_sim::placeOnTable(gt.mesh);
+  probe_sim::placeOnTable(gt.mesh, kObjectPositionXY);
   return gt;
 }
 
-struct HistoryRow {
-  int action{0};
-  int contacts_total{0};
-  std::size_t n_train{0};  // observations in the model the action's plan was made on
-  double max_surface_variance{0.0};  // the strategy's own estimate, when it planned this action
-  // The largest variance of the bench's own surface sample after the action (the same sampler
-  // and seed for every strategy, so the curves compare; the atlas strategies' estimate is only
-  // the largest variance of the charts grown until one exceeded V_max). NaN where not measured.
-  double sampled_max_variance{std::nan("")};
-  double rmse_pred_to_gt{std::nan("")};
-  double rmse_gt_to_pred{std::nan("")};
-  double plan_ms{0.0};
-  double update_ms{0.0};
-};
-
 struct RunResult {
   std::string object, strategy, probe, stop_reason;
+  // "converged", "stopped: ..." or "error: ..." (gpatlas_core::runStatus): no surface is an error.
+  std::string status;
   int seed{0};
   double v_max{0.0};
   int actions{0};
@@ -434,13 +315,10 @@ struct RunResult {
   double wall_s{0.0};
   double plan_ms_median{0.0};
   double update_ms_median{0.0};
-  std::vector<HistoryRow> history;
+  // The initial model (action 0) and every action, as the ROS exploration node records them.
+  std::vector<gpatlas_core::ExplorationRecord> history;
   std::string error;
 };
-
-// Guessed inside points closer than this to the table top are dropped (the pipeline's
-// support_plane/clearance_m).
-constexpr double kSupportClearanceM = 0.005;
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -460,9 +338,7 @@ double sampledMaxVariance(const gpatlas_core::GpisModel& model) {
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
                                          double* rmse_reachable = nullptr) {
-  gpatlas_core::SurfaceMesher::Config mesher_config;
-  mesher_config.resolution_m = o.mesh_resolution_m;
-  const auto surface = gpatlas_core::SurfaceMesher(mesher_config).mesh(model);
+  const auto surface = gpatlas_core::SurfaceMesher(o.pipeline.mesh).mesh(model);
   if (!surface.ok || surface.mesh.empty()) {
     gpatlas_core::ShapeMetricsResult failed;
     failed.message = "no predicted surface: " + surface.message;
@@ -493,16 +369,20 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, c
 RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
                  std::mutex& print_mutex) {
   const auto start = std::chrono::steady_clock::now();
+  const gpatlas_core::PipelineConfig& pipeline = o.pipeline;
   RunResult r;
   r.object = gt.name;
   r.strategy = strategy_name;
   r.probe = o.probe;
   r.seed = seed;
-  r.v_max = o.v_max;
+  r.v_max = pipeline.exploration.v_max;
+  const auto failed = [&r](const std::string& what) {
+    r.error = what;
+    r.stop_reason = "error";
+    return r;
+  };
 
-  probe_sim::Scene::Config scene_config;
-  scene_config.add_table = o.table;
-  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, scene_config);
+  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, sceneConfig(o.table));
   // The fixed camera: in front of and above the object, looking at its centre, so the back
   // and the underside stay unseen.
   const Eigen::AlignedBox3d box = gt.mesh.boundingBox();
@@ -510,168 +390,71 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const double extent = box.sizes().maxCoeff();
   const Eigen::Vector3d eye = target + Eigen::Vector3d(3.0 * extent + 0.3, 0.0, 1.5 * extent + 0.15);
   probe_sim::DepthCamera::Config cam_config;
-  cam_config.depth_noise_sigma_m = o.camera_noise_m;
+  cam_config.depth_noise_sigma_m = probe_sim::SimulationSettings().camera_depth_noise_m;
+  cam_config.include_table = o.table;
   cam_config.seed = static_cast<std::uint32_t>(seed + 1);
   probe_sim::DepthCamera camera(cam_config, probe_sim::lookAt(eye, target));
   const probe_sim::DepthCloud cloud = camera.capture(*scene);
+  std::vector<Vector3> scene_points;
+  for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) scene_points.push_back(cloud.points_world.col(i));
 
-  std::vector<int> order(static_cast<std::size_t>(cloud.points_world.cols()));
-  std::iota(order.begin(), order.end(), 0);
-  std::mt19937 rng(static_cast<std::uint32_t>(seed) * 7919u + 17u);
-  std::shuffle(order.begin(), order.end(), rng);
-  order.resize(std::min<std::size_t>(order.size(), static_cast<std::size_t>(o.initial_points)));
-  std::vector<gpatlas_core::TrainingPoint> initial;
-  for (int idx : order) {
-    gpatlas_core::TrainingPoint p;
-    p.position = cloud.points_world.col(idx);
-    p.noise_sigma = o.vision_noise_sigma;
-    p.source = gpatlas_core::PointSource::kVision;
-    initial.push_back(p);
-  }
-
-  // The whole view (not the subset): free space, occluded interior and their labels use it.
-  std::vector<Vector3> view;
-  for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) view.push_back(cloud.points_world.col(i));
-  const auto failed = [&r](const std::string& what) {
-    r.error = what;
-    r.stop_reason = "error";
-    return r;
-  };
-  if (o.view_free_rays > 0) {
-    gpatlas_core::ViewFreeSpaceConfig free_config;
-    free_config.max_rays = o.view_free_rays;
-    free_config.seed = static_cast<std::uint64_t>(seed) + 1;
-    const auto free = gpatlas_core::sampleViewFreeSpace(view, eye, free_config);
-    if (!free.ok) return failed("view free space: " + free.message);
-    initial.insert(initial.end(), free.points.begin(), free.points.end());
-  }
-  // The table top (z = 0, the object rests on it), as segmentation would find it.
-  const gpatlas_core::SupportPlane table;
-  const bool use_table = o.table && o.support_plane;
-  if (o.occluded_inside_points > 0) {
-    gpatlas_core::OccludedInteriorConfig inside_config;
-    inside_config.max_points = o.occluded_inside_points;
-    inside_config.noise_sigma = o.occluded_inside_sigma;
-    inside_config.margin_fraction = o.occluded_margin;
-    inside_config.seed = static_cast<std::uint64_t>(seed) + 1;
-    auto inside = gpatlas_core::sampleOccludedInterior(view, eye, inside_config);
-    if (!inside.ok) return failed("occluded interior: " + inside.message);
-    if (use_table) gpatlas_core::dropNearOrBelowPlane(&inside.points, table, kSupportClearanceM);
-    initial.insert(initial.end(), inside.points.begin(), inside.points.end());
-  }
-  if (use_table) {
-    const auto below = gpatlas_core::sampleBelowSupport(view, table);
-    if (!below.ok) return failed("support plane: " + below.message);
-    initial.insert(initial.end(), below.points.begin(), below.points.end());
-  }
-  gpatlas_core::GpisModel model(o.gpis);
-  if (o.interior_prior_depth > 0.0) {
-    gpatlas_core::OccludedInteriorPriorConfig prior_config;
-    prior_config.depth = o.interior_prior_depth;
-    prior_config.bump_radius_cells = o.interior_prior_radius_cells;
-    prior_config.sampling.grid_cells = o.interior_prior_cells;
-    prior_config.sampling.margin_fraction = o.occluded_margin;
-    std::string message;
-    auto prior = gpatlas_core::makeOccludedInteriorPrior(view, eye, prior_config, &message);
-    if (!prior) return failed("occluded-interior prior: " + message);
-    const auto set = model.setPriorMean(prior);
-    if (!set.ok) return failed("occluded-interior prior: " + set.message);
-  }
-  const auto fit = model.fit(initial);
+  // What the pipeline does with a camera cloud: segmentation, then the view builder.
+  const gpatlas_core::SegmentationResult segmented =
+      gpatlas_core::ObjectSegmenter(pipeline.segmentation).segment(scene_points);
+  if (!segmented.ok) return failed("segmentation: " + segmented.message);
+  std::optional<gpatlas_core::SupportPlane> support;
+  if (pipeline.use_support_plane && segmented.plane_found)
+    support = gpatlas_core::SupportPlane{segmented.plane_normal, segmented.plane_offset};
+  const gpatlas_core::ViewTraining view = gpatlas_core::buildViewTraining(
+      segmented.object_points, eye, support, pipeline.view, static_cast<std::uint64_t>(seed));
+  if (!view.ok) return failed("view: " + view.message);
+  gpatlas_core::GpisModel model(pipeline.gpis);
+  const auto fit = model.fit(view.points);
   if (!fit.ok) return failed("initial fit failed: " + fit.message);
-  if (o.tune) gpatlas_core::HyperparameterTuner().tune(model);  // kernel parameters only: noise fixed
+  if (pipeline.tuning.enabled) gpatlas_core::HyperparameterTuner(pipeline.tuning.tuner).tune(model);
 
-  gpatlas_core::StrategyConfig strategy_config;
-  strategy_config.seed = static_cast<std::uint64_t>(seed) + 1;
-  strategy_config.slide_extension_charts = o.slide_extension_charts;
-  strategy_config.atlas.keep_high_variance_candidates = o.keep_high_variance_candidates;
+  gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
+  strategy_config.seed = static_cast<std::uint64_t>(seed);
   const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
   probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(o.probe));
+  gpatlas_core::Explorer::Config loop = pipeline.exploration;
+  loop.seed = static_cast<std::uint64_t>(seed);
+  gpatlas_core::EvidenceRule evidence = pipeline.evidence;
+  evidence.support_plane = support;
+  const gpatlas_core::Explorer explorer(loop);
 
-  gpatlas_core::Explorer::Config explorer_config;
-  explorer_config.v_max = o.v_max;
-  explorer_config.max_actions = o.max_actions;
-  explorer_config.retune_every = o.retune_every;
-  explorer_config.free_space_distance_targets = o.free_space_distance_targets;
-  explorer_config.min_point_spacing_m = o.min_point_spacing_m;
-  explorer_config.min_free_space_spacing_m = o.min_free_space_spacing_m;
-  explorer_config.evidence.max_distance = o.evidence_distance;
-  explorer_config.contact_inside_depth_m = o.contact_inside_depth_m;
-  explorer_config.contact_tangent_noise_sigma = o.contact_tangent_sigma;
-  explorer_config.retract_contradicted_guesses = o.retract_guesses;
-  explorer_config.guess_min_depth_fraction = o.occluded_margin;
-  explorer_config.attempts_are_evidence = o.attempts_are_evidence;
-  // The object's underside on the table cannot be touched: the table is its evidence. Both
-  // simulated probes start their approach this far out along the normal.
-  if (use_table) explorer_config.evidence.support_plane = table;
-  explorer_config.evidence.approach_distance_m = probe_sim::ProbeModelConfig().ray.start_offset_m;
-  if (o.touch_noise_sigma >= 0.0) {
-    explorer_config.contact_noise_sigma = o.touch_noise_sigma;
-    explorer_config.free_space_noise_sigma = o.touch_noise_sigma;
-  }
-  if (o.free_space_noise_sigma >= 0.0) explorer_config.free_space_noise_sigma = o.free_space_noise_sigma;
-  explorer_config.seed = static_cast<std::uint64_t>(seed) + 1;
-  const gpatlas_core::Explorer explorer(explorer_config);
-
-  int contacts_total = 0;
-  std::size_t n_train_at_plan = model.size();
-  std::unique_ptr<gpatlas_core::MeshDistanceIndex> gt_index;
-  if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.mesh);
-  if (o.curve_every > 0) {
-    const auto m0 = measure(model, gt, o);
-    HistoryRow row;
-    row.action = 0;
-    row.n_train = model.size();
-    row.sampled_max_variance = sampledMaxVariance(model);
-    row.rmse_pred_to_gt = m0.ok ? m0.rmse_predicted_to_truth : std::nan("");
-    row.rmse_gt_to_pred = m0.ok ? m0.rmse_truth_to_predicted : std::nan("");
-    row.max_surface_variance = std::nan("");
-    r.history.push_back(row);
-  }
-  const auto progress = [&](const gpatlas_core::ExplorationRecord& rec, const gpatlas_core::GpisModel& m) {
-    contacts_total += rec.contacts_added;
-    HistoryRow row;
-    row.action = rec.index + 1;
-    row.contacts_total = contacts_total;
-    row.n_train = n_train_at_plan;
-    n_train_at_plan = m.size();
-    row.max_surface_variance = rec.max_surface_variance;
-    row.plan_ms = rec.plan_ms;
-    row.update_ms = rec.update_ms;
-    if (o.curve_every > 0 && row.action % o.curve_every == 0) {
-      row.sampled_max_variance = sampledMaxVariance(m);
-      const auto mk = measure(m, gt, o);
-      if (mk.ok) {
-        row.rmse_pred_to_gt = mk.rmse_predicted_to_truth;
-        row.rmse_gt_to_pred = mk.rmse_truth_to_predicted;
-      }
-    }
-    r.history.push_back(row);
-    if (o.verbose) {
-      std::lock_guard<std::mutex> lock(print_mutex);
-      std::cout << "  [" << gt.name << " " << strategy_name << " seed " << seed << "] action " << row.action
-                << ": " << (rec.probe_success ? "contact" : "no contact") << ", +" << rec.contacts_added
-                << " contacts (" << contacts_total << " total), max surface variance " << std::setprecision(3)
-                << rec.max_surface_variance << ", plan " << std::fixed << std::setprecision(0) << rec.plan_ms
-                << " ms, update " << rec.update_ms << " ms" << std::defaultfloat;
-      if (!rec.touch.points.empty()) {
-        // How far the planned target is from the real surface: a touch aimed far from it
-        // tells the prediction (not the planner) is wrong there.
-        const Vector3& aim = rec.touch.points.back();
-        std::cout << ", target " << std::setprecision(3) << 1000.0 * gt_index->distance(aim)
-                  << " mm from the true surface (variance " << rec.touch.variances.back() << ", "
-                  << rec.touch.points.size() << " waypoint(s)), +" << rec.free_points_added << " free";
-      }
-      if (!rec.probe_reason.empty()) std::cout << ", probe: " << rec.probe_reason;
-      if (!rec.update_message.empty()) std::cout << ", model: " << rec.update_message;
-      std::cout << std::defaultfloat << std::endl;
+  const auto measureInto = [&](const gpatlas_core::GpisModel& m, gpatlas_core::ExplorationRecord& record) {
+    record.sampled_max_variance = sampledMaxVariance(m);
+    const auto metrics = measure(m, gt, o);
+    if (metrics.ok) {
+      record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
+      record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
     }
   };
-  const gpatlas_core::ExplorationResult result = explorer.run(model, *strategy, prober, progress);
+  std::unique_ptr<gpatlas_core::MeshDistanceIndex> gt_index;
+  if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.mesh);
+  gpatlas_core::ExplorationRecord initial;
+  initial.index = -1;
+  initial.n_train = model.size();
+  if (o.curve_every > 0) measureInto(model, initial);
+  const auto progress = [&](gpatlas_core::ExplorationRecord& rec) {
+    if (o.curve_every > 0 && (rec.index + 1) % o.curve_every == 0) measureInto(model, rec);
+    if (!o.verbose) return;
+    std::ostringstream line;
+    line << "  [" << gt.name << " " << strategy_name << " seed " << seed << "] " << gpatlas_core::describeAction(rec);
+    if (!rec.touch.points.empty()) {
+      // How far the planned target is from the real surface: a touch aimed far from it
+      // tells the prediction (not the planner) is wrong there.
+      line << ", target " << std::setprecision(3) << 1000.0 * gt_index->distance(rec.touch.points.back())
+           << " mm from the true surface";
+    }
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::cout << line.str() << std::endl;
+  };
+  gpatlas_core::ExplorationResult result = explorer.run(model, *strategy, prober, pipeline.touch, evidence, progress);
 
   r.actions = result.actions;
-  r.contacts = contacts_total;
-  r.converged = result.converged;
+  r.contacts = result.contacts;
   r.stop_reason = result.stop_reason;
   r.n_train = model.size();
   r.max_surface_variance = result.final_max_surface_variance;
@@ -686,26 +469,21 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
   r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
+  // A run that leaves no predicted surface is an error whatever the loop said.
+  r.status = gpatlas_core::runStatus(result, r.metrics.ok, r.metrics.message);
+  r.converged = r.status == "converged";
   if (!r.metrics.ok) r.error = r.metrics.message;
-  if (!r.history.empty() && r.history.back().action == r.actions) {
-    // The final model's sample does not depend on meshing: filled whether or not the metrics are.
-    HistoryRow& final_row = r.history.back();
-    if (std::isnan(final_row.sampled_max_variance)) final_row.sampled_max_variance = sampledMaxVariance(model);
+  if (!result.records.empty()) {
+    // The final model's numbers do not depend on the curve's schedule.
+    gpatlas_core::ExplorationRecord& last = result.records.back();
+    if (std::isnan(last.sampled_max_variance)) last.sampled_max_variance = sampledMaxVariance(model);
     if (r.metrics.ok) {
-      final_row.rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
-      final_row.rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
+      last.rmse_pred_to_gt_m = r.metrics.rmse_predicted_to_truth;
+      last.rmse_gt_to_pred_m = r.metrics.rmse_truth_to_predicted;
     }
-  } else if (r.metrics.ok) {
-    HistoryRow last;
-    last.action = r.actions;
-    last.contacts_total = contacts_total;
-    last.n_train = model.size();
-    last.sampled_max_variance = sampledMaxVariance(model);
-    last.max_surface_variance = r.max_surface_variance;
-    last.rmse_pred_to_gt = r.metrics.rmse_predicted_to_truth;
-    last.rmse_gt_to_pred = r.metrics.rmse_truth_to_predicted;
-    r.history.push_back(last);
   }
+  r.history.push_back(initial);
+  r.history.insert(r.history.end(), result.records.begin(), result.records.end());
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
 }
@@ -717,14 +495,23 @@ std::string num(double v, int precision = 6) {
   return s.str();
 }
 
+// A CSV field: quoted when it holds a comma or a quote.
+std::string csvField(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
 void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
-  f << "object,strategy,probe,seed,vmax,actions,contacts,converged,stop_reason,n_train,rmse_pred_to_gt_m,"
+  f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,max_surface_variance,wall_s,plan_ms_median,update_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
-      << ',' << r.contacts << ',' << (r.converged ? 1 : 0) << ',' << r.stop_reason << ',' << r.n_train << ','
+      << ',' << r.contacts << ',' << (r.converged ? 1 : 0) << ',' << csvField(r.status) << ',' << csvField(r.stop_reason)
+      << ',' << r.n_train << ','
       << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','
       << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.max_surface_variance) << ','
@@ -735,13 +522,15 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,seed,action,contacts_total,max_surface_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
-       "plan_ms,update_ms,n_train,sampled_max_variance\n";
+       "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance\n";
   for (const auto& r : runs)
-    for (const auto& h : r.history)
-      f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.action << ',' << h.contacts_total << ','
-        << num(h.max_surface_variance) << ',' << num(h.rmse_pred_to_gt) << ',' << num(h.rmse_gt_to_pred) << ','
-        << num(h.plan_ms, 4) << ',' << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance)
-        << '\n';
+    for (const auto& h : r.history) {
+      const bool initial = h.index < 0;
+      f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.index + 1 << ',' << h.contacts_total << ','
+        << (initial ? "nan" : num(h.max_surface_variance)) << ',' << num(h.rmse_pred_to_gt_m) << ','
+        << num(h.rmse_gt_to_pred_m) << ',' << num(h.plan_ms, 4) << ',' << num(h.probe_ms, 4) << ','
+        << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << '\n';
+    }
 }
 
 void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& objects,
@@ -771,7 +560,7 @@ std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs) {
     auto it = std::find_if(out.begin(), out.end(), [&](const PlanTimes& p) { return p.strategy == r.strategy; });
     if (it == out.end()) it = out.insert(out.end(), PlanTimes{r.strategy, {}, {}});
     for (const auto& h : r.history) {
-      if (h.action < 1) continue;  // the row before the first action has no plan
+      if (h.index < 0) continue;  // the initial model has no plan
       it->all_ms.push_back(h.plan_ms);
       if (h.n_train >= kPlanBandLow && h.n_train <= kPlanBandHigh) it->band_ms.push_back(h.plan_ms);
     }
@@ -798,33 +587,39 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
     if (std::find(strategies.begin(), strategies.end(), r.strategy) == strategies.end())
       strategies.push_back(r.strategy);
   }
+  // A run that failed (an error, or no predicted surface) is counted, not averaged in.
   struct Acc {
     double actions = 0, rmse_p = 0, rmse_g = 0, mean_nn = 0, conv = 0;
-    int n = 0, n_metrics = 0;
+    int n = 0, failed = 0;
   };
   std::map<std::pair<std::string, std::string>, Acc> acc;
   std::map<std::string, Acc> mean_of_strategy;
   for (const auto& r : runs) {
+    const bool failed = r.status.rfind("error", 0) == 0 || !r.metrics.ok;
     for (Acc* a : {&acc[{r.object, r.strategy}], &mean_of_strategy[r.strategy]}) {
+      if (failed) {
+        ++a->failed;
+        continue;
+      }
       a->actions += r.actions;
       a->conv += r.converged ? 1 : 0;
       ++a->n;
-      if (r.metrics.ok) {
-        a->rmse_p += r.metrics.rmse_predicted_to_truth;
-        a->rmse_g += r.metrics.rmse_truth_to_predicted;
-        a->mean_nn += r.metrics.chamfer_l1;
-        ++a->n_metrics;
-      }
+      a->rmse_p += r.metrics.rmse_predicted_to_truth;
+      a->rmse_g += r.metrics.rmse_truth_to_predicted;
+      a->mean_nn += r.metrics.chamfer_l1;
     }
   }
   std::ofstream f(path);
   f << "# gpatlas_bench summary\n\n";
-  f << "probe `" << o.probe << "`, V_max " << o.v_max << ", seeds";
+  f << "config `" << o.config_path << "`";
+  for (const auto& assignment : o.overrides) f << " --set " << assignment;
+  f << ", probe `" << o.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
   for (int s : o.seeds) f << ' ' << s;
-  f << ", max actions " << o.max_actions << ", initial points " << o.initial_points << ".\n";
-  f << "Per cell: mean actions, mean RMSE predicted->truth / truth->predicted (m), the mean "
-       "nearest-neighbour distance over both directions (chamfer_l1_m, the paper's kind of number; m), "
-       "converged runs.\n\n";
+  f << ", max actions " << o.pipeline.exploration.max_actions << (o.table ? ", on a table" : "") << ".\n";
+  f << "Per cell, over the runs that left a predicted surface: mean actions, mean RMSE predicted->truth / "
+       "truth->predicted (m), the mean nearest-neighbour distance over both directions (chamfer_l1_m, the "
+       "paper's kind of number; m), converged runs / runs; failed runs (errors, no surface) are counted after "
+       "a '+' and left out of the means.\n\n";
   f << "| object |";
   for (const auto& s : strategies)
     f << ' ' << s << " steps | " << s << " RMSE p->g / g->p | " << s << " mean NN | " << s << " conv |";
@@ -833,10 +628,15 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   f << '\n';
   auto cells = [&](const Acc& a) {
     std::ostringstream s;
-    const double n = std::max(1, a.n), nm = std::max(1, a.n_metrics);
-    s << ' ' << std::fixed << std::setprecision(1) << a.actions / n << " | " << std::setprecision(4)
-      << a.rmse_p / nm << " / " << a.rmse_g / nm << " | " << a.mean_nn / nm << " | " << static_cast<int>(a.conv)
-      << '/' << a.n << " |";
+    if (a.n == 0) {
+      s << " - | - | - | 0/0 +" << a.failed << " failed |";
+      return s.str();
+    }
+    const double n = a.n;
+    s << ' ' << std::fixed << std::setprecision(1) << a.actions / n << " | " << std::setprecision(4) << a.rmse_p / n
+      << " / " << a.rmse_g / n << " | " << a.mean_nn / n << " | " << static_cast<int>(a.conv) << '/' << a.n;
+    if (a.failed > 0) s << " +" << a.failed << " failed";
+    s << " |";
     return s.str();
   };
   for (const auto& obj : objects) {
@@ -988,15 +788,16 @@ int main(int argc, char** argv) {
         r.strategy = jobs[j].strategy;
         r.probe = o.probe;
         r.seed = jobs[j].seed;
-        r.v_max = o.v_max;
+        r.v_max = o.pipeline.exploration.v_max;
         r.stop_reason = "error";
+        r.status = std::string("error: ") + e.what();
         r.error = e.what();
       }
       runs[j] = r;
       std::lock_guard<std::mutex> lock(print_mutex);
       const std::size_t finished = ++done;
       std::cout << "[" << finished << "/" << jobs.size() << "] " << r.object << " " << r.strategy << " seed "
-                << r.seed << ": " << r.actions << " actions, " << r.contacts << " contacts, " << r.stop_reason;
+                << r.seed << ": " << r.actions << " actions, " << r.contacts << " contacts, " << r.status;
       if (r.metrics.ok)
         std::cout << ", RMSE " << std::setprecision(3) << r.metrics.rmse_predicted_to_truth * 1000 << " / "
                   << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;
@@ -1030,7 +831,7 @@ int main(int argc, char** argv) {
   }
 #endif
   int errors = 0;
-  for (const auto& r : runs) errors += r.stop_reason == "error" ? 1 : 0;
-  if (errors > 0) std::cerr << "gpatlas_bench: " << errors << " run(s) ended in an error" << std::endl;
+  for (const auto& r : runs) errors += r.status.rfind("error", 0) == 0 ? 1 : 0;
+  if (errors > 0) std::cerr << "gpatlas_bench: " << errors << " run(s) ended in an error (runs.csv: status)" << std::endl;
   return errors > 0 ? 1 : 0;
 }

@@ -2,12 +2,12 @@
 
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/gpis_model.h"
-#include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/prober.h"
 #include "gpatlas_core/surface_evidence.h"
 #include "gpatlas_core/types.h"
 #include "gpatlas_core/view_free_space.h"
 
+#include <cmath>
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -15,6 +15,57 @@
 #include <vector>
 
 namespace gpatlas_core {
+
+// How a touch's measurements become training points (touchTrainingPoints, applyTouch): the
+// same rules in the bench's loop and in the GP model nodelet.
+struct TouchObservationConfig {
+  // Noise standard deviations of the new observations, in the model's reference units
+  // (GpisModelConfig). The default is the paper's noise variance of 0.1 on every point.
+  // With the paper's thin-plate kernel it must not be much smaller: that covariance is not
+  // positive definite for dense point sets in 3-D, and the model would refuse touches as
+  // singular.
+  double contact_noise_sigma{0.3162};
+  double free_space_noise_sigma{0.3162};
+  // New contacts closer than this to one already kept from the same touch are dropped: a slide
+  // reports a contact every few millimetres, and near-duplicates add O(n^2) cost to every later
+  // query for almost no information (the GP's correlation length is centimetres). 0 keeps all.
+  double min_point_spacing_m{0.004};
+  // The same for free-space points, coarser: a slide's approach rays yield thousands of them,
+  // each costing as much as a contact in every later query.
+  double min_free_space_spacing_m{0.015};
+  // A point this far behind each contact (against the contact's normal, which faces the side
+  // the probe came from) is labelled inside with that depth. Without it a thin wall touched
+  // from one side has surface points and free space but nothing inside, so the GP's level
+  // set can vanish there. It must stay below the thinnest wall to be explored; 0: contacts
+  // alone (the paper). Contacts without a normal (zero vector) get none.
+  double contact_inside_depth_m{0.003};
+  // Their noise, in reference units: tighter than contact_noise_sigma, or the tiny target
+  // (-depth / scale) would be lost in the noise.
+  double contact_inside_noise_sigma{0.1};
+  // Each kept contact with a normal also observes that f does not change across that normal:
+  // two slope observations (TrainingPoint::slope_direction) along tangents, target 0, with
+  // this noise sigma (reference units). They give the GP the measured normal's direction
+  // without assuming f's slope along it. Negative: none (the paper).
+  double contact_tangent_noise_sigma{-1.0};
+  // A touch's contacts and free space retract the occluded-interior guesses they contradict
+  // (retractContradictedInterior), dropping those left shallower than this fraction of the
+  // model's scale (the view's radius; the occluded interior's own margin_fraction).
+  double guess_min_depth_fraction{0.08};
+};
+
+// Empty when the config is usable; otherwise what is wrong with it.
+std::string validate(const TouchObservationConfig& config);
+
+// What adding one touch's measurements did to the model.
+struct TouchUpdate {
+  // False when the model refused the touch (it is then unchanged) or was not fitted.
+  bool ok{false};
+  std::string message;
+  int contacts_added{0};     // surface points accepted by the model
+  int free_points_added{0};  // outside points accepted by the model
+  InteriorRetraction retraction;  // occluded-interior guesses the touch contradicted
+  std::vector<std::string> warnings;
+};
 
 // One iteration of Algorithm 2.
 struct ExplorationRecord {
@@ -24,22 +75,31 @@ struct ExplorationRecord {
   std::string probe_reason;      // the prober's reason when the touch failed
   int contacts_added{0};         // surface points accepted by the model
   int free_points_added{0};      // outside points accepted by the model
+  int contacts_total{0};         // contacts accepted since the start, this action's included
+  std::size_t n_train{0};        // observations of the model this action's plan was made on
   double max_surface_variance{0.0};  // the strategy's estimate before this action
   double plan_ms{0.0};
-  double update_ms{0.0};         // model update (and re-tuning, when it happened)
-  bool retuned{false};
+  double probe_ms{0.0};
+  double update_ms{0.0};
   std::string update_message;    // why the model refused the new points, if it did
   InteriorRetraction retraction; // occluded-interior guesses this touch contradicted
   Touch touch;
+  // Filled by the caller's progress callback where it measures the model (NaN otherwise): the
+  // largest variance of a fixed surface sample, and the shape error against a known truth.
+  double sampled_max_variance{std::nan("")};
+  double rmse_pred_to_gt_m{std::nan("")};
+  double rmse_gt_to_pred_m{std::nan("")};
 };
 
 struct ExplorationResult {
   // "converged", "max_actions", "consecutive_failures", "planner_cap_reached",
-  // "planner_error: ...", "invalid_config: ...". A touch whose points the model refuses
-  // counts as a failed touch (see ExplorationRecord::update_message).
+  // "planner_error: ...", "error: ..." (an exception from the planner, the prober or the
+  // model), "invalid_config: ...". A touch whose points the model refuses counts as a failed
+  // touch (see ExplorationRecord::update_message).
   std::string stop_reason;
   bool converged{false};
   int actions{0};  // touches executed (probed), failed ones included
+  int contacts{0}; // contacts the model accepted
   std::vector<ExplorationRecord> records;
   // The strategy's estimate on the final model (from the plan that ended the run).
   double final_max_surface_variance{0.0};
@@ -53,81 +113,86 @@ std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double sp
 std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const std::vector<Vector3>& contacts,
                                    double spacing_m);
 
+// The three steps of Algorithm 2 that the loop delegates. In one process they act on a
+// GpisModel (ModelTouchPlanner, ModelTouchUpdater); in ROS they are the next_touch, probe and
+// add_observations services. Any of them may throw: the run then stops with "error: ...".
+class TouchPlanner {
+ public:
+  virtual ~TouchPlanner() = default;
+  // `request.evidence.attempted_targets` holds where earlier touches aimed; the planner adds
+  // the rest of its evidence rule.
+  virtual PlanResult plan(const PlanRequest& request) = 0;
+  // Observations in the model the next plan is made on.
+  virtual std::size_t modelSize() const = 0;
+};
+
+class ModelUpdater {
+ public:
+  virtual ~ModelUpdater() = default;
+  virtual TouchUpdate update(const ProbeResult& probed) = 0;
+};
+
 // Tactile exploration, paper Algorithm 2: plan a touch on the current model, probe it, add the
 // contacts as surface points and the free-space observations as outside points, update the
-// model incrementally, and repeat until the strategy reports convergence.
+// model, and repeat until the planner reports convergence. The bench and the ROS exploration
+// node both run this loop, with their own planner, prober and updater.
 class Explorer {
  public:
   struct Config {
     double v_max{0.1};
     int max_actions{100};
-    // The paper's extra stop on the real robot: this many failed touches in a row.
+    // The paper's extra stop on the real robot: this many failed touches in a row. A touch
+    // fails when the probe reports failure or the model accepts none of its contacts.
     int max_consecutive_failures{5};
-    // Noise standard deviations of the new observations, in the model's reference units
-    // (GpisModelConfig). The default is the paper's noise variance of 0.1 on every point.
-    // With the paper's thin-plate kernel it must not be much smaller: that covariance is not
-    // positive definite for dense point sets in 3-D, and the model would refuse touches as
-    // singular.
-    double contact_noise_sigma{0.316};
-    double free_space_noise_sigma{0.316};
-    // Free-space points carry their distance to the nearest surface point, so their target is
-    // about their normalised distance to the surface (at most +1) instead of +1.
-    bool free_space_distance_targets{true};
-    // New contacts closer than this to one already kept from the same touch are dropped: a slide reports a contact every few millimetres,
-    // and near-duplicates add O(n^2) cost to every later query for almost no information
-    // (the GP's correlation length is centimetres). 0 keeps every point.
-    double min_point_spacing_m{0.004};
-    // The same for free-space points, coarser: a slide's approach rays yield thousands of them
-    // (measured: 5000 of the 6500 training points after 15 slides on the jug), each costing
-    // as much as a contact in every later query.
-    double min_free_space_spacing_m{0.015};
-    // A point this far behind each contact (against the contact's normal, which faces the side
-    // the probe came from) is labelled inside with that depth. Without it a thin wall touched
-    // from one side has surface points and free space but nothing inside, so the GP's level
-    // set can vanish there (measured: a container's carved cavity lost its walls and bottom).
-    // It must stay below the thinnest wall to be explored; 0: contacts alone (the paper).
-    // Contacts without a normal (zero vector) get none.
-    double contact_inside_depth_m{0.003};
-    // Their noise, in reference units: tighter than contact_noise_sigma, or the tiny target
-    // (-depth / scale) would be lost in the noise.
-    double contact_inside_noise_sigma{0.1};
-    // Each kept contact with a normal also observes that f does not change across that normal:
-    // two slope observations (TrainingPoint::slope_direction) along tangents, target 0, with
-    // this noise sigma (reference units). They give the GP the measured normal's direction
-    // without assuming f's slope along it. Negative: none (the paper).
-    double contact_tangent_noise_sigma{-1.0};
-    // The evidence test (SurfaceEvidence): exploration has converged only when no predicted
-    // surface point lacks evidence. A distance of 0.5 by default; attempted_targets given here
-    // count from the start.
-    EvidenceRule evidence{0.5, std::nullopt, 0.1, {}};
-    // The surface points touches aimed at (a poke's target, a slide's path) count as evidence
-    // (EvidenceRule::attempted_targets), whatever the touch found: otherwise a point whose
-    // approach another part of the object blocks is asked for again after every touch
-    // (measured: 60 pokes on the scanned mug at evidence distance 0.3).
-    bool attempts_are_evidence{true};
-    // A touch's contacts and free space retract the occluded-interior guesses they contradict
-    // (retractContradictedInterior), dropping those left shallower than this fraction of the
-    // model's scale (the view's radius; sampleOccludedInterior's own clearance is 0.08).
-    bool retract_contradicted_guesses{true};
-    double guess_min_depth_fraction{0.08};
-    // Re-tune the hyperparameters after every k-th action; 0 never re-tunes.
-    int retune_every{0};
-    HyperparameterTuner::Config tuner;
-    std::uint64_t seed{1};
+    // Plan k is asked with seed mixSeeds(seed, k).
+    std::uint64_t seed{0};
   };
-  // Called after every action with its record; may be empty.
-  using Progress = std::function<void(const ExplorationRecord& record, const GpisModel& model)>;
+  // Called after every action with its record, which it may complete (the measurements);
+  // may be empty.
+  using Progress = std::function<void(ExplorationRecord& record)>;
 
   Explorer() = default;
   explicit Explorer(Config config) : config_(std::move(config)) {}
   const Config& config() const { return config_; }
 
-  // `model` must be fitted (the initial view); it is updated in place.
+  ExplorationResult run(TouchPlanner& planner, Prober& prober, ModelUpdater& updater,
+                        const Progress& progress = {}) const;
+
+  // In one process: plans with `strategy` on `model` (fitted: the initial view) under
+  // `evidence`, and adds the touches to it with `touch` (applyTouch).
   ExplorationResult run(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+                        const TouchObservationConfig& touch = {}, const EvidenceRule& evidence = {},
                         const Progress& progress = {}) const;
 
  private:
   Config config_;
+};
+
+std::string validate(const Explorer::Config& config);
+
+// Plans with a strategy on a model held elsewhere (the caller updates it between plans).
+class ModelTouchPlanner : public TouchPlanner {
+ public:
+  ModelTouchPlanner(const GpisModel& model, const ExplorationStrategy& strategy, EvidenceRule evidence)
+      : model_(model), strategy_(strategy), evidence_(std::move(evidence)) {}
+  PlanResult plan(const PlanRequest& request) override;
+  std::size_t modelSize() const override { return model_.size(); }
+
+ private:
+  const GpisModel& model_;
+  const ExplorationStrategy& strategy_;
+  EvidenceRule evidence_;
+};
+
+// Adds each touch to a model with applyTouch.
+class ModelTouchUpdater : public ModelUpdater {
+ public:
+  ModelTouchUpdater(GpisModel& model, TouchObservationConfig config) : model_(model), config_(std::move(config)) {}
+  TouchUpdate update(const ProbeResult& probed) override;
+
+ private:
+  GpisModel& model_;
+  TouchObservationConfig config_;
 };
 
 // How many of touchTrainingPoints' points are of each kind (in this order in its output).
@@ -143,9 +208,9 @@ struct TouchPointCounts {
 // a normal, an inside point at config.contact_inside_depth_m, then (when
 // config.contact_tangent_noise_sigma >= 0) its two tangent slope observations; free space inside the model's
 // domain thinned to config.min_free_space_spacing_m, nearest the contacts first, and labelled
-// with its distance to the surface when config.free_space_distance_targets.
+// with its distance to the nearest contact or model surface point.
 std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,
-                                               const std::vector<Vector3>& free_space, const Explorer::Config& config,
+                                               const std::vector<Vector3>& free_space, const TouchObservationConfig& config,
                                                TouchPointCounts* counts = nullptr);
 
 // Where a touch measured something: its contacts' positions and its free space (before
@@ -154,12 +219,19 @@ std::vector<Vector3> measuredPositions(const std::vector<Contact>& contacts, con
 
 // Adds a touch's training points (from touchTrainingPoints) to a fitted model. First the
 // touch's measured points (`evidence`: measuredPositions of the touch) retract
-// the occluded-interior guesses they contradict, when config.retract_contradicted_guesses; the
+// the occluded-interior guesses they contradict; the
 // update is incremental when nothing was retracted, and a full refit in the model's current
 // frame otherwise. On failure the model is unchanged. The report's num_added counts the new
 // points the model accepted (not the retained old ones).
 FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new_points,
-                         const std::vector<Vector3>& evidence, const Explorer::Config& config,
+                         const std::vector<Vector3>& evidence, const TouchObservationConfig& config,
                          InteriorRetraction* retraction = nullptr);
+
+// What one touch measured, added to a fitted model: touchTrainingPoints, then addTouchPoints.
+// A batch the model refuses as numerically singular (e.g. a free-space point right next to a
+// surface point) is retried with the contacts alone (and the points behind them): the
+// contacts are what the touch was for. The refused free space still retracts guesses.
+TouchUpdate applyTouch(GpisModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
+                       const TouchObservationConfig& config);
 
 }  // namespace gpatlas_core

@@ -19,7 +19,7 @@ struct EvidenceRule {
   // A predicted surface point farther than this (normalised units: the initial view's radius
   // is 1) from every measured surface point needs a touch whatever its variance. 0: V_max alone
   // (the paper).
-  double max_distance{0.0};
+  double max_distance{0.5};
   // The table the object rests on, if known, and how far along the normal a probe approaches
   // a touch: surface whose approach would start under the table needs no evidence.
   std::optional<SupportPlane> support_plane;

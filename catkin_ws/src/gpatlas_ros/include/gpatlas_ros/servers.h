@@ -88,29 +88,25 @@ class GpModelServer {
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   // Adds observations; false with a message when nothing could be used.
-  bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added);
+  bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added,
+                       std::uint32_t* num_contacts_added);
   void publishModel();
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
   double tf_timeout_s_{0.5};
-  int max_vision_points_{600};
-  // Noise and thinning of touch observations (the Explorer's settings, filled from parameters).
-  gpatlas_core::Explorer::Config touch_config_;
-  bool tune_{true};
+  // How a view and a touch become training data (the bench uses the same Configs).
+  gpatlas_core::ViewTrainingConfig view_config_;
+  gpatlas_core::TouchObservationConfig touch_config_;
+  std::uint64_t seed_{0};
+  gpatlas_core::TuningConfig tuning_;
   double display_v_max_{0.1};
   gpatlas_core::GpisModel::Config gpis_config_;
-  ObservationNoise noise_;
-  gpatlas_core::HyperparameterTuner::Config tuner_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
-  gpatlas_core::ViewFreeSpaceConfig view_free_config_;
-  gpatlas_core::OccludedInteriorConfig occluded_config_;
   std::string sensor_frame_;  // empty: no view free space
   // The table under the object (segmentation's `support_plane`): outside points below it, no
   // guessed inside points in it.
   bool use_support_plane_{true};
-  double support_clearance_m_{0.005};
-  gpatlas_core::BelowSupportConfig below_support_config_;
   // A plane (in world_frame) belongs to the cloud with the same stamp (segmentation stamps
   // both with the camera's); a plane stamped 0 (a fixed table, published by hand) belongs to
   // every cloud.
@@ -150,12 +146,8 @@ class AtlasPlannerServer {
   std::string world_frame_;
   std::string default_strategy_;
   double default_v_max_{0.1};
-  // Surface farther than this (normalised) from every view point and contact needs a touch
-  // (gpatlas_core::EvidenceRule::max_distance); 0: V_max alone.
-  double max_evidence_distance_{gpatlas_core::Explorer::Config().evidence.max_distance};
-  // The probe's approach along the normal: with the table (`support_plane`), surface whose
-  // approach would start under it needs no evidence.
-  double approach_distance_m_{gpatlas_core::Explorer::Config().evidence.approach_distance_m};
+  // The evidence test of every plan (its support plane from `support_plane`).
+  gpatlas_core::EvidenceRule evidence_;
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::StrategyConfig strategy_config_;
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
@@ -189,9 +181,8 @@ class CollisionMapServer {
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
-  double occupied_probability_{0.5};
   gpatlas_core::GpisModel::Config gpis_config_;
-  gpatlas_core::OccupancyGridBuilder::Config grid_config_;
+  gpatlas_core::CollisionMapConfig map_config_;
 
   std::mutex mutex_;
   struct Map;

@@ -14,17 +14,22 @@ namespace gpatlas_ros {
 AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
-  world_frame_ = reader.text("world_frame", "world");
-  default_v_max_ = reader.number("v_max", default_v_max_, 1e-12, 1e12);
-  max_evidence_distance_ = reader.number("max_evidence_distance", max_evidence_distance_, 0.0, 100.0);
-  approach_distance_m_ = reader.number("approach_distance_m", approach_distance_m_, 0.0, 10.0);
-  tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
-  const bool use_support_plane = reader.flag("support_plane/enabled", true);
-  default_strategy_ = reader.text("strategy", "atlas_poke");
+  gpatlas_core::PipelineFrames frames;
+  readFrames(reader, &frames);
+  world_frame_ = frames.world_frame;
+  tf_timeout_s_ = frames.tf_timeout_s;
+  gpatlas_core::Explorer::Config loop;
+  readExplorer(reader, &loop);
+  default_v_max_ = loop.v_max;
+  readEvidence(reader, &evidence_);
+  const bool use_support_plane = readUseSupportPlane(reader);
+  gpatlas_core::StrategyChoice choice;
+  readStrategyChoice(reader, &choice);
+  default_strategy_ = choice.name;
   readGpis(reader, &gpis_config_);
   readStrategy(reader, &strategy_config_);
   // Strategies of your own (gpatlas_core/strategy_library.h), before the default is looked up.
-  for (const std::string& library : reader.texts("strategy_libraries", {})) {
+  for (const std::string& library : choice.libraries) {
     const gpatlas_core::StrategyLibraryLoad load = gpatlas_core::loadStrategyLibrary(library);
     if (!load.ok) {
       reader.invalid("strategy_libraries", load.message);
@@ -139,12 +144,13 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   }
   gpatlas_core::PlanRequest request;
   request.v_max = v_max;
-  request.evidence.max_distance = max_evidence_distance_;
-  request.evidence.approach_distance_m = approach_distance_m_;
+  request.evidence = evidence_;
   request.evidence.support_plane = support_plane_;
   if (req.use_start) request.start = fromMsg(req.start);
   for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
-  request.seed = ++plan_count_;
+  // The exploration loop numbers its plans; a call by hand gets the planner's own count.
+  ++plan_count_;
+  request.seed = req.seed != 0 ? req.seed : plan_count_;
   gpatlas_core::PlanResult plan;
   try {
     plan = chosen->plan(*model_, request);

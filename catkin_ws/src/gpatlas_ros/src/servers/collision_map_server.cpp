@@ -18,10 +18,11 @@ struct CollisionMapServer::Map {
 
 CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
   ParamReader reader(pnh_);
-  world_frame_ = reader.text("world_frame", "world");
-  occupied_probability_ = reader.number("occupied_probability", occupied_probability_, 0.01, 0.99);
+  gpatlas_core::PipelineFrames frames;
+  readFrames(reader, &frames);
+  world_frame_ = frames.world_frame;
   readGpis(reader, &gpis_config_);
-  readOccupancy(reader, &grid_config_);
+  readCollisionMap(reader, &map_config_);
   reader.report("collision_map");
   octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);
   voxels_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_voxels", 1, true);
@@ -44,13 +45,13 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       ROS_ERROR_STREAM("collision_map: " << error);
       return;
     }
-    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_config_).build(model);
+    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(model);
     if (!grid.ok) {
       ROS_ERROR_STREAM("collision_map: " << grid.message);
       return;
     }
     auto map = std::make_shared<Map>(grid.resolution);
-    map->tree.setOccupancyThres(occupied_probability_);
+    map->tree.setOccupancyThres(map_config_.occupied_probability);
     std::size_t occupied = 0;
     for (int k = 0; k < grid.size.z(); ++k)
       for (int j = 0; j < grid.size.y(); ++j)
@@ -59,7 +60,7 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
           const Eigen::Vector3d x = grid.position(i, j, k);
           map->tree.setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
                                  static_cast<float>(std::log(p / (1.0 - p))));
-          occupied += p > occupied_probability_ ? 1 : 0;
+          occupied += p > map_config_.occupied_probability ? 1 : 0;
         }
     map->tree.updateInnerOccupancy();
     map->tree.prune();
@@ -105,7 +106,7 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     std::lock_guard<std::mutex> lock(mutex_);
     map_ = map;
     ROS_INFO_STREAM("collision_map: " << occupied << " of " << grid.probabilities.size() << " cells occupied (P > "
-                                      << occupied_probability_ << ") at " << grid.resolution << " m");
+                                      << map_config_.occupied_probability << ") at " << grid.resolution << " m");
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("collision_map: message ignored: " << e.what());
   }

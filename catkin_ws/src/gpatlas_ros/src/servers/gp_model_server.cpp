@@ -3,64 +3,35 @@
 #include "gpatlas_ros/servers.h"
 
 #include <gpatlas_core/explorer.h>
+#include <gpatlas_core/view_training.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <shape_msgs/Mesh.h>
 #include <visualization_msgs/Marker.h>
 
 #include <algorithm>
 #include <cmath>
-#include <random>
 
 namespace gpatlas_ros {
 
-namespace {
-void appendTrainingPoints(const std::vector<Eigen::Vector3d>& positions, gpatlas_core::PointLabel label, double sigma,
-                          gpatlas_core::PointSource source, std::vector<gpatlas_core::TrainingPoint>* out) {
-  for (const auto& p : positions) {
-    gpatlas_core::TrainingPoint t;
-    t.position = p;
-    t.label = label;
-    t.noise_sigma = sigma;
-    t.source = source;
-    out->push_back(t);
-  }
-}
-}  // namespace
 
 GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
-  world_frame_ = reader.text("world_frame", "world");
-  tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
-  // The fit is O(n^3) in time and O(n^2) in memory: a few thousand points is the useful range.
-  max_vision_points_ = reader.integer("max_vision_points", max_vision_points_, 4, 5000);
-  touch_config_.min_point_spacing_m = reader.number("min_point_spacing_m", touch_config_.min_point_spacing_m, 0.0, 1.0);
-  touch_config_.min_free_space_spacing_m =
-      reader.number("min_free_space_spacing_m", touch_config_.min_free_space_spacing_m, 0.0, 1.0);
-  touch_config_.contact_inside_depth_m =
-      reader.number("contact_inside/depth_m", touch_config_.contact_inside_depth_m, 0.0, 0.1);
-  touch_config_.contact_inside_noise_sigma =
-      reader.number("contact_inside/noise_sigma", touch_config_.contact_inside_noise_sigma, 0.0, 10.0);
-  touch_config_.contact_tangent_noise_sigma =
-      reader.number("contact_tangent/noise_sigma", touch_config_.contact_tangent_noise_sigma, -1.0, 10.0);
-  tune_ = reader.flag("tuning/enabled", tune_);
-  display_v_max_ = reader.number("v_max", display_v_max_, 1e-12, 1e12);
+  gpatlas_core::PipelineFrames frames;
+  readFrames(reader, &frames);
+  world_frame_ = frames.world_frame;
+  tf_timeout_s_ = frames.tf_timeout_s;
+  sensor_frame_ = frames.sensor_frame;
+  seed_ = readSeed(reader);
+  readViewTraining(reader, &view_config_);
+  use_support_plane_ = readUseSupportPlane(reader);
+  readTouchObservations(reader, &touch_config_);
+  readTuning(reader, &tuning_);
+  gpatlas_core::Explorer::Config loop;
+  readExplorer(reader, &loop);
+  display_v_max_ = loop.v_max;
   readGpis(reader, &gpis_config_);
-  readNoise(reader, &noise_);
-  readTuner(reader, &tuner_config_);
   readMesher(reader, &mesher_config_);
-  readViewFreeSpace(reader, &view_free_config_, &sensor_frame_);
-  view_free_config_.noise_sigma = noise_.free_space_sigma;
-  readOccludedInterior(reader, &occluded_config_);
-  touch_config_.retract_contradicted_guesses =
-      reader.flag("occluded_interior/retract_on_touch", touch_config_.retract_contradicted_guesses);
-  // A guess left shallower than the sampling's own clearance is dropped (same fraction, of the
-  // model's scale rather than of the view's radius: equal at the first fit).
-  touch_config_.guess_min_depth_fraction = occluded_config_.margin_fraction;
-  readSupportPlane(reader, &use_support_plane_, &support_clearance_m_, &below_support_config_);
-  below_support_config_.noise_sigma = noise_.free_space_sigma;
-  touch_config_.contact_noise_sigma = noise_.touch_sigma;
-  touch_config_.free_space_noise_sigma = noise_.free_space_sigma;
   reader.report("gp_model");
   model_ = gpatlas_core::GpisModel(gpis_config_);  // readGpis() validated the config
 
@@ -135,54 +106,25 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     std::lock_guard<std::mutex> lock(plane_mutex_);
     if (support_plane_ && support_plane_->belongsTo(cloud.header.stamp)) plane = support_plane_->plane;
   }
-  // The camera's rays crossed free space up to the object: outside points that keep the model
-  // from closing cavities the camera looked into. Labels use the whole view, before the subset.
-  std::vector<gpatlas_core::TrainingPoint> view_free;
+  std::optional<Eigen::Vector3d> sensor_origin;
   if (!sensor_frame_.empty()) {
     std::vector<Eigen::Vector3d> origin{Eigen::Vector3d::Zero()};
     std::string tf_error;
-    if (!transformToWorld(tf_buffer_, world_frame_, sensor_frame_, msg->header.stamp, tf_timeout_s_, &origin,
-                          &tf_error)) {
-      ROS_WARN_STREAM_THROTTLE(10.0, "gp_model: no view free space (sensor_frame): " << tf_error);
-    } else {
-      auto free = gpatlas_core::sampleViewFreeSpace(points, origin.front(), view_free_config_);
-      if (free.ok) view_free = std::move(free.points);
-      else ROS_WARN_STREAM("gp_model: no view free space: " << free.message);
-      // The fit is O(n^3): the view's free space gets at most as many points as its surface.
-      if (view_free.size() > static_cast<std::size_t>(max_vision_points_)) {
-        std::mt19937 pick(11);
-        std::shuffle(view_free.begin(), view_free.end(), pick);
-        view_free.resize(static_cast<std::size_t>(max_vision_points_));
-      }
-      // Material behind what the camera saw, within the view's hull: without it a surface the
-      // camera never saw (a bowl's bottom behind its rim) has no zero crossing to explore.
-      if (occluded_config_.max_points > 0) {
-        auto inside = gpatlas_core::sampleOccludedInterior(points, origin.front(), occluded_config_);
-        if (inside.ok) {
-          if (plane) gpatlas_core::dropNearOrBelowPlane(&inside.points, *plane, support_clearance_m_);
-          view_free.insert(view_free.end(), inside.points.begin(), inside.points.end());
-        } else {
-          ROS_WARN_STREAM("gp_model: no occluded interior: " << inside.message);
-        }
-      }
-    }
+    if (transformToWorld(tf_buffer_, world_frame_, sensor_frame_, msg->header.stamp, tf_timeout_s_, &origin, &tf_error))
+      sensor_origin = origin.front();
+    else
+      ROS_WARN_STREAM_THROTTLE(10.0, "gp_model: no view free space or occluded interior (sensor_frame): " << tf_error);
   }
-  if (plane) {
-    auto below = gpatlas_core::sampleBelowSupport(points, *plane, below_support_config_);
-    if (below.ok) view_free.insert(view_free.end(), below.points.begin(), below.points.end());
-    else ROS_WARN_STREAM("gp_model: support plane not used: " << below.message);
+  const gpatlas_core::ViewTraining view = gpatlas_core::buildViewTraining(points, sensor_origin, plane, view_config_, seed_);
+  if (!view.ok) {
+    ROS_WARN_STREAM("gp_model: object cloud ignored: " << view.message);
+    return;
   }
-  // The GP costs O(n^3): keep a random, seeded subset of the view.
-  std::mt19937 rng(7);
-  std::shuffle(points.begin(), points.end(), rng);
-  if (points.size() > static_cast<std::size_t>(max_vision_points_)) points.resize(static_cast<std::size_t>(max_vision_points_));
+  for (const auto& w : view.warnings) ROS_WARN_STREAM("gp_model: " << w);
 
   std::lock_guard<std::mutex> lock(mutex_);
   // A new view replaces the previous vision points; touches and free space are kept.
-  std::vector<gpatlas_core::TrainingPoint> data;
-  appendTrainingPoints(points, gpatlas_core::PointLabel::kSurface, noise_.vision_sigma,
-                       gpatlas_core::PointSource::kVision, &data);
-  data.insert(data.end(), view_free.begin(), view_free.end());
+  std::vector<gpatlas_core::TrainingPoint> data = view.points;
   std::vector<Eigen::Vector3d> touch_evidence;
   for (const auto& t : model_.observations()) {
     if (t.source == gpatlas_core::PointSource::kVision) continue;
@@ -192,7 +134,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   }
   // The new view's guesses must not bring back what earlier touches retracted (their kept,
   // thinned points stand for the touches here).
-  if (touch_config_.retract_contradicted_guesses && model_.isFitted())
+  if (model_.isFitted())
     gpatlas_core::retractContradictedInterior(&data, touch_evidence,
                                               touch_config_.guess_min_depth_fraction * model_.scale());
   const ros::WallTime start = ros::WallTime::now();
@@ -207,19 +149,19 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   }
   for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
   std::string tuned;
-  if (tune_) {
-    const gpatlas_core::TuneReport tune = gpatlas_core::HyperparameterTuner(tuner_config_).tune(model_);
+  if (tuning_.enabled) {
+    const gpatlas_core::TuneReport tune = gpatlas_core::HyperparameterTuner(tuning_.tuner).tune(model_);
     tuned = tune.ok ? ", tuned: " + tune.message : ", tuning kept the previous hyperparameters: " + tune.message;
   }
-  ROS_INFO_STREAM("gp_model: " << report.message << " in " << (ros::WallTime::now() - start).toSec() << " s" << tuned);
+  ROS_INFO_STREAM("gp_model: view: " << view.message << "; " << report.message << " in " << (ros::WallTime::now() - start).toSec() << " s" << tuned);
   publishModel();
 }
 
 void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
   try {
     std::string message;
-    std::uint32_t added = 0;
-    if (addObservations(*msg, &message, &added)) ROS_INFO_STREAM("gp_model: " << message);
+    std::uint32_t added = 0, contacts = 0;
+    if (addObservations(*msg, &message, &added, &contacts)) ROS_INFO_STREAM("gp_model: " << message);
     else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("gp_model: observations ignored: " << e.what());
@@ -228,7 +170,7 @@ void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) 
 
 bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& req,
                                       gpatlas_msgs::AddObservations::Response& res) {
-  res.success = addObservations(req.observations, &res.message, &res.num_added);
+  res.success = addObservations(req.observations, &res.message, &res.num_added, &res.num_contacts_added);
   return true;
 }
 
@@ -252,8 +194,9 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
 }
 
 bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::string* message,
-                                    std::uint32_t* num_added) {
+                                    std::uint32_t* num_added, std::uint32_t* num_contacts_added) {
   *num_added = 0;
+  *num_contacts_added = 0;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
   // One transform for everything: contacts, then the tips of their normals (a normal moves as
@@ -282,25 +225,17 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     *message = "no model yet: the object points have not arrived";
     return false;
   }
-  // As the Explorer does: thinned (near-duplicates of a slide cost every later query and add
-  // nothing), free space in the domain and labelled with its distance to the surface.
-  const std::vector<gpatlas_core::TrainingPoint> points =
-      gpatlas_core::touchTrainingPoints(model_, observed.contacts, free_space, touch_config_);
-  if (points.empty()) {
-    *message = "no observation inside the model's domain";
-    return false;
-  }
-  gpatlas_core::InteriorRetraction retraction;
-  const gpatlas_core::FitReport report = gpatlas_core::addTouchPoints(
-      model_, points, gpatlas_core::measuredPositions(observed.contacts, free_space), touch_config_, &retraction);
-  *num_added = static_cast<std::uint32_t>(report.num_added);
-  *message = report.message;
-  if (retraction.any())
-    *message += "; the touch contradicted " + std::to_string(retraction.shrunk + retraction.dropped) +
-                " occluded-interior guesses (" + std::to_string(retraction.dropped) + " dropped, " +
-                std::to_string(retraction.shrunk) + " made shallower)";
-  for (const auto& w : report.warnings) *message += "; " + w;
-  if (!report.ok) return false;
+  // The same rules as the bench's exploration loop (gpatlas_core::applyTouch).
+  const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(model_, observed.contacts, free_space, touch_config_);
+  *num_added = static_cast<std::uint32_t>(update.contacts_added + update.free_points_added);
+  *num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
+  *message = update.message;
+  if (update.retraction.any())
+    *message += "; the touch contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +
+                " occluded-interior guesses (" + std::to_string(update.retraction.dropped) + " dropped, " +
+                std::to_string(update.retraction.shrunk) + " made shallower)";
+  for (const auto& w : update.warnings) *message += "; " + w;
+  if (!update.ok) return false;
   publishModel();
   return true;
 }

@@ -45,8 +45,10 @@ bool planeToWorld(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& 
 SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
-  world_frame_ = reader.text("world_frame", "world");
-  tf_timeout_s_ = reader.number("tf_timeout_s", tf_timeout_s_, 0.0, 60.0);
+  gpatlas_core::PipelineFrames frames;
+  readFrames(reader, &frames);
+  world_frame_ = frames.world_frame;
+  tf_timeout_s_ = frames.tf_timeout_s;
   gpatlas_core::ObjectSegmenter::Config config;
   readSegmenter(reader, &config);
   const std::string invalid = gpatlas_core::validate(config);

@@ -1,0 +1,41 @@
+#pragma once
+
+#include "gpatlas_core/explorer.h"
+
+#include <string>
+
+namespace gpatlas_core {
+
+// One line for an action, for progress output (the bench's --verbose, the exploration node).
+std::string describeAction(const ExplorationRecord& record);
+
+// The final predicted shape against the truth, when there is one.
+struct FinalShape {
+  bool measured{false};
+  double rmse_pred_to_gt_m{0.0};
+  double rmse_gt_to_pred_m{0.0};
+  double chamfer_l1_m{0.0};
+  double fscore_5mm{0.0};
+};
+
+// Everything report.json says about one exploration.
+struct ExplorationReport {
+  std::string strategy;
+  std::string kernel;
+  Explorer::Config loop;
+  // The initial model's measurements (n_train, sampled_max_variance, RMSEs); action -1.
+  ExplorationRecord initial;
+  ExplorationResult result;
+  // "converged" only when the run converged and left a predicted surface: a run without one is
+  // an error (result.stop_reason says why the loop stopped, status what the user got).
+  std::string status;
+  FinalShape final_shape;
+};
+
+// The status of a finished run: "converged", "stopped: <reason>" or "error: <reason>", and
+// "error: no predicted surface: ..." whenever there is no surface, whatever the loop said.
+std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message);
+
+std::string toJson(const ExplorationReport& report);
+
+}  // namespace gpatlas_core

@@ -1,0 +1,182 @@
+#include "gpatlas_core/config_readers.h"
+
+#include <cmath>
+
+namespace gpatlas_core {
+
+void readFrames(ParamReader& r, PipelineFrames* c) {
+  c->world_frame = r.text("world_frame", c->world_frame);
+  if (c->world_frame.empty()) {
+    r.invalid("world_frame", "must not be empty");
+    c->world_frame = PipelineFrames().world_frame;
+  }
+  c->sensor_frame = r.text("sensor_frame", c->sensor_frame);
+  c->tf_timeout_s = r.number("tf_timeout_s", c->tf_timeout_s, 0.0, 60.0);
+}
+
+std::uint64_t readSeed(ParamReader& r, std::uint64_t fallback) {
+  return static_cast<std::uint64_t>(r.integer("seed", static_cast<int>(fallback), 0, 1 << 30));
+}
+
+void readGpis(ParamReader& r, GpisModel::Config* c) {
+  c->kernel = r.text("gpis/kernel", c->kernel);
+  // Kernel parameters in natural units (Wendland and thin plate: R); empty: the kernel's own.
+  const std::vector<double> params = r.numbers("gpis/kernel_params", {});
+  c->initial_params.clear();
+  for (double p : params) {
+    if (!(p > 0.0)) {
+      r.invalid("gpis/kernel_params", "must be positive");
+      c->initial_params.clear();
+      break;
+    }
+    c->initial_params.push_back(std::log(p));
+  }
+  // Their ordering (data < renormalise <= domain) and the kernel's range are checked by the model.
+  c->data_radius = r.number("gpis/data_radius", c->data_radius, 1e-3, 100.0);
+  c->renormalise_radius = r.number("gpis/renormalise_radius", c->renormalise_radius, 1e-3, 100.0);
+  c->domain_radius = r.number("gpis/domain_radius", c->domain_radius, 1e-3, 100.0);
+  c->num_outside_points = r.integer("gpis/num_outside_points", c->num_outside_points, 0, 10000);
+  c->inside_point_at_centroid = r.flag("gpis/inside_point_at_centroid", c->inside_point_at_centroid);
+  c->inside_point_min_clearance = r.number("gpis/inside_point_min_clearance", c->inside_point_min_clearance, 0.0, 100.0);
+  c->pseudo_point_sigma = r.number("gpis/pseudo_point_sigma", c->pseudo_point_sigma, 0.0, 10.0);
+  c->reference_prior_variance = r.number("gpis/reference_prior_variance", c->reference_prior_variance, 1e-9, 1e9);
+  // The model checks what no single parameter can (kernel name, radii ordering, the kernel's
+  // valid range): every reader falls back to the same defaults, so replicas stay exact.
+  try {
+    GpisModel check(*c);
+  } catch (const std::exception& e) {
+    r.invalid("gpis", std::string(e.what()) + " (all gpis/ defaults used)");
+    *c = GpisModel::Config();
+  }
+}
+
+void readTuning(ParamReader& r, TuningConfig* c) {
+  c->enabled = r.flag("tuning/enabled", c->enabled);
+  c->tuner.max_iterations = r.integer("tuning/max_iterations", c->tuner.max_iterations, 1, 10000);
+  c->tuner.tune_noise = r.flag("tuning/tune_noise", c->tuner.tune_noise);
+}
+
+void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
+  c->max_surface_points = r.integer("view/max_surface_points", c->max_surface_points, 4, 100000);
+  c->vision_noise_sigma = r.number("view/vision_noise_sigma", c->vision_noise_sigma, 0.0, 10.0);
+  c->support_clearance_m = r.number("view/support_clearance_m", c->support_clearance_m, 0.0, 0.5);
+  ViewFreeSpaceConfig& free = c->free_space;
+  free.max_rays = r.integer("view/free_space/max_rays", free.max_rays, 0, 100000);
+  free.samples_per_ray = r.integer("view/free_space/samples_per_ray", free.samples_per_ray, 0, 10);
+  free.min_offset_fraction = r.number("view/free_space/min_offset_fraction", free.min_offset_fraction, 1e-6, 10.0);
+  free.max_offset_fraction = r.number("view/free_space/max_offset_fraction", free.max_offset_fraction, 1e-6, 10.0);
+  if (free.max_offset_fraction < free.min_offset_fraction) {
+    r.invalid("view/free_space/max_offset_fraction", "must be >= min_offset_fraction (both defaults used)");
+    free.min_offset_fraction = ViewFreeSpaceConfig().min_offset_fraction;
+    free.max_offset_fraction = ViewFreeSpaceConfig().max_offset_fraction;
+  }
+  free.noise_sigma = r.number("view/free_space/noise_sigma", free.noise_sigma, 0.0, 10.0);
+  OccludedInteriorConfig& inside = c->occluded_interior;
+  inside.max_points = r.integer("view/occluded_interior/max_points", inside.max_points, 0, 100000);
+  inside.grid_cells = r.integer("view/occluded_interior/grid_cells", inside.grid_cells, 2, 100);
+  inside.margin_fraction = r.number("view/occluded_interior/margin_fraction", inside.margin_fraction, 0.0, 1.0);
+  inside.noise_sigma = r.number("view/occluded_interior/noise_sigma", inside.noise_sigma, 1e-3, 100.0);
+  BelowSupportConfig& below = c->below_support;
+  below.grid_cells = r.integer("view/below_support/grid_cells", below.grid_cells, 1, 100);
+  below.footprint_margin_fraction =
+      r.number("view/below_support/footprint_margin_fraction", below.footprint_margin_fraction, 0.0, 5.0);
+  below.noise_sigma = r.number("view/below_support/noise_sigma", below.noise_sigma, 0.0, 10.0);
+}
+
+bool readUseSupportPlane(ParamReader& r) { return r.flag("use_support_plane", true); }
+
+void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
+  c->contact_noise_sigma = r.number("touch/contact_noise_sigma", c->contact_noise_sigma, 0.0, 10.0);
+  c->free_space_noise_sigma = r.number("touch/free_space_noise_sigma", c->free_space_noise_sigma, 0.0, 10.0);
+  c->min_point_spacing_m = r.number("touch/min_point_spacing_m", c->min_point_spacing_m, 0.0, 1.0);
+  c->min_free_space_spacing_m = r.number("touch/min_free_space_spacing_m", c->min_free_space_spacing_m, 0.0, 1.0);
+  c->contact_inside_depth_m = r.number("touch/contact_inside_depth_m", c->contact_inside_depth_m, 0.0, 0.1);
+  c->contact_inside_noise_sigma = r.number("touch/contact_inside_noise_sigma", c->contact_inside_noise_sigma, 0.0, 10.0);
+  c->contact_tangent_noise_sigma =
+      r.number("touch/contact_tangent_noise_sigma", c->contact_tangent_noise_sigma, -1.0, 10.0);
+  c->guess_min_depth_fraction = r.number("touch/guess_min_depth_fraction", c->guess_min_depth_fraction, 0.0, 1.0);
+}
+
+void readEvidence(ParamReader& r, EvidenceRule* c) {
+  c->max_distance = r.number("evidence/max_distance", c->max_distance, 0.0, 100.0);
+  c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
+}
+
+void readExplorer(ParamReader& r, Explorer::Config* c) {
+  c->v_max = r.number("exploration/v_max", c->v_max, 1e-12, 1e12);
+  c->max_actions = r.integer("exploration/max_actions", c->max_actions, 0, 1000000);
+  c->max_consecutive_failures = r.integer("exploration/max_consecutive_failures", c->max_consecutive_failures, 1, 1000000);
+  c->seed = readSeed(r, c->seed);
+}
+
+void readStrategyChoice(ParamReader& r, StrategyChoice* c) {
+  c->name = r.text("strategy", c->name);
+  c->libraries = r.texts("strategy_libraries", c->libraries);
+}
+
+void readStrategy(ParamReader& r, StrategyConfig* c) {
+  ChartConfig& chart = c->atlas.chart;
+  chart.rho_gain = r.number("planner/rho_gain", chart.rho_gain, 1e-9, 10.0);
+  chart.rho_min_m = r.number("planner/rho_min_m", chart.rho_min_m, 1e-5, 1.0);
+  chart.rho_max_m = r.number("planner/rho_max_m", chart.rho_max_m, 1e-5, 1.0);
+  chart.candidate_density = r.number("planner/candidate_density", chart.candidate_density, 1.0, 1000.0);
+  c->atlas.depth_first_probability =
+      r.number("planner/depth_first_probability", c->atlas.depth_first_probability, 0.0, 1.0);
+  c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
+  c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
+  c->atlas.max_start_distance_m = r.number("planner/max_start_distance_m", c->atlas.max_start_distance_m, 0.0, 10.0);
+  c->slide_extension_charts = r.integer("planner/slide_extension_charts", c->slide_extension_charts, 0, 1000);
+  c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
+  c->seed = readSeed(r, c->seed);
+}
+
+void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
+  c->resolution_m = r.number("mesh/resolution_m", c->resolution_m, 1e-4, 1.0);
+}
+
+void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
+  c->grid.resolution_m = r.number("collision_map/resolution_m", c->grid.resolution_m, 1e-3, 1.0);
+  c->occupied_probability = r.number("collision_map/occupied_probability", c->occupied_probability, 0.0, 1.0);
+}
+
+void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
+  c->crop_min_m = r.vector3("segmentation/crop_min_m", c->crop_min_m);
+  c->crop_max_m = r.vector3("segmentation/crop_max_m", c->crop_max_m);
+  c->voxel_leaf_m = r.number("segmentation/voxel_leaf_m", c->voxel_leaf_m, 0.0, 1.0);
+  c->remove_plane = r.flag("segmentation/remove_plane", c->remove_plane);
+  c->plane_distance_m = r.number("segmentation/plane_distance_m", c->plane_distance_m, 1e-5, 1.0);
+  c->plane_max_tilt_deg = r.number("segmentation/plane_max_tilt_deg", c->plane_max_tilt_deg, 0.1, 90.0);
+  c->plane_max_fraction_below =
+      r.number("segmentation/plane_max_fraction_below", c->plane_max_fraction_below, 0.0, 1.0);
+  c->plane_min_inliers = static_cast<std::size_t>(
+      r.integer("segmentation/plane_min_inliers", static_cast<int>(c->plane_min_inliers), 1, 100000000));
+  c->outlier_mean_k = r.integer("segmentation/outlier_mean_k", c->outlier_mean_k, 0, 1000);
+  c->outlier_stddev_multiplier =
+      r.number("segmentation/outlier_stddev_multiplier", c->outlier_stddev_multiplier, 1e-3, 100.0);
+  c->cluster_tolerance_m = r.number("segmentation/cluster_tolerance_m", c->cluster_tolerance_m, 1e-5, 1.0);
+  c->cluster_min_points = static_cast<std::size_t>(
+      r.integer("segmentation/cluster_min_points", static_cast<int>(c->cluster_min_points), 1, 100000000));
+  // An empty list: the largest cluster; [x, y, z]: the cluster closest to that point.
+  const std::vector<double> hint = r.numbers("segmentation/object_hint_m", {});
+  if (hint.size() == 3) c->object_hint_m = Vector3(hint[0], hint[1], hint[2]);
+  else if (!hint.empty()) r.invalid("segmentation/object_hint_m", "must be [] or a list of 3 numbers");
+}
+
+void readPipeline(ParamReader& r, PipelineConfig* c) {
+  readFrames(r, &c->frames);
+  c->seed = readSeed(r, c->seed);
+  readGpis(r, &c->gpis);
+  readTuning(r, &c->tuning);
+  readViewTraining(r, &c->view);
+  c->use_support_plane = readUseSupportPlane(r);
+  readTouchObservations(r, &c->touch);
+  readEvidence(r, &c->evidence);
+  readExplorer(r, &c->exploration);
+  readStrategyChoice(r, &c->strategy_choice);
+  readStrategy(r, &c->strategy);
+  readMesher(r, &c->mesh);
+  readCollisionMap(r, &c->collision_map);
+  readSegmenter(r, &c->segmentation);
+}
+
+}  // namespace gpatlas_core

@@ -1,0 +1,103 @@
+#include "gpatlas_core/exploration_report.h"
+
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+namespace gpatlas_core {
+
+namespace {
+
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream s;
+  s << std::setprecision(8) << v;
+  return s.str();
+}
+
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+const char* jsonBool(bool b) { return b ? "true" : "false"; }
+
+}  // namespace
+
+std::string describeAction(const ExplorationRecord& record) {
+  std::ostringstream line;
+  line << "action " << std::setw(3) << record.index + 1 << ": " << (record.probe_success ? "contact   " : "no contact")
+       << " +" << record.contacts_added << " contacts (" << record.contacts_total << "), max surface variance "
+       << std::setprecision(3) << record.max_surface_variance << ", plan " << std::fixed << std::setprecision(0)
+       << record.plan_ms << " ms, probe " << record.probe_ms << " ms, update " << record.update_ms << " ms";
+  if (std::isfinite(record.rmse_pred_to_gt_m))
+    line << std::setprecision(1) << ", RMSE " << 1000 * record.rmse_pred_to_gt_m << "/" << 1000 * record.rmse_gt_to_pred_m
+         << " mm";
+  if (!record.probe_reason.empty()) line << " (probe: " << record.probe_reason << ")";
+  if (!record.update_message.empty()) line << " (model: " << record.update_message << ")";
+  return line.str();
+}
+
+std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message) {
+  if (!has_surface) return "error: no predicted surface: " + surface_message;
+  if (result.converged) return "converged";
+  const std::string& reason = result.stop_reason;
+  if (reason.rfind("error", 0) == 0 || reason.rfind("planner_error", 0) == 0 || reason.rfind("invalid_config", 0) == 0)
+    return "error: " + reason;
+  return "stopped: " + reason;
+}
+
+std::string toJson(const ExplorationReport& report) {
+  const ExplorationResult& result = report.result;
+  std::ostringstream json;
+  json << "{\n  \"settings\": {\"strategy\": " << jsonString(report.strategy) << ", \"v_max\": "
+       << jsonNumber(report.loop.v_max) << ", \"max_actions\": " << report.loop.max_actions
+       << ", \"max_consecutive_failures\": " << report.loop.max_consecutive_failures << ", \"seed\": " << report.loop.seed
+       << ", \"kernel\": " << jsonString(report.kernel) << "},\n";
+  json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
+       << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
+       << ",\n  \"contacts\": " << result.contacts
+       << ",\n  \"final_max_surface_variance\": " << jsonNumber(result.final_max_surface_variance) << ",\n";
+  json << "  \"final_metrics\": ";
+  const FinalShape& shape = report.final_shape;
+  if (shape.measured)
+    json << "{\"rmse_pred_to_gt_m\": " << jsonNumber(shape.rmse_pred_to_gt_m)
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(shape.rmse_gt_to_pred_m)
+         << ", \"chamfer_l1_m\": " << jsonNumber(shape.chamfer_l1_m) << ", \"fscore_5mm\": " << jsonNumber(shape.fscore_5mm)
+         << "}";
+  else
+    json << "null";
+  const ExplorationRecord& initial = report.initial;
+  json << ",\n  \"initial\": {\"n_train\": " << initial.n_train
+       << ", \"sampled_max_variance\": " << jsonNumber(initial.sampled_max_variance)
+       << ", \"rmse_pred_to_gt_m\": " << jsonNumber(initial.rmse_pred_to_gt_m)
+       << ", \"rmse_gt_to_pred_m\": " << jsonNumber(initial.rmse_gt_to_pred_m) << "}";
+  json << ",\n  \"history\": [\n";
+  for (std::size_t i = 0; i < result.records.size(); ++i) {
+    const ExplorationRecord& r = result.records[i];
+    json << "    {\"action\": " << r.index + 1 << ", \"probe_success\": " << jsonBool(r.probe_success)
+         << ", \"probe_reason\": " << jsonString(r.probe_reason) << ", \"contacts\": " << r.contacts_added
+         << ", \"free_points\": " << r.free_points_added << ", \"contacts_total\": " << r.contacts_total
+         << ", \"max_surface_variance\": " << jsonNumber(r.max_surface_variance)
+         << ", \"plan_ms\": " << jsonNumber(r.plan_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
+         << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"n_train\": " << r.n_train
+         << ", \"update_message\": " << jsonString(r.update_message)
+         << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)
+         << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m) << "}"
+         << (i + 1 < result.records.size() ? ",\n" : "\n");
+  }
+  json << "  ]\n}\n";
+  return json.str();
+}
+
+}  // namespace gpatlas_core

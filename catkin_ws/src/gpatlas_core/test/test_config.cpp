@@ -1,0 +1,154 @@
+// The configuration file against the Configs' readers, the YAML source, and the view builder.
+#include "gpatlas_core/config_readers.h"
+#include "gpatlas_core/exploration_report.h"
+#include "gpatlas_core/parameters.h"
+#include "gpatlas_core/view_training.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <set>
+
+namespace {
+
+using gpatlas_core::ParamReader;
+using gpatlas_core::PipelineConfig;
+using gpatlas_core::Vector3;
+using gpatlas_core::YamlParameters;
+
+// config/pipeline.yaml sets exactly what the readers read: no key that no Config reads (a typo
+// or a removed option), and no parameter that the file leaves to a default.
+TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
+  std::string error;
+  const auto params = YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
+  ASSERT_TRUE(params) << error;
+  ParamReader reader(*params);
+  PipelineConfig config;
+  gpatlas_core::readPipeline(reader, &config);
+  EXPECT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_TRUE(reader.defaultedNames().empty()) << "not set in the file: " << reader.defaulted();
+  const std::set<std::string> read(reader.readNames().begin(), reader.readNames().end());
+  for (const std::string& key : params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
+}
+
+// The file's values reach the Configs (a second, independent parse of the text).
+TEST(PipelineYaml, ValuesReachTheConfigs) {
+  std::string error;
+  const auto params = YamlParameters::fromString(
+      "seed: 7\nexploration: {v_max: 0.05, max_actions: 12}\nview:\n  free_space: {max_rays: 10}\n"
+      "segmentation: {crop_min_m: [0.1, -0.2, 0.0], object_hint_m: [1, 2, 3]}\ngpis: {kernel_params: [2.5]}\n",
+      &error);
+  ASSERT_TRUE(params) << error;
+  ParamReader reader(*params);
+  PipelineConfig c;
+  gpatlas_core::readPipeline(reader, &c);
+  ASSERT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_EQ(c.seed, 7u);
+  EXPECT_EQ(c.exploration.seed, 7u);
+  EXPECT_EQ(c.strategy.seed, 7u);
+  EXPECT_DOUBLE_EQ(c.exploration.v_max, 0.05);
+  EXPECT_EQ(c.exploration.max_actions, 12);
+  EXPECT_EQ(c.view.free_space.max_rays, 10);
+  EXPECT_EQ(c.segmentation.crop_min_m, Vector3(0.1, -0.2, 0.0));
+  ASSERT_TRUE(c.segmentation.object_hint_m.has_value());
+  EXPECT_EQ(*c.segmentation.object_hint_m, Vector3(1, 2, 3));
+  ASSERT_EQ(c.gpis.initial_params.size(), 1u);
+  EXPECT_NEAR(std::exp(c.gpis.initial_params[0]), 2.5, 1e-12);
+  // Unset sections keep the Configs' own defaults.
+  EXPECT_EQ(c.touch.min_point_spacing_m, gpatlas_core::TouchObservationConfig().min_point_spacing_m);
+}
+
+TEST(YamlParameters, OverridesAndBadInputSayWhatIsWrong) {
+  std::string error;
+  auto params = YamlParameters::fromString("exploration: {v_max: 0.1}\nstrategy: atlas_poke\n", &error);
+  ASSERT_TRUE(params);
+  ASSERT_TRUE(params->set("exploration/v_max=0.02", &error)) << error;
+  ASSERT_TRUE(params->set("planner/rho_max_m=0.03", &error)) << error;  // a new section
+  ASSERT_TRUE(params->set("strategy=atlas_slide", &error)) << error;
+  EXPECT_DOUBLE_EQ(*params->number("exploration/v_max"), 0.02);
+  EXPECT_DOUBLE_EQ(*params->number("planner/rho_max_m"), 0.03);
+  EXPECT_EQ(*params->text("strategy"), "atlas_slide");
+  EXPECT_FALSE(params->set("no_equals_sign", &error));
+  EXPECT_NE(error.find("key=value"), std::string::npos) << error;
+
+  // Wrong types and out-of-range values are errors with the parameter's name; defaults stay.
+  ParamReader reader(*params);
+  gpatlas_core::Explorer::Config loop;
+  ASSERT_TRUE(params->set("exploration/v_max=-1", &error));
+  ASSERT_TRUE(params->set("exploration/max_actions=many", &error));
+  gpatlas_core::readExplorer(reader, &loop);
+  EXPECT_FALSE(reader.ok());
+  EXPECT_NE(reader.errors().find("exploration/v_max"), std::string::npos) << reader.errors();
+  EXPECT_NE(reader.errors().find("exploration/max_actions"), std::string::npos) << reader.errors();
+  EXPECT_DOUBLE_EQ(loop.v_max, gpatlas_core::Explorer::Config().v_max);
+
+  EXPECT_FALSE(YamlParameters::fromFile("/nonexistent/pipeline.yaml", &error));
+  EXPECT_NE(error.find("cannot read"), std::string::npos) << error;
+  EXPECT_FALSE(YamlParameters::fromString("a: [1, 2", &error));
+  EXPECT_FALSE(YamlParameters::fromString("- just\n- a list\n", &error));
+}
+
+// The part of a 5 cm sphere at (0.7, 0, 0.05) that a camera at `eye` sees (on a convex
+// shape: the points whose normal faces the camera).
+std::vector<Vector3> sphereView(int n, const Vector3& eye) {
+  std::vector<Vector3> points;
+  for (int i = 0; i < n; ++i) {
+    const double z = -1.0 + 2.0 * (i + 0.5) / n, phi = 2.399963 * i;
+    const Vector3 u(std::sqrt(1 - z * z) * std::cos(phi), std::sqrt(1 - z * z) * std::sin(phi), z);
+    const Vector3 p = Vector3(0.7, 0.0, 0.05) + 0.05 * u;
+    if ((eye - p).dot(u) > 0.0) points.push_back(p);
+  }
+  return points;
+}
+
+TEST(ViewTraining, OneSeedGivesOneTrainingSetWithEveryPart) {
+  const Vector3 eye(1.3, 0.0, 0.3);
+  const std::vector<Vector3> view = sphereView(4000, eye);
+  const gpatlas_core::SupportPlane table;  // z = 0
+  gpatlas_core::ViewTrainingConfig config;
+  const auto a = gpatlas_core::buildViewTraining(view, eye, table, config, 3);
+  ASSERT_TRUE(a.ok) << a.message;
+  EXPECT_EQ(a.surface, 600u);
+  EXPECT_GT(a.free_space, 0u);
+  EXPECT_GT(a.below_support, 0u);
+  EXPECT_EQ(a.points.size(), a.surface + a.free_space + a.occluded_interior + a.below_support);
+  for (std::size_t i = 0; i < a.surface; ++i) {
+    EXPECT_EQ(a.points[i].label, gpatlas_core::PointLabel::kSurface);
+    EXPECT_NEAR((a.points[i].position - Vector3(0.7, 0.0, 0.05)).norm(), 0.05, 1e-12);  // a view point
+  }
+  for (std::size_t i = a.surface; i < a.surface + a.free_space; ++i)
+    EXPECT_GT((a.points[i].position - Vector3(0.7, 0.0, 0.05)).norm(), 0.05);  // in front of the sphere
+  const auto again = gpatlas_core::buildViewTraining(view, eye, table, config, 3);
+  ASSERT_EQ(again.points.size(), a.points.size());
+  for (std::size_t i = 0; i < a.points.size(); ++i) EXPECT_EQ(again.points[i].position, a.points[i].position);
+  const auto other = gpatlas_core::buildViewTraining(view, eye, table, config, 4);
+  EXPECT_NE(other.points.front().position, a.points.front().position);
+
+  // Without a sensor origin: the subset alone (and the table's points).
+  const auto blind = gpatlas_core::buildViewTraining(view, std::nullopt, std::nullopt, config, 3);
+  ASSERT_TRUE(blind.ok);
+  EXPECT_EQ(blind.points.size(), 600u);
+
+  // Too few finite points: an error that says so.
+  std::vector<Vector3> bad(10, Vector3::Constant(std::nan("")));
+  bad.push_back(Vector3::Zero());
+  const auto refused = gpatlas_core::buildViewTraining(bad, eye, std::nullopt, config, 3);
+  EXPECT_FALSE(refused.ok);
+  EXPECT_NE(refused.message.find("10 not finite"), std::string::npos) << refused.message;
+}
+
+TEST(RunStatus, NoSurfaceIsAnErrorWhateverTheLoopSaid) {
+  gpatlas_core::ExplorationResult converged;
+  converged.converged = true;
+  converged.stop_reason = "converged";
+  EXPECT_EQ(gpatlas_core::runStatus(converged, true, ""), "converged");
+  EXPECT_EQ(gpatlas_core::runStatus(converged, false, "grid too large"), "error: no predicted surface: grid too large");
+  gpatlas_core::ExplorationResult capped;
+  capped.stop_reason = "max_actions";
+  EXPECT_EQ(gpatlas_core::runStatus(capped, true, ""), "stopped: max_actions");
+  capped.stop_reason = "error: probe did not answer";
+  EXPECT_EQ(gpatlas_core::runStatus(capped, true, "").rfind("error", 0), 0u);
+}
+
+}  // namespace
