@@ -1,5 +1,5 @@
 # GPAtlasRRT: one-command set-up, build, test, demo and benchmarks.
-#   make test    install what is missing, build (Release, ccache), run every test
+#   make test    install what is missing, build (Release, ccache), run every test (and the install space)
 #   make demo    install, build, run the headless simulated exploration
 #   make bench   the exploration benchmark without ROS (BENCH_ARGS="...")
 #   make demo OBJECT=path/to/mesh.stl SCALE=0.001   the demo on your own mesh
@@ -42,4 +42,4 @@ bench-core: build
 	$(WS)/devel/lib/gpatlas_core/gpatlas_core_benchmark $(BENCH_CORE_ARGS)
 
 clean:
-	rm -rf $(WS)/build $(WS)/devel
+	rm -rf $(WS)/build $(WS)/devel $(WS)/install

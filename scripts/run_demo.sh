@@ -23,7 +23,7 @@ export ROS_MASTER_URI=http://localhost:${DEMO_ROS_PORT:-11511}
 # shellcheck disable=SC1091
 source "$root/catkin_ws/devel/setup.bash"
 echo "[demo] exploring '$object' (scale $scale); results in $results"
-roslaunch --screen probe_sim sim_exploration.launch object:="$object" scale:="$scale" results_dir:="$results" "$@" 2>&1 \
+roslaunch --screen probe_sim_ros sim_exploration.launch object:="$object" scale:="$scale" results_dir:="$results" "$@" 2>&1 \
   | grep --line-buffered -E "exploration:|segmentation: object|gp_model: fitted|probe_sim: ready|ERROR|FATAL" \
   | sed -u -e 's/\x1b\[[0-9;]*m//g' -e 's/^\[ *\([A-Z]*\)\] \[[0-9.]*\]: /[\1] /' || true
 

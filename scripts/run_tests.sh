@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Runs every test of the workspace (gtest, rostest), then catkin_lint, and prints one closing
-# line "N passed, N failed"; exits non-zero on any failure.
+# Runs every test of the workspace (gtest, rostest), the install-space test
+# (scripts/test_install_space.sh), then catkin_lint, and prints one closing line
+# "N passed, N failed"; exits non-zero on any failure.
 set -uo pipefail
 export PATH=/usr/bin:$PATH
 JOBS=${1:-2}
@@ -20,6 +21,12 @@ log_dir=$(mktemp -d)
   | grep --line-buffered -E "^\[ *(RUN|OK|FAILED|PASSED|SKIPPED)|^\[==========\]|Error|error:|FAILURE|ERROR"
 build_status=${PIPESTATUS[0]}
 echo "[test] full log: $log_dir/run_tests.log"
+
+# catkin_make install, then a short exploration from the install space alone; it writes its
+# JUnit result into $results, so the summary counts it.
+install_start=$SECONDS
+bash "$root/scripts/test_install_space.sh" "$JOBS" 2>&1 | tee "$log_dir/install_space.log"
+echo "[test] install-space test: $((SECONDS - install_start)) s"
 
 lint_failed=0
 if catkin_lint -W1 --strict "$ws/src" >"$log_dir/catkin_lint.log" 2>&1; then

@@ -16,7 +16,7 @@
 #include <gpatlas_msgs/Probe.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/TrainingSet.h>
-#include <gpatlas_ros/conversions.h>
+#include <gpatlas_conversions/conversions.h>
 #include <gpatlas_ros/ros_params.h>
 
 #include <ros/package.h>

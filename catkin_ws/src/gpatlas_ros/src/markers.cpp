@@ -1,6 +1,6 @@
 #include "gpatlas_ros/markers.h"
 
-#include "gpatlas_ros/conversions.h"
+#include "gpatlas_conversions/conversions.h"
 
 #include <Eigen/Geometry>
 

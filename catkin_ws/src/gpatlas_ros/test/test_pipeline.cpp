@@ -5,7 +5,7 @@
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/TrainingSet.h>
-#include <gpatlas_ros/conversions.h>
+#include <gpatlas_conversions/conversions.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>

@@ -5,8 +5,9 @@
 #include <kdl/jacobian.hpp>
 #include <kdl/jntarray.hpp>
 #include <kdl/tree.hpp>
-#include <kdl_parser/kdl_parser.hpp>
-#include <urdf/model.h>
+// urdfdom's parser, not the urdf/kdl_parser packages: those are ROS libraries (urdf/model.h
+// includes ros/ros.h and both link libroscpp), and this library stays free of ROS.
+#include <urdf_parser/urdf_parser.h>
 
 #include <Eigen/Dense>
 
@@ -60,8 +61,60 @@ double angleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::atan2(a.cross(b).norm(), a.dot(b));
 }
 
-Arm armFromModel(const urdf::Model& model, const KDL::Tree& tree, const std::string& source,
-                 const Arm::Config& config) {
+KDL::Vector toKdl(const urdf::Vector3& v) { return KDL::Vector(v.x, v.y, v.z); }
+
+KDL::Frame toKdl(const urdf::Pose& pose) {
+  const urdf::Rotation& r = pose.rotation;
+  return KDL::Frame(KDL::Rotation::Quaternion(r.x, r.y, r.z, r.w), toKdl(pose.position));
+}
+
+// The joint in its parent link's frame, as kdl_parser builds it: the axis of a revolute or
+// prismatic joint is given in the joint frame, which sits at the joint origin.
+KDL::Joint toKdl(const urdf::Joint& joint) {
+  const KDL::Frame parent_to_joint = toKdl(joint.parent_to_joint_origin_transform);
+  switch (joint.type) {
+    case urdf::Joint::REVOLUTE:
+    case urdf::Joint::CONTINUOUS:
+      return KDL::Joint(joint.name, parent_to_joint.p, parent_to_joint.M * toKdl(joint.axis), KDL::Joint::RotAxis);
+    case urdf::Joint::PRISMATIC:
+      return KDL::Joint(joint.name, parent_to_joint.p, parent_to_joint.M * toKdl(joint.axis), KDL::Joint::TransAxis);
+    default:  // fixed; floating and planar joints are not kinematic-chain joints here either
+      return KDL::Joint(joint.name, KDL::Joint::None);
+  }
+}
+
+KDL::RigidBodyInertia toKdl(const urdf::Inertial& inertial) {
+  const KDL::Frame origin = toKdl(inertial.origin);
+  const KDL::RotationalInertia in_origin_frame(inertial.ixx, inertial.iyy, inertial.izz, inertial.ixy,
+                                               inertial.ixz, inertial.iyz);
+  // Rotated into the link frame about the centre of mass (a zero-mass body keeps it there).
+  const KDL::RigidBodyInertia rotated = origin.M * KDL::RigidBodyInertia(0.0, KDL::Vector::Zero(), in_origin_frame);
+  return KDL::RigidBodyInertia(inertial.mass, origin.p, rotated.getRotationalInertia());
+}
+
+void addChildren(const urdf::Link& link, KDL::Tree* tree) {
+  for (const urdf::LinkSharedPtr& child : link.child_links) {
+    const urdf::Joint& joint = *child->parent_joint;
+    const KDL::RigidBodyInertia inertia = child->inertial ? toKdl(*child->inertial) : KDL::RigidBodyInertia(0.0);
+    const KDL::Segment segment(child->name, toKdl(joint), toKdl(joint.parent_to_joint_origin_transform), inertia);
+    if (!tree->addSegment(segment, joint.parent_link_name)) {
+      throw std::runtime_error("URDF: cannot add link '" + child->name + "' to the kinematic tree");
+    }
+    addChildren(*child, tree);
+  }
+}
+
+KDL::Tree treeFromModel(const urdf::ModelInterface& model) {
+  const urdf::LinkConstSharedPtr root = model.getRoot();
+  KDL::Tree tree(root->name);
+  addChildren(*root, &tree);
+  return tree;
+}
+
+Arm armFromXml(const std::string& urdf_xml, const std::string& source, const Arm::Config& config) {
+  const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_xml);
+  if (!model || !model->getRoot()) throw std::runtime_error("URDF " + source + " does not parse");
+  const KDL::Tree tree = treeFromModel(*model);
   KDL::Chain chain;
   if (!tree.getChain(config.base_link, config.tip_link, chain)) {
     throw std::runtime_error("URDF " + source + ": no kinematic chain from '" +
@@ -73,7 +126,7 @@ Arm armFromModel(const urdf::Model& model, const KDL::Tree& tree, const std::str
     if (segment.getJoint().getType() == KDL::Joint::None) continue;
     const std::string& name = segment.getJoint().getName();
     names.push_back(name);
-    const auto joint = model.getJoint(name);
+    const auto joint = model->getJoint(name);
     const bool limited = joint && joint->type != urdf::Joint::CONTINUOUS && joint->limits &&
                          joint->limits->upper > joint->limits->lower;
     // Unlimited joints get one turn, which covers every orientation.
@@ -92,26 +145,14 @@ Arm armFromModel(const urdf::Model& model, const KDL::Tree& tree, const std::str
 }  // namespace
 
 Arm Arm::fromUrdfString(const std::string& urdf_xml, const Config& config) {
-  urdf::Model model;
-  if (!model.initString(urdf_xml)) throw std::runtime_error("URDF string does not parse");
-  KDL::Tree tree;
-  if (!kdl_parser::treeFromString(urdf_xml, tree)) {
-    throw std::runtime_error("kdl_parser cannot build a tree from the URDF string");
-  }
-  return armFromModel(model, tree, "(string)", config);
+  return armFromXml(urdf_xml, "(string)", config);
 }
 
 Arm Arm::fromUrdfFile(const std::string& path, const Config& config) {
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open URDF file '" + path + "'");
   const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  urdf::Model model;
-  if (!model.initString(xml)) throw std::runtime_error("URDF file '" + path + "' does not parse");
-  KDL::Tree tree;
-  if (!kdl_parser::treeFromFile(path, tree)) {
-    throw std::runtime_error("kdl_parser cannot build a tree from '" + path + "'");
-  }
-  return armFromModel(model, tree, "'" + path + "'", config);
+  return armFromXml(xml, "'" + path + "'", config);
 }
 
 Arm::Arm(const KDL::Chain& chain, Eigen::VectorXd lower_limits, Eigen::VectorXd upper_limits,

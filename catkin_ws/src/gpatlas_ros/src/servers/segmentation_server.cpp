@@ -1,4 +1,4 @@
-#include "gpatlas_ros/conversions.h"
+#include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/servers.h"
 
 #include <tf2_eigen/tf2_eigen.h>

@@ -4,7 +4,7 @@
 
 #include <gpatlas_msgs/Capture.h>
 #include <gpatlas_msgs/Probe.h>
-#include <gpatlas_ros/conversions.h>
+#include <gpatlas_conversions/conversions.h>
 #include <ros/ros.h>
 #include <sensor_msgs/JointState.h>
 #include <sensor_msgs/PointCloud2.h>

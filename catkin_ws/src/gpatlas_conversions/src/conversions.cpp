@@ -1,4 +1,4 @@
-#include "gpatlas_ros/conversions.h"
+#include "gpatlas_conversions/conversions.h"
 
 #include <sensor_msgs/point_cloud2_iterator.h>
 

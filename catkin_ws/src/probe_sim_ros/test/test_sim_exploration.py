@@ -48,4 +48,4 @@ class SimExplorationTest(unittest.TestCase):
 
 if __name__ == "__main__":
     rospy.init_node("test_sim_exploration")
-    rostest.rosrun("probe_sim", "sim_exploration_test", SimExplorationTest)
+    rostest.rosrun("probe_sim_ros", "sim_exploration_test", SimExplorationTest)

@@ -2,7 +2,7 @@
 
 #include "probe_sim/object_mesh.h"
 
-#include <gpatlas_ros/conversions.h>
+#include <gpatlas_conversions/conversions.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <kdl/chain.hpp>

@@ -2,6 +2,8 @@
 
 // Conversions between gpatlas_core types and ROS messages. Every function here is a pure
 // function of its arguments, round-trip tested in test/test_conversions.cpp.
+// The package is gpatlas_conversions (so that probe_sim_ros and other nodes can use it without
+// the pipeline's nodelets); the namespace stays gpatlas_ros, where these functions have always been.
 
 #include <gpatlas_core/gpis_model.h>
 #include <gpatlas_core/prober.h>
