@@ -8,7 +8,7 @@ import subprocess
 import tempfile
 import unittest
 
-COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,stop_reason,n_train,"
+COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,"
            "rmse_pred_to_gt_m,rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,max_surface_variance,wall_s,"
            "plan_ms_median,update_ms_median").split(",")
 
@@ -29,7 +29,7 @@ class BenchSmokeTest(unittest.TestCase):
 
     def test_small_run_writes_plausible_csv(self):
         proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.12", "--strategy", "atlas_poke",
-                              "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--points", "200",
+                              "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--set", "view/max_surface_points=200",
                               "--curve-every", str(CURVE_EVERY), "--jobs", "2", "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         self.assertIn("[2/2]", proc.stdout)
@@ -123,7 +123,7 @@ class BenchSmokeTest(unittest.TestCase):
         # edge of the square: E[d^2] = a^2 / 24 over a square of side a, so the floor is
         # sqrt(1/6 * a^2 / 24) = a / 12.
         proc = self.run_bench("--object", "procedural:box", "--size-m", "0.1", "--table", "--strategy",
-                              "atlas_poke", "--seeds", "0", "--max-actions", "1", "--points", "200",
+                              "atlas_poke", "--seeds", "0", "--max-actions", "1", "--set", "view/max_surface_points=200",
                               "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         with open(os.path.join(self.out, "reachability.csv")) as f:
@@ -141,7 +141,7 @@ class BenchSmokeTest(unittest.TestCase):
         self.assertTrue(found, "libgpatlas_example_strategies.so not on LD_LIBRARY_PATH: %s" % dirs)
         proc = self.run_bench("--strategy-library", found[0], "--object", "procedural:sphere", "--size-m", "0.12",
                               "--strategy", "farthest_from_evidence,atlas_poke", "--seeds", "0", "--max-actions",
-                              "2", "--points", "200", "--no-reachability", "--out", self.out, "--no-plot")
+                              "2", "--set", "view/max_surface_points=200", "--no-reachability", "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         self.assertIn("adds the strategies: farthest_from_evidence", proc.stdout)
         with open(os.path.join(self.out, "runs.csv")) as f:
@@ -152,7 +152,7 @@ class BenchSmokeTest(unittest.TestCase):
         self.assertTrue(0.0 <= float(row["rmse_pred_to_gt_m"]) < 0.015, row)
 
     def test_bad_arguments_are_refused(self):
-        for args in (["--vmax", "0"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],
+        for args in (["--set", "exploration/v_max=0"], ["--set", "no/such_key=1"], ["--config", "/no/such/pipeline.yaml"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],
                      ["--probe", "laser"], ["--reach-directions", "0"],
                      ["--strategy-library", "/no/such/libstrategies.so"]):
             proc = self.run_bench(*args, "--out", self.out)
