@@ -117,7 +117,12 @@ SurfaceMeshResult SurfaceMesher::mesh(const GpisModel& model) const {
 
   // The domain cube's grid, in whose lattice the automatic bounds lie: [first, last] nodes.
   const Vector3 domain_lower = model.centroid() - Vector3::Constant(model.domainRadiusWorld());
-  const int domain_nodes = static_cast<int>(std::floor(2.0 * model.domainRadiusWorld() / resolution)) + 1;
+  const double domain_nodes_per_axis = std::floor(2.0 * model.domainRadiusWorld() / resolution) + 1.0;
+  if (!(domain_nodes_per_axis < 1e9)) {
+    result.message = "resolution_m is too fine for the model's domain";
+    return result;
+  }
+  const int domain_nodes = static_cast<int>(domain_nodes_per_axis);
   Eigen::Vector3i first = Eigen::Vector3i::Zero();
   Eigen::Vector3i last = Eigen::Vector3i::Constant(domain_nodes - 1);
   Eigen::AlignedBox<double, 3> surface_box;
@@ -139,15 +144,18 @@ SurfaceMeshResult SurfaceMesher::mesh(const GpisModel& model) const {
     result.message = "grid bounds must be finite with max_corner > min_corner on every axis";
     return result;
   }
-  const Eigen::Array3d cells = ((upper - lower) / resolution).array().floor() + 1.0;
-  if (cells.prod() > static_cast<double>(config_.max_nodes)) {
-    result.message = tooManyNodes(cells.prod(), config_.max_nodes,
+  // Automatic bounds count their lattice nodes exactly, not from the corners' rounded difference.
+  const Eigen::Array3d nodes_per_axis =
+      automatic ? Eigen::Array3d((last - first + Eigen::Vector3i::Ones()).cast<double>().array())
+                : Eigen::Array3d(((upper - lower) / resolution).array().floor() + 1.0);
+  if (nodes_per_axis.prod() > static_cast<double>(config_.max_nodes)) {
+    result.message = tooManyNodes(nodes_per_axis.prod(), config_.max_nodes,
                                   automatic ? "the surface observations' box grown by the margin" : "the given bounds");
     return result;
   }
   Grid grid;
   grid.lower = lower;
-  grid.size = automatic ? Eigen::Vector3i(last - first + Eigen::Vector3i::Ones()) : Eigen::Vector3i(cells.cast<int>().matrix());
+  grid.size = nodes_per_axis.cast<int>().matrix();
   result.grid_size = grid.size;
   if ((grid.size.array() < 2).any()) {
     result.message = "the grid needs at least two nodes per axis";
