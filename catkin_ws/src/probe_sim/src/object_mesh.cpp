@@ -613,10 +613,10 @@ TriangleMesh makeTorusMesh(double centre_radius, double tube_radius, const Proce
   return revolve(profile, true, c.segments);
 }
 
-TriangleMesh makeBowlMesh(const ProceduralConfig& c) {
-  // Spherical shell with its centre at the rim height, cut flat by z = 0 outside and by
-  // z = wall inside, so that it stands on a foot and has a floor as thick as the wall.
-  const double outer = 0.5, wall = 0.05, inner = outer - wall, rim_height = 0.4;
+// Spherical shell with its centre at the rim height, cut flat by z = 0 outside and by
+// z = wall inside, so that it stands on a foot and has a floor as thick as the wall.
+TriangleMesh makeShellBowlMesh(double outer, double wall, double rim_height, const ProceduralConfig& c) {
+  const double inner = outer - wall;
   const Eigen::Vector2d centre(0.0, rim_height);
   const double foot_angle = std::asin(-rim_height / outer);  // where the outer sphere meets z=0
   const double floor_angle = std::asin((wall - rim_height) / inner);
@@ -625,6 +625,18 @@ TriangleMesh makeBowlMesh(const ProceduralConfig& c) {
   appendArc(profile, centre, inner, 0.0, floor_angle, c.rings);
   profile.emplace_back(0.0, wall);
   return revolve(profile, false, c.segments);
+}
+
+TriangleMesh makeBowlMesh(const ProceduralConfig& c) { return makeShellBowlMesh(0.5, 0.05, 0.4, c); }
+
+// Box of the given size whose face at -x is centred on (start_x, 0, centre_z): a straight
+// handle along +x.
+TriangleMesh makeHandleMesh(double start_x, double length, double width, double thickness, double centre_z) {
+  TriangleMesh handle = makeBoxMesh(Eigen::Vector3d(length, width, thickness));
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.translation() << start_x + length / 2, 0.0, centre_z - thickness / 2;
+  handle.transform(pose);
+  return handle;
 }
 
 // Tube of radius tube_radius around an arc of radius arc_radius in the x-z plane centred at
@@ -699,6 +711,39 @@ TriangleMesh makeFunnelMesh(int segments) {
   return revolve(profile, true, segments);
 }
 
+// A ladle-like spoon lying on its bowl: a shallow shell bowl (as the bowl's, diameter 0.28,
+// depth 0.08) and a flat straight handle along +x that leaves the rim 5 mm below its top
+// (unscaled units: the whole spoon is 1 long). The handle's end face lies inside the bowl's
+// wall, between the inner and the outer sphere at every corner, so from outside the handle looks
+// attached and nothing of it shows in the cavity.
+TriangleMesh makeSpoonMesh(const ProceduralConfig& c) {
+  const double outer = 0.14, wall = 0.02, rim_height = 0.08;
+  const double handle_start = 0.125, handle_width = 0.08, handle_thickness = 0.03;
+  TriangleMesh mesh = makeShellBowlMesh(outer, wall, rim_height, c);
+  const double handle_end = 1.0 - outer;  // the spoon's length, from the far side of the bowl, is 1
+  mesh.append(makeHandleMesh(handle_start, handle_end - handle_start, handle_width, handle_thickness,
+                             rim_height - 0.005 - handle_thickness / 2));
+  return mesh;
+}
+
+// A frying pan: an open cylinder (diameter 0.45, height 0.06, wall 0.012, floor 0.015) and a
+// straight handle along +x just below the rim, its end face inside the wall (unscaled units: the
+// pan and its handle are 1 long).
+TriangleMesh makePanMesh(const ProceduralConfig& c) {
+  const double radius = 0.225, height = 0.06, wall = 0.012, floor_thickness = 0.015;
+  const Profile body = {{0.0, 0.0},
+                        {radius, 0.0},
+                        {radius, height},
+                        {radius - wall, height},
+                        {radius - wall, floor_thickness},
+                        {0.0, floor_thickness}};
+  TriangleMesh mesh = revolve(body, false, c.segments);
+  const double handle_start = radius - wall / 2, handle_width = 0.05, handle_thickness = 0.025;
+  mesh.append(makeHandleMesh(handle_start, 1.0 - radius - handle_start, handle_width, handle_thickness,
+                             height - 0.01 - handle_thickness / 2));
+  return mesh;
+}
+
 // Uniform scale so that the largest bounding-box side is size_m, then bounding box centred on
 // x = y = 0 with its bottom on z = 0.
 void normalisePlacement(TriangleMesh& mesh, double size_m) {
@@ -711,7 +756,7 @@ constexpr double kCylinderRadiusFraction = 0.3;
 }  // namespace
 
 std::vector<std::string> proceduralObjectNames() {
-  return {"sphere", "box", "cylinder", "torus", "bowl", "mug", "funnel"};
+  return {"sphere", "box", "cylinder", "torus", "bowl", "mug", "funnel", "spoon", "pan"};
 }
 
 TriangleMesh makeProceduralObject(const std::string& name, double size_m,
@@ -739,6 +784,10 @@ TriangleMesh makeProceduralObject(const std::string& name, double size_m,
     mesh = makeMugMesh(c);
   } else if (name == "funnel") {
     mesh = makeFunnelMesh(c.segments);
+  } else if (name == "spoon") {
+    mesh = makeSpoonMesh(c);
+  } else if (name == "pan") {
+    mesh = makePanMesh(c);
   } else {
     std::string known;
     for (const auto& n : proceduralObjectNames()) known += (known.empty() ? "" : ", ") + n;

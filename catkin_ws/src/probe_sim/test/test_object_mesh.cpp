@@ -2,12 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <random>
 #include <string>
 
@@ -241,6 +243,56 @@ TEST(ProceduralObjects, EveryObjectHasTheRequestedSizeAndRestsOnTheTable) {
       ASSERT_GT(mesh.triangleNormal(t).norm(), 0.5) << "degenerate triangle " << t;
     }
   }
+}
+
+// Closed and outward wound: every directed edge (vertices compared by position, since the box
+// gives each face its own corners) is matched by the opposite one, and the divergence theorem
+// gives a positive enclosed volume. Parts that overlap (a handle entering a wall) are each closed.
+TEST(ProceduralObjects, EveryObjectIsClosedAndWoundOutwards) {
+  using Key = std::array<double, 3>;
+  auto key = [](const Eigen::Vector3d& v) { return Key{v.x(), v.y(), v.z()}; };
+  for (const std::string& name : probe_sim::proceduralObjectNames()) {
+    SCOPED_TRACE(name);
+    const TriangleMesh mesh = probe_sim::makeProceduralObject(name, 0.3);
+    std::map<std::pair<Key, Key>, int> directed_edges;
+    double volume = 0.0;
+    for (const auto& t : mesh.triangles) {
+      for (int corner = 0; corner < 3; ++corner) {
+        ++directed_edges[{key(mesh.vertices[t[corner]]), key(mesh.vertices[t[(corner + 1) % 3]])}];
+      }
+      volume += mesh.vertices[t[0]].dot(mesh.vertices[t[1]].cross(mesh.vertices[t[2]])) / 6.0;
+    }
+    int unmatched = 0;
+    for (const auto& [edge, count] : directed_edges) {
+      const auto reverse = directed_edges.find({edge.second, edge.first});
+      if (reverse == directed_edges.end() || reverse->second != count) ++unmatched;
+    }
+    EXPECT_EQ(unmatched, 0);
+    EXPECT_GT(volume, 0.0);
+  }
+}
+
+// The utensils are long and flat, at the bench's size and at twice it: the long side (the size)
+// along x, and the bowl or pan narrower and much lower than that.
+TEST(ProceduralObjects, SpoonAndPanAreElongatedAlongX) {
+  for (const double size : {0.15, 0.30}) {
+    for (const std::string name : {"spoon", "pan"}) {
+      SCOPED_TRACE(name + " " + std::to_string(size));
+      const Eigen::Vector3d extent = probe_sim::makeProceduralObject(name, size).boundingBox().sizes();
+      EXPECT_NEAR(extent.x(), size, 1e-12);
+      EXPECT_LT(extent.y(), 0.5 * size);
+      EXPECT_LT(extent.z(), 0.1 * size);
+      EXPECT_FALSE(probe_sim::proceduralSignedDistance(name, size, Eigen::Vector3d::Zero()));
+    }
+  }
+  // Proportions (unscaled, length 1): the spoon's bowl is 0.28 across and 0.08 deep, the pan
+  // 0.45 across and 0.06 deep.
+  const Eigen::Vector3d spoon = probe_sim::makeProceduralObject("spoon", 1.0).boundingBox().sizes();
+  EXPECT_NEAR(spoon.y(), 0.28, 1e-12);
+  EXPECT_NEAR(spoon.z(), 0.08, 1e-12);
+  const Eigen::Vector3d pan = probe_sim::makeProceduralObject("pan", 1.0).boundingBox().sizes();
+  EXPECT_NEAR(pan.y(), 0.45, 1e-12);
+  EXPECT_NEAR(pan.z(), 0.06, 1e-12);
 }
 
 TEST(ProceduralObjects, AnalyticShapesMatchTheirClosedForms) {

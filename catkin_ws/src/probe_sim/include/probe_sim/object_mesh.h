@@ -58,6 +58,11 @@ void saveStl(const TriangleMesh& mesh, const std::string& path);
 //   bowl      thick spherical shell (outer radius 0.5, wall 0.05) cut flat at the bottom, open top
 //   mug       thick-walled cup with a floor and a half-torus handle on the +x side
 //   funnel    thick-walled cone on top of a spout tube, open at both ends, standing on the spout
+// The elongated ones (a kitchen utensil's long side is the size; its handle along +x):
+//   spoon     ladle-like: a shallow shell bowl (diameter 0.28, depth 0.08, wall 0.02) and a flat
+//             handle 0.08 wide and 0.03 thick leaving the rim
+//   pan       frying pan: open cylinder (diameter 0.45, height 0.06, wall 0.012) and a handle
+//             0.05 wide and 0.025 thick leaving the rim
 struct ProceduralConfig {
   int segments = 96;  // around the vertical axis; rounded up to a multiple of 4
   // Subdivisions of a half circle (sphere) or of curved profiles (bowl arcs, half the torus
@@ -72,7 +77,8 @@ TriangleMesh makeProceduralObject(const std::string& name, double size_m,
 
 // Signed distance (negative inside, metres) to the exact shape that makeProceduralObject(name,
 // size_m) tessellates, for the shapes with a closed form (sphere, box, cylinder); std::nullopt
-// for the others.
+// for the others (inside a union of overlapping parts, such as a handle entering a wall, the
+// minimum of the parts' distances is not the exact distance).
 std::optional<double> proceduralSignedDistance(const std::string& name, double size_m,
                                                const Eigen::Vector3d& point);
 
