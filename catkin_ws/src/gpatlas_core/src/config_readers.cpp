@@ -132,6 +132,8 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
 
 void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
   c->resolution_m = r.number("mesh/resolution_m", c->resolution_m, 1e-4, 1.0);
+  c->margin_fraction_of_data_radius =
+      r.number("mesh/margin_fraction_of_data_radius", c->margin_fraction_of_data_radius, 0.0, 100.0);
 }
 
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
