@@ -194,6 +194,7 @@ TouchUpdate applyTouch(GpisModel& model, const std::vector<Contact>& contacts, c
   // The model reports acceptance as a total; free-space points are the ones it drops
   // (duplicates, out of domain), so rejections are attributed to them first.
   const int accepted = static_cast<int>(report.num_added);
+  update.points_added = accepted;
   update.contacts_added = std::min(accepted, static_cast<int>(counts.contacts));
   update.free_points_added = std::max(0, accepted - static_cast<int>(num_contact_points));
   return update;

@@ -63,6 +63,7 @@ struct TouchUpdate {
   std::string message;
   int contacts_added{0};     // surface points accepted by the model
   int free_points_added{0};  // outside points accepted by the model
+  int points_added{0};       // every training point accepted (points behind contacts, slopes too)
   InteriorRetraction retraction;  // occluded-interior guesses the touch contradicted
   std::vector<std::string> warnings;
 };

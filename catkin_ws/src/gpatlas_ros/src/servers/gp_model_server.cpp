@@ -227,7 +227,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   }
   // The same rules as the bench's exploration loop (gpatlas_core::applyTouch).
   const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(model_, observed.contacts, free_space, touch_config_);
-  *num_added = static_cast<std::uint32_t>(update.contacts_added + update.free_points_added);
+  *num_added = static_cast<std::uint32_t>(update.points_added);
   *num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
   *message = update.message;
   if (update.retraction.any())
