@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <iomanip>
 #include <sstream>
 
 namespace gpatlas_core {
@@ -23,6 +24,17 @@ bool ParamReader::present(const std::string& name) {
 }
 
 namespace {
+std::string formatted(double v) {
+  std::ostringstream out;
+  out << std::setprecision(17) << v;
+  return out.str();
+}
+template <typename T, typename Format>
+std::string formattedList(const std::vector<T>& values, Format format) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < values.size(); ++i) out += (i ? ", " : "") + format(values[i]);
+  return out + "]";
+}
 std::string joined(const std::vector<std::string>& items, const char* separator) {
   std::ostringstream out;
   for (std::size_t i = 0; i < items.size(); ++i) out << (i ? separator : "") << items[i];
@@ -34,6 +46,7 @@ std::string ParamReader::errors() const { return joined(errors_, "; "); }
 std::string ParamReader::defaulted() const { return joined(defaulted_, ", "); }
 
 double ParamReader::number(const std::string& name, double fallback, double min, double max) {
+  defaults_.emplace_back(name, formatted(fallback));
   if (!present(name)) return fallback;
   const std::optional<double> value = source_.number(name);
   if (!value) {
@@ -50,6 +63,7 @@ double ParamReader::number(const std::string& name, double fallback, double min,
 }
 
 int ParamReader::integer(const std::string& name, int fallback, int min, int max) {
+  defaults_.emplace_back(name, std::to_string(fallback));
   if (!present(name)) return fallback;
   const std::optional<int> value = source_.integer(name);
   if (!value) {
@@ -64,6 +78,7 @@ int ParamReader::integer(const std::string& name, int fallback, int min, int max
 }
 
 bool ParamReader::flag(const std::string& name, bool fallback) {
+  defaults_.emplace_back(name, std::string(fallback ? "true" : "false"));
   if (!present(name)) return fallback;
   const std::optional<bool> value = source_.flag(name);
   if (!value) {
@@ -74,6 +89,7 @@ bool ParamReader::flag(const std::string& name, bool fallback) {
 }
 
 std::string ParamReader::text(const std::string& name, const std::string& fallback) {
+  defaults_.emplace_back(name, fallback);
   if (!present(name)) return fallback;
   const std::optional<std::string> value = source_.text(name);
   if (!value) {
@@ -84,6 +100,7 @@ std::string ParamReader::text(const std::string& name, const std::string& fallba
 }
 
 std::vector<std::string> ParamReader::texts(const std::string& name, const std::vector<std::string>& fallback) {
+  defaults_.emplace_back(name, formattedList(fallback, [](const std::string& t) { return t; }));
   if (!present(name)) return fallback;
   if (auto value = source_.texts(name)) return *value;
   if (auto single = source_.text(name)) return {*single};  // one item given without brackets
@@ -92,6 +109,7 @@ std::vector<std::string> ParamReader::texts(const std::string& name, const std::
 }
 
 std::vector<double> ParamReader::numbers(const std::string& name, const std::vector<double>& fallback) {
+  defaults_.emplace_back(name, formattedList(fallback, formatted));
   if (!present(name)) return fallback;
   const auto value = source_.numbers(name);
   if (!value) {
@@ -107,6 +125,7 @@ std::vector<double> ParamReader::numbers(const std::string& name, const std::vec
 }
 
 Vector3 ParamReader::vector3(const std::string& name, const Vector3& fallback) {
+  defaults_.emplace_back(name, formattedList(std::vector<double>{fallback.x(), fallback.y(), fallback.z()}, formatted));
   if (!present(name)) return fallback;
   const auto value = source_.numbers(name);
   if (!value || value->size() != 3) {

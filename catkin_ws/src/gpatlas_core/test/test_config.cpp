@@ -17,21 +17,6 @@ using gpatlas_core::PipelineConfig;
 using gpatlas_core::Vector3;
 using gpatlas_core::YamlParameters;
 
-// config/pipeline.yaml sets exactly what the readers read: no key that no Config reads (a typo
-// or a removed option), and no parameter that the file leaves to a default.
-TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
-  std::string error;
-  const auto params = YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
-  ASSERT_TRUE(params) << error;
-  ParamReader reader(*params);
-  PipelineConfig config;
-  gpatlas_core::readPipeline(reader, &config);
-  EXPECT_TRUE(reader.ok()) << reader.errors();
-  EXPECT_TRUE(reader.defaultedNames().empty()) << "not set in the file: " << reader.defaulted();
-  const std::set<std::string> read(reader.readNames().begin(), reader.readNames().end());
-  for (const std::string& key : params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
-}
-
 // The file's values reach the Configs (a second, independent parse of the text).
 TEST(PipelineYaml, ValuesReachTheConfigs) {
   std::string error;

@@ -144,6 +144,12 @@ Arm armFromXml(const std::string& urdf_xml, const std::string& source, const Arm
 
 }  // namespace
 
+KDL::Tree kinematicTreeFromUrdf(const std::string& urdf_xml) {
+  const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(urdf_xml);
+  if (!model || !model->getRoot()) throw std::runtime_error("the URDF does not parse");
+  return treeFromModel(*model);
+}
+
 Arm Arm::fromUrdfString(const std::string& urdf_xml, const Config& config) {
   return armFromXml(urdf_xml, "(string)", config);
 }

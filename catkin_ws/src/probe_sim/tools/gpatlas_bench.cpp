@@ -58,27 +58,27 @@ struct Options {
   };
   std::vector<ObjectSpec> objects;
   double scale{1.0};
-  double procedural_size_m{0.15};
+  std::optional<double> procedural_size_m;  // --size-m; otherwise simulation/procedural_size_m
   std::vector<std::string> strategies;
-  std::string probe{"ray"};
+  std::string probe;  // --probe; otherwise simulation/probe
   std::vector<int> seeds{0};
   int max_actions{-1};  // < 0: the config's exploration/max_actions
   int jobs{1};
   std::string out{"bench_out"};
   std::string config_path{GPATLAS_DEFAULT_CONFIG};
   std::vector<std::string> overrides;  // --set key=value, in order
-  // The paper simulates touches by ray casting on the object mesh alone (the object is held
-  // in the air); with --table the object stands on a table the camera sees (segmentation
-  // removes it) and touches can hit.
-  bool table{false};
+  std::string urdf_path{GPATLAS_VITO_URDF};  // the robot: its head camera and its arm
+  std::string urdf_xml;
   int curve_every{5};
   bool reachability{true};
   int reach_directions{probe_sim::ReachabilityConfig().directions};
   bool verbose{false};
   bool plot{true};
   bool save_meshes{false};
-  // Everything else comes from the config file: the pipeline's own Configs.
+  // Everything else comes from the config file: the pipeline's own Configs and the simulated
+  // scene that probe_sim_node builds from the same file.
   gpatlas_core::PipelineConfig pipeline;
+  probe_sim::SimulationSettings simulation;
 };
 
 void printUsage() {
@@ -94,19 +94,19 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
                  for (const auto& n : probe_sim::proceduralObjectNames()) names += n + " ";
                  return names;
                }() << R"(
+                                 [the config's simulation/object]
   --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
-  --size-m S                     size of procedural objects in metres [0.15]
+  --size-m S                     size of procedural objects in metres [simulation/procedural_size_m]
   --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
                                  [the config's strategy], or one from a --strategy-library
   --strategy-library FILE        a shared library that registers strategies of your own
                                  (GPATLAS_REGISTER_STRATEGY, gpatlas_core/strategy_library.h) (repeatable)
-  --probe ray|sphere             simulated probe model [ray]
+  --probe ray|sphere             simulated probe model [simulation/probe]
   --seeds 0,1,2                  seeds (camera noise, the view's subset, the planner) [the config's seed]
   --max-actions N                cap on tactile actions per run [the config's exploration/max_actions]
   --jobs N                       runs in parallel [1]
   --out DIR                      output folder [bench_out]
-  --table                        a table under the object, seen by the camera and hit by touches
-                                 [off: the paper's protocol casts rays on the object alone]
+  --urdf FILE                    the robot (head camera, arm) [vito_description's vito.urdf]
   --curve-every K                measure the shape error every K actions (0: only at the end) [5]
   --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
   --reach-directions N           escape lines tried per truth triangle for it [256]
@@ -158,7 +158,10 @@ Options parseArgs(int argc, char** argv) {
       o.scale = parseDouble(a, next());
       if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
     }
-    else if (a == "--size-m") o.procedural_size_m = parseDouble(a, next());
+    else if (a == "--size-m") {
+      o.procedural_size_m = parseDouble(a, next());
+      if (!(*o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
+    }
     else if (a == "--strategy") {
       for (const auto& s : splitList(next())) o.strategies.push_back(s);
     } else if (a == "--strategy-library") {
@@ -176,7 +179,7 @@ Options parseArgs(int argc, char** argv) {
     } else if (a == "--max-actions") o.max_actions = parseInt(a, next());
     else if (a == "--jobs") o.jobs = parseInt(a, next());
     else if (a == "--out") o.out = next();
-    else if (a == "--table") o.table = true;
+    else if (a == "--urdf") o.urdf_path = next();
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
     else if (a == "--no-reachability") o.reachability = false;
     else if (a == "--reach-directions") o.reach_directions = parseInt(a, next());
@@ -193,7 +196,15 @@ Options parseArgs(int argc, char** argv) {
     if (!params->set(assignment, &error)) throw std::invalid_argument("--set: " + error);
   gpatlas_core::ParamReader reader(*params);
   gpatlas_core::readPipeline(reader, &o.pipeline);
+  probe_sim::readSimulation(reader, &o.simulation);
   if (!reader.ok()) throw std::invalid_argument(o.config_path + ": " + reader.errors());
+  if (!o.probe.empty()) o.simulation.probe = o.probe;
+  if (o.procedural_size_m) o.simulation.procedural_size_m = *o.procedural_size_m;
+  if (const std::string problem = probe_sim::validate(o.simulation); !problem.empty())
+    throw std::invalid_argument(o.config_path + ": " + problem);
+  std::ifstream urdf(o.urdf_path);
+  if (!urdf) throw std::invalid_argument("--urdf: cannot read " + o.urdf_path);
+  o.urdf_xml.assign(std::istreambuf_iterator<char>(urdf), std::istreambuf_iterator<char>());
   // A --set of a name no reader knows is a typo, not a setting.
   for (const std::string& assignment : o.overrides) {
     const std::string key = assignment.substr(0, assignment.find('='));
@@ -206,17 +217,13 @@ Options parseArgs(int argc, char** argv) {
     if (!load.ok) throw std::invalid_argument(load.message);
   }
 
-  if (o.objects.empty()) o.objects.push_back({"procedural:mug", 1.0});
+  if (o.objects.empty()) o.objects.push_back({o.simulation.object, o.simulation.object_scale});
   if (o.strategies.empty()) o.strategies.push_back(o.pipeline.strategy_choice.name);
   if (!seeds_given) o.seeds = {static_cast<int>(o.pipeline.seed)};
   if (o.max_actions >= 0) o.pipeline.exploration.max_actions = o.max_actions;
-  if (!(o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
   if (o.reach_directions < 1) throw std::invalid_argument("--reach-directions must be >= 1");
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.seeds.empty()) throw std::invalid_argument("--seeds needs at least one seed");
-  const auto probes = probe_sim::probeModelNames();
-  if (std::find(probes.begin(), probes.end(), o.probe) == probes.end())
-    throw std::invalid_argument("unknown probe '" + o.probe + "' (ray or sphere)");
   const auto known = gpatlas_core::strategyNames();
   for (const auto& s : o.strategies)
     if (std::find(known.begin(), known.end(), s) == known.end()) {
@@ -227,21 +234,7 @@ Options parseArgs(int argc, char** argv) {
   return o;
 }
 
-// Where the simulator (probe_sim_node's object_position_xy_m) puts the object, so that the
-// segmentation's crop box in config/pipeline.yaml holds it, and its table.
-const Eigen::Vector2d kObjectPositionXY(0.7, 0.0);
-
-probe_sim::Scene::Config sceneConfig(bool with_table) {
-  const probe_sim::SimulationSettings sim;
-  probe_sim::Scene::Config config;
-  config.add_table = with_table;
-  config.table_size_xy = sim.table_size_xy_m;
-  config.table_centre_xy = sim.table_centre_xy_m;
-  config.table_thickness = sim.table_thickness_m;
-  return config;
-}
-
-// A ground-truth object placed on the table: bounding box centred on kObjectPositionXY, bottom on z = 0.
+// A ground-truth object placed as the simulator places it (simulation/object_position_xy_m).
 struct GroundTruth {
   std::string name;
   probe_sim::TriangleMesh mesh;
@@ -255,8 +248,8 @@ struct GroundTruth {
   std::vector<bool> sample_reachable;
 };
 
-void measureReachability(GroundTruth& gt, bool with_table, int directions) {
-  const probe_sim::Scene scene(gt.mesh, sceneConfig(with_table));
+void measureReachability(GroundTruth& gt, const probe_sim::SimulationSettings& simulation, int directions) {
+  const probe_sim::Scene scene(gt.mesh, probe_sim::sceneConfig(simulation));
   probe_sim::ReachabilityConfig config;
   config.directions = directions;
   const probe_sim::ReachableSurface split = probe_sim::splitReachableSurface(scene, config);
@@ -287,14 +280,11 @@ void measureReachability(GroundTruth& gt, bool with_table, int directions) {
 GroundTruth loadObject(const std::string& spec, double scale, const Options& o) {
   GroundTruth gt;
   const std::string prefix = "procedural:";
-  if (spec.rfind(prefix, 0) == 0) {
-    gt.name = spec.substr(prefix.size());
-    gt.mesh = probe_sim::makeProceduralObject(gt.name, o.procedural_size_m);
-  } else {
-    gt.name = fs::path(spec).stem().string();
-    gt.mesh = probe_sim::loadMesh(spec, scale);
-  }
-  probe_sim::placeOnTable(gt.mesh, kObjectPositionXY);
+  gt.name = spec.rfind(prefix, 0) == 0 ? spec.substr(prefix.size()) : fs::path(spec).stem().string();
+  probe_sim::SimulationSettings simulation = o.simulation;
+  simulation.object = spec;
+  simulation.object_scale = scale;
+  gt.mesh = probe_sim::loadSimulatedObject(simulation);
   return gt;
 }
 
@@ -373,7 +363,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   RunResult r;
   r.object = gt.name;
   r.strategy = strategy_name;
-  r.probe = o.probe;
+  r.probe = o.simulation.probe;
   r.seed = seed;
   r.v_max = pipeline.exploration.v_max;
   const auto failed = [&r](const std::string& what) {
@@ -382,18 +372,15 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     return r;
   };
 
-  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, sceneConfig(o.table));
-  // The fixed camera: in front of and above the object, looking at its centre, so the back
-  // and the underside stay unseen.
-  const Eigen::AlignedBox3d box = gt.mesh.boundingBox();
-  const Eigen::Vector3d target = box.center();
-  const double extent = box.sizes().maxCoeff();
-  const Eigen::Vector3d eye = target + Eigen::Vector3d(3.0 * extent + 0.3, 0.0, 1.5 * extent + 0.15);
-  probe_sim::DepthCamera::Config cam_config;
-  cam_config.depth_noise_sigma_m = probe_sim::SimulationSettings().camera_depth_noise_m;
-  cam_config.include_table = o.table;
-  cam_config.seed = static_cast<std::uint32_t>(seed + 1);
-  probe_sim::DepthCamera camera(cam_config, probe_sim::lookAt(eye, target));
+  // The scene probe_sim_node simulates, from the same simulation section.
+  const probe_sim::SimulationSettings& simulation = o.simulation;
+  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, probe_sim::sceneConfig(simulation));
+  std::string camera_error;
+  const std::optional<Eigen::Isometry3d> camera_pose = probe_sim::cameraPose(simulation, o.urdf_xml, &camera_error);
+  if (!camera_pose) return failed(camera_error);
+  const Eigen::Vector3d eye = camera_pose->translation();
+  // The camera's noise follows the run's seed, as in probe_sim_node.
+  probe_sim::DepthCamera camera(probe_sim::cameraConfig(simulation, static_cast<std::uint32_t>(seed + 1)), *camera_pose);
   const probe_sim::DepthCloud cloud = camera.capture(*scene);
   std::vector<Vector3> scene_points;
   for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) scene_points.push_back(cloud.points_world.col(i));
@@ -416,7 +403,21 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
   strategy_config.seed = static_cast<std::uint64_t>(seed);
   const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
-  probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(o.probe));
+  probe_sim::ProbeModelConfig probe_config;
+  probe_config.sphere.radius_m = simulation.probe_radius_m;
+  probe_sim::SimulatedProber::Config prober_config;
+  prober_config.slide_step_m = simulation.slide_step_m;
+  probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(simulation.probe, probe_config), prober_config);
+  if (simulation.use_arm) {
+    probe_sim::Arm::Config arm_config;
+    arm_config.base_link = simulation.world_frame;
+    arm_config.tip_link = simulation.tip_frame;
+    try {
+      prober.setArm(std::make_shared<const probe_sim::Arm>(probe_sim::Arm::fromUrdfString(o.urdf_xml, arm_config)));
+    } catch (const std::exception& e) {
+      return failed(std::string("simulation/use_arm: ") + e.what());
+    }
+  }
   gpatlas_core::Explorer::Config loop = pipeline.exploration;
   loop.seed = static_cast<std::uint64_t>(seed);
   gpatlas_core::EvidenceRule evidence = pipeline.evidence;
@@ -613,9 +614,9 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   f << "# gpatlas_bench summary\n\n";
   f << "config `" << o.config_path << "`";
   for (const auto& assignment : o.overrides) f << " --set " << assignment;
-  f << ", probe `" << o.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
+  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
   for (int s : o.seeds) f << ' ' << s;
-  f << ", max actions " << o.pipeline.exploration.max_actions << (o.table ? ", on a table" : "") << ".\n";
+  f << ", max actions " << o.pipeline.exploration.max_actions << (o.simulation.table ? ", on a table" : ", no table") << ".\n";
   f << "Per cell, over the runs that left a predicted surface: mean actions, mean RMSE predicted->truth / "
        "truth->predicted (m), the mean nearest-neighbour distance over both directions (chamfer_l1_m, the "
        "paper's kind of number; m), converged runs / runs; failed runs (errors, no surface) are counted after "
@@ -740,7 +741,7 @@ int main(int argc, char** argv) {
         GroundTruth& gt = objects[i];
         const auto started = std::chrono::steady_clock::now();
         try {
-          measureReachability(gt, o.table, o.reach_directions);
+          measureReachability(gt, o.simulation, o.reach_directions);
         } catch (const std::exception& e) {
           // The runs do not need it: they go on without the reachable-truth numbers.
           gt.reachability_measured = false;
@@ -786,7 +787,7 @@ int main(int argc, char** argv) {
       } catch (const std::exception& e) {
         r.object = objects[jobs[j].object].name;
         r.strategy = jobs[j].strategy;
-        r.probe = o.probe;
+        r.probe = o.simulation.probe;
         r.seed = jobs[j].seed;
         r.v_max = o.pipeline.exploration.v_max;
         r.stop_reason = "error";

@@ -3,11 +3,10 @@
 #include "probe_sim/object_mesh.h"
 
 #include <gpatlas_conversions/conversions.h>
+#include <gpatlas_conversions/ros_parameters.h>
+#include <gpatlas_core/config_readers.h>
 
 #include <geometry_msgs/TransformStamped.h>
-#include <kdl/chain.hpp>
-#include <kdl/tree.hpp>
-#include <kdl_parser/kdl_parser.hpp>
 #include <sensor_msgs/JointState.h>
 #include <urdf/model.h>
 #include <visualization_msgs/Marker.h>
@@ -22,7 +21,6 @@ namespace probe_sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-const std::string kProceduralPrefix = "procedural:";
 
 template <typename Vector>
 std::string describe(const Vector& v) {
@@ -32,96 +30,6 @@ std::string describe(const Vector& v) {
   out << ")";
   return out.str();
 }
-
-// Reads optional private parameters. Unlike NodeHandle::param, a parameter of the wrong type is
-// reported instead of silently replaced by the default, and every problem names the parameter.
-class ParameterReader {
- public:
-  explicit ParameterReader(const ros::NodeHandle& pnh) : pnh_(pnh) {}
-
-  void read(const std::string& name, std::string* value) {
-    XmlRpc::XmlRpcValue raw;
-    if (!get(name, &raw)) return;
-    if (raw.getType() != XmlRpc::XmlRpcValue::TypeString) return wrongType(name, "a string");
-    *value = static_cast<std::string>(raw);
-  }
-
-  void read(const std::string& name, bool* value) {
-    XmlRpc::XmlRpcValue raw;
-    if (!get(name, &raw)) return;
-    if (raw.getType() != XmlRpc::XmlRpcValue::TypeBoolean) return wrongType(name, "true or false");
-    *value = static_cast<bool>(raw);
-  }
-
-  void read(const std::string& name, int* value) {
-    XmlRpc::XmlRpcValue raw;
-    if (!get(name, &raw)) return;
-    if (raw.getType() != XmlRpc::XmlRpcValue::TypeInt) return wrongType(name, "an integer");
-    *value = static_cast<int>(raw);
-  }
-
-  void read(const std::string& name, double* value) {
-    XmlRpc::XmlRpcValue raw;
-    if (!get(name, &raw)) return;
-    std::optional<double> number = toNumber(raw);
-    if (!number) return wrongType(name, "a number");
-    *value = *number;
-    require(std::isfinite(*value), name, "must be finite");
-  }
-
-  template <int N>
-  void read(const std::string& name, Eigen::Matrix<double, N, 1>* value) {
-    XmlRpc::XmlRpcValue raw;
-    if (!get(name, &raw)) return;
-    const std::string expected = "a list of " + std::to_string(N) + " numbers";
-    if (raw.getType() != XmlRpc::XmlRpcValue::TypeArray || raw.size() != N) {
-      return wrongType(name, expected);
-    }
-    Eigen::Matrix<double, N, 1> parsed;
-    for (int i = 0; i < N; ++i) {
-      std::optional<double> number = toNumber(raw[i]);
-      if (!number) return wrongType(name, expected);
-      parsed[i] = *number;
-    }
-    *value = parsed;
-    require(parsed.allFinite(), name, "must be finite");
-  }
-
-  template <int N>
-  void read(const std::string& name, std::optional<Eigen::Matrix<double, N, 1>>* value) {
-    if (!pnh_.hasParam(name)) return;
-    Eigen::Matrix<double, N, 1> parsed = Eigen::Matrix<double, N, 1>::Zero();
-    read(name, &parsed);
-    *value = parsed;
-  }
-
-  // Records "~name <requirement>" when the condition does not hold.
-  void require(bool condition, const std::string& name, const std::string& requirement) {
-    if (!condition) errors_.push_back(pnh_.resolveName(name) + " " + requirement);
-  }
-
-  std::string errors() const {
-    std::string joined;
-    for (const std::string& e : errors_) joined += (joined.empty() ? "" : "; ") + e;
-    return joined;
-  }
-
- private:
-  bool get(const std::string& name, XmlRpc::XmlRpcValue* raw) {
-    return pnh_.hasParam(name) && pnh_.getParam(name, *raw);
-  }
-  static std::optional<double> toNumber(XmlRpc::XmlRpcValue& raw) {
-    if (raw.getType() == XmlRpc::XmlRpcValue::TypeDouble) return static_cast<double>(raw);
-    if (raw.getType() == XmlRpc::XmlRpcValue::TypeInt) return static_cast<int>(raw);
-    return std::nullopt;
-  }
-  void wrongType(const std::string& name, const std::string& expected) {
-    errors_.push_back(pnh_.resolveName(name) + " must be " + expected);
-  }
-
-  ros::NodeHandle pnh_;
-  std::vector<std::string> errors_;
-};
 
 // Empty when every waypoint and normal is finite, else which one is not and how. The prober
 // checks this too, but a NaN deserves to be called by its name: it usually means a planner bug.
@@ -210,63 +118,14 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 std::string SimulationServer::readSettings() {
-  SimulationSettings& s = settings_;
-  ParameterReader p(pnh_);
-  p.read("object", &s.object);
-  p.read("object_scale", &s.object_scale);
-  p.read("procedural_size_m", &s.procedural_size_m);
-  p.read("object_position_xy_m", &s.object_position_xy_m);
-  p.read("world_frame", &s.world_frame);
-  p.read("table_size_xy_m", &s.table_size_xy_m);
-  p.read("table_centre_xy_m", &s.table_centre_xy_m);
-  p.read("table_thickness_m", &s.table_thickness_m);
-  p.read("probe", &s.probe);
-  p.read("probe_radius_m", &s.probe_radius_m);
-  p.read("slide_step_m", &s.slide_step_m);
-  p.read("use_arm", &s.use_arm);
-  p.read("tip_frame", &s.tip_frame);
-  p.read("joint_states_rate_hz", &s.joint_states_rate_hz);
-  p.read("arm_max_joint_speed_rad_s", &s.arm_max_joint_speed_rad_s);
-  p.read("camera_frame", &s.camera_frame);
-  p.read("camera_eye_m", &s.camera_eye_m);
-  p.read("camera_target_m", &s.camera_target_m);
-  p.read("camera_width_px", &s.camera_width_px);
-  p.read("camera_height_px", &s.camera_height_px);
-  p.read("camera_fov_deg", &s.camera_fov_deg);
-  p.read("camera_depth_noise_m", &s.camera_depth_noise_m);
-  p.read("camera_include_table", &s.camera_include_table);
-  p.read("publish_cloud_rate_hz", &s.publish_cloud_rate_hz);
-
-  p.require(!s.object.empty(), "object", "must name a mesh file or procedural:NAME");
-  p.require(s.object_scale > 0.0, "object_scale", "must be > 0 (0.001 for a mesh in mm)");
-  p.require(s.procedural_size_m > 0.0, "procedural_size_m", "must be > 0");
-  p.require(!s.world_frame.empty(), "world_frame", "must not be empty");
-  p.require((s.table_size_xy_m.array() > 0.0).all(), "table_size_xy_m", "must be > 0");
-  p.require(s.table_thickness_m > 0.0, "table_thickness_m", "must be > 0");
-  const std::vector<std::string> probes = probeModelNames();
-  p.require(std::find(probes.begin(), probes.end(), s.probe) != probes.end(), "probe",
-            "must be 'ray' or 'sphere', got '" + s.probe + "'");
-  p.require(s.probe_radius_m > 0.0, "probe_radius_m", "must be > 0");
-  p.require(s.slide_step_m > 0.0, "slide_step_m", "must be > 0");
-  p.require(!s.tip_frame.empty(), "tip_frame", "must not be empty");
-  p.require(s.joint_states_rate_hz > 0.0, "joint_states_rate_hz", "must be > 0");
-  p.require(s.arm_max_joint_speed_rad_s > 0.0, "arm_max_joint_speed_rad_s", "must be > 0");
-  p.require(!s.camera_frame.empty(), "camera_frame", "must not be empty");
-  p.require(s.camera_eye_m.has_value() == s.camera_target_m.has_value(), "camera_eye_m",
-            "and camera_target_m must be given together (or neither: pose from the URDF)");
-  p.require(!s.camera_eye_m || !s.camera_target_m ||
-                (*s.camera_eye_m - *s.camera_target_m).norm() > 1e-6,
-            "camera_eye_m", "must differ from camera_target_m");
-  p.require(s.camera_width_px >= 1 && s.camera_width_px <= 4096, "camera_width_px",
-            "must be in [1, 4096]");
-  p.require(s.camera_height_px >= 1 && s.camera_height_px <= 4096, "camera_height_px",
-            "must be in [1, 4096]");
-  p.require(s.camera_fov_deg > 0.0 && s.camera_fov_deg < 180.0, "camera_fov_deg",
-            "must be in (0, 180)");
-  p.require(s.camera_depth_noise_m >= 0.0, "camera_depth_noise_m", "must be >= 0");
-  p.require(s.publish_cloud_rate_hz >= 0.0, "publish_cloud_rate_hz",
-            "must be >= 0 (0: only on ~capture)");
-  const std::string errors = p.errors();
+  // config/pipeline.yaml's `simulation` section, read as gpatlas_bench reads it.
+  const gpatlas_ros::RosParameterSource source(pnh_);
+  gpatlas_core::ParamReader reader(source);
+  readSimulation(reader, &settings_);
+  seed_ = gpatlas_core::readSeed(reader);
+  std::string errors = reader.errors();
+  const std::string invalid = validate(settings_);
+  if (!invalid.empty()) errors += (errors.empty() ? "" : "; ") + invalid;
   return errors.empty() ? "" : "invalid parameters: " + errors;
 }
 
@@ -339,20 +198,11 @@ std::string SimulationServer::loadObject() {
   const SimulationSettings& s = settings_;
   TriangleMesh mesh;
   try {
-    if (s.object.rfind(kProceduralPrefix, 0) == 0) {
-      mesh = makeProceduralObject(s.object.substr(kProceduralPrefix.size()), s.procedural_size_m);
-    } else {
-      mesh = loadMesh(s.object, s.object_scale);
-    }
+    mesh = loadSimulatedObject(s);
   } catch (const std::exception& e) {
     return std::string("no object loaded: ") + e.what();
   }
-  placeOnTable(mesh, s.object_position_xy_m);
-
-  SceneConfig scene_config;
-  scene_config.table_size_xy = s.table_size_xy_m;
-  scene_config.table_centre_xy = s.table_centre_xy_m;
-  scene_config.table_thickness = s.table_thickness_m;
+  const SceneConfig scene_config = sceneConfig(s);
   const Eigen::AlignedBox3d bounds = mesh.boundingBox();
   const Eigen::Vector2d table_min = s.table_centre_xy_m - 0.5 * s.table_size_xy_m;
   const Eigen::Vector2d table_max = s.table_centre_xy_m + 0.5 * s.table_size_xy_m;
@@ -360,12 +210,12 @@ std::string SimulationServer::loadObject() {
       (bounds.max().head<2>().array() > table_max.array()).any()) {
     ROS_WARN_STREAM("probe_sim: the object's footprint " << describe(bounds.min().head<2>())
                     << " to " << describe(bounds.max().head<2>())
-                    << " overhangs the table; check ~object_position_xy_m and ~object_scale");
+                    << " overhangs the table; check ~simulation/object_position_xy_m and ~simulation/object_scale");
   }
   const double largest_side_m = bounds.sizes().maxCoeff();
   if (largest_side_m > 2.0 || largest_side_m < 0.005) {
     ROS_WARN_STREAM("probe_sim: the object is " << largest_side_m
-                    << " m across; is ~object_scale right (0.001 for a mesh in mm)?");
+                    << " m across; is ~simulation/object_scale right (0.001 for a mesh in mm)?");
   }
   scene_ = std::make_shared<Scene>(mesh, scene_config);
   return "";
@@ -373,53 +223,24 @@ std::string SimulationServer::loadObject() {
 
 std::string SimulationServer::setUpCamera() {
   const SimulationSettings& s = settings_;
-  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   if (s.camera_eye_m) {
     // A camera placed by parameters has no frame in the robot; a URDF frame of the same name
     // would get two conflicting poses in tf.
     urdf::Model model;
     if (!urdf_xml_.empty() && model.initString(urdf_xml_) && model.getLink(s.camera_frame)) {
-      return "invalid parameters: " + pnh_.resolveName("camera_frame") + " '" + s.camera_frame +
+      return "invalid parameters: " + pnh_.resolveName("simulation/camera_frame") + " '" + s.camera_frame +
              "' is a frame of robot_description, so it cannot be placed by camera_eye_m and "
              "camera_target_m: choose another frame name, or drop them to use the URDF's pose";
     }
-    pose = lookAt(*s.camera_eye_m, *s.camera_target_m);
-    static_broadcaster_.sendTransform(toTransformMsg(pose, s.world_frame, s.camera_frame));
-  } else {
-    // The camera frame's pose from the URDF's fixed joints: the same transform that
-    // robot_state_publisher puts on /tf_static, without waiting for tf at start-up.
-    const std::string use_params = "; or set ~camera_eye_m and ~camera_target_m";
-    if (urdf_xml_.empty()) {
-      return "no camera pose: robot_description is not set" + use_params;
-    }
-    KDL::Tree tree;
-    KDL::Chain chain;
-    if (!kdl_parser::treeFromString(urdf_xml_, tree) ||
-        !tree.getChain(s.world_frame, s.camera_frame, chain)) {
-      return "no camera pose: robot_description has no chain from '" + s.world_frame + "' to '" +
-             s.camera_frame + "'" + use_params;
-    }
-    if (chain.getNrOfJoints() != 0) {
-      return "no camera pose: '" + s.camera_frame + "' moves with " +
-             std::to_string(chain.getNrOfJoints()) + " joint(s), a fixed camera is expected" +
-             use_params;
-    }
-    KDL::Frame frame = KDL::Frame::Identity();
-    for (const KDL::Segment& segment : chain.segments) frame = frame * segment.pose(0.0);
-    for (int r = 0; r < 3; ++r) {
-      pose.translation()[r] = frame.p(r);
-      for (int c = 0; c < 3; ++c) pose.linear()(r, c) = frame.M(r, c);
-    }
   }
-
-  DepthCamera::Config config;
-  config.width = s.camera_width_px;
-  config.height = s.camera_height_px;
-  config.horizontal_fov_rad = s.camera_fov_deg * kPi / 180.0;
-  config.depth_noise_sigma_m = s.camera_depth_noise_m;
-  config.include_table = s.camera_include_table;
-  config.include_obstacles = false;
-  camera_ = std::make_unique<DepthCamera>(config, pose);
+  std::string error;
+  // The URDF's fixed camera frame: the same transform that robot_state_publisher puts on
+  // /tf_static, without waiting for tf at start-up.
+  const std::optional<Eigen::Isometry3d> pose = cameraPose(s, urdf_xml_, &error);
+  if (!pose) return error;
+  if (s.camera_eye_m) static_broadcaster_.sendTransform(toTransformMsg(*pose, s.world_frame, s.camera_frame));
+  // The bench's rule: the camera's noise follows the run's seed.
+  camera_ = std::make_unique<DepthCamera>(cameraConfig(s, static_cast<std::uint32_t>(seed_ + 1)), *pose);
   return "";
 }
 

@@ -65,6 +65,7 @@ class SimulationServer {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   SimulationSettings settings_;
+  std::uint64_t seed_{0};  // the run's seed (config/pipeline.yaml `seed`): the camera's noise
   std::string unavailable_reason_;
 
   // The robot as described by robot_description (empty when there is none and use_arm is off).

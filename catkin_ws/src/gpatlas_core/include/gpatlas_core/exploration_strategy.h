@@ -55,7 +55,7 @@ struct StrategyConfig {
   // 4.5 / 6.1 (README, benchmarks).
   int slide_extension_charts{20};
   SurfaceSampler::Config sampler;   // random, max_variance
-  std::uint64_t seed{1};
+  std::uint64_t seed{0};
 };
 
 using StrategyFactory = std::function<std::unique_ptr<ExplorationStrategy>(const StrategyConfig&)>;

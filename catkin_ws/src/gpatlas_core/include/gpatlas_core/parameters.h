@@ -9,6 +9,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace gpatlas_core {
@@ -53,6 +54,9 @@ class ParamReader {
   // The parameters that were not set, so their defaults apply.
   std::string defaulted() const;
   const std::vector<std::string>& readNames() const { return read_; }
+  // The code's default of every parameter read, as YAML text ("0.1", "true", "[1, 2]", "x"):
+  // what a node gets without the file.
+  const std::vector<std::pair<std::string, std::string>>& defaults() const { return defaults_; }
   const std::vector<std::string>& defaultedNames() const { return defaulted_; }
 
  private:
@@ -62,6 +66,7 @@ class ParamReader {
   std::vector<std::string> errors_;
   std::vector<std::string> read_;
   std::vector<std::string> defaulted_;
+  std::vector<std::pair<std::string, std::string>> defaults_;
 };
 
 // Parameters from a YAML file (yaml-cpp), with overrides "key/sub=value" (the value parsed as

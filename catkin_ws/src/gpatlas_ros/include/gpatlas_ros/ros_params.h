@@ -7,6 +7,7 @@
 
 #include <gpatlas_core/config_readers.h>
 #include <gpatlas_core/parameters.h>
+#include <gpatlas_conversions/ros_parameters.h>
 
 #include <ros/node_handle.h>
 
@@ -28,24 +29,6 @@ using gpatlas_core::readTouchObservations;
 using gpatlas_core::readTuning;
 using gpatlas_core::readUseSupportPlane;
 using gpatlas_core::readViewTraining;
-
-// The parameter server under a node handle's namespace.
-class RosParameterSource : public gpatlas_core::ParameterSource {
- public:
-  explicit RosParameterSource(const ros::NodeHandle& nh) : nh_(nh) {}
-  bool exists(const std::string& name) const override;
-  std::optional<double> number(const std::string& name) const override;
-  std::optional<int> integer(const std::string& name) const override;
-  std::optional<bool> flag(const std::string& name) const override;
-  std::optional<std::string> text(const std::string& name) const override;
-  std::optional<std::vector<double>> numbers(const std::string& name) const override;
-  std::optional<std::vector<std::string>> texts(const std::string& name) const override;
-  std::string fullName(const std::string& name) const override { return nh_.resolveName(name); }
-  const std::string& ns() const { return nh_.getNamespace(); }
-
- private:
-  ros::NodeHandle nh_;
-};
 
 namespace detail {
 // Constructed before the reader that refers to it.

@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 
 #include <kdl/chain.hpp>
+#include <kdl/tree.hpp>
 
 #include <cstdint>
 #include <memory>
@@ -97,5 +98,9 @@ class Arm {
   Config config_;
   std::unique_ptr<Solvers> solvers_;
 };
+
+// A URDF's kinematic tree (urdfdom and KDL, no ROS); throws std::runtime_error when it does
+// not parse.
+KDL::Tree kinematicTreeFromUrdf(const std::string& urdf_xml);
 
 }  // namespace probe_sim

@@ -1,32 +1,41 @@
 #pragma once
 
+#include "probe_sim/depth_camera.h"
+#include "probe_sim/object_mesh.h"
+#include "probe_sim/scene.h"
+
+#include <gpatlas_core/parameters.h>
+
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <optional>
 #include <string>
 
 namespace probe_sim {
 
-// The simulated scene, probe, arm and camera: what probe_sim_node reads from its private
-// parameters, with the defaults; gpatlas_bench places its objects and table the same way.
+// The simulated scene, probe, arm and camera, with the defaults: config/pipeline.yaml's
+// `simulation` section, which probe_sim_node and gpatlas_bench read alike (readSimulation).
 struct SimulationSettings {
-  std::string object = "procedural:sphere";  // mesh file (.stl/.ply/.obj) or procedural:NAME
+  std::string object = "procedural:mug";  // mesh file (.stl/.ply/.obj) or procedural:NAME
   double object_scale = 1.0;                 // mesh file units -> metres (0.001 for mm)
   double procedural_size_m = 0.15;
   Eigen::Vector2d object_position_xy_m{0.7, 0.0};
   std::string world_frame = "world";
 
-  // The table the object stands on; the defaults are vito.urdf's `table` link (0.8 x 1.2 m
+  // The table the object stands on (false: the object alone, as in the paper's simulated
+  // protocol, where rays are cast on the object mesh); the defaults are vito.urdf's `table` link (0.8 x 1.2 m
   // top, 4 cm thick, centred at x = 0.75), whose top is the plane z = 0 like the Scene's.
+  bool table = true;
   Eigen::Vector2d table_size_xy_m{0.8, 1.2};
   Eigen::Vector2d table_centre_xy_m{0.75, 0.0};
   double table_thickness_m = 0.04;
 
-  std::string probe = "sphere";  // "ray" | "sphere"
+  std::string probe = "ray";  // "ray" (the paper's validation protocol) | "sphere"
   double probe_radius_m = 0.02;  // vito.urdf's probe tip sphere
   double slide_step_m = 0.005;
 
-  bool use_arm = true;
+  bool use_arm = false;
   std::string tip_frame = "probe_tip";
   double joint_states_rate_hz = 20.0;
   double arm_max_joint_speed_rad_s = 1.0;  // of the displayed motion only
@@ -45,5 +54,25 @@ struct SimulationSettings {
   bool camera_include_table = true;
   double publish_cloud_rate_hz = 0.0;  // 0: only on ~capture
 };
+
+// Reads simulation/... (and world_frame); every problem goes to the reader.
+void readSimulation(gpatlas_core::ParamReader& reader, SimulationSettings* settings);
+// Empty when the settings are usable; otherwise every problem, by parameter name.
+std::string validate(const SimulationSettings& settings);
+
+// The object as the settings place it (on the table at object_position_xy_m); throws
+// std::runtime_error with the reason when the mesh cannot be read or the name is unknown.
+TriangleMesh loadSimulatedObject(const SimulationSettings& settings);
+SceneConfig sceneConfig(const SimulationSettings& settings);
+// The camera's intrinsics and noise; `seed` draws its noise.
+DepthCamera::Config cameraConfig(const SimulationSettings& settings, std::uint32_t seed);
+// The camera's pose: camera_eye_m looking at camera_target_m when given, otherwise the fixed
+// pose of camera_frame in the URDF (relative to world_frame). nullopt with the reason when
+// there is none.
+std::optional<Eigen::Isometry3d> cameraPose(const SimulationSettings& settings, const std::string& urdf_xml,
+                                            std::string* error);
+// The pose of `frame` relative to `base` in a URDF, when every joint between them is fixed.
+std::optional<Eigen::Isometry3d> fixedFramePose(const std::string& urdf_xml, const std::string& base,
+                                                const std::string& frame, std::string* error);
 
 }  // namespace probe_sim

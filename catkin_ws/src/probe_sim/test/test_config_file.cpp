@@ -1,0 +1,60 @@
+// config/pipeline.yaml against the readers of every Config it feeds: the pipeline's
+// (gpatlas_core::readPipeline) and the simulated scene's (probe_sim::readSimulation).
+#include "probe_sim/simulation_settings.h"
+
+#include <gpatlas_core/config_readers.h>
+#include <gpatlas_core/parameters.h>
+
+#include <gtest/gtest.h>
+
+#include <set>
+
+namespace {
+
+// The file sets exactly what the readers read: no key that no Config reads (a typo or a removed
+// option), and no parameter that the file leaves to a code default.
+TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
+  std::string error;
+  const auto params = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
+  ASSERT_TRUE(params) << error;
+  gpatlas_core::ParamReader reader(*params);
+  gpatlas_core::PipelineConfig pipeline;
+  gpatlas_core::readPipeline(reader, &pipeline);
+  probe_sim::SimulationSettings simulation;
+  probe_sim::readSimulation(reader, &simulation);
+  EXPECT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_TRUE(reader.defaultedNames().empty()) << "not set in the file: " << reader.defaulted();
+  const std::set<std::string> read(reader.readNames().begin(), reader.readNames().end());
+  for (const std::string& key : params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
+  EXPECT_EQ(probe_sim::validate(simulation), "");
+}
+
+// The code's defaults are the file's values, so that a node started without the file behaves
+// as the pipeline does.
+TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
+  std::string error;
+  const auto params = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
+  ASSERT_TRUE(params) << error;
+  gpatlas_core::ParamReader reader(*params);
+  gpatlas_core::PipelineConfig pipeline;
+  gpatlas_core::readPipeline(reader, &pipeline);
+  probe_sim::SimulationSettings simulation;
+  probe_sim::readSimulation(reader, &simulation);
+  ASSERT_FALSE(reader.defaults().empty());
+  for (const auto& [name, code_default] : reader.defaults()) {
+    // Both as YAML, so that numbers compare as numbers and lists element by element.
+    const auto in_code = gpatlas_core::YamlParameters::fromString("v: " + code_default, &error);
+    ASSERT_TRUE(in_code) << name << ": " << error;
+    if (const auto numbers = params->numbers(name)) {
+      EXPECT_EQ(*numbers, *in_code->numbers("v")) << name << ": the code's default is " << code_default;
+    } else if (const auto texts = params->texts(name)) {
+      EXPECT_EQ(*texts, in_code->texts("v").value_or(std::vector<std::string>{})) << name;
+    } else if (const auto number = params->number(name); number && in_code->number("v")) {
+      EXPECT_DOUBLE_EQ(*number, *in_code->number("v")) << name << ": the code's default is " << code_default;
+    } else {
+      EXPECT_EQ(params->text(name).value_or("?"), in_code->text("v").value_or("")) << name;
+    }
+  }
+}
+
+}  // namespace
