@@ -18,14 +18,14 @@ int Atlas::addChart(Chart chart) {
   auto& own = chart.candidates;
   own.erase(std::remove_if(own.begin(), own.end(),
                            [&](const ChartCandidate& c) {
-                             return !(c.variance > keep_above_) && coveredByOtherChart(c.ambient, -1);
+                             return coveredByOtherChart(c.ambient, -1);
                            }),
             own.end());
   for (Chart& existing : charts_) {
     auto& candidates = existing.candidates;
     candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
                                     [&](const ChartCandidate& c) {
-                                      return !(c.variance > keep_above_) && chart.ballContains(c.ambient);
+                                      return chart.ballContains(c.ambient);
                                     }),
                      candidates.end());
   }

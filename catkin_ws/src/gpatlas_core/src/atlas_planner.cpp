@@ -130,7 +130,6 @@ AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const s
   ChartCreation root = makeChart(root_point, -1);
   if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
   Atlas& atlas = result.atlas;
-  if (config_.keep_high_variance_candidates) atlas.keepCandidatesAbove(v_max);
   const bool root_needs_touch = needsTouch(root.chart);
   int continuation = atlas.addChart(std::move(root.chart));
   if (progress) progress(atlas);

@@ -220,33 +220,6 @@ ViewFreeSpace sampleOccludedInterior(const std::vector<Vector3>& surface_points,
   return out;
 }
 
-
-std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<Vector3>& surface_points,
-                                                             const Vector3& sensor_origin,
-                                                             const OccludedInteriorPriorConfig& config,
-                                                             std::string* message) {
-  const auto fail = [&](const std::string& why) -> std::shared_ptr<InteriorPriorMean> {
-    if (message) *message = why;
-    return nullptr;
-  };
-  if (!(config.bump_radius_cells > 0.0) || !std::isfinite(config.bump_radius_cells) || !(config.depth >= 0.0) ||
-      !std::isfinite(config.depth))
-    return fail("invalid occluded-interior prior settings (bump_radius_cells > 0, depth >= 0)");
-  OccludedInteriorConfig sampling = config.sampling;
-  sampling.max_points = std::numeric_limits<int>::max();
-  const ViewFreeSpace interior = sampleOccludedInterior(surface_points, sensor_origin, sampling);
-  if (!interior.ok) return fail(interior.message);
-  View view;  // sampling succeeded, so the view is valid
-  finiteView(surface_points, 4, &view);
-  const double cell = (view.hi - view.lo).maxCoeff() / sampling.grid_cells;
-  std::vector<Vector3> centres;
-  centres.reserve(interior.points.size());
-  for (const auto& p : interior.points) centres.push_back(p.position);
-  if (message) message->clear();
-  return std::make_shared<InteriorPriorMean>(std::move(centres), config.bump_radius_cells * cell, config.depth);
-}
-
-
 ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, const SupportPlane& plane,
                                  const BelowSupportConfig& config) {
   ViewFreeSpace out;

@@ -128,9 +128,8 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   EXPECT_EQ(AtlasPlanner(invalid).plan(model, kVMax).status, PlanStatus::kError);
 }
 
-// ADDCHART drops the candidates that fall inside another chart's ball; with keepCandidatesAbove
-// (AtlasPlanner::Config::keep_high_variance_candidates) those above the threshold stay.
-TEST(Atlas, CoverageKeepsCandidatesAboveTheThresholdWhenAsked) {
+// ADDCHART drops the candidates that fall inside another chart's ball, whatever their variance.
+TEST(Atlas, CoverageDropsTheCandidatesInsideAnotherChartsBall) {
   const auto makeChart = [](const Vector3& centre, double radius, std::vector<ChartCandidate> candidates) {
     Chart chart;
     chart.centre = centre;
@@ -146,20 +145,11 @@ TEST(Atlas, CoverageKeepsCandidatesAboveTheThresholdWhenAsked) {
   };
   // Chart A has two candidates 0.03 m east of its centre: one uncertain, one certain. Chart B,
   // added next (centre 0.04 m east, radius 0.02 m), covers both: they are 0.010 m from its centre.
-  for (const bool keep : {false, true}) {
-    Atlas atlas;
-    if (keep) atlas.keepCandidatesAbove(kVMax);
-    atlas.addChart(makeChart(Vector3::Zero(), 0.03,
-                             {candidateAt(Vector3(0.03, 0.0, 0.0), 0.2), candidateAt(Vector3(0.03, 0.001, 0.0), 0.05)}));
-    atlas.addChart(makeChart(Vector3(0.04, 0.0, 0.0), 0.02, {}));
-    const auto& left = atlas.chart(0).candidates;
-    if (keep) {
-      ASSERT_EQ(left.size(), 1u);
-      EXPECT_EQ(left[0].variance, 0.2);
-    } else {
-      EXPECT_TRUE(left.empty());
-    }
-  }
+  Atlas atlas;
+  atlas.addChart(makeChart(Vector3::Zero(), 0.03,
+                           {candidateAt(Vector3(0.03, 0.0, 0.0), 0.2), candidateAt(Vector3(0.03, 0.001, 0.0), 0.05)}));
+  atlas.addChart(makeChart(Vector3(0.04, 0.0, 0.0), 0.02, {}));
+  EXPECT_TRUE(atlas.chart(0).candidates.empty());
 }
 
 TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {

@@ -254,11 +254,6 @@ TEST(OccludedInterior, BadInputIsRefusedWithAReason) {
   EXPECT_FALSE(result.ok);
   EXPECT_TRUE(result.points.empty());
 
-  OccludedInteriorPriorConfig bad_prior;
-  bad_prior.depth = -1.0;
-  std::string message;
-  EXPECT_EQ(makeOccludedInteriorPrior(view, kSideEye, bad_prior, &message), nullptr);
-  EXPECT_FALSE(message.empty());
 }
 
 // Every stride-th view point as a surface observation (the camera's noise sigma).

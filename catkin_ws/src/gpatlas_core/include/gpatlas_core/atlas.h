@@ -2,7 +2,6 @@
 
 #include "gpatlas_core/chart.h"
 
-#include <limits>
 #include <vector>
 
 namespace gpatlas_core {
@@ -16,10 +15,6 @@ class Atlas {
   // fall inside the new chart's ball. Candidates are tested at their ambient tangent points
   // (eq. 12), which is what eq. 16 ranks. Returns the new chart's index.
   int addChart(Chart chart);
-
-  // Candidates with a variance above this are never removed by coverage (addChart); infinity
-  // (the default) removes every covered candidate, as Algorithm 1 does.
-  void keepCandidatesAbove(double variance) { keep_above_ = variance; }
 
   // Removes one candidate of a chart (used once it has been tried by EXPANDCHART).
   void removeCandidate(int chart_index, std::size_t candidate_index);
@@ -38,7 +33,6 @@ class Atlas {
 
  private:
   std::vector<Chart> charts_;
-  double keep_above_{std::numeric_limits<double>::infinity()};
 };
 
 }  // namespace gpatlas_core

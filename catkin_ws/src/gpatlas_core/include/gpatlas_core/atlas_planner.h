@@ -58,10 +58,6 @@ class AtlasPlanner {
     // each grown toward the highest-variance candidate of the previous one: a slide then runs
     // on into the unknown instead of stopping at its edge. 0: Algorithm 1 verbatim.
     int extend_path_charts{0};
-    // A candidate whose variance is above V_max stays a candidate even inside another chart's
-    // ball, so the atlas grows a chart there instead of counting it covered: convergence then
-    // also speaks for those points, not only for the chart centres. false: Algorithm 1 verbatim.
-    bool keep_high_variance_candidates{false};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
     // charts are kept small enough that none hides such a point. Default: off, variance alone
     // (Algorithm 1). AtlasStrategy sets it from PlanRequest::evidence.

@@ -1,9 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/prior_mean.h"
 #include "gpatlas_core/types.h"
-
-#include <memory>
 
 #include <cstdint>
 #include <string>
@@ -107,23 +104,6 @@ struct InteriorRetraction {
 // otherwise outvoted. Other points are left as they are. `evidence` in world coordinates.
 InteriorRetraction retractContradictedInterior(std::vector<TrainingPoint>* observations,
                                                const std::vector<Vector3>& evidence, double min_depth_m);
-
-// The occluded interior as a prior mean for the GPIS (see InteriorPriorMean): a bump on every
-// occluded-interior sample (max_points does not apply), of radius bump_radius_cells grid cells
-// (the largest edge of a cell), never below -depth (amid the samples, -0.63 depth at 1.5 cells,
-// -depth from about 3 cells on: see InteriorPriorMean). Returns nullptr and sets `message` when
-// sampling fails; a view without any occluded interior gives a prior without centres (zero).
-struct OccludedInteriorPriorConfig {
-  OccludedInteriorConfig sampling;
-  double bump_radius_cells{1.5};
-  // Prior mean deep inside, in units of f (normalised distance to the surface: 0.3 is about a
-  // third of the data radius).
-  double depth{0.3};
-};
-std::shared_ptr<InteriorPriorMean> makeOccludedInteriorPrior(const std::vector<Vector3>& surface_points,
-                                                             const Vector3& sensor_origin,
-                                                             const OccludedInteriorPriorConfig& config,
-                                                             std::string* message = nullptr);
 
 // The support the object rests on (a table, found by segmentation): the plane n . x + d = 0,
 // n unit and pointing to the object's side. Everything below it is outside the object.
