@@ -125,7 +125,7 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
   c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
   c->atlas.max_start_distance_m = r.number("planner/max_start_distance_m", c->atlas.max_start_distance_m, 0.0, 10.0);
-  c->slide_extension_charts = r.integer("planner/slide_extension_charts", c->slide_extension_charts, 0, 1000);
+  c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
   c->seed = readSeed(r, c->seed);
 }

@@ -18,12 +18,12 @@ struct Registry {
 
   Registry() {
     factories["atlas_poke"] = [](const StrategyConfig& c) {
-      return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kPoke, c.atlas, c.seed);
+      AtlasPlanner::Config atlas = c.atlas;
+      atlas.extend_path_charts = 0;
+      return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kPoke, atlas, c.seed);
     };
     factories["atlas_slide"] = [](const StrategyConfig& c) {
-      AtlasPlanner::Config atlas = c.atlas;
-      atlas.extend_path_charts = c.slide_extension_charts;
-      return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kSlide, atlas, c.seed);
+      return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kSlide, c.atlas, c.seed);
     };
     factories["random"] = [](const StrategyConfig& c) { return std::make_unique<RandomStrategy>(c.sampler, c.seed); };
     factories["max_variance"] = [](const StrategyConfig& c) {

@@ -55,11 +55,8 @@ class ExplorationNode {
     gpatlas_core::StrategyChoice choice;
     readStrategyChoice(r, &choice);
     strategy_ = choice.name;
-    service_timeout_s_ = r.number("service_timeout_s", 60.0, 0.1, 3600.0);
-    call_timeout_s_ = r.number("call_timeout_s", 600.0, 0.1, 86400.0);
-    capture_ = r.flag("capture", true);
-    metrics_every_ = r.integer("metrics_every", 1, 0, 100000);
-    results_dir_ = r.text("results_dir", "");
+    readExplorationNode(r, &node_config_);
+    results_dir_ = node_config_.results_dir;
     readGpis(r, &gpis_config_);
     readMesher(r, &mesher_config_);
     if (!r.ok()) throw std::runtime_error("invalid parameters: " + r.errors());
@@ -84,7 +81,7 @@ class ExplorationNode {
       return 2;
     }
     loadGroundTruth();
-    if (capture_ && !captureView()) return 1;
+    if (node_config_.capture && !captureView()) return 1;
     if (!waitForModel()) return 1;
     initial_.n_train = latestTraining()->points.size();
     measure(initial_);
@@ -98,7 +95,7 @@ class ExplorationNode {
     const gpatlas_core::Explorer explorer(loop_);
     const gpatlas_core::ExplorationResult result =
         explorer.run(planner, prober, updater, [this](gpatlas_core::ExplorationRecord& record) {
-          if (metrics_every_ > 0 && (record.index + 1) % metrics_every_ == 0) measure(record);
+          if (node_config_.metrics_every > 0 && (record.index + 1) % node_config_.metrics_every == 0) measure(record);
           ROS_INFO_STREAM("exploration: " << gpatlas_core::describeAction(record));
         });
     return finish(result);
@@ -115,8 +112,8 @@ class ExplorationNode {
   template <typename Srv>
   bool callService(const std::string& name, Srv& srv) {
     const std::string resolved = nh_.resolveName(name);
-    if (!ros::service::waitForService(resolved, ros::Duration(service_timeout_s_))) {
-      ROS_ERROR_STREAM("exploration: service " << resolved << " not available after " << service_timeout_s_ << " s");
+    if (!ros::service::waitForService(resolved, ros::Duration(node_config_.service_timeout_s))) {
+      ROS_ERROR_STREAM("exploration: service " << resolved << " not available after " << node_config_.service_timeout_s << " s");
       return false;
     }
     return timedCall(resolved, srv);
@@ -124,7 +121,7 @@ class ExplorationNode {
 
   template <typename Srv>
   bool timedCall(const std::string& resolved, Srv& srv, double timeout_s = -1.0) {
-    if (timeout_s < 0.0) timeout_s = call_timeout_s_;
+    if (timeout_s < 0.0) timeout_s = node_config_.call_timeout_s;
     // ros::service::call has no timeout: a server that never answers (an arm stuck mid-motion,
     // a hung driver) would freeze the exploration for good. The call runs on a worker thread
     // with its own copy of the request; past the timeout we give up on it and report. Workers
@@ -185,7 +182,7 @@ class ExplorationNode {
       return;
     }
     gpatlas_msgs::GetMesh srv;
-    if (!timedCall(name, srv, std::min(call_timeout_s_, kAuxiliaryCallTimeoutS)) || !srv.response.success) {
+    if (!timedCall(name, srv, std::min(node_config_.call_timeout_s, kAuxiliaryCallTimeoutS)) || !srv.response.success) {
       ROS_WARN_STREAM("exploration: ground truth unavailable: " << srv.response.message);
       return;
     }
@@ -212,7 +209,7 @@ class ExplorationNode {
   }
 
   bool waitForModel() {
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(service_timeout_s_);
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(node_config_.service_timeout_s);
     while (ros::ok() && ros::WallTime::now() < deadline) {
       if (latestTraining()) {
         ROS_INFO_STREAM("exploration: model ready with " << latestTraining()->points.size() << " observations");
@@ -220,7 +217,7 @@ class ExplorationNode {
       }
       ros::WallDuration(0.1).sleep();
     }
-    ROS_ERROR_STREAM("exploration: no model on " << training_sub_.getTopic() << " after " << service_timeout_s_
+    ROS_ERROR_STREAM("exploration: no model on " << training_sub_.getTopic() << " after " << node_config_.service_timeout_s
                                                  << " s (is the segmentation finding the object?)");
     return false;
   }
@@ -288,7 +285,7 @@ class ExplorationNode {
     save.request.path = (dir / "collision_map.bt").string();
     const std::string save_name = nh_.resolveName("save_map");
     if (ros::service::waitForService(save_name, ros::Duration(2.0)) &&
-        timedCall(save_name, save, std::min(call_timeout_s_, kAuxiliaryCallTimeoutS)) &&
+        timedCall(save_name, save, std::min(node_config_.call_timeout_s, kAuxiliaryCallTimeoutS)) &&
         !save.response.success)
       ROS_WARN_STREAM("exploration: " << save.response.message);
 
@@ -411,13 +408,10 @@ class ExplorationNode {
   std::string world_frame_, strategy_, results_dir_;
   gpatlas_core::Explorer::Config loop_;
   std_msgs::Header observations_header_;  // the frame of the last probe's observations
-  double service_timeout_s_{60.0};  // for a service to appear
-  double call_timeout_s_{600.0};    // for a call to answer (a touch on a slow arm takes minutes)
   // The ground truth and the map's saving: optional, at the start and the end; not worth a wait.
   static constexpr double kAuxiliaryCallTimeoutS = 30.0;
   std::vector<std::thread> workers_;  // service calls in flight or abandoned (see timedCall)
-  bool capture_{true};
-  int metrics_every_{1};
+  ExplorationNodeConfig node_config_;
   gpatlas_core::GpisModel::Config gpis_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   gpatlas_core::TriangleMesh ground_truth_;

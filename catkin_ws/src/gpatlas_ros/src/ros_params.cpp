@@ -4,6 +4,14 @@
 
 namespace gpatlas_ros {
 
+void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c) {
+  c->service_timeout_s = r.number("service_timeout_s", c->service_timeout_s, 0.1, 3600.0);
+  c->call_timeout_s = r.number("call_timeout_s", c->call_timeout_s, 0.1, 86400.0);
+  c->capture = r.flag("capture", c->capture);
+  c->metrics_every = r.integer("metrics_every", c->metrics_every, 0, 100000);
+  c->results_dir = r.text("results_dir", c->results_dir);
+}
+
 void ParamReader::report(const std::string& who) const {
   if (!ok()) ROS_ERROR_STREAM(who << ": invalid parameters, defaults used instead: " << errors());
   if (!defaultedNames().empty())

@@ -45,15 +45,19 @@ class ExplorationStrategy {
   virtual PlanResult plan(const GpisModel& model, const PlanRequest& request) const = 0;
 };
 
+// The atlas strategies' planner settings: a slide's path runs on for up to 20 charts past the
+// first one above V_max, into the unknown, instead of stopping at its edge.
+inline AtlasPlanner::Config atlasStrategyDefaults() {
+  AtlasPlanner::Config config;
+  config.extend_path_charts = 20;
+  return config;
+}
+
 // Everything a built-in strategy may need; each uses the parts that concern it.
 struct StrategyConfig {
-  AtlasPlanner::Config atlas;       // atlas_poke, atlas_slide
-  // atlas_slide: the path goes on past the first chart above V_max for up to this many charts,
-  // each the highest-variance candidate of the last (it sets AtlasPlanner::Config::
-  // extend_path_charts for atlas_slide; atlas_poke keeps atlas.extend_path_charts).
-  // 20: on the scans (seeds 0-1) 4.4 slides instead of 5.3 with the RMSE 4.0 / 4.7 mm instead of
-  // 4.5 / 6.1 (README, benchmarks).
-  int slide_extension_charts{20};
+  // atlas_poke, atlas_slide; atlas_poke does not extend its path (extend_path_charts): a poke
+  // touches the first chart above V_max.
+  AtlasPlanner::Config atlas{atlasStrategyDefaults()};
   SurfaceSampler::Config sampler;   // random, max_variance
   std::uint64_t seed{0};
 };

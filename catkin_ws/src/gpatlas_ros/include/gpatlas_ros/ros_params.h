@@ -30,6 +30,16 @@ using gpatlas_core::readTuning;
 using gpatlas_core::readUseSupportPlane;
 using gpatlas_core::readViewTraining;
 
+// The exploration node's own settings (launch parameters, not config/pipeline.yaml's: the file
+// holds what the pipeline and the bench share).
+struct ExplorationNodeConfig {
+  double service_timeout_s{60.0};  // for a service to appear
+  double call_timeout_s{600.0};    // for a call to answer (a touch on a slow arm takes minutes)
+  bool capture{true};              // ask ~capture for the first view (false: wait for a cloud)
+  int metrics_every{1};            // measure the model every k actions (0: only at the end)
+  std::string results_dir;         // empty: ./results/exploration_DATE_TIME
+};
+
 namespace detail {
 // Constructed before the reader that refers to it.
 struct SourceHolder {
@@ -46,5 +56,7 @@ class ParamReader : private detail::SourceHolder, public gpatlas_core::ParamRead
   void report(const std::string& who) const;
   const std::string& ns() const { return source.ns(); }
 };
+
+void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c);
 
 }  // namespace gpatlas_ros
