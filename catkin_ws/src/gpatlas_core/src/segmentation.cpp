@@ -1,5 +1,7 @@
 #include "gpatlas_core/segmentation.h"
 
+#include <Eigen/Geometry>
+
 #include <pcl/ModelCoefficients.h>
 #include <pcl/filters/crop_box.h>
 #include <pcl/filters/extract_indices.h>
@@ -103,12 +105,25 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
       const double norm = n.norm();
       n /= norm;
       d /= norm;
+      // The inliers' footprint in the plane, shrunk by the cluster tolerance: what lies under it
+      // is under the plane, while a table's own side faces (seen at its edge) project onto the
+      // footprint's border.
+      const Vector3 u = n.unitOrthogonal(), v = n.cross(u);
+      Eigen::AlignedBox2d footprint;
+      for (int index : inliers->indices) {
+        const auto& p = downsampled->points[static_cast<std::size_t>(index)];
+        const Vector3 x(p.x, p.y, p.z);
+        footprint.extend(Eigen::Vector2d(u.dot(x), v.dot(x)));
+      }
+      const Eigen::Vector2d shrink = Eigen::Vector2d::Constant(c.cluster_tolerance_m);
+      const Eigen::AlignedBox2d interior(footprint.min() + shrink, footprint.max() - shrink);
       Cloud::Ptr above(new Cloud);
       std::size_t below = 0;
       for (const auto& p : downsampled->points) {
-        const double height = n.dot(Vector3(p.x, p.y, p.z)) + d;
+        const Vector3 x(p.x, p.y, p.z);
+        const double height = n.dot(x) + d;
         if (height > c.plane_distance_m) above->push_back(p);
-        else if (height < -c.plane_distance_m) ++below;
+        else if (height < -c.plane_distance_m && interior.contains(Eigen::Vector2d(u.dot(x), v.dot(x)))) ++below;
       }
       // A support plane has (almost) nothing under it. A horizontal face of the object itself,
       // e.g. a mug's rim in an object-only cloud, has the object below: keep everything then.

@@ -118,12 +118,25 @@ Scene::Scene(const TriangleMesh& object, const Config& config)
   if (object.empty()) throw std::runtime_error("Scene: the object mesh has no triangles");
   addTriangleMesh(object, SurfaceKind::kObject);
   if (config_.add_table) {
-    const Eigen::Vector3d half(config_.table_size_xy.x() / 2, config_.table_size_xy.y() / 2,
-                               config_.table_thickness / 2);
-    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
-    pose.translation() << config_.table_centre_xy, -half.z();
-    auto box = std::make_unique<btBoxShape>(toBullet(half));
-    addStatic(std::move(box), pose, SurfaceKind::kTable);
+    // A triangle mesh rather than a btBoxShape: Bullet's ray test against a convex shape is an
+    // iterative cast that, at the grazing angles of a table's far side, reports hits millimetres
+    // above its top, which segmentation cannot tell from an object on it.
+    const Eigen::Vector3d lower(config_.table_centre_xy.x() - config_.table_size_xy.x() / 2,
+                                config_.table_centre_xy.y() - config_.table_size_xy.y() / 2, -config_.table_thickness);
+    const Eigen::Vector3d upper(config_.table_centre_xy.x() + config_.table_size_xy.x() / 2,
+                                config_.table_centre_xy.y() + config_.table_size_xy.y() / 2, 0.0);
+    TriangleMesh table;
+    for (int i = 0; i < 8; ++i)
+      table.vertices.emplace_back(i & 1 ? upper.x() : lower.x(), i & 2 ? upper.y() : lower.y(),
+                                  i & 4 ? upper.z() : lower.z());
+    // Two outward-wound triangles per face (vertex index bits: x = 1, y = 2, z = 4).
+    for (const Eigen::Vector4i& quad : {Eigen::Vector4i(0, 2, 3, 1), Eigen::Vector4i(4, 5, 7, 6),
+                                        Eigen::Vector4i(0, 1, 5, 4), Eigen::Vector4i(2, 6, 7, 3),
+                                        Eigen::Vector4i(0, 4, 6, 2), Eigen::Vector4i(1, 3, 7, 5)}) {
+      table.triangles.emplace_back(quad[0], quad[1], quad[2]);
+      table.triangles.emplace_back(quad[0], quad[2], quad[3]);
+    }
+    addTriangleMesh(table, SurfaceKind::kTable);
   }
   bullet_->world.updateAabbs();
 }

@@ -372,6 +372,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     return r;
   };
 
+  const Eigen::AlignedBox3d box = gt.mesh.boundingBox();
   // The scene probe_sim_node simulates, from the same simulation section.
   const probe_sim::SimulationSettings& simulation = o.simulation;
   auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, probe_sim::sceneConfig(simulation));
@@ -389,6 +390,18 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const gpatlas_core::SegmentationResult segmented =
       gpatlas_core::ObjectSegmenter(pipeline.segmentation).segment(scene_points);
   if (!segmented.ok) return failed("segmentation: " + segmented.message);
+  if (o.verbose) {
+    const gpatlas_core::SegmentationStats& n = segmented.stats;
+    Eigen::AlignedBox3d kept;
+    for (const Vector3& p : segmented.object_points) kept.extend(p);
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::cout << "  [" << gt.name << " seed " << seed << "] segmentation: " << segmented.message << "; "
+              << n.input << " points, " << n.after_crop << " in the crop box, " << n.after_voxel << " after the voxel grid, "
+              << n.plane_inliers << " on the " << (segmented.plane_found ? "support plane" : "plane (not a support)")
+              << ", " << n.after_outliers << " after outlier removal; kept from " << kept.min().transpose() << " to "
+              << kept.max().transpose() << " (the truth: " << box.min().transpose() << " to " << box.max().transpose()
+              << ")" << std::endl;
+  }
   std::optional<gpatlas_core::SupportPlane> support;
   if (pipeline.use_support_plane && segmented.plane_found)
     support = gpatlas_core::SupportPlane{segmented.plane_normal, segmented.plane_offset};
