@@ -75,7 +75,7 @@ TEST(SurfaceMesher, MeshesAnElongatedObjectWhoseDomainCubeExceedsMaxNodes) {
   const SurfaceMesher::Config config;  // the defaults: 5 mm, margin of one data radius
   ASSERT_DOUBLE_EQ(config.resolution_m, 0.005);
   const double domain_cube_nodes = std::pow(domainCubeNodesPerAxis(model, config.resolution_m), 3);
-  EXPECT_GT(domain_cube_nodes, static_cast<double>(config.max_nodes));  // the old grid failed
+  EXPECT_GT(domain_cube_nodes, static_cast<double>(config.max_nodes));  // too big to mesh whole
 
   const SurfaceMeshResult meshed = SurfaceMesher(config).mesh(model);
   ASSERT_TRUE(meshed.ok) << meshed.message;

@@ -49,7 +49,7 @@ class BenchSmokeTest(unittest.TestCase):
                 value = float(r[key])
                 # A 12 cm sphere seen from one side, after 4 touches: with the default frame
                 # (domain twice the visible extent) the unseen back is predicted within about a
-                # centimetre (measured 6-9 mm); the old frame put it 3 cm off.
+                # centimetre.
                 self.assertTrue(math.isfinite(value) and 0.0 <= value < 0.015, (key, value))
             variance = float(r["max_surface_variance"])
             self.assertTrue(math.isfinite(variance) and variance >= 0.0, r)

@@ -559,8 +559,8 @@ void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<
   }
 }
 
-// The planning-time criterion is stated at n_train of about 1000; a run's median mixes
-// plans made on models of very different sizes, so the plans are also pooled by model size.
+// Planning time grows with the model's size and a run's median mixes plans made on models of
+// very different sizes, so the plans are also pooled by model size: those at n_train of about 1000.
 constexpr std::size_t kPlanBandLow = 800, kPlanBandHigh = 1200;
 
 struct PlanTimes {

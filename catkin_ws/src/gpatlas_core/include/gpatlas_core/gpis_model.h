@@ -83,7 +83,8 @@ struct GpisModelConfig {
   // the centroid (0 always places it): the centroid of a partial view of a cup or a bowl lies in
   // its cavity, close to the wall, and a -1 there would declare the cavity's air inside. The
   // centroid of a convex view lies about half the object's radius behind the visible surface
-  // (~0.45 in the unit-ball frame), that of a cup's about 0.25 (measured on the bench's mug).
+  // (~0.45 in the unit-ball frame), that of a cup's much closer to the wall (about 0.25); the
+  // default lies between the two.
   double inside_point_min_clearance{0.35};
   double pseudo_point_sigma{0.0};
   // Multiplies every point's noise variance; tuned with the kernel's parameters if asked.
@@ -98,10 +99,9 @@ struct GpisModelConfig {
   // Prior variance of the reference model (see above): reported = raw * this / k(0).
   double reference_prior_variance{8.0};
 
-  // The previous defaults with the paper's thin-plate kernel (R = 2): data in a ball of radius
-  // 0.6, domain radius 1 (the largest the kernel allows), inside point always placed. Its Gram
-  // matrices are indefinite in
-  // 3-D, so its points need a noise sigma of about 0.3.
+  // A reference configuration with the paper's thin-plate kernel (R = 2): data in a ball of
+  // radius 0.6, domain radius 1 (the largest the kernel allows), inside point always placed. Its
+  // Gram matrices are indefinite in 3-D, so its points need a noise sigma of about 0.3.
   static GpisModelConfig thinPlateReference() {
     GpisModelConfig c;
     c.kernel = "thin_plate";
@@ -198,8 +198,7 @@ class GpisModel {
   // free-space points. Near the surface the implicit function grows like the normalised
   // distance to it and reaches +1 only about an object radius out, where the outside
   // pseudo-points are; a free-space point labelled +1 a centimetre from the surface would
-  // demand a cliff that the smooth GP pays for with spurious surface elsewhere (measured: the
-  // shape error of atlas_poke on a sphere falls from 4.5 to 0.7 mm with distance targets).
+  // demand a cliff that the smooth GP pays for with spurious surface elsewhere.
   double nearestSurfaceDistance(const Vector3& point_world, const std::vector<Vector3>& new_surface_points = {}) const;
 
  private:

@@ -59,9 +59,8 @@ ViewFreeSpace sampleViewFreeSpace(const std::vector<Vector3>& surface_points, co
 // object is solid behind what the camera saw, as far as the view's hull reaches. Where it is
 // wrong (a cavity hidden behind a rim) only a touch can tell, and the variance does not always
 // ask for one: the weak labels (noise sigma 1) keep the guessed surface's variance up, but
-// near other data it can still fall below V_max (measured: a scanned container's hidden
-// cavity stays filled). On the bench's scans it still halved the shape error where the
-// camera saw least (README, benchmarks).
+// near other data it can still fall below V_max, and a hidden cavity then stays filled. Where
+// the guess is right, it puts into the prediction a surface the camera alone cannot.
 struct OccludedInteriorConfig {
   // Candidate samples on a regular grid over the hull's bounding box, this many cells per
   // axis; at most max_points of the occluded ones (a random subset) are returned.
@@ -72,8 +71,7 @@ struct OccludedInteriorConfig {
   double margin_fraction{0.08};
   // Directions of the planes that approximate the convex hull (its support function).
   int hull_directions{64};
-  // Noise sigma of the samples (reference units): a guess, weaker than an observation (1.0
-  // measured best of 0.5-2 on the bench's scans; their mean NN error changed by < 0.2 mm).
+  // Noise sigma of the samples (reference units): a guess, weaker than an observation.
   double noise_sigma{1.0};
   std::uint64_t seed{1};
 };

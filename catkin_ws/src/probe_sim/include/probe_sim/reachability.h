@@ -18,8 +18,8 @@ namespace probe_sim {
 // reachable surface still has their distance to it as truth-to-predicted error.
 struct ReachabilityConfig {
   // Straight escape lines tried per point (a Fibonacci lattice on the sphere). A point seen
-  // only through a narrow opening needs many: on the scans, 64 instead of 256 counted 1-2.5 %
-  // less of the area as reachable and put the floor 0.1-0.4 mm higher.
+  // only through a narrow opening needs many: with too few, no line passes through it and the
+  // point counts as unreachable.
   int directions{256};
   // Lines start this far off the surface along their direction, so that they do not hit the
   // triangle they start on; sheets closer together than this are not told apart.
