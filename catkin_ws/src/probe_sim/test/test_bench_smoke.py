@@ -28,7 +28,8 @@ class BenchSmokeTest(unittest.TestCase):
                               timeout=600)
 
     def test_small_run_writes_plausible_csv(self):
-        proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.12", "--strategy", "atlas_poke",
+        proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.12", "--set", "simulation/table=false",
+                              "--strategy", "atlas_poke",
                               "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--set", "view/max_surface_points=200",
                               "--curve-every", str(CURVE_EVERY), "--jobs", "2", "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
@@ -122,7 +123,7 @@ class BenchSmokeTest(unittest.TestCase):
         # that is exactly the other five faces is, from a bottom point, as far as the nearest
         # edge of the square: E[d^2] = a^2 / 24 over a square of side a, so the floor is
         # sqrt(1/6 * a^2 / 24) = a / 12.
-        proc = self.run_bench("--object", "procedural:box", "--size-m", "0.1", "--table", "--strategy",
+        proc = self.run_bench("--object", "procedural:box", "--size-m", "0.1", "--set", "simulation/table=true", "--strategy",
                               "atlas_poke", "--seeds", "0", "--max-actions", "1", "--set", "view/max_surface_points=200",
                               "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
@@ -140,6 +141,7 @@ class BenchSmokeTest(unittest.TestCase):
                  if os.path.exists(os.path.join(d, "libgpatlas_example_strategies.so"))]
         self.assertTrue(found, "libgpatlas_example_strategies.so not on LD_LIBRARY_PATH: %s" % dirs)
         proc = self.run_bench("--strategy-library", found[0], "--object", "procedural:sphere", "--size-m", "0.12",
+                              "--set", "simulation/table=false",
                               "--strategy", "farthest_from_evidence,atlas_poke", "--seeds", "0", "--max-actions",
                               "2", "--set", "view/max_surface_points=200", "--no-reachability", "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)

@@ -383,8 +383,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   // The camera's noise follows the run's seed, as in probe_sim_node.
   probe_sim::DepthCamera camera(probe_sim::cameraConfig(simulation, static_cast<std::uint32_t>(seed + 1)), *camera_pose);
   const probe_sim::DepthCloud cloud = camera.capture(*scene);
+  // The cloud as probe_sim_node publishes it (float32 coordinates in the camera's frame), moved
+  // to the world frame: the segmentation then sees what the pipeline's sees.
   std::vector<Vector3> scene_points;
-  for (Eigen::Index i = 0; i < cloud.points_world.cols(); ++i) scene_points.push_back(cloud.points_world.col(i));
+  for (Eigen::Index i = 0; i < cloud.points_camera.cols(); ++i)
+    scene_points.push_back(*camera_pose * Vector3(cloud.points_camera.col(i).cast<float>().cast<double>()));
 
   // What the pipeline does with a camera cloud: segmentation, then the view builder.
   const gpatlas_core::SegmentationResult segmented =
@@ -408,6 +411,10 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const gpatlas_core::ViewTraining view = gpatlas_core::buildViewTraining(
       segmented.object_points, eye, support, pipeline.view, static_cast<std::uint64_t>(seed));
   if (!view.ok) return failed("view: " + view.message);
+  if (o.verbose) {
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::cout << "  [" << gt.name << " seed " << seed << "] view: " << view.message << std::endl;
+  }
   gpatlas_core::GpisModel model(pipeline.gpis);
   const auto fit = model.fit(view.points);
   if (!fit.ok) return failed("initial fit failed: " + fit.message);
@@ -449,7 +456,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.mesh);
   gpatlas_core::ExplorationRecord initial;
   initial.index = -1;
-  initial.n_train = model.size();
+  initial.n_train = model.observations().size();
   if (o.curve_every > 0) measureInto(model, initial);
   const auto progress = [&](gpatlas_core::ExplorationRecord& rec) {
     if (o.curve_every > 0 && (rec.index + 1) % o.curve_every == 0) measureInto(model, rec);
@@ -470,7 +477,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.actions = result.actions;
   r.contacts = result.contacts;
   r.stop_reason = result.stop_reason;
-  r.n_train = model.size();
+  r.n_train = model.observations().size();
   r.max_surface_variance = result.final_max_surface_variance;
   std::vector<double> plan_ms, update_ms;
   for (const auto& rec : result.records) {

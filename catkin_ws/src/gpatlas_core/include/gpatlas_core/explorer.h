@@ -177,7 +177,7 @@ class ModelTouchPlanner : public TouchPlanner {
   ModelTouchPlanner(const GpisModel& model, const ExplorationStrategy& strategy, EvidenceRule evidence)
       : model_(model), strategy_(strategy), evidence_(std::move(evidence)) {}
   PlanResult plan(const PlanRequest& request) override;
-  std::size_t modelSize() const override { return model_.size(); }
+  std::size_t modelSize() const override { return model_.observations().size(); }
 
  private:
   const GpisModel& model_;
