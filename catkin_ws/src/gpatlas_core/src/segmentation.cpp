@@ -105,9 +105,9 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
       const double norm = n.norm();
       n /= norm;
       d /= norm;
-      // The inliers' footprint in the plane, shrunk by the cluster tolerance: what lies under it
-      // is under the plane, while a table's own side faces (seen at its edge) project onto the
-      // footprint's border.
+      // The inliers' footprint in the plane. A table's own side faces, seen at its edge, lie
+      // below it but project onto the footprint's border: they do not count against it. What
+      // lies below it elsewhere (an object under a flat face of its own) does.
       const Vector3 u = n.unitOrthogonal(), v = n.cross(u);
       Eigen::AlignedBox2d footprint;
       for (int index : inliers->indices) {
@@ -115,15 +115,20 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
         const Vector3 x(p.x, p.y, p.z);
         footprint.extend(Eigen::Vector2d(u.dot(x), v.dot(x)));
       }
-      const Eigen::Vector2d shrink = Eigen::Vector2d::Constant(c.cluster_tolerance_m);
-      const Eigen::AlignedBox2d interior(footprint.min() + shrink, footprint.max() - shrink);
+      const Eigen::Vector2d band = Eigen::Vector2d::Constant(c.cluster_tolerance_m);
+      const Eigen::AlignedBox2d outer(footprint.min() - band, footprint.max() + band);
+      const Eigen::AlignedBox2d inner(footprint.min() + band, footprint.max() - band);
+      const auto onBorder = [&](const Vector3& x) {
+        const Eigen::Vector2d q(u.dot(x), v.dot(x));
+        return outer.contains(q) && !inner.contains(q);
+      };
       Cloud::Ptr above(new Cloud);
       std::size_t below = 0;
       for (const auto& p : downsampled->points) {
         const Vector3 x(p.x, p.y, p.z);
         const double height = n.dot(x) + d;
         if (height > c.plane_distance_m) above->push_back(p);
-        else if (height < -c.plane_distance_m && interior.contains(Eigen::Vector2d(u.dot(x), v.dot(x)))) ++below;
+        else if (height < -c.plane_distance_m && !onBorder(x)) ++below;
       }
       // A support plane has (almost) nothing under it. A horizontal face of the object itself,
       // e.g. a mug's rim in an object-only cloud, has the object below: keep everything then.

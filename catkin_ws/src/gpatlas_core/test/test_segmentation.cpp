@@ -112,3 +112,35 @@ TEST(ObjectSegmenter, BadInputGivesClearErrors) {
 }
 
 }  // namespace
+
+namespace {
+
+// A table whose front face the camera sees (more of it than plane_max_fraction_below of the
+// cloud) is still the support: its side projects onto the edge of the top, not under it.
+TEST(ObjectSegmenter, ATableWhoseSideIsSeenIsStillTheSupport) {
+  std::vector<Vector3> pts;
+  for (double x = 0.3; x <= 1.0; x += 0.005)
+    for (double y = -0.4; y <= 0.4; y += 0.005) {
+      const Vector3 p(x, y, 0.0);
+      if ((Vector3(x, y, kSphereCentre.z()) - kSphereCentre).norm() > kSphereRadius) pts.push_back(p);
+    }
+  const std::size_t top = pts.size();
+  for (double y = -0.4; y <= 0.4; y += 0.002)
+    for (double z = -0.04; z < -0.002; z += 0.002) pts.emplace_back(0.3, y, z);  // the front face
+  const std::size_t side = pts.size() - top;
+  for (int i = 0; i < 60; ++i)
+    for (int j = 0; j < 30; ++j) {
+      const double phi = 2 * M_PI * i / 60.0, z = (j + 0.5) / 30.0, r = std::sqrt(1 - z * z);
+      pts.push_back(kSphereCentre + kSphereRadius * Vector3(r * std::cos(phi), r * std::sin(phi), z));
+    }
+  ObjectSegmenter::Config config;
+  config.outlier_mean_k = 0;
+  ASSERT_GT(static_cast<double>(side), config.plane_max_fraction_below * static_cast<double>(pts.size()));
+  const auto result = ObjectSegmenter(config).segment(pts);
+  ASSERT_TRUE(result.ok) << result.message;
+  EXPECT_TRUE(result.plane_found);
+  EXPECT_NEAR(result.plane_offset, 0.0, 0.002);
+  for (const auto& p : result.object_points) EXPECT_NEAR((p - kSphereCentre).norm(), kSphereRadius, 0.003);
+}
+
+}  // namespace
