@@ -7,40 +7,50 @@
 
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <set>
 
 namespace {
 
+// The repository's file, read by every reader it feeds.
+struct ReadFile {
+  std::string error;  // before params, which its constructor fills it for
+  std::unique_ptr<gpatlas_core::YamlParameters> params;
+  std::unique_ptr<gpatlas_core::ParamReader> reader;
+  gpatlas_core::PipelineConfig pipeline;
+  probe_sim::SimulationSettings simulation;
+
+  ReadFile() : params(gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error)) {
+    if (!params) return;
+    reader = std::make_unique<gpatlas_core::ParamReader>(*params);
+    gpatlas_core::readPipeline(*reader, &pipeline);
+    probe_sim::readSimulation(*reader, &simulation);
+  }
+};
+
 // The file sets exactly what the readers read: no key that no Config reads (a typo or a removed
 // option), and no parameter that the file leaves to a code default.
 TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
-  std::string error;
-  const auto params = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
-  ASSERT_TRUE(params) << error;
-  gpatlas_core::ParamReader reader(*params);
-  gpatlas_core::PipelineConfig pipeline;
-  gpatlas_core::readPipeline(reader, &pipeline);
-  probe_sim::SimulationSettings simulation;
-  probe_sim::readSimulation(reader, &simulation);
+  const ReadFile file;
+  ASSERT_TRUE(file.params) << file.error;
+  const gpatlas_core::ParamReader& reader = *file.reader;
+  const gpatlas_core::YamlParameters* params = file.params.get();
   EXPECT_TRUE(reader.ok()) << reader.errors();
   EXPECT_TRUE(reader.defaultedNames().empty()) << "not set in the file: " << reader.defaulted();
   const std::set<std::string> read(reader.readNames().begin(), reader.readNames().end());
   for (const std::string& key : params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
-  EXPECT_EQ(probe_sim::validate(simulation), "");
+  EXPECT_EQ(probe_sim::validate(file.simulation), "");
 }
 
 // The code's defaults are the file's values, so that a node started without the file behaves
 // as the pipeline does.
 TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
-  std::string error;
-  const auto params = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
-  ASSERT_TRUE(params) << error;
-  gpatlas_core::ParamReader reader(*params);
-  gpatlas_core::PipelineConfig pipeline;
-  gpatlas_core::readPipeline(reader, &pipeline);
-  probe_sim::SimulationSettings simulation;
-  probe_sim::readSimulation(reader, &simulation);
+  const ReadFile file;
+  ASSERT_TRUE(file.params) << file.error;
+  const gpatlas_core::ParamReader& reader = *file.reader;
+  const gpatlas_core::YamlParameters* params = file.params.get();
   ASSERT_FALSE(reader.defaults().empty());
+  std::string error;
   for (const auto& [name, code_default] : reader.defaults()) {
     // Both as YAML, so that numbers compare as numbers and lists element by element.
     const auto in_code = gpatlas_core::YamlParameters::fromString("v: " + code_default, &error);
