@@ -147,17 +147,32 @@ struct YamlParameters::Impl {
 
   // The node at a '/'-separated name, or an undefined node.
   YAML::Node find(const std::string& name) const {
-    YAML::Node node = YAML::Clone(root);
+    // Read-only: a const node's operator[] never inserts, and reset() rebinds the handle
+    // (assignment would overwrite the node it refers to).
+    YAML::Node node;
+    node.reset(root);
     std::stringstream parts(name);
     std::string part;
     while (std::getline(parts, part, '/')) {
       if (part.empty()) continue;
       if (!node.IsMap()) return YAML::Node(YAML::NodeType::Undefined);
-      YAML::Node child = node[part];
+      const YAML::Node child = static_cast<const YAML::Node&>(node)[part];
       if (!child.IsDefined()) return YAML::Node(YAML::NodeType::Undefined);
-      node = child;
+      node.reset(child);
     }
     return node;
+  }
+
+  // The node at `name` as a T, when it is of `kind` and converts.
+  template <typename T>
+  std::optional<T> as(const std::string& name, YAML::NodeType::value kind) const {
+    const YAML::Node node = find(name);
+    if (node.Type() != kind) return std::nullopt;
+    try {
+      return node.as<T>();
+    } catch (const YAML::Exception&) {
+      return std::nullopt;
+    }
   }
 };
 
@@ -258,60 +273,28 @@ std::vector<std::string> YamlParameters::leafNames() const {
 bool YamlParameters::exists(const std::string& name) const { return impl_->find(name).IsDefined(); }
 
 std::optional<double> YamlParameters::number(const std::string& name) const {
-  const YAML::Node node = impl_->find(name);
-  if (!node.IsScalar()) return std::nullopt;
-  try {
-    return node.as<double>();
-  } catch (const YAML::Exception&) {
-    return std::nullopt;
-  }
+  return impl_->as<double>(name, YAML::NodeType::Scalar);
 }
 
 std::optional<int> YamlParameters::integer(const std::string& name) const {
-  const YAML::Node node = impl_->find(name);
-  if (!node.IsScalar()) return std::nullopt;
-  try {
-    return node.as<int>();
-  } catch (const YAML::Exception&) {
-    return std::nullopt;
-  }
+  return impl_->as<int>(name, YAML::NodeType::Scalar);
 }
 
 std::optional<bool> YamlParameters::flag(const std::string& name) const {
-  const YAML::Node node = impl_->find(name);
-  if (!node.IsScalar()) return std::nullopt;
-  try {
-    return node.as<bool>();
-  } catch (const YAML::Exception&) {
-    return std::nullopt;
-  }
+  return impl_->as<bool>(name, YAML::NodeType::Scalar);
 }
 
 std::optional<std::string> YamlParameters::text(const std::string& name) const {
-  const YAML::Node node = impl_->find(name);
-  if (!node.IsScalar() && !node.IsNull()) return std::nullopt;
-  if (node.IsNull()) return std::string();
-  return node.as<std::string>();
+  if (impl_->find(name).IsNull()) return std::string();
+  return impl_->as<std::string>(name, YAML::NodeType::Scalar);
 }
 
 std::optional<std::vector<double>> YamlParameters::numbers(const std::string& name) const {
-  const YAML::Node node = impl_->find(name);
-  if (!node.IsSequence()) return std::nullopt;
-  try {
-    return node.as<std::vector<double>>();
-  } catch (const YAML::Exception&) {
-    return std::nullopt;
-  }
+  return impl_->as<std::vector<double>>(name, YAML::NodeType::Sequence);
 }
 
 std::optional<std::vector<std::string>> YamlParameters::texts(const std::string& name) const {
-  const YAML::Node node = impl_->find(name);
-  if (!node.IsSequence()) return std::nullopt;
-  try {
-    return node.as<std::vector<std::string>>();
-  } catch (const YAML::Exception&) {
-    return std::nullopt;
-  }
+  return impl_->as<std::vector<std::string>>(name, YAML::NodeType::Sequence);
 }
 
 }  // namespace gpatlas_core
