@@ -10,6 +10,7 @@
 // V_max = 0.1 in the model's reported units, which are the paper's whatever the kernel (posterior
 // variance x 8 / k(0)); noise variance 0.1 on every point as in the paper's reference code.
 #include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/shape_metrics.h"
 #include "gpatlas_core/surface_mesher.h"

@@ -16,7 +16,7 @@
 
 namespace {
 
-using gpatlas_core::GpisModel;
+using gpatlas_core::SurfaceModel;
 using gpatlas_core::PlanRequest;
 using gpatlas_core::PlanResult;
 using gpatlas_core::PlanStatus;
@@ -29,7 +29,7 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
 
   std::string name() const override { return "farthest_from_evidence"; }
 
-  PlanResult plan(const GpisModel& model, const PlanRequest& request) const override {
+  PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override {
     const auto started = std::chrono::steady_clock::now();
     PlanResult result = choose(model, request);
     result.elapsed_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -37,7 +37,7 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
   }
 
  private:
-  PlanResult choose(const GpisModel& model, const PlanRequest& request) const {
+  PlanResult choose(const SurfaceModel& model, const PlanRequest& request) const {
     if (auto error = gpatlas_core::checkPlanInput(model, request)) return *error;
     gpatlas_core::SurfaceSampler::Config sampler_config = sampler_config_;
     sampler_config.seed = gpatlas_core::mixSeeds(gpatlas_core::mixSeeds(seed_, sampler_config_.seed), request.seed);

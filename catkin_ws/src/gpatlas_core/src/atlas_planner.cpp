@@ -42,7 +42,7 @@ double secondsSince(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-SurfacePoint projectFreePoint(const GpisModel& model, const Vector3& point, const ProjectionConfig& config) {
+SurfacePoint projectFreePoint(const SurfaceModel& model, const Vector3& point, const ProjectionConfig& config) {
   Points3 starts(3, 1);
   starts.col(0) = point;
   return projectAlongGradient(model, starts, config).front();
@@ -50,7 +50,7 @@ SurfacePoint projectFreePoint(const GpisModel& model, const Vector3& point, cons
 
 // SELECTSURFACEPOINT: the given start projected onto the surface, else a random surface
 // observation (they lie on the surface up to noise, so the projection is short).
-SurfacePoint selectSurfacePoint(const GpisModel& model, const std::optional<Vector3>& start,
+SurfacePoint selectSurfacePoint(const SurfaceModel& model, const std::optional<Vector3>& start,
                                 const AtlasPlanner::Config& config, std::mt19937_64& rng,
                                 std::string* error) {
   if (start) {
@@ -95,7 +95,7 @@ SurfacePoint selectSurfacePoint(const GpisModel& model, const std::optional<Vect
 
 }  // namespace
 
-AtlasPlanResult AtlasPlanner::plan(const GpisModel& model, double v_max, const std::optional<Vector3>& start,
+AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, const std::optional<Vector3>& start,
                                    const Progress& progress) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;

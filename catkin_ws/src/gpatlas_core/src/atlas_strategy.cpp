@@ -7,7 +7,7 @@ AtlasStrategy::AtlasStrategy(Mode mode, AtlasPlanner::Config config, std::uint64
 
 std::string AtlasStrategy::name() const { return mode_ == Mode::kPoke ? "atlas_poke" : "atlas_slide"; }
 
-PlanResult AtlasStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
+PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);

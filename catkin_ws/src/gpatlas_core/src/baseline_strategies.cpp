@@ -25,7 +25,7 @@ struct NeedySample {
 
 // Samples the surface and handles the shared outcomes: errors and the convergence rule.
 // Returns nullopt when a touch must be chosen from `needy`.
-std::optional<PlanResult> sampleOrFinish(const GpisModel& model, const PlanRequest& request,
+std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRequest& request,
                                          SurfaceSampler::Config config, std::uint64_t seed, NeedySample* needy) {
   if (auto error = checkPlanInput(model, request)) return error;
   config.seed = seed;
@@ -66,7 +66,7 @@ double secondsSince(Clock::time_point start) { return std::chrono::duration<doub
 
 // The baselines share everything but the choice of the sampled point they poke.
 template <typename Pick>
-PlanResult planOnSample(const GpisModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
+PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
                         std::uint64_t seed, const std::string& name, Pick pick) {
   const Clock::time_point started = Clock::now();
   NeedySample needy;
@@ -84,7 +84,7 @@ PlanResult planOnSample(const GpisModel& model, const PlanRequest& request, cons
 RandomStrategy::RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed)
     : config_(std::move(config)), seed_(seed) {}
 
-PlanResult RandomStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
+PlanResult RandomStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [](const NeedySample& needy, const PlanRequest&, std::uint64_t seed) {
                         std::mt19937_64 rng(mixSeeds(seed, 1));
@@ -95,7 +95,7 @@ PlanResult RandomStrategy::plan(const GpisModel& model, const PlanRequest& reque
 MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed)
     : config_(std::move(config)), seed_(seed) {}
 
-PlanResult MaxVarianceStrategy::plan(const GpisModel& model, const PlanRequest& request) const {
+PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
                         const std::vector<double>& variances = needy.sample.variances;

@@ -33,7 +33,7 @@ int candidateCount(double radius, const ChartConfig& config) {
                                      static_cast<double>(config.max_candidates)));
 }
 
-ChartCreation createChart(const GpisModel& model, const SurfacePoint& centre, int parent,
+ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre, int parent,
                           const ChartConfig& config, std::mt19937_64& rng, double max_radius_m) {
   ChartCreation creation;
   if (!centre.ok || !centre.position.allFinite() || !centre.gradient.allFinite() ||

@@ -50,6 +50,16 @@ void readGpis(ParamReader& r, GpisModel::Config* c) {
   }
 }
 
+void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c) {
+  c->type = r.text("model/type", c->type);
+  // Checked when the model is built: a plugin library may register more names.
+  if (c->type.empty()) {
+    r.invalid("model/type", "must name a surface model");
+    c->type = SurfaceModelConfig().type;
+  }
+  readGpis(r, &c->gpis);
+}
+
 void readTuning(ParamReader& r, TuningConfig* c) {
   c->enabled = r.flag("tuning/enabled", c->enabled);
   c->tuner.max_iterations = r.integer("tuning/max_iterations", c->tuner.max_iterations, 1, 10000);
@@ -167,7 +177,7 @@ void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
 void readPipeline(ParamReader& r, PipelineConfig* c) {
   readFrames(r, &c->frames);
   c->seed = readSeed(r, c->seed);
-  readGpis(r, &c->gpis);
+  readSurfaceModel(r, &c->model);
   readTuning(r, &c->tuning);
   readViewTraining(r, &c->view);
   c->use_support_plane = readUseSupportPlane(r);

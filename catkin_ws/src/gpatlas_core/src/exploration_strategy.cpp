@@ -70,7 +70,7 @@ std::vector<std::string> strategyNames() {
   return names;
 }
 
-std::optional<PlanResult> checkPlanInput(const GpisModel& model, const PlanRequest& request) {
+std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRequest& request) {
   PlanResult error;
   error.status = PlanStatus::kError;
   if (!model.isFitted()) {

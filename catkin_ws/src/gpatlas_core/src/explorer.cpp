@@ -55,7 +55,7 @@ std::vector<Vector3> thinFreeSpace(const std::vector<Vector3>& free_space, const
   return thinToSpacing(sorted, spacing_m);
 }
 
-std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,
+std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const std::vector<Contact>& contacts,
                                                const std::vector<Vector3>& free_space, const TouchObservationConfig& config,
                                                TouchPointCounts* counts) {
   std::vector<Vector3> positions;
@@ -139,7 +139,7 @@ std::vector<Vector3> measuredPositions(const std::vector<Contact>& contacts, con
   return positions;
 }
 
-FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new_points,
+FitReport addTouchPoints(SurfaceModel& model, const std::vector<TrainingPoint>& new_points,
                          const std::vector<Vector3>& evidence, const TouchObservationConfig& config,
                          InteriorRetraction* retraction) {
   if (retraction) *retraction = InteriorRetraction();
@@ -167,7 +167,7 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
   return report;
 }
 
-TouchUpdate applyTouch(GpisModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
+TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
                        const TouchObservationConfig& config) {
   TouchUpdate update;
   if (!model.isFitted()) {
@@ -237,7 +237,7 @@ TouchUpdate ModelTouchUpdater::update(const ProbeResult& probed) {
   return applyTouch(model_, probed.contacts, probed.free_space, config_);
 }
 
-ExplorationResult Explorer::run(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+ExplorationResult Explorer::run(SurfaceModel& model, const ExplorationStrategy& strategy, Prober& prober,
                                 const TouchObservationConfig& touch, const EvidenceRule& evidence,
                                 const Progress& progress) const {
   if (!model.isFitted()) {

@@ -1,5 +1,7 @@
 #include "gpatlas_core/gpis_model.h"
 
+#include "gpatlas_core/hyperparameter_tuner.h"
+
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
 
@@ -632,6 +634,58 @@ bool GpisModel::inDomain(const Vector3& x_world) const {
   return impl_->fitted && impl_->normalise(x_world).norm() <= impl_->config.domain_radius;
 }
 double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
+double GpisModel::dataRadiusWorld() const { return impl_->config.data_radius * impl_->scale; }
+
+std::unique_ptr<SurfaceModel> GpisModel::clone() const { return std::make_unique<GpisModel>(*this); }
+
+std::vector<std::string> GpisModel::hyperparameterNames() const {
+  std::vector<std::string> names;
+  for (const std::string& p : impl_->kernel->paramNames()) names.push_back("log_" + p);
+  names.push_back("log_noise_scale");
+  return names;
+}
+
+Eigen::VectorXd GpisModel::hyperparameters() const {
+  const Eigen::VectorXd kernel_params = impl_->kernel->logParams();
+  Eigen::VectorXd all(kernel_params.size() + 1);
+  all << kernel_params, std::log(impl_->noise_scale);
+  return all;
+}
+
+FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& log_params) {
+  const Eigen::Index k = impl_->kernel->numParams();
+  if (log_params.size() != k + 1) {
+    FitReport report;
+    report.message = "expected " + std::to_string(k + 1) + " log-parameters (" + std::to_string(k) +
+                     " of the kernel, then the noise scale), got " + std::to_string(log_params.size());
+    return report;
+  }
+  return setHyperparameters(log_params.head(k), std::exp(log_params[k]));
+}
+
+FitReport GpisModel::restore(const SurfaceModelState& state) {
+  FitReport report;
+  const Eigen::Index k = impl_->kernel->numParams();
+  if (state.model != name()) {
+    report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
+    return report;
+  }
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(),
+                                                                    static_cast<Eigen::Index>(state.hyperparameters.size()));
+  if (params.size() != k + 1 || !params.allFinite()) {
+    report.message = "the state has " + std::to_string(params.size()) + " hyperparameters, the '" +
+                     impl_->kernel->name() + "' GPIS has " + std::to_string(k + 1) + " (or they are not finite)";
+    return report;
+  }
+  GpisModel trial(*this);
+  trial.impl_->kernel->setLogParams(params.head(k));
+  trial.impl_->noise_scale = std::exp(params[k]);
+  report = trial.fitInFrame(state.observations, state.centroid, state.scale);
+  if (report.ok) *this = std::move(trial);
+  return report;
+}
+
+TuneReport GpisModel::tune(const HyperparameterTunerConfig& config) { return HyperparameterTuner(config).tune(*this); }
 FitReport GpisModel::setPriorMean(std::shared_ptr<const PriorMean> prior) {
   Impl& m = *impl_;
   if (!m.fitted) {
@@ -655,14 +709,6 @@ const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
 double GpisModel::noiseScale() const { return impl_->noise_scale; }
 double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
 
-double GpisModel::nearestSurfaceDistance(const Vector3& point_world,
-                                         const std::vector<Vector3>& new_surface_points) const {
-  double nearest = std::numeric_limits<double>::infinity();
-  for (const auto& p : impl_->observations)
-    if (isSurfaceValue(p)) nearest = std::min(nearest, (p.position - point_world).squaredNorm());
-  for (const auto& p : new_surface_points) nearest = std::min(nearest, (p - point_world).squaredNorm());
-  return std::sqrt(nearest);
-}
 BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
                                         bool with_variance_gradient, bool with_variance) const {
   const Impl& m = *impl_;
@@ -769,8 +815,6 @@ Prediction GpisModel::predict(const Vector3& x_world) const {
   return p;
 }
 
-double GpisModel::mean(const Vector3& x_world) const { return predictBatch(x_world, false, false).mean[0]; }
-double GpisModel::variance(const Vector3& x_world) const { return predictBatch(x_world, false, false).variance[0]; }
 
 double GpisModel::logMarginalLikelihood() const {
   const Impl& m = *impl_;

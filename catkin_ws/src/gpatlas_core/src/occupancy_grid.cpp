@@ -8,7 +8,7 @@ namespace gpatlas_core {
 
 double standardNormalCdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
 
-OccupancyGrid OccupancyGridBuilder::build(const GpisModel& model) const {
+OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
   OccupancyGrid grid;
   if (!model.isFitted()) {
     grid.message = "no model: the GP is not fitted";

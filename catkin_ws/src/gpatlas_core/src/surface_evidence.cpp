@@ -12,7 +12,7 @@ std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
 }
 }  // namespace
 
-SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
+SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                                  const std::optional<SupportPlane>& support, double approach_m,
                                  const std::vector<Vector3>& attempted)
     : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0) {
@@ -34,7 +34,7 @@ SurfaceEvidence::SurfaceEvidence(const GpisModel& model, double max_distance_m,
   }
 }
 
-SurfaceEvidence::SurfaceEvidence(const GpisModel& model, const EvidenceRule& rule)
+SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule)
     : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
                       rule.attempted_targets) {}
 

@@ -23,7 +23,7 @@ namespace {
 
 // Evaluates the model in batches; `store` receives (column in `points`, prediction, row).
 template <typename Store>
-void predictInBatches(const GpisModel& model, const std::vector<Vector3>& points, int batch_size, bool with_variance,
+void predictInBatches(const SurfaceModel& model, const std::vector<Vector3>& points, int batch_size, bool with_variance,
                       Store store) {
   for (std::size_t first = 0; first < points.size(); first += static_cast<std::size_t>(batch_size)) {
     const std::size_t count = std::min(points.size() - first, static_cast<std::size_t>(batch_size));
@@ -52,7 +52,7 @@ double nodeCount(const Eigen::Vector3i& size) { return static_cast<double>(size.
 
 // Fills every NaN node of `grid`: +1 outside the domain, else the GP mean. False if the model
 // returned a non-finite mean.
-bool evaluateMissingNodes(const GpisModel& model, double resolution, int batch_size, Grid& grid) {
+bool evaluateMissingNodes(const SurfaceModel& model, double resolution, int batch_size, Grid& grid) {
   std::vector<Vector3> query_points;
   std::vector<std::size_t> query_nodes;
   for (int k = 0; k < grid.size.z(); ++k)
@@ -99,7 +99,7 @@ std::string tooManyNodes(double nodes, std::size_t max_nodes, const std::string&
 
 }  // namespace
 
-SurfaceMeshResult SurfaceMesher::mesh(const GpisModel& model) const {
+SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
   SurfaceMeshResult result;
   if (!model.isFitted()) {
     result.message = "no model: the GP is not fitted";
@@ -129,7 +129,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const GpisModel& model) const {
   for (const TrainingPoint& point : model.observations())
     if (isSurfaceValue(point)) surface_box.extend(point.position);
   if (!surface_box.isEmpty()) {
-    const double margin = config_.margin_fraction_of_data_radius * model.config().data_radius * model.scale();
+    const double margin = config_.margin_fraction_of_data_radius * model.dataRadiusWorld();
     const Eigen::Array3d low = ((surface_box.min().array() - margin) - domain_lower.array()) / resolution;
     const Eigen::Array3d high = ((surface_box.max().array() + margin) - domain_lower.array()) / resolution;
     for (int axis = 0; axis < 3; ++axis) {

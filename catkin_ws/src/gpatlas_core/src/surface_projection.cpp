@@ -33,7 +33,7 @@ const char* toString(ProjectionFailure failure) {
   return "unknown";
 }
 
-std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Points3& starts,
+std::vector<SurfacePoint> projectOntoSurface(const SurfaceModel& model, const Points3& starts,
                                              const Points3& directions,
                                              const ProjectionConfig& config) {
   const Eigen::Index count = starts.cols();
@@ -136,7 +136,7 @@ std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Point
   return results;
 }
 
-std::vector<SurfacePoint> projectAlongGradient(const GpisModel& model, const Points3& starts,
+std::vector<SurfacePoint> projectAlongGradient(const SurfaceModel& model, const Points3& starts,
                                                const ProjectionConfig& config) {
   if (!model.isFitted() || starts.cols() == 0) return std::vector<SurfacePoint>(static_cast<std::size_t>(starts.cols()));
   Points3 directions = Points3::Zero(3, starts.cols());

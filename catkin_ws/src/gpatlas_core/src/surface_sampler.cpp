@@ -10,7 +10,7 @@ double SurfaceSample::maxVariance() const {
   return variances.empty() ? 0.0 : *std::max_element(variances.begin(), variances.end());
 }
 
-SurfaceSample SurfaceSampler::sample(const GpisModel& model) const {
+SurfaceSample SurfaceSampler::sample(const SurfaceModel& model) const {
   SurfaceSample result;
   if (!model.isFitted()) {
     result.message = "no model: the GP is not fitted";

@@ -2,7 +2,7 @@
 
 #include "gpatlas_core/atlas.h"
 #include "gpatlas_core/chart.h"
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/surface_evidence.h"
 #include "gpatlas_core/surface_projection.h"
 
@@ -73,7 +73,7 @@ class AtlasPlanner {
 
   // `start`: a point near the surface (e.g. the probe's position); without it the root is a
   // random on-surface training point of the model (SELECTSURFACEPOINT).
-  AtlasPlanResult plan(const GpisModel& model, double v_max,
+  AtlasPlanResult plan(const SurfaceModel& model, double v_max,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}) const;
 

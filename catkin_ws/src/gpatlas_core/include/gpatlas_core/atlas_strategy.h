@@ -12,7 +12,7 @@ class AtlasStrategy : public ExplorationStrategy {
   enum class Mode { kPoke, kSlide };
   AtlasStrategy(Mode mode, AtlasPlanner::Config config, std::uint64_t seed);
   std::string name() const override;
-  PlanResult plan(const GpisModel& model, const PlanRequest& request) const override;
+  PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;
 
  private:
   Mode mode_;

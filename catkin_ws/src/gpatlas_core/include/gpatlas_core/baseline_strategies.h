@@ -16,7 +16,7 @@ class RandomStrategy : public ExplorationStrategy {
  public:
   RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed);
   std::string name() const override { return "random"; }
-  PlanResult plan(const GpisModel& model, const PlanRequest& request) const override;
+  PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;
 
  private:
   SurfaceSampler::Config config_;
@@ -29,7 +29,7 @@ class MaxVarianceStrategy : public ExplorationStrategy {
  public:
   MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed);
   std::string name() const override { return "max_variance"; }
-  PlanResult plan(const GpisModel& model, const PlanRequest& request) const override;
+  PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;
 
  private:
   SurfaceSampler::Config config_;

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/surface_projection.h"
 #include "gpatlas_core/types.h"
 
@@ -67,7 +67,7 @@ struct ChartCreation {
 // the variance, candidates in the annulus with their variances from one batched query.
 // Candidates whose ambient point lies outside the model's domain are not kept.
 // `max_radius_m` caps the variance's radius (see SurfaceEvidence::radiusCap).
-ChartCreation createChart(const GpisModel& model, const SurfacePoint& centre, int parent,
+ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre, int parent,
                           const ChartConfig& config, std::mt19937_64& rng,
                           double max_radius_m = std::numeric_limits<double>::infinity());
 

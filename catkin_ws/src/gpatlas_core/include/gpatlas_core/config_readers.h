@@ -7,7 +7,7 @@
 
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/explorer.h"
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model_factory.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/occupancy_grid.h"
 #include "gpatlas_core/parameters.h"
@@ -53,6 +53,8 @@ void readFrames(ParamReader& r, PipelineFrames* c);
 // The run's seed ("seed"): the view's subset and samples, the strategy and every plan.
 std::uint64_t readSeed(ParamReader& r, std::uint64_t fallback = 0);
 void readGpis(ParamReader& r, GpisModel::Config* c);
+// model/type and the settings of every built-in model.
+void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c);
 void readTuning(ParamReader& r, TuningConfig* c);
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
 // Whether the table found by segmentation is used (the view's below-support points, no guesses
@@ -71,7 +73,7 @@ void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c);
 struct PipelineConfig {
   PipelineFrames frames;
   std::uint64_t seed{0};
-  GpisModel::Config gpis;
+  SurfaceModelConfig model;
   TuningConfig tuning;
   ViewTrainingConfig view;
   bool use_support_plane{true};

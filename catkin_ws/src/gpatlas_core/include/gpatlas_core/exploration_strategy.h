@@ -1,7 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/atlas_planner.h"
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/surface_sampler.h"
 #include "gpatlas_core/types.h"
 
@@ -42,7 +42,7 @@ class ExplorationStrategy {
  public:
   virtual ~ExplorationStrategy() = default;
   virtual std::string name() const = 0;
-  virtual PlanResult plan(const GpisModel& model, const PlanRequest& request) const = 0;
+  virtual PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const = 0;
 };
 
 // The atlas strategies' planner settings: a slide's path runs on for up to 20 charts past the
@@ -73,7 +73,7 @@ bool registerStrategy(const std::string& name, StrategyFactory factory);
 std::vector<std::string> strategyNames();
 
 // Shared argument checks: an error PlanResult for an unusable model or V_max, else nullopt.
-std::optional<PlanResult> checkPlanInput(const GpisModel& model, const PlanRequest& request);
+std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRequest& request);
 
 // Mixes two seeds into one (SplitMix64 finaliser) so that nearby seeds give unrelated streams.
 std::uint64_t mixSeeds(std::uint64_t a, std::uint64_t b);

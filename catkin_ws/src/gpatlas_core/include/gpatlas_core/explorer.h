@@ -1,7 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/exploration_strategy.h"
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/prober.h"
 #include "gpatlas_core/surface_evidence.h"
 #include "gpatlas_core/types.h"
@@ -161,7 +161,7 @@ class Explorer {
 
   // In one process: plans with `strategy` on `model` (fitted: the initial view) under
   // `evidence`, and adds the touches to it with `touch` (applyTouch).
-  ExplorationResult run(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+  ExplorationResult run(SurfaceModel& model, const ExplorationStrategy& strategy, Prober& prober,
                         const TouchObservationConfig& touch = {}, const EvidenceRule& evidence = {},
                         const Progress& progress = {}) const;
 
@@ -174,13 +174,13 @@ std::string validate(const Explorer::Config& config);
 // Plans with a strategy on a model held elsewhere (the caller updates it between plans).
 class ModelTouchPlanner : public TouchPlanner {
  public:
-  ModelTouchPlanner(const GpisModel& model, const ExplorationStrategy& strategy, EvidenceRule evidence)
+  ModelTouchPlanner(const SurfaceModel& model, const ExplorationStrategy& strategy, EvidenceRule evidence)
       : model_(model), strategy_(strategy), evidence_(std::move(evidence)) {}
   PlanResult plan(const PlanRequest& request) override;
   std::size_t modelSize() const override { return model_.observations().size(); }
 
  private:
-  const GpisModel& model_;
+  const SurfaceModel& model_;
   const ExplorationStrategy& strategy_;
   EvidenceRule evidence_;
 };
@@ -188,11 +188,11 @@ class ModelTouchPlanner : public TouchPlanner {
 // Adds each touch to a model with applyTouch.
 class ModelTouchUpdater : public ModelUpdater {
  public:
-  ModelTouchUpdater(GpisModel& model, TouchObservationConfig config) : model_(model), config_(std::move(config)) {}
+  ModelTouchUpdater(SurfaceModel& model, TouchObservationConfig config) : model_(model), config_(std::move(config)) {}
   TouchUpdate update(const ProbeResult& probed) override;
 
  private:
-  GpisModel& model_;
+  SurfaceModel& model_;
   TouchObservationConfig config_;
 };
 
@@ -210,7 +210,7 @@ struct TouchPointCounts {
 // config.contact_tangent_noise_sigma >= 0) its two tangent slope observations; free space inside the model's
 // domain thinned to config.min_free_space_spacing_m, nearest the contacts first, and labelled
 // with its distance to the nearest contact or model surface point.
-std::vector<TrainingPoint> touchTrainingPoints(const GpisModel& model, const std::vector<Contact>& contacts,
+std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const std::vector<Contact>& contacts,
                                                const std::vector<Vector3>& free_space, const TouchObservationConfig& config,
                                                TouchPointCounts* counts = nullptr);
 
@@ -224,7 +224,7 @@ std::vector<Vector3> measuredPositions(const std::vector<Contact>& contacts, con
 // update is incremental when nothing was retracted, and a full refit in the model's current
 // frame otherwise. On failure the model is unchanged. The report's num_added counts the new
 // points the model accepted (not the retained old ones).
-FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new_points,
+FitReport addTouchPoints(SurfaceModel& model, const std::vector<TrainingPoint>& new_points,
                          const std::vector<Vector3>& evidence, const TouchObservationConfig& config,
                          InteriorRetraction* retraction = nullptr);
 
@@ -232,7 +232,7 @@ FitReport addTouchPoints(GpisModel& model, const std::vector<TrainingPoint>& new
 // A batch the model refuses as numerically singular (e.g. a free-space point right next to a
 // surface point) is retried with the contacts alone (and the points behind them): the
 // contacts are what the touch was for. The refused free space still retracts guesses.
-TouchUpdate applyTouch(GpisModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
+TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
                        const TouchObservationConfig& config);
 
 }  // namespace gpatlas_core

@@ -2,6 +2,7 @@
 
 #include "gpatlas_core/kernel.h"
 #include "gpatlas_core/prior_mean.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/types.h"
 
 #include <Eigen/Core>
@@ -11,37 +12,6 @@
 #include <vector>
 
 namespace gpatlas_core {
-
-// Outcome of a fit or an update. On failure the model keeps its previous state.
-struct FitReport {
-  bool ok{false};
-  std::string message;
-  std::vector<std::string> warnings;
-  bool full_refit{false};      // false when the Cholesky factor was extended incrementally
-  bool renormalised{false};    // the centroid/scale changed, every point was re-normalised
-  double jitter{0.0};          // diagonal jitter that made the matrix factorisable
-  std::size_t num_added{0};    // points accepted from the call
-  std::size_t num_rejected{0}; // NaN/Inf, duplicates, out of domain
-};
-
-// Posterior at one point. Units: mean is the (unitless) implicit function value; gradients
-// are per metre of world coordinates; variance is in the model's reported units (see
-// GpisModel::Config::reference_prior_variance).
-struct Prediction {
-  double mean{0.0};
-  double variance{0.0};
-  Vector3 gradient{Vector3::Zero()};
-  Vector3 variance_gradient{Vector3::Zero()};
-  bool in_domain{true};
-};
-
-struct BatchPrediction {
-  Eigen::VectorXd mean;
-  Eigen::VectorXd variance;
-  Points3 gradient;           // filled when requested
-  Points3 variance_gradient;  // filled when requested
-  Eigen::Array<bool, Eigen::Dynamic, 1> in_domain;
-};
 
 // Settings of GpisModel (declared outside the class so it can be a default argument).
 //
@@ -121,56 +91,58 @@ struct GpisModelConfig {
 //
 // World coordinates are stored; the normalised copies are derived on every (re)fit, so a change
 // of centroid or scale can never leave stale points behind. Const queries are thread-safe.
-class GpisModel {
+class GpisModel : public SurfaceModel {
  public:
   using Config = GpisModelConfig;
-
+  static constexpr const char* kName = "gpis";
 
   explicit GpisModel(Config config = Config());
   GpisModel(const GpisModel& other);
   GpisModel& operator=(const GpisModel& other);
   GpisModel(GpisModel&&) noexcept;
   GpisModel& operator=(GpisModel&&) noexcept;
-  ~GpisModel();
+  ~GpisModel() override;
+
+  std::string name() const override { return kName; }
+  std::unique_ptr<SurfaceModel> clone() const override;
 
   // Replaces the data and fits from scratch. Needs at least 4 valid surface points.
-  FitReport fit(const std::vector<TrainingPoint>& points);
+  FitReport fit(const std::vector<TrainingPoint>& points) override;
   // Fits in a given normalisation frame (e.g. to replicate another process's model exactly:
   // the GP node's frame is sticky under incremental updates, so it can differ from the one a
   // fresh fit() would compute from the same data).
-  FitReport fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale);
+  FitReport fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) override;
   // Adds points to a fitted model by extending the Cholesky factor (O(n^2 k)); falls back to
   // a full refit when the normalisation must change.
-  FitReport addPoints(const std::vector<TrainingPoint>& points);
+  FitReport addPoints(const std::vector<TrainingPoint>& points) override;
   // Full refit of the current data (after a change of hyperparameters, or to compare with an
   // incremental update). Keeps the current normalisation unless `renormalise` is set, the model
   // was never fitted, or a surface point lies beyond renormalise_radius.
   FitReport refit(bool renormalise = false);
 
-  bool isFitted() const;
+  bool isFitted() const override;
   const Config& config() const;
   // Observations in world coordinates (no pseudo-points).
-  const std::vector<TrainingPoint>& observations() const;
+  const std::vector<TrainingPoint>& observations() const override;
   // Size of the GP's training set, pseudo-points included.
   std::size_t size() const;
 
   // Normalisation: x_normalised = (x_world - centroid) / scale.
-  const Vector3& centroid() const;
-  double scale() const;
+  const Vector3& centroid() const override;
+  double scale() const override;
   Vector3 toNormalised(const Vector3& x_world) const;
   Vector3 toWorld(const Vector3& x_normalised) const;
-  bool inDomain(const Vector3& x_world) const;
+  bool inDomain(const Vector3& x_world) const override;
   // Centre and radius (metres) of the ball in which the model is valid.
-  double domainRadiusWorld() const;
+  double domainRadiusWorld() const override;
+  double dataRadiusWorld() const override;
 
-  Prediction predict(const Vector3& x_world) const;
-  double mean(const Vector3& x_world) const;
-  double variance(const Vector3& x_world) const;
+  Prediction predict(const Vector3& x_world) const override;
   // One matrix solve for the whole batch. Gradients are computed only when asked for; without
   // `with_variance` (and without the variance gradient) the O(n^2) per point solve is skipped
   // and `variance` is NaN: mean-only queries (meshing, projection) cost O(n) per point.
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
-                               bool with_variance_gradient = true, bool with_variance = true) const;
+                               bool with_variance_gradient = true, bool with_variance = true) const override;
 
   // Prior mean of f (none: zero, the paper's). Refits a fitted model; on failure the previous
   // prior stays. Observations' targets are unchanged: the GP models their residual.
@@ -183,6 +155,13 @@ class GpisModel {
   // Sets kernel log-parameters and the noise scale, then refits; on failure restores the
   // previous ones and returns the failing report.
   FitReport setHyperparameters(const Eigen::VectorXd& kernel_log_params, double noise_scale);
+  // The kernel's log-parameters, then log noise_scale.
+  std::vector<std::string> hyperparameterNames() const override;
+  Eigen::VectorXd hyperparameters() const override;
+  FitReport setHyperparameters(const Eigen::VectorXd& log_params) override;
+  // HyperparameterTuner on this model.
+  TuneReport tune(const HyperparameterTunerConfig& config) override;
+  FitReport restore(const SurfaceModelState& state) override;
   // Log marginal likelihood of the current fit (normalised frame).
   double logMarginalLikelihood() const;
   // Log marginal likelihood for trial hyperparameters on the current training set and its
@@ -191,15 +170,8 @@ class GpisModel {
   double logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params, double log_noise_scale,
                                Eigen::VectorXd* gradient) const;
   // Factor turning a raw posterior variance into the reported units.
-  double varianceUnitFactor() const;
+  double varianceUnitFactor() const override;
 
-  // Distance (metres) from a point to the nearest surface observation or `new_surface_points`:
-  // an upper bound on its distance to the surface, used as TrainingPoint::surface_distance_m of
-  // free-space points. Near the surface the implicit function grows like the normalised
-  // distance to it and reaches +1 only about an object radius out, where the outside
-  // pseudo-points are; a free-space point labelled +1 a centimetre from the surface would
-  // demand a cliff that the smooth GP pays for with spurious surface elsewhere.
-  double nearestSurfaceDistance(const Vector3& point_world, const std::vector<Vector3>& new_surface_points = {}) const;
 
  private:
   FitReport fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale);

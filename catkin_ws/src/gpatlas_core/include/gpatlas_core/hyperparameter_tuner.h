@@ -10,19 +10,6 @@
 
 namespace gpatlas_core {
 
-struct TuneReport {
-  bool ok{false};
-  std::string message;
-  double log_likelihood_before{0.0};
-  double log_likelihood_after{0.0};
-  Eigen::VectorXd params_before;  // kernel parameters in natural units
-  Eigen::VectorXd params_after;
-  double noise_scale_before{1.0};
-  double noise_scale_after{1.0};
-  int iterations{0};
-  double seconds{0.0};
-};
-
 struct HyperparameterTunerConfig {
   int max_iterations{40};
   double function_tolerance{1e-7};

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/types.h"
 
 #include <Eigen/Core>
@@ -47,7 +47,7 @@ class OccupancyGridBuilder {
 
   OccupancyGridBuilder() = default;
   explicit OccupancyGridBuilder(Config config) : config_(std::move(config)) {}
-  OccupancyGrid build(const GpisModel& model) const;
+  OccupancyGrid build(const SurfaceModel& model) const;
 
  private:
   Config config_;

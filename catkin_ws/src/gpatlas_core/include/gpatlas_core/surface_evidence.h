@@ -1,6 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/types.h"
 #include "gpatlas_core/view_free_space.h"
 
@@ -48,11 +48,11 @@ class SurfaceEvidence {
   // `attempted`: surface points that touches already aimed at (EvidenceRule::attempted_targets)
   // count as evidence too, whatever the touch found: a point the probe cannot reach (its
   // approach blocked by another part of the object) is not asked for again and again.
-  SurfaceEvidence(const GpisModel& model, double max_distance_m,
+  SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                   const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0,
                   const std::vector<Vector3>& attempted = {});
   // The same from a rule, its distance converted with the model's scale.
-  SurfaceEvidence(const GpisModel& model, const EvidenceRule& rule);
+  SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule);
 
   bool enabled() const { return max_distance_m_ > 0.0; }
   double maxDistance() const { return max_distance_m_; }

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/triangle_mesh.h"
 
 #include <optional>
@@ -47,7 +47,7 @@ class SurfaceMesher {
 
   SurfaceMesher() = default;
   explicit SurfaceMesher(Config config) : config_(std::move(config)) {}
-  SurfaceMeshResult mesh(const GpisModel& model) const;
+  SurfaceMeshResult mesh(const SurfaceModel& model) const;
 
  private:
   Config config_;

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/types.h"
 
 #include <Eigen/Core>
@@ -56,12 +56,12 @@ struct SurfacePoint {
 // is the tangent basis orthogonal to the matching column of `directions` (the chart's normal,
 // or the gradient at x0 for a free point). All points iterate together so that each Newton
 // iteration costs one batched GP query.
-std::vector<SurfacePoint> projectOntoSurface(const GpisModel& model, const Points3& starts,
+std::vector<SurfacePoint> projectOntoSurface(const SurfaceModel& model, const Points3& starts,
                                              const Points3& directions,
                                              const ProjectionConfig& config);
 
 // Projects free points: the projection line of each is the mean's gradient at the point.
-std::vector<SurfacePoint> projectAlongGradient(const GpisModel& model, const Points3& starts,
+std::vector<SurfacePoint> projectAlongGradient(const SurfaceModel& model, const Points3& starts,
                                                const ProjectionConfig& config);
 
 }  // namespace gpatlas_core

@@ -1,6 +1,6 @@
 #pragma once
 
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/surface_projection.h"
 
 #include <cstdint>
@@ -41,7 +41,7 @@ class SurfaceSampler {
   explicit SurfaceSampler(Config config) : config_(std::move(config)) {}
   const Config& config() const { return config_; }
 
-  SurfaceSample sample(const GpisModel& model) const;
+  SurfaceSample sample(const SurfaceModel& model) const;
 
  private:
   Config config_;

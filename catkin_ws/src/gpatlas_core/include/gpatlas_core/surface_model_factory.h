@@ -1,0 +1,30 @@
+#pragma once
+
+#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/surface_model.h"
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// Which surface model to build (the YAML's model/type), and the settings of the built-in ones.
+struct SurfaceModelConfig {
+  std::string type{GpisModel::kName};
+  GpisModelConfig gpis;  // the global GPIS (the paper's model)
+};
+
+using SurfaceModelFactory = std::function<std::unique_ptr<SurfaceModel>(const SurfaceModelConfig&)>;
+
+// Builds the model named config.type: a built-in one or one added with registerSurfaceModel.
+// Throws std::invalid_argument for an unknown name (the message lists the known ones) or an
+// invalid config.
+std::unique_ptr<SurfaceModel> makeSurfaceModel(const SurfaceModelConfig& config);
+// Adds a model (from a plugin library's static initialiser, see strategy_library.h); false when
+// the name is empty or taken.
+bool registerSurfaceModel(const std::string& name, SurfaceModelFactory factory);
+std::vector<std::string> surfaceModelNames();
+
+}  // namespace gpatlas_core
