@@ -115,12 +115,12 @@ bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* r
   return true;
 }
 
-gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
+gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::SurfaceModel& model) {
   gpatlas_msgs::TrainingSet msg;
-  msg.kernel = model.kernel().name();
-  const Eigen::VectorXd params = model.kernel().logParams();
-  msg.kernel_log_params.assign(params.data(), params.data() + params.size());
-  msg.noise_scale = model.noiseScale();
+  msg.model = model.name();
+  msg.hyperparameter_names = model.hyperparameterNames();
+  const Eigen::VectorXd params = model.hyperparameters();
+  msg.hyperparameters.assign(params.data(), params.data() + params.size());
   msg.centroid = toPointMsg(model.centroid());
   msg.scale = model.scale();
   const auto& observations = model.observations();
@@ -147,20 +147,19 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model) {
   return msg;
 }
 
-bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error) {
+bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelState* state, std::string* error) {
   const std::size_t n = msg.points.size();
   if (msg.labels.size() != n || msg.noise_sigmas.size() != n || msg.sources.size() != n ||
       (!msg.surface_distances_m.empty() && msg.surface_distances_m.size() != n) ||
       (!msg.slope_directions.empty() && msg.slope_directions.size() != n) ||
-      (!msg.target_overrides.empty() && msg.target_overrides.size() != n)) {
+      (!msg.target_overrides.empty() && msg.target_overrides.size() != n) ||
+      (!msg.hyperparameter_names.empty() && msg.hyperparameter_names.size() != msg.hyperparameters.size())) {
     *error = "training set arrays differ in length";
     return false;
   }
-  TrainingSetContents out;
-  out.kernel = msg.kernel;
-  out.kernel_log_params = Eigen::Map<const Eigen::VectorXd>(msg.kernel_log_params.data(),
-                                                             static_cast<Eigen::Index>(msg.kernel_log_params.size()));
-  out.noise_scale = msg.noise_scale;
+  gpatlas_core::SurfaceModelState out;
+  out.model = msg.model;
+  out.hyperparameters = msg.hyperparameters;
   out.centroid = fromMsg(msg.centroid);
   out.scale = msg.scale;
   for (std::size_t i = 0; i < n; ++i) {
@@ -177,23 +176,20 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents
     if (!msg.slope_directions.empty())
       p.slope_direction = {msg.slope_directions[i].x, msg.slope_directions[i].y, msg.slope_directions[i].z};
     if (!msg.target_overrides.empty()) p.target_override = msg.target_overrides[i];
-    out.points.push_back(p);
+    out.observations.push_back(p);
   }
-  *contents = std::move(out);
+  *state = std::move(out);
   return true;
 }
 
-bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::GpisModel::Config config,
-                  gpatlas_core::GpisModel* model, std::string* error) {
-  TrainingSetContents contents;
-  if (!fromMsg(msg, &contents, error)) return false;
-  config.kernel = contents.kernel;
-  config.initial_params.assign(contents.kernel_log_params.data(),
-                               contents.kernel_log_params.data() + contents.kernel_log_params.size());
-  config.noise_scale = contents.noise_scale;
+bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelConfig config,
+                  std::unique_ptr<gpatlas_core::SurfaceModel>* model, std::string* error) {
+  gpatlas_core::SurfaceModelState state;
+  if (!fromMsg(msg, &state, error)) return false;
+  config.type = state.model;
   try {
-    gpatlas_core::GpisModel rebuilt(config);
-    const gpatlas_core::FitReport report = rebuilt.fitInFrame(contents.points, contents.centroid, contents.scale);
+    std::unique_ptr<gpatlas_core::SurfaceModel> rebuilt = gpatlas_core::makeSurfaceModel(config);
+    const gpatlas_core::FitReport report = rebuilt->restore(state);
     if (!report.ok) {
       *error = "cannot fit the received training set: " + report.message;
       return false;

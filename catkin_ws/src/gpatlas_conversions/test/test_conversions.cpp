@@ -126,26 +126,32 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(pts).ok);
   ASSERT_TRUE(gpatlas_core::observesSlope(model.observations().back()));
+  // Hyperparameters away from the defaults (as tuning leaves them): the replica must take the sender's.
+  const Eigen::VectorXd tuned = model.hyperparameters().array() + 0.1;
+  ASSERT_TRUE(model.setHyperparameters(tuned).ok);
 
-  TrainingSetContents contents;
+  gpatlas_core::SurfaceModelState contents;
   std::string error;
   ASSERT_TRUE(fromMsg(toMsg(model), &contents, &error)) << error;
-  ASSERT_EQ(contents.points.size(), model.observations().size());
-  for (std::size_t i = 0; i < contents.points.size(); ++i) {
-    EXPECT_EQ(contents.points[i].position, model.observations()[i].position);
-    EXPECT_EQ(contents.points[i].label, model.observations()[i].label);
-    EXPECT_EQ(contents.points[i].source, model.observations()[i].source);
-    EXPECT_EQ(contents.points[i].noise_sigma, model.observations()[i].noise_sigma);
-    const double a = contents.points[i].surface_distance_m, b = model.observations()[i].surface_distance_m;
+  EXPECT_EQ(contents.model, model.name());
+  ASSERT_EQ(contents.observations.size(), model.observations().size());
+  for (std::size_t i = 0; i < contents.observations.size(); ++i) {
+    EXPECT_EQ(contents.observations[i].position, model.observations()[i].position);
+    EXPECT_EQ(contents.observations[i].label, model.observations()[i].label);
+    EXPECT_EQ(contents.observations[i].source, model.observations()[i].source);
+    EXPECT_EQ(contents.observations[i].noise_sigma, model.observations()[i].noise_sigma);
+    const double a = contents.observations[i].surface_distance_m, b = model.observations()[i].surface_distance_m;
     EXPECT_TRUE(a == b || (std::isnan(a) && std::isnan(b)));
-    EXPECT_EQ(contents.points[i].slope_direction, model.observations()[i].slope_direction);
-    const double c = contents.points[i].target_override, d = model.observations()[i].target_override;
+    EXPECT_EQ(contents.observations[i].slope_direction, model.observations()[i].slope_direction);
+    const double c = contents.observations[i].target_override, d = model.observations()[i].target_override;
     EXPECT_TRUE(c == d || (std::isnan(c) && std::isnan(d)));
   }
   EXPECT_EQ(contents.centroid, model.centroid());
   EXPECT_EQ(contents.scale, model.scale());
-  gpatlas_core::GpisModel rebuilt;
-  ASSERT_TRUE(modelFromMsg(toMsg(model), gpatlas_core::GpisModel::Config(), &rebuilt, &error)) << error;
+  std::unique_ptr<gpatlas_core::SurfaceModel> rebuilt_model;
+  ASSERT_TRUE(modelFromMsg(toMsg(model), gpatlas_core::SurfaceModelConfig(), &rebuilt_model, &error)) << error;
+  const gpatlas_core::SurfaceModel& rebuilt = *rebuilt_model;
+  EXPECT_LT((rebuilt.hyperparameters() - tuned).norm(), 1e-12);
   const Eigen::Vector3d q(0.02, -0.03, 0.08);
   EXPECT_NEAR(rebuilt.mean(q), model.mean(q), 1e-12);
   EXPECT_NEAR(rebuilt.variance(q), model.variance(q), 1e-12);

@@ -62,7 +62,7 @@ std::string toJson(const ExplorationReport& report) {
   json << "{\n  \"settings\": {\"strategy\": " << jsonString(report.strategy) << ", \"v_max\": "
        << jsonNumber(report.loop.v_max) << ", \"max_actions\": " << report.loop.max_actions
        << ", \"max_consecutive_failures\": " << report.loop.max_consecutive_failures << ", \"seed\": " << report.loop.seed
-       << ", \"kernel\": " << jsonString(report.kernel) << "},\n";
+       << ", \"model\": " << jsonString(report.model) << "},\n";
   json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
        << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
        << ",\n  \"contacts\": " << result.contacts

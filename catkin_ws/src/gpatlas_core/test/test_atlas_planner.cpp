@@ -1,3 +1,4 @@
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/atlas_planner.h"
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/surface_projection.h"

@@ -38,8 +38,8 @@ TEST(PipelineYaml, ValuesReachTheConfigs) {
   EXPECT_EQ(c.segmentation.crop_min_m, Vector3(0.1, -0.2, 0.0));
   ASSERT_TRUE(c.segmentation.object_hint_m.has_value());
   EXPECT_EQ(*c.segmentation.object_hint_m, Vector3(1, 2, 3));
-  ASSERT_EQ(c.gpis.initial_params.size(), 1u);
-  EXPECT_NEAR(std::exp(c.gpis.initial_params[0]), 2.5, 1e-12);
+  ASSERT_EQ(c.model.gpis.initial_params.size(), 1u);
+  EXPECT_NEAR(std::exp(c.model.gpis.initial_params[0]), 2.5, 1e-12);
   // Unset sections keep the Configs' own defaults.
   EXPECT_EQ(c.touch.min_point_spacing_m, gpatlas_core::TouchObservationConfig().min_point_spacing_m);
 }

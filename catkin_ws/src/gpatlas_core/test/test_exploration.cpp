@@ -1,3 +1,4 @@
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/shape_metrics.h"

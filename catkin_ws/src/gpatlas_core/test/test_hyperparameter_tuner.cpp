@@ -1,3 +1,4 @@
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
 
 #include <gtest/gtest.h>

@@ -1,3 +1,4 @@
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/occupancy_grid.h"
 #include "gpatlas_core/shape_metrics.h"
 #include "gpatlas_core/surface_mesher.h"

@@ -1,3 +1,4 @@
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/strategy_library.h"
 
@@ -74,7 +75,7 @@ class FixedAnswerStrategy : public gpatlas_core::ExplorationStrategy {
  public:
   FixedAnswerStrategy(std::string name, gpatlas_core::PlanStatus status) : name_(std::move(name)), status_(status) {}
   std::string name() const override { return name_; }
-  gpatlas_core::PlanResult plan(const gpatlas_core::GpisModel&, const gpatlas_core::PlanRequest&) const override {
+  gpatlas_core::PlanResult plan(const gpatlas_core::SurfaceModel&, const gpatlas_core::PlanRequest&) const override {
     gpatlas_core::PlanResult result;
     result.status = status_;
     return result;

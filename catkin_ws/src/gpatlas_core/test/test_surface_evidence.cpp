@@ -1,6 +1,7 @@
 // SurfaceEvidence and the evidence test of the planners: checked against brute-force distances
 // to the measured surface points.
 
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/atlas_planner.h"
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/explorer.h"

@@ -1,3 +1,4 @@
+#include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/surface_mesher.h"
 
 #include "analytic_sphere.h"

@@ -57,7 +57,7 @@ class ExplorationNode {
     strategy_ = choice.name;
     readExplorationNode(r, &node_config_);
     results_dir_ = node_config_.results_dir;
-    readGpis(r, &gpis_config_);
+    readSurfaceModel(r, &model_config_);
     readMesher(r, &mesher_config_);
     if (!r.ok()) throw std::runtime_error("invalid parameters: " + r.errors());
     r.report("exploration");
@@ -238,9 +238,10 @@ class ExplorationNode {
   void measure(gpatlas_core::ExplorationRecord& record) {
     const auto training = latestTraining();
     if (!training) return;
-    gpatlas_core::GpisModel model;
+    std::unique_ptr<gpatlas_core::SurfaceModel> model_ptr;
     std::string error;
-    if (!modelFromMsg(*training, gpis_config_, &model, &error)) return;
+    if (!modelFromMsg(*training, model_config_, &model_ptr, &error)) return;
+    const gpatlas_core::SurfaceModel& model = *model_ptr;
     const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
     if (sample.ok) record.sampled_max_variance = sample.maxVariance();
     if (ground_truth_.empty()) return;
@@ -256,16 +257,16 @@ class ExplorationNode {
     const fs::path dir(results_dir_);
     gpatlas_core::ExplorationReport report;
     report.strategy = strategy_;
-    report.kernel = gpis_config_.kernel;
+    report.model = model_config_.type;
     report.loop = loop_;
     report.initial = initial_;
     report.result = result;
     bool has_surface = false;
     std::string surface_message = "no model";
     if (const auto training = latestTraining()) {
-      gpatlas_core::GpisModel model;
-      if (modelFromMsg(*training, gpis_config_, &model, &surface_message)) {
-        const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model);
+      std::unique_ptr<gpatlas_core::SurfaceModel> model;
+      if (modelFromMsg(*training, model_config_, &model, &surface_message)) {
+        const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model);
         surface_message = surface.message;
         has_surface = surface.ok;
         if (surface.ok) {
@@ -412,7 +413,7 @@ class ExplorationNode {
   static constexpr double kAuxiliaryCallTimeoutS = 30.0;
   std::vector<std::thread> workers_;  // service calls in flight or abandoned (see timedCall)
   ExplorationNodeConfig node_config_;
-  gpatlas_core::GpisModel::Config gpis_config_;
+  gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   gpatlas_core::TriangleMesh ground_truth_;
   gpatlas_core::ExplorationRecord initial_;

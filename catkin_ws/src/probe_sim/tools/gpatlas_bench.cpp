@@ -10,8 +10,6 @@
 #include <gpatlas_core/exploration_report.h>
 #include <gpatlas_core/exploration_strategy.h>
 #include <gpatlas_core/explorer.h>
-#include <gpatlas_core/gpis_model.h>
-#include <gpatlas_core/hyperparameter_tuner.h>
 #include <gpatlas_core/shape_metrics.h>
 #include <gpatlas_core/strategy_library.h>
 #include <gpatlas_core/surface_sampler.h>
@@ -319,13 +317,13 @@ double median(std::vector<double> v) {
 
 // The largest variance over one fixed surface sample (SurfaceSampler's defaults: 600 seeds, seed
 // 7); NaN when the surface cannot be sampled.
-double sampledMaxVariance(const gpatlas_core::GpisModel& model) {
+double sampledMaxVariance(const gpatlas_core::SurfaceModel& model) {
   const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
   return sample.ok ? sample.maxVariance() : std::nan("");
 }
 
 // `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured.
-gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::GpisModel& model, const GroundTruth& gt,
+gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
                                          double* rmse_reachable = nullptr) {
   const auto surface = gpatlas_core::SurfaceMesher(o.pipeline.mesh).mesh(model);
@@ -415,10 +413,16 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     std::lock_guard<std::mutex> lock(print_mutex);
     std::cout << "  [" << gt.name << " seed " << seed << "] view: " << view.message << std::endl;
   }
-  gpatlas_core::GpisModel model(pipeline.gpis);
+  std::unique_ptr<gpatlas_core::SurfaceModel> model_ptr;
+  try {
+    model_ptr = gpatlas_core::makeSurfaceModel(pipeline.model);
+  } catch (const std::exception& e) {
+    return failed(std::string("model/type: ") + e.what());
+  }
+  gpatlas_core::SurfaceModel& model = *model_ptr;
   const auto fit = model.fit(view.points);
   if (!fit.ok) return failed("initial fit failed: " + fit.message);
-  if (pipeline.tuning.enabled) gpatlas_core::HyperparameterTuner(pipeline.tuning.tuner).tune(model);
+  if (pipeline.tuning.enabled) model.tune(pipeline.tuning.tuner);
 
   gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
   strategy_config.seed = static_cast<std::uint64_t>(seed);
@@ -444,7 +448,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   evidence.support_plane = support;
   const gpatlas_core::Explorer explorer(loop);
 
-  const auto measureInto = [&](const gpatlas_core::GpisModel& m, gpatlas_core::ExplorationRecord& record) {
+  const auto measureInto = [&](const gpatlas_core::SurfaceModel& m, gpatlas_core::ExplorationRecord& record) {
     record.sampled_max_variance = sampledMaxVariance(m);
     const auto metrics = measure(m, gt, o);
     if (metrics.ok) {

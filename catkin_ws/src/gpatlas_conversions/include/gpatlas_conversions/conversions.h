@@ -5,7 +5,7 @@
 // The package is gpatlas_conversions (so that probe_sim_ros and other nodes can use it without
 // the pipeline's nodelets); the namespace stays gpatlas_ros, where these functions have always been.
 
-#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/surface_model_factory.h>
 #include <gpatlas_core/prober.h>
 #include <gpatlas_core/types.h>
 #include <gpatlas_core/view_free_space.h>
@@ -20,6 +20,7 @@
 
 #include <Eigen/Geometry>
 
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -45,21 +46,15 @@ gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result);
 // Contacts (with normals when given) and free-space points; success/reason are not part of it.
 bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* result, std::string* error);
 
-// The model's observations and hyperparameters (not the pseudo-points, which the model adds).
-gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::GpisModel& model);
-struct TrainingSetContents {
-  std::string kernel;
-  Eigen::VectorXd kernel_log_params;
-  double noise_scale{1.0};
-  Eigen::Vector3d centroid{Eigen::Vector3d::Zero()};
-  double scale{1.0};
-  std::vector<gpatlas_core::TrainingPoint> points;
-};
-bool fromMsg(const gpatlas_msgs::TrainingSet& msg, TrainingSetContents* contents, std::string* error);
-// Rebuilds the sender's model: same kernel, hyperparameters, data and normalisation frame.
-// `config` supplies the remaining settings (they must match the sender's for an exact copy).
-bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::GpisModel::Config config,
-                  gpatlas_core::GpisModel* model, std::string* error);
+// The model's state: name, hyperparameters, frame and observations (not the pseudo-points,
+// which the model adds).
+gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::SurfaceModel& model);
+// Fails (false with a reason) on mismatched array lengths or invalid labels or sources.
+bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelState* state, std::string* error);
+// Rebuilds the sender's model: the model named in the message, built with `config`'s settings
+// (they must match the sender's for an exact copy), then restored from the message's state.
+bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelConfig config,
+                  std::unique_ptr<gpatlas_core::SurfaceModel>* model, std::string* error);
 
 // XYZ of a PointCloud2 (any layout with float32 x, y, z fields). Points with NaN/Inf are
 // skipped and counted in *num_invalid. Returns false if the cloud has no x/y/z fields.

@@ -21,7 +21,7 @@ struct FinalShape {
 // Everything report.json says about one exploration.
 struct ExplorationReport {
   std::string strategy;
-  std::string kernel;
+  std::string model;  // the surface model (model/type)
   Explorer::Config loop;
   // The initial model's measurements (n_train, sampled_max_variance, RMSEs); action -1.
   ExplorationRecord initial;

@@ -5,7 +5,7 @@
 
 #include <gpatlas_core/exploration_strategy.h>
 #include <gpatlas_core/explorer.h>
-#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/surface_model_factory.h>
 #include <gpatlas_core/hyperparameter_tuner.h>
 #include <gpatlas_core/occupancy_grid.h>
 #include <gpatlas_core/segmentation.h>
@@ -101,7 +101,7 @@ class GpModelServer {
   std::uint64_t seed_{0};
   gpatlas_core::TuningConfig tuning_;
   double display_v_max_{0.1};
-  gpatlas_core::GpisModel::Config gpis_config_;
+  gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   std::string sensor_frame_;  // empty: no view free space
   // The table under the object (segmentation's `support_plane`): outside points below it, no
@@ -123,7 +123,7 @@ class GpModelServer {
   tf2_ros::TransformListener tf_listener_;
 
   std::mutex mutex_;  // guards model_ (callbacks may run concurrently in a multi-threaded manager)
-  gpatlas_core::GpisModel model_;
+  std::unique_ptr<gpatlas_core::SurfaceModel> model_;
 
   std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
   ros::Subscriber contacts_sub_, plane_sub_;
@@ -148,7 +148,7 @@ class AtlasPlannerServer {
   double default_v_max_{0.1};
   // The evidence test of every plan (its support plane from `support_plane`).
   gpatlas_core::EvidenceRule evidence_;
-  gpatlas_core::GpisModel::Config gpis_config_;
+  gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::StrategyConfig strategy_config_;
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   double tf_timeout_s_{0.5};
@@ -158,7 +158,7 @@ class AtlasPlannerServer {
   ros::Subscriber plane_sub_;
 
   std::mutex mutex_;
-  std::unique_ptr<gpatlas_core::GpisModel> model_;
+  std::unique_ptr<gpatlas_core::SurfaceModel> model_;
   std::string model_error_;
   std::map<std::string, std::unique_ptr<gpatlas_core::ExplorationStrategy>> strategies_;
   std::uint64_t plan_count_{0};
@@ -181,7 +181,7 @@ class CollisionMapServer {
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
-  gpatlas_core::GpisModel::Config gpis_config_;
+  gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::CollisionMapConfig map_config_;
 
   std::mutex mutex_;

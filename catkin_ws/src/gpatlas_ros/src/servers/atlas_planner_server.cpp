@@ -26,7 +26,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   gpatlas_core::StrategyChoice choice;
   readStrategyChoice(reader, &choice);
   default_strategy_ = choice.name;
-  readGpis(reader, &gpis_config_);
+  readSurfaceModel(reader, &model_config_);
   readStrategy(reader, &strategy_config_);
   // Strategies of your own (gpatlas_core/strategy_library.h), before the default is looked up.
   for (const std::string& library : choice.libraries) {
@@ -97,9 +97,9 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       model_error_.clear();
       return;
     }
-    auto model = std::make_unique<gpatlas_core::GpisModel>();
+    std::unique_ptr<gpatlas_core::SurfaceModel> model;
     std::string error;
-    const bool ok = modelFromMsg(*msg, gpis_config_, model.get(), &error);
+    const bool ok = modelFromMsg(*msg, model_config_, &model, &error);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!ok) {
       // Planning on the previous model would plan on data the GP no longer has.
@@ -110,7 +110,7 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     }
     model_ = std::move(model);
     model_error_.clear();
-    ROS_DEBUG_STREAM("atlas_planner: model with " << model_->size() << " training points");
+    ROS_DEBUG_STREAM("atlas_planner: " << model_->name() << " model with " << model_->observations().size() << " observations");
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("atlas_planner: message ignored: " << e.what());
   }

@@ -21,7 +21,7 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   gpatlas_core::PipelineFrames frames;
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
-  readGpis(reader, &gpis_config_);
+  readSurfaceModel(reader, &model_config_);
   readCollisionMap(reader, &map_config_);
   reader.report("collision_map");
   octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);
@@ -39,13 +39,13 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       map_.reset();
       return;
     }
-    gpatlas_core::GpisModel model;
+    std::unique_ptr<gpatlas_core::SurfaceModel> model;
     std::string error;
-    if (!modelFromMsg(*msg, gpis_config_, &model, &error)) {
+    if (!modelFromMsg(*msg, model_config_, &model, &error)) {
       ROS_ERROR_STREAM("collision_map: " << error);
       return;
     }
-    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(model);
+    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*model);
     if (!grid.ok) {
       ROS_ERROR_STREAM("collision_map: " << grid.message);
       return;

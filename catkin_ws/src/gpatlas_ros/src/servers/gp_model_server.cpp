@@ -30,10 +30,18 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   gpatlas_core::Explorer::Config loop;
   readExplorer(reader, &loop);
   display_v_max_ = loop.v_max;
-  readGpis(reader, &gpis_config_);
+  readSurfaceModel(reader, &model_config_);
   readMesher(reader, &mesher_config_);
   reader.report("gp_model");
-  model_ = gpatlas_core::GpisModel(gpis_config_);  // readGpis() validated the config
+  try {
+    model_ = gpatlas_core::makeSurfaceModel(model_config_);
+  } catch (const std::exception& e) {
+    // An exception here would take the nodelet manager down with every other nodelet in it.
+    ROS_ERROR_STREAM("gp_model: " << e.what() << "; using the default model '" << gpatlas_core::SurfaceModelConfig().type
+                                  << "' instead");
+    model_config_.type = gpatlas_core::SurfaceModelConfig().type;
+    model_ = gpatlas_core::makeSurfaceModel(model_config_);
+  }
 
   training_pub_ = pnh_.advertise<gpatlas_msgs::TrainingSet>("training_set", 1, true);
   surface_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("surface", 1, true);
@@ -46,7 +54,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
       [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
   contacts_sub_ = nh_.subscribe("contacts", 10, &GpModelServer::onContacts, this);
   if (use_support_plane_) plane_sub_ = nh_.subscribe("support_plane", 1, &GpModelServer::onSupportPlane, this);
-  ROS_INFO_STREAM("gp_model: kernel " << gpis_config_.kernel << ", waiting for object points on "
+  ROS_INFO_STREAM("gp_model: " << model_->name() << " model, waiting for object points on "
                                       << points_sub_->topic());
 }
 
@@ -126,7 +134,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   // A new view replaces the previous vision points; touches and free space are kept.
   std::vector<gpatlas_core::TrainingPoint> data = view.points;
   std::vector<Eigen::Vector3d> touch_evidence;
-  for (const auto& t : model_.observations()) {
+  for (const auto& t : model_->observations()) {
     if (t.source == gpatlas_core::PointSource::kVision) continue;
     data.push_back(t);
     if (t.source == gpatlas_core::PointSource::kFreeSpace || gpatlas_core::isSurfaceValue(t))
@@ -134,11 +142,11 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   }
   // The new view's guesses must not bring back what earlier touches retracted (their kept,
   // thinned points stand for the touches here).
-  if (model_.isFitted())
+  if (model_->isFitted())
     gpatlas_core::retractContradictedInterior(&data, touch_evidence,
-                                              touch_config_.guess_min_depth_fraction * model_.scale());
+                                              touch_config_.guess_min_depth_fraction * model_->scale());
   const ros::WallTime start = ros::WallTime::now();
-  const gpatlas_core::FitReport report = model_.fit(data);
+  const gpatlas_core::FitReport report = model_->fit(data);
   if (!report.ok) {
     ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << report.message);
     return;
@@ -150,7 +158,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
   std::string tuned;
   if (tuning_.enabled) {
-    const gpatlas_core::TuneReport tune = gpatlas_core::HyperparameterTuner(tuning_.tuner).tune(model_);
+    const gpatlas_core::TuneReport tune = model_->tune(tuning_.tuner);
     tuned = tune.ok ? ", tuned: " + tune.message : ", tuning kept the previous hyperparameters: " + tune.message;
   }
   ROS_INFO_STREAM("gp_model: view: " << view.message << "; " << report.message << " in " << (ros::WallTime::now() - start).toSec() << " s" << tuned);
@@ -182,7 +190,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
     last_fit_had_plane_ = false;
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  model_ = gpatlas_core::GpisModel(gpis_config_);
+  model_ = gpatlas_core::makeSurfaceModel(model_config_);
   // An empty training set tells the planner and the collision map to drop their copies.
   gpatlas_msgs::TrainingSet empty;
   empty.header.frame_id = world_frame_;
@@ -221,12 +229,12 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
     return false;
   }
   std::lock_guard<std::mutex> lock(mutex_);
-  if (!model_.isFitted()) {
+  if (!model_->isFitted()) {
     *message = "no model yet: the object points have not arrived";
     return false;
   }
   // The same rules as the bench's exploration loop (gpatlas_core::applyTouch).
-  const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(model_, observed.contacts, free_space, touch_config_);
+  const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(*model_, observed.contacts, free_space, touch_config_);
   *num_added = static_cast<std::uint32_t>(update.points_added);
   *num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
   *message = update.message;
@@ -242,7 +250,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
 
 void GpModelServer::publishModel() {
   // Called with mutex_ held.
-  gpatlas_msgs::TrainingSet training = toMsg(model_);
+  gpatlas_msgs::TrainingSet training = toMsg(*model_);
   training.header.frame_id = world_frame_;
   training.header.stamp = ros::Time::now();
   training_pub_.publish(training);
@@ -250,7 +258,7 @@ void GpModelServer::publishModel() {
   if (surface_pub_.getNumSubscribers() == 0 && mesh_marker_pub_.getNumSubscribers() == 0 &&
       mesh_shape_pub_.getNumSubscribers() == 0)
     return;
-  const gpatlas_core::SurfaceMeshResult surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model_);
+  const gpatlas_core::SurfaceMeshResult surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model_);
   if (!surface.ok) {
     ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
     return;
