@@ -81,6 +81,10 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
     free.max_offset_fraction = ViewFreeSpaceConfig().max_offset_fraction;
   }
   free.noise_sigma = r.number("view/free_space/noise_sigma", free.noise_sigma, 0.0, 10.0);
+  NearSurfaceFreeSpaceConfig& near = c->near_surface_free_space;
+  near.offset_m = r.number("view/near_surface_free_space/offset_m", near.offset_m, 1e-5, 0.1);
+  near.max_points = r.integer("view/near_surface_free_space/max_points", near.max_points, 0, 1000000);
+  near.noise_sigma = r.number("view/near_surface_free_space/noise_sigma", near.noise_sigma, 1e-6, 10.0);
   OccludedInteriorConfig& inside = c->occluded_interior;
   inside.max_points = r.integer("view/occluded_interior/max_points", inside.max_points, 0, 100000);
   inside.grid_cells = r.integer("view/occluded_interior/grid_cells", inside.grid_cells, 2, 100);
@@ -144,6 +148,7 @@ void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
   c->resolution_m = r.number("mesh/resolution_m", c->resolution_m, 1e-4, 1.0);
   c->margin_fraction_of_data_radius =
       r.number("mesh/margin_fraction_of_data_radius", c->margin_fraction_of_data_radius, 0.0, 100.0);
+  c->coarse_stride = r.integer("mesh/coarse_stride", c->coarse_stride, 1, 64);
 }
 
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {

@@ -50,24 +50,24 @@ struct Grid {
 
 double nodeCount(const Eigen::Vector3i& size) { return static_cast<double>(size.x()) * size.y() * size.z(); }
 
-// Fills every NaN node of `grid`: +1 outside the domain, else the GP mean. False if the model
+// Evaluates the listed nodes: +1 outside the domain, else the model's mean. False if the model
 // returned a non-finite mean.
-bool evaluateMissingNodes(const SurfaceModel& model, double resolution, int batch_size, Grid& grid) {
+bool evaluateNodes(const SurfaceModel& model, double resolution, int batch_size, const std::vector<Eigen::Vector3i>& nodes,
+                   Grid& grid) {
   std::vector<Vector3> query_points;
   std::vector<std::size_t> query_nodes;
-  for (int k = 0; k < grid.size.z(); ++k)
-    for (int j = 0; j < grid.size.y(); ++j)
-      for (int i = 0; i < grid.size.x(); ++i) {
-        const std::size_t n = grid.index({i, j, k});
-        if (!std::isnan(grid.values[n])) continue;
-        const Vector3 x = grid.lower + resolution * Vector3(i, j, k);
-        if (!model.inDomain(x)) {
-          grid.values[n] = 1.0f;
-          continue;
-        }
-        query_points.push_back(x);
-        query_nodes.push_back(n);
-      }
+  for (const Eigen::Vector3i& node : nodes) {
+    const std::size_t n = grid.index(node);
+    if (!std::isnan(grid.values[n])) continue;
+    const Vector3 x = grid.lower + resolution * node.cast<double>();
+    if (!model.inDomain(x)) {
+      grid.values[n] = 1.0f;
+      continue;
+    }
+    grid.values[n] = 0.0f;  // claimed: a node listed twice is evaluated once
+    query_points.push_back(x);
+    query_nodes.push_back(n);
+  }
   bool finite = true;
   predictInBatches(model, query_points, batch_size, /*with_variance=*/false,
                    [&](std::size_t q, const BatchPrediction& prediction, Eigen::Index row) {
@@ -76,6 +76,70 @@ bool evaluateMissingNodes(const SurfaceModel& model, double resolution, int batc
                      grid.values[query_nodes[q]] = std::isfinite(mean) ? static_cast<float>(mean) : 1.0f;
                    });
   return finite;
+}
+
+// Fills every NaN node of `grid`. With a stride above 1, the nodes of a coarse lattice (every
+// stride-th node, and the last of each axis) are evaluated first; a block between them is
+// evaluated node by node only where the surface can pass: its corners differ in sign, or one lies
+// closer to the zero level than `band` (in f). Elsewhere the block's nodes take the trilinear
+// interpolation of its corners, which keeps their common sign, so marching cubes finds there
+// exactly what it would find on the full grid: no crossing. Near the data f grows like the
+// normalised distance to the surface, so a band of two block diagonals (over the model's
+// scale) keeps every block a surface can enter.
+bool evaluateMissingNodes(const SurfaceModel& model, double resolution, int batch_size, int stride, Grid& grid) {
+  const auto coarse_index = [&](int axis, int c) { return std::min(c * stride, grid.size[axis] - 1); };
+  Eigen::Vector3i blocks;
+  for (int axis = 0; axis < 3; ++axis) blocks[axis] = std::max(1, (grid.size[axis] - 1 + stride - 1) / stride);
+  std::vector<Eigen::Vector3i> nodes;
+  for (int c = 0; c <= blocks.z(); ++c)
+    for (int b = 0; b <= blocks.y(); ++b)
+      for (int a = 0; a <= blocks.x(); ++a) nodes.emplace_back(coarse_index(0, a), coarse_index(1, b), coarse_index(2, c));
+  if (!evaluateNodes(model, resolution, batch_size, nodes, grid)) return false;
+  if (stride <= 1) return true;
+
+  const double band = 2.0 * std::sqrt(3.0) * stride * resolution / model.scale();
+  std::vector<Eigen::Vector3i> refined, smooth;  // block origins (coarse indices)
+  for (int c = 0; c < blocks.z(); ++c)
+    for (int b = 0; b < blocks.y(); ++b)
+      for (int a = 0; a < blocks.x(); ++a) {
+        float low = std::numeric_limits<float>::infinity(), high = -low, nearest = low;
+        for (int corner = 0; corner < 8; ++corner) {
+          const Eigen::Vector3i node(coarse_index(0, a + (corner & 1)), coarse_index(1, b + ((corner >> 1) & 1)),
+                                     coarse_index(2, c + ((corner >> 2) & 1)));
+          const float v = grid.values[grid.index(node)];
+          low = std::min(low, v);
+          high = std::max(high, v);
+          nearest = std::min(nearest, std::abs(v));
+        }
+        const bool surface_can_pass = (low <= 0.0f && high >= 0.0f) || nearest < band;
+        (surface_can_pass ? refined : smooth).emplace_back(a, b, c);
+      }
+  nodes.clear();
+  for (const Eigen::Vector3i& block : refined)
+    for (int k = coarse_index(2, block.z()); k <= coarse_index(2, block.z() + 1); ++k)
+      for (int j = coarse_index(1, block.y()); j <= coarse_index(1, block.y() + 1); ++j)
+        for (int i = coarse_index(0, block.x()); i <= coarse_index(0, block.x() + 1); ++i) nodes.emplace_back(i, j, k);
+  if (!evaluateNodes(model, resolution, batch_size, nodes, grid)) return false;
+  for (const Eigen::Vector3i& block : smooth) {
+    const Eigen::Vector3i lo(coarse_index(0, block.x()), coarse_index(1, block.y()), coarse_index(2, block.z()));
+    const Eigen::Vector3i hi(coarse_index(0, block.x() + 1), coarse_index(1, block.y() + 1), coarse_index(2, block.z() + 1));
+    float corner[8];
+    for (int n = 0; n < 8; ++n)
+      corner[n] = grid.values[grid.index({(n & 1) ? hi.x() : lo.x(), (n & 2) ? hi.y() : lo.y(), (n & 4) ? hi.z() : lo.z()})];
+    const Eigen::Array3f extent = (hi - lo).cast<float>().array().max(1.0f);
+    for (int k = lo.z(); k <= hi.z(); ++k)
+      for (int j = lo.y(); j <= hi.y(); ++j)
+        for (int i = lo.x(); i <= hi.x(); ++i) {
+          float& value = grid.values[grid.index({i, j, k})];
+          if (!std::isnan(value)) continue;
+          const float u = (i - lo.x()) / extent[0], v = (j - lo.y()) / extent[1], w = (k - lo.z()) / extent[2];
+          const float x00 = corner[0] + u * (corner[1] - corner[0]), x10 = corner[2] + u * (corner[3] - corner[2]);
+          const float x01 = corner[4] + u * (corner[5] - corner[4]), x11 = corner[6] + u * (corner[7] - corner[6]);
+          const float y0 = x00 + v * (x10 - x00), y1 = x01 + v * (x11 - x01);
+          value = y0 + w * (y1 - y0);
+        }
+  }
+  return true;
 }
 
 // Whether the predicted solid (mean <= 0) touches the grid's face on `axis`, at its low or high
@@ -106,8 +170,8 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
     return result;
   }
   const double resolution = config_.resolution_m;
-  if (!(resolution > 0.0) || !std::isfinite(resolution) || config_.batch_size < 1) {
-    result.message = "resolution_m must be positive and finite, batch_size >= 1";
+  if (!(resolution > 0.0) || !std::isfinite(resolution) || config_.batch_size < 1 || config_.coarse_stride < 1) {
+    result.message = "resolution_m must be positive and finite, batch_size and coarse_stride >= 1";
     return result;
   }
   if (!(config_.margin_fraction_of_data_radius >= 0.0) || !std::isfinite(config_.margin_fraction_of_data_radius)) {
@@ -135,6 +199,10 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
     for (int axis = 0; axis < 3; ++axis) {
       first[axis] = static_cast<int>(std::clamp(std::floor(low[axis]), 0.0, domain_nodes - 1.0));
       last[axis] = static_cast<int>(std::clamp(std::ceil(high[axis]), 0.0, domain_nodes - 1.0));
+      // On the coarse lattice of the domain cube: a grid grown later keeps its blocks.
+      const int stride = std::max(1, config_.coarse_stride);
+      first[axis] = first[axis] / stride * stride;
+      last[axis] = std::min(domain_nodes - 1, (last[axis] + stride - 1) / stride * stride);
     }
   }
   const bool automatic = !config_.min_corner && !config_.max_corner;
@@ -162,7 +230,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
     return result;
   }
   grid.values.assign(static_cast<std::size_t>(nodeCount(grid.size)), std::numeric_limits<float>::quiet_NaN());
-  if (!evaluateMissingNodes(model, resolution, config_.batch_size, grid)) {
+  if (!evaluateMissingNodes(model, resolution, config_.batch_size, config_.coarse_stride, grid)) {
     result.message = "the model returned a non-finite mean";
     return result;
   }
@@ -190,7 +258,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
       for (int j = 0; j < grid.size.y(); ++j)
         for (int i = 0; i < grid.size.x(); ++i)
           grown.values[grown.index(Eigen::Vector3i(i, j, k) + offset)] = grid.values[grid.index({i, j, k})];
-    if (!evaluateMissingNodes(model, resolution, config_.batch_size, grown)) {
+    if (!evaluateMissingNodes(model, resolution, config_.batch_size, config_.coarse_stride, grown)) {
       result.message = "the model returned a non-finite mean";
       return result;
     }

@@ -28,6 +28,8 @@ std::string validate(const ViewTrainingConfig& config) {
   if (!(config.free_space.min_offset_fraction > 0.0) ||
       !(config.free_space.max_offset_fraction >= config.free_space.min_offset_fraction))
     problem << "free_space offsets must satisfy 0 < min_offset_fraction <= max_offset_fraction; ";
+  if (!(config.near_surface_free_space.offset_m > 0.0) || config.near_surface_free_space.max_points < 0)
+    problem << "near_surface_free_space needs offset_m > 0 and max_points >= 0; ";
   if (config.occluded_interior.max_points < 0) problem << "occluded_interior max_points must be >= 0; ";
   if (!(config.support_clearance_m >= 0.0)) problem << "support_clearance_m must be >= 0; ";
   return problem.str();
@@ -80,6 +82,15 @@ ViewTraining buildViewTraining(const std::vector<Vector3>& view_points, const st
         result.warnings.push_back("no view free space: " + free.message);
       }
     }
+    if (config.near_surface_free_space.max_points > 0) {
+      const ViewFreeSpace near = sampleNearSurfaceFreeSpace(points, *sensor_origin, config.near_surface_free_space);
+      if (near.ok) {
+        result.points.insert(result.points.end(), near.points.begin(), near.points.end());
+        result.near_surface_free_space = near.points.size();
+      } else {
+        result.warnings.push_back("no near-surface free space: " + near.message);
+      }
+    }
     // Material behind what the camera saw, within the view's hull: without it a surface the
     // camera never saw (a bowl's bottom behind its rim) has no zero crossing to explore.
     if (config.occluded_interior.max_points > 0) {
@@ -107,6 +118,7 @@ ViewTraining buildViewTraining(const std::vector<Vector3>& view_points, const st
   result.ok = true;
   std::ostringstream message;
   message << result.surface << " of " << points.size() << " view points, " << result.free_space << " free space, "
+          << result.near_surface_free_space << " near-surface free space, "
           << result.occluded_interior << " occluded interior, " << result.below_support << " below the support";
   result.message = message.str();
   return result;

@@ -151,6 +151,32 @@ TEST(SurfaceMesher, TheBoundDoesNotClipACompactObject) {
   }
 }
 
+// The coarse lattice skips only blocks the surface cannot enter: the mesh is the full grid's.
+TEST(SurfaceMesher, TheCoarseLatticeGivesTheFullGridsMesh) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(300, 0.2, 0.1, 5)).ok);  // a partial view: an uneven surface
+  SurfaceMesher::Config full_config;
+  full_config.resolution_m = 0.006;
+  full_config.coarse_stride = 1;
+  SurfaceMesher::Config coarse_config = full_config;
+  coarse_config.coarse_stride = 4;
+  const SurfaceMeshResult full = SurfaceMesher(full_config).mesh(model);
+  const SurfaceMeshResult coarse = SurfaceMesher(coarse_config).mesh(model);
+  ASSERT_TRUE(full.ok && coarse.ok) << full.message << " / " << coarse.message;
+  ASSERT_EQ(full.mesh.triangles.size(), coarse.mesh.triangles.size());
+  ASSERT_EQ(full.mesh.vertices.size(), coarse.mesh.vertices.size());
+  std::vector<Vector3> a = full.mesh.vertices, b = coarse.mesh.vertices;
+  const auto lexicographic = [](const Vector3& p, const Vector3& q) {
+    return std::lexicographical_compare(p.data(), p.data() + 3, q.data(), q.data() + 3);
+  };
+  std::sort(a.begin(), a.end(), lexicographic);
+  std::sort(b.begin(), b.end(), lexicographic);
+  double worst = 0.0;
+  for (std::size_t i = 0; i < a.size(); ++i) worst = std::max(worst, (a[i] - b[i]).norm());
+  EXPECT_LT(worst, 1e-6);
+}
+
 TEST(SurfaceMesher, ExplicitBoundsOverrideAndMaxNodesIsReported) {
   const AnalyticSphere sphere;
   GpisModel model;

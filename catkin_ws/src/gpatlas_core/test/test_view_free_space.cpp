@@ -164,6 +164,41 @@ double firstSphereHit(const Vector3& eye, const Vector3& x) {
   return -b - std::sqrt(disc);
 }
 
+TEST(NearSurfaceFreeSpace, OneSampleInFrontOfEachViewPointLabelledWithItsNearestDistance) {
+  // A 4 cm square of the plane z = 0 at 2 mm, seen from 1 m above one corner (oblique rays).
+  std::vector<Vector3> view;
+  for (int i = 0; i <= 20; ++i)
+    for (int j = 0; j <= 20; ++j) view.emplace_back(0.002 * i, 0.002 * j, 0.0);
+  const Vector3 sensor(-0.5, 0.0, 1.0);
+  NearSurfaceFreeSpaceConfig config;
+  config.offset_m = 0.003;
+  config.max_points = 100;
+  const ViewFreeSpace near = sampleNearSurfaceFreeSpace(view, sensor, config);
+  ASSERT_TRUE(near.ok) << near.message;
+  ASSERT_EQ(near.points.size(), 100u);
+  for (const TrainingPoint& t : near.points) {
+    EXPECT_EQ(t.label, PointLabel::kOutside);
+    // On the ray of some view point, offset_m towards the sensor.
+    bool on_a_ray = false;
+    for (const Vector3& p : view)
+      on_a_ray |= (t.position - (p + config.offset_m * (sensor - p).normalized())).norm() < 1e-12;
+    EXPECT_TRUE(on_a_ray);
+    EXPECT_GT(t.position.z(), 0.0);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vector3& p : view) nearest = std::min(nearest, (p - t.position).norm());
+    EXPECT_NEAR(t.surface_distance_m, nearest, 1e-12);
+    EXPECT_LE(t.surface_distance_m, config.offset_m + 1e-12);  // its own view point is that far
+  }
+  config.max_points = 0;
+  const ViewFreeSpace none = sampleNearSurfaceFreeSpace(view, sensor, config);
+  EXPECT_TRUE(none.ok && none.points.empty());
+  config.max_points = 10;
+  config.offset_m = 0.0;
+  EXPECT_FALSE(sampleNearSurfaceFreeSpace(view, sensor, config).ok);
+  config.offset_m = 0.003;
+  EXPECT_FALSE(sampleNearSurfaceFreeSpace(view, Vector3::Constant(std::nan("")), config).ok);
+}
+
 TEST(OccludedInterior, SamplesOfASolidBallLieInsideItBehindTheVisibleSurface) {
   const auto view = visibleBallFront(3000, 4);
   OccludedInteriorConfig config;

@@ -9,6 +9,7 @@
 #include <gpatlas_core/config_readers.h>
 #include <gpatlas_core/exploration_report.h>
 #include <gpatlas_core/exploration_strategy.h>
+#include <gpatlas_core/model_calibration.h>
 #include <gpatlas_core/explorer.h>
 #include <gpatlas_core/shape_metrics.h>
 #include <gpatlas_core/strategy_library.h>
@@ -299,6 +300,8 @@ struct RunResult {
   gpatlas_core::ShapeMetricsResult metrics;
   // Truth-to-predicted RMSE over the reachable truth only (GroundTruth::sample_reachable).
   double rmse_gt_to_pred_reachable{std::nan("")};
+  // The share of true-surface samples whose predicted f is within 2 sd of 0 (0.95 is calibrated).
+  double calibration{std::nan("")};
   double max_surface_variance{0.0};
   double wall_s{0.0};
   double plan_ms_median{0.0};
@@ -307,6 +310,10 @@ struct RunResult {
   std::vector<gpatlas_core::ExplorationRecord> history;
   std::string error;
 };
+
+// The truth samples of the calibration (surfaceCalibration): the same for every run of an object.
+constexpr std::size_t kCalibrationSamples = 2000;
+constexpr std::uint64_t kCalibrationSeed = 11;
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
@@ -494,6 +501,9 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
   r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
+  const gpatlas_core::CalibrationResult calibration = gpatlas_core::surfaceCalibration(
+      model, gpatlas_core::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed));
+  if (calibration.ok) r.calibration = calibration.fraction;
   // A run that leaves no predicted surface is an error whatever the loop said.
   r.status = gpatlas_core::runStatus(result, r.metrics.ok, r.metrics.message);
   r.converged = r.status == "converged";
@@ -531,7 +541,8 @@ std::string csvField(const std::string& text) {
 void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
-       "rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,max_surface_variance,wall_s,plan_ms_median,update_ms_median\n";
+       "rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,calibration_2sd,max_surface_variance,wall_s,plan_ms_median,"
+       "update_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
@@ -539,7 +550,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << ',' << r.n_train << ','
       << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','
       << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
-      << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.max_surface_variance) << ','
+      << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.max_surface_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << '\n';
   }
 }
@@ -614,8 +625,8 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   }
   // A run that failed (an error, or no predicted surface) is counted, not averaged in.
   struct Acc {
-    double actions = 0, rmse_p = 0, rmse_g = 0, mean_nn = 0, conv = 0;
-    int n = 0, failed = 0;
+    double actions = 0, rmse_p = 0, rmse_g = 0, mean_nn = 0, conv = 0, f_score = 0, calibration = 0;
+    int n = 0, failed = 0, calibrated = 0;
   };
   std::map<std::pair<std::string, std::string>, Acc> acc;
   std::map<std::string, Acc> mean_of_strategy;
@@ -632,6 +643,11 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
       a->rmse_p += r.metrics.rmse_predicted_to_truth;
       a->rmse_g += r.metrics.rmse_truth_to_predicted;
       a->mean_nn += r.metrics.chamfer_l1;
+      a->f_score += r.metrics.f_score;
+      if (std::isfinite(r.calibration)) {
+        a->calibration += r.calibration;
+        ++a->calibrated;
+      }
     }
   }
   std::ofstream f(path);
@@ -643,23 +659,28 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   f << ", max actions " << o.pipeline.exploration.max_actions << (o.simulation.table ? ", on a table" : ", no table") << ".\n";
   f << "Per cell, over the runs that left a predicted surface: mean actions, mean RMSE predicted->truth / "
        "truth->predicted (m), the mean nearest-neighbour distance over both directions (chamfer_l1_m, the "
-       "paper's kind of number; m), converged runs / runs; failed runs (errors, no surface) are counted after "
+       "paper's kind of number; m), the F-score at 5 mm, the calibration (the share of true-surface samples whose "
+       "predicted f is within 2 sd of 0; 0.95 is calibrated), converged runs / runs; failed runs (errors, no surface) are counted after "
        "a '+' and left out of the means.\n\n";
   f << "| object |";
   for (const auto& s : strategies)
-    f << ' ' << s << " steps | " << s << " RMSE p->g / g->p | " << s << " mean NN | " << s << " conv |";
+    f << ' ' << s << " steps | " << s << " RMSE p->g / g->p | " << s << " mean NN | " << s << " F@5mm | " << s
+      << " calibration | " << s << " conv |";
   f << "\n|---|";
-  for (std::size_t i = 0; i < strategies.size(); ++i) f << "---|---|---|---|";
+  for (std::size_t i = 0; i < strategies.size(); ++i) f << "---|---|---|---|---|---|";
   f << '\n';
   auto cells = [&](const Acc& a) {
     std::ostringstream s;
     if (a.n == 0) {
-      s << " - | - | - | 0/0 +" << a.failed << " failed |";
+      s << " - | - | - | - | - | 0/0 +" << a.failed << " failed |";
       return s.str();
     }
     const double n = a.n;
     s << ' ' << std::fixed << std::setprecision(1) << a.actions / n << " | " << std::setprecision(4) << a.rmse_p / n
-      << " / " << a.rmse_g / n << " | " << a.mean_nn / n << " | " << static_cast<int>(a.conv) << '/' << a.n;
+      << " / " << a.rmse_g / n << " | " << a.mean_nn / n << " | " << std::setprecision(3) << a.f_score / n << " | ";
+    if (a.calibrated > 0) s << a.calibration / a.calibrated;
+    else s << '-';
+    s << " | " << static_cast<int>(a.conv) << '/' << a.n;
     if (a.failed > 0) s << " +" << a.failed << " failed";
     s << " |";
     return s.str();
@@ -828,6 +849,7 @@ int main(int argc, char** argv) {
                   << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;
       if (std::isfinite(r.rmse_gt_to_pred_reachable))
         std::cout << ", reachable truth->predicted " << r.rmse_gt_to_pred_reachable * 1000 << " mm";
+      if (std::isfinite(r.calibration)) std::cout << ", calibration " << r.calibration;
       std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
                 << r.wall_s << " s";
       if (!r.error.empty()) std::cout << " (" << r.error << ")";

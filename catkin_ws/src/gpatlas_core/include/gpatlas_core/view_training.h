@@ -21,6 +21,8 @@ struct ViewTrainingConfig {
   double vision_noise_sigma{0.1};
   // The camera's free space in front of the object (outside points); max_rays 0 disables it.
   ViewFreeSpaceConfig free_space;
+  // Free space a few millimetres in front of the view's points (thin parts); max_points 0 disables it.
+  NearSurfaceFreeSpaceConfig near_surface_free_space;
   // Inside points behind the view, within its hull; max_points 0 disables them.
   OccludedInteriorConfig occluded_interior;
   // The table under the object, when segmentation found one: outside points below it, and no
@@ -35,9 +37,10 @@ std::string validate(const ViewTrainingConfig& config);
 struct ViewTraining {
   bool ok{false};
   std::string message;
-  std::vector<TrainingPoint> points;  // surface subset, then free space, interior, below support
+  std::vector<TrainingPoint> points;  // surface subset, then free space, near-surface free space, interior, below support
   std::size_t surface{0};
   std::size_t free_space{0};
+  std::size_t near_surface_free_space{0};
   std::size_t occluded_interior{0};
   std::size_t below_support{0};
   std::vector<std::string> warnings;  // parts that could not be built (the rest is still used)
