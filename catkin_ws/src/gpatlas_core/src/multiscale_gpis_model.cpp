@@ -70,14 +70,17 @@ std::vector<std::size_t> thinByVoxels(const std::vector<TrainingPoint>& points, 
     double distance2;
   };
   for (double voxel = extent / 20.0;; voxel *= 1.25) {
-    std::unordered_map<std::int64_t, Best> best;
+    std::unordered_map<std::uint64_t, Best> best;
     best.reserve(std::min(candidates.size(), 4 * cap));
     for (std::size_t i : candidates) {
       const Vector3 q = (points[i].position - lo) / voxel;
       const Eigen::Vector3i c(static_cast<int>(std::floor(q.x())), static_cast<int>(std::floor(q.y())),
                               static_cast<int>(std::floor(q.z())));
       const double d2 = (q - (c.cast<double>().array() + 0.5).matrix()).squaredNorm();
-      const std::int64_t key = packKey(c) * 3 + (static_cast<int>(points[i].label) + 1);
+      // Voxel indices from the bounding box's corner are small and non-negative (at most ~21).
+      const std::uint64_t key = (static_cast<std::uint64_t>(c.x()) << 42) | (static_cast<std::uint64_t>(c.y()) << 22) |
+                                (static_cast<std::uint64_t>(c.z()) << 2) |
+                                static_cast<std::uint64_t>(static_cast<int>(points[i].label) + 1);
       auto found = best.find(key);
       if (found == best.end()) best.emplace(key, Best{i, d2});
       else if (d2 < found->second.distance2) found->second = Best{i, d2};

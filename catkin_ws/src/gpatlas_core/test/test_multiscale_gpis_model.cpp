@@ -1,4 +1,5 @@
 #include "gpatlas_core/multiscale_gpis_model.h"
+#include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/surface_model_factory.h"
 
 #include <gtest/gtest.h>
@@ -153,7 +154,11 @@ TEST(MultiscaleGpisModel, SphereSurfaceWithinAMillimetreOnTheObservedSide) {
     EXPECT_LT(model.mean(kSphereCentre + 0.045 * d), 0.0);
     EXPECT_GT(model.mean(kSphereCentre + 0.055 * d), 0.0);
   }
-  std::cout << "sphere: worst radial zero-crossing error = " << worst * 1e3 << " mm\n";
+  double coarse_sum_abs = 0.0;
+  for (const Vector3d& d : held_out) coarse_sum_abs += std::abs(model.coarseModel().mean(kSphereCentre + kSphereRadius * d));
+  std::cout << "sphere: worst radial zero-crossing error = " << worst * 1e3 << " mm; the coarse GPIS alone: mean |f| "
+            << coarse_sum_abs / held_out.size() * model.scale() * 1e3 << " mm (x scale)\n";
+  EXPECT_LT(sum_abs, coarse_sum_abs) << "the fine level must improve on the coarse one where data are dense";
   EXPECT_LT(worst, 0.001);
   EXPECT_LT(model.mean(kSphereCentre), 0.0);
   EXPECT_GT(model.mean(kSphereCentre + Vector3d(0.0, 0.0, 0.08)), 0.0);
@@ -215,13 +220,16 @@ TEST(MultiscaleGpisModel, BoxFacesAndEdges) {
 const Vector3d kPlateCentre(0.5, -0.2, 0.15);
 constexpr double kPlateHalfThickness = 0.0025;
 
-std::vector<TrainingPoint> plateData() {
+// Both faces of a square plate of side 2 * half_side_m sampled at 2 mm, free space 2 and 5 mm
+// off every other sample.
+std::vector<TrainingPoint> plateData(double half_side_m = 0.04) {
   std::vector<TrainingPoint> points;
   int k = 0;
-  for (int i = 0; i <= 40; ++i)
-    for (int j = 0; j <= 40; ++j)
+  const int n = static_cast<int>(std::round(2.0 * half_side_m / 0.002));
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j)
       for (double side : {-1.0, 1.0}) {
-        const Vector3d x = kPlateCentre + Vector3d(-0.04 + 0.002 * i, -0.04 + 0.002 * j, side * kPlateHalfThickness);
+        const Vector3d x = kPlateCentre + Vector3d(-half_side_m + 0.002 * i, -half_side_m + 0.002 * j, side * kPlateHalfThickness);
         points.push_back(surfacePoint(x));
         if (k++ % 2 == 0)
           for (double offset : {0.002, 0.005}) points.push_back(freeSpacePoint(x + Vector3d(0, 0, side * offset), offset));
@@ -254,6 +262,74 @@ TEST(MultiscaleGpisModel, ThinPlateHasTwoFacesFiveMillimetresApart) {
             << global.mean(mid) << ", faces at +" << zeroCrossing(global, mid, mid + Vector3d(0, 0, 0.01)) * 1e3 << " / -"
             << zeroCrossing(global, mid, mid - Vector3d(0, 0, 0.01)) * 1e3 << " mm\n";
   EXPECT_EQ(countZeroCrossings(model, mid - Vector3d(0, 0, 0.0065), mid + Vector3d(0, 0, 0.0065)), 2);
+}
+
+// A 5 mm plate 24 cm wide: the coarse level's 1,200 points are ~1 cm apart, twice the thickness.
+TEST(MultiscaleGpisModel, WidePlateKeepsItsThickness) {
+  const std::vector<TrainingPoint> data = plateData(0.12);
+  const auto t0 = std::chrono::steady_clock::now();
+  const MultiscaleGpisModel model = fitted(data);
+  std::cout << "wide plate: " << data.size() << " observations fitted in "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s\n";
+  const GpisModel& global = model.coarseModel();
+  for (const Vector3d& offset : {Vector3d(0.0013, 0.0007, 0.0), Vector3d(-0.061, 0.043, 0.0), Vector3d(0.09, -0.1, 0.0)}) {
+    const Vector3d mid = kPlateCentre + offset, normal(0, 0, 1);
+    const double upper = zeroCrossing(model, mid, mid + 0.01 * normal), lower = zeroCrossing(model, mid, mid - 0.01 * normal);
+    std::cout << "wide plate at " << offset.transpose() * 1e3 << " mm: faces at +" << upper * 1e3 << " / -" << lower * 1e3
+              << " mm; the global GPIS: " << countZeroCrossings(global, mid - 0.0065 * normal, mid + 0.0065 * normal)
+              << " crossing(s), f(mid) " << global.mean(mid) << ", faces at +" << zeroCrossing(global, mid, mid + 0.01 * normal) * 1e3
+              << " / -" << zeroCrossing(global, mid, mid - 0.01 * normal) * 1e3 << " mm\n";
+    EXPECT_LT(model.mean(mid), 0.0);
+    EXPECT_NEAR(upper, kPlateHalfThickness, 0.001);
+    EXPECT_NEAR(lower, kPlateHalfThickness, 0.001);
+    // Why the model exists: the global GPIS on the thinned data (what GpisModel can afford) sees
+    // no interior here, the plate's two faces merge into one.
+    EXPECT_NE(countZeroCrossings(global, mid - 0.0065 * normal, mid + 0.0065 * normal), 2);
+  }
+}
+
+// ---- a mug's handle: a torus of tube radius 4 mm around a 3 cm circle, seen all round
+const Vector3d kTorusCentre(0.2, 0.1, 0.2);
+constexpr double kTorusMajor = 0.03, kTorusMinor = 0.004;
+
+Vector3d torusPoint(double phi, double theta, double radius) {
+  const Vector3d ring(std::cos(phi), std::sin(phi), 0.0);
+  return kTorusCentre + kTorusMajor * ring + radius * (std::cos(theta) * ring + std::sin(theta) * Vector3d::UnitZ());
+}
+
+std::vector<TrainingPoint> torusData() {
+  std::vector<TrainingPoint> points;
+  const int n_phi = static_cast<int>(2 * M_PI * kTorusMajor / 0.002), n_theta = static_cast<int>(2 * M_PI * kTorusMinor / 0.002);
+  for (int i = 0; i < n_phi; ++i)
+    for (int j = 0; j < n_theta; ++j) {
+      const double phi = 2 * M_PI * i / n_phi, theta = 2 * M_PI * j / n_theta;
+      points.push_back(surfacePoint(torusPoint(phi, theta, kTorusMinor)));
+      for (double offset : {0.002, 0.004}) points.push_back(freeSpacePoint(torusPoint(phi, theta, kTorusMinor + offset), offset));
+    }
+  return points;
+}
+
+TEST(MultiscaleGpisModel, HandleTubeKeepsItsEightMillimetreDiameter) {
+  const MultiscaleGpisModel model = fitted(torusData());
+  const GpisModel& global = model.coarseModel();
+  double worst = 0.0, global_worst = 0.0;
+  for (double phi : {0.3, 1.7, 2.9, 4.4}) {
+    for (double theta : {0.0, M_PI / 2, M_PI / 4}) {
+      // Across the tube through its axis: faces at -4 and +4 mm.
+      const Vector3d axis = torusPoint(phi, 0.0, 0.0);
+      const Vector3d dir = (torusPoint(phi, theta, 1.0) - axis).normalized();
+      const Vector3d a = axis - 0.008 * dir, b = axis + 0.008 * dir;
+      EXPECT_LT(model.mean(axis), 0.0);
+      const double first = zeroCrossing(model, a, b), second = 0.016 - zeroCrossing(model, b, a);
+      worst = std::max({worst, std::abs(first - 0.004), std::abs(second - 0.012)});
+      const double g_first = zeroCrossing(global, a, b), g_second = 0.016 - zeroCrossing(global, b, a);
+      global_worst = std::max({global_worst, std::isfinite(g_first) ? std::abs(g_first - 0.004) : 1.0,
+                               std::isfinite(g_second) ? std::abs(g_second - 0.012) : 1.0});
+    }
+  }
+  std::cout << "handle: worst face error across the tube " << worst * 1e3 << " mm (the global GPIS: "
+            << global_worst * 1e3 << " mm, f on the tube's axis " << global.mean(torusPoint(0.3, 0.0, 0.0)) << ")\n";
+  EXPECT_LT(worst, 0.001);
 }
 
 // Points near the sphere's surface that lie in the overlap of cells along x and y (within the
@@ -427,6 +503,27 @@ TEST(MultiscaleGpisModel, RestoreCloneAndFactory) {
   bad.model = "gpis";
   EXPECT_FALSE(replica->restore(bad).ok);
   EXPECT_EQ(replica->mean(q.col(0)), before);
+}
+
+TEST(MultiscaleGpisModel, TuneTunesTheCoarseLevelAndRefitsTheFineOne) {
+  MultiscaleGpisModel model = sphereModel();
+  const Eigen::VectorXd before = model.hyperparameters();
+  gpatlas_core::HyperparameterTunerConfig config;
+  config.max_iterations = 10;
+  const gpatlas_core::TuneReport report = model.tune(config);
+  std::cout << "tune: " << report.message << "\n";
+  ASSERT_TRUE(report.ok) << report.message;
+  const Eigen::VectorXd after = model.hyperparameters();
+  EXPECT_EQ(after.tail(3), before.tail(3)) << "the fine parameters are tuned at fit time only";
+  EXPECT_EQ(report.params_after.size(), after.size());
+  EXPECT_GE(report.log_likelihood_after, report.log_likelihood_before);
+  // The fine level was refitted against the new coarse mean: the surface stays where it was.
+  for (const Vector3d& d : randomDirections(20, 0.2, 41))
+    EXPECT_LT(std::abs(model.mean(kSphereCentre + kSphereRadius * d)) * model.scale(), 0.0005);
+  // A replica built from the state agrees exactly.
+  MultiscaleGpisModel replica;
+  ASSERT_TRUE(replica.restore(model.state()).ok);
+  EXPECT_EQ(replica.mean(kSphereCentre), model.mean(kSphereCentre));
 }
 
 TEST(MultiscaleGpisModel, FailedFitLeavesTheModelUnchanged) {
