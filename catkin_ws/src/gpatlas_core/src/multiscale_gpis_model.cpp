@@ -785,6 +785,7 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   if (!m.fitted) throw std::logic_error("MultiscaleGpisModel: query before the model was fitted");
   const Eigen::Index q = x_world.cols();
   const bool need_variance = with_variance || with_variance_gradient;
+  const bool need_slope = with_gradient || with_variance_gradient;
   BatchPrediction out;
   out.mean.resize(q);
   out.variance.resize(q);
@@ -797,91 +798,149 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   const LocalKernel kernel{p.sigma * p.sigma, p.length_m};
   const double s = m.config.cell_size_m, h = m.halfWidth(), w0 = m.config.zero_expert_weight;
   const double unit = m.coarse.varianceUnitFactor();
-  constexpr Eigen::Index chunk = 128;
-  const Eigen::Index num_chunks = (q + chunk - 1) / chunk;
 
-  tbb::parallel_for(Eigen::Index{0}, num_chunks, [&](Eigen::Index b) {
+  // The coarse level, in parallel chunks.
+  BatchPrediction coarse;
+  coarse.mean.resize(q);
+  coarse.variance.resize(q);
+  coarse.in_domain.resize(q);
+  if (with_gradient) coarse.gradient.resize(3, q);
+  if (with_variance_gradient) coarse.variance_gradient.resize(3, q);
+  constexpr Eigen::Index chunk = 128;
+  tbb::parallel_for(Eigen::Index{0}, (q + chunk - 1) / chunk, [&](Eigen::Index b) {
     const Eigen::Index begin = b * chunk, count = std::min(q, begin + chunk) - begin;
-    const BatchPrediction coarse =
+    const BatchPrediction part =
         m.coarse.predictBatch(x_world.middleCols(begin, count), with_gradient, with_variance_gradient, need_variance);
-    Eigen::VectorXd k, slope, solved;
-    for (Eigen::Index j = 0; j < count; ++j) {
-      const Eigen::Index col = begin + j;
-      const Vector3 x = x_world.col(col);
-      double sum_w = w0, sum_wr = 0.0, sum_wv = w0 * kernel.s2;
-      Vector3 sum_gw = Vector3::Zero(), sum_g_wr = Vector3::Zero(), sum_g_wv = Vector3::Zero();
-      if (x.allFinite()) {
-        std::array<std::array<int, 2>, 3> axis{};
-        std::array<std::array<double, 2>, 3> weight{}, weight_gradient{};
-        std::array<int, 3> n_axis{};
-        for (int d = 0; d < 3; ++d) {
-          const int base = static_cast<int>(std::floor(x[d] / s));
-          for (int c = base - 1; c <= base + 1; ++c) {
-            const double t = (x[d] - (c + 0.5) * s) / h;
-            if (std::abs(t) >= 1.0 || n_axis[d] == 2) continue;
-            axis[d][n_axis[d]] = c;
-            weight[d][n_axis[d]] = bump(t);
-            weight_gradient[d][n_axis[d]] = bumpDerivative(t) / h;
-            ++n_axis[d];
-          }
+    coarse.mean.segment(begin, count) = part.mean;
+    coarse.variance.segment(begin, count) = part.variance;
+    coarse.in_domain.segment(begin, count) = part.in_domain;
+    if (with_gradient) coarse.gradient.middleCols(begin, count) = part.gradient;
+    if (with_variance_gradient) coarse.variance_gradient.middleCols(begin, count) = part.variance_gradient;
+  });
+
+  // Each query's cells (at most 2 per axis, so 8), with their blending weights and gradients.
+  constexpr int kMaxSlots = 8;
+  struct Slot {
+    std::size_t cell;
+    double weight;
+    Vector3 weight_gradient;
+  };
+  std::vector<std::array<Slot, kMaxSlots>> slots(static_cast<std::size_t>(q));
+  std::vector<int> num_slots(static_cast<std::size_t>(q), 0);
+  tbb::parallel_for(Eigen::Index{0}, q, [&](Eigen::Index col) {
+    const Vector3 x = x_world.col(col);
+    if (!x.allFinite()) return;
+    std::array<std::array<int, 2>, 3> axis{};
+    std::array<std::array<double, 2>, 3> weight{}, weight_gradient{};
+    std::array<int, 3> n_axis{};
+    for (int d = 0; d < 3; ++d) {
+      const int base = static_cast<int>(std::floor(x[d] / s));
+      for (int c = base - 1; c <= base + 1; ++c) {
+        const double t = (x[d] - (c + 0.5) * s) / h;
+        if (std::abs(t) >= 1.0 || n_axis[d] == 2) continue;
+        axis[d][n_axis[d]] = c;
+        weight[d][n_axis[d]] = bump(t);
+        weight_gradient[d][n_axis[d]] = bumpDerivative(t) / h;
+        ++n_axis[d];
+      }
+    }
+    int& n = num_slots[static_cast<std::size_t>(col)];
+    for (int a = 0; a < n_axis[0]; ++a)
+      for (int bb = 0; bb < n_axis[1]; ++bb)
+        for (int c = 0; c < n_axis[2]; ++c) {
+          const auto found = m.cell_index.find(packKey(Eigen::Vector3i(axis[0][a], axis[1][bb], axis[2][c])));
+          if (found == m.cell_index.end()) continue;
+          const double wx = weight[0][a], wy = weight[1][bb], wz = weight[2][c];
+          const double w = wx * wy * wz;
+          if (!(w > 0.0)) continue;
+          slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(n++)] =
+              Slot{found->second, w,
+                   Vector3(weight_gradient[0][a] * wy * wz, wx * weight_gradient[1][bb] * wz, wx * wy * weight_gradient[2][c])};
         }
-        for (int a = 0; a < n_axis[0]; ++a)
-          for (int bb = 0; bb < n_axis[1]; ++bb)
-            for (int c = 0; c < n_axis[2]; ++c) {
-              const auto found = m.cell_index.find(packKey(Eigen::Vector3i(axis[0][a], axis[1][bb], axis[2][c])));
-              if (found == m.cell_index.end()) continue;
-              const Cell& cell = m.cells[found->second];
-              const double wx = weight[0][a], wy = weight[1][bb], wz = weight[2][c];
-              const double w = wx * wy * wz;
-              if (!(w > 0.0)) continue;
-              const Vector3 gw(weight_gradient[0][a] * wy * wz, wx * weight_gradient[1][bb] * wz,
-                               wx * wy * weight_gradient[2][c]);
-              const Vector3 xr = x - cell.centre;
-              const Eigen::Index n = cell.x.cols();
-              k.resize(n);
-              if (with_gradient || with_variance_gradient) slope.resize(n);
-              for (Eigen::Index i = 0; i < n; ++i) {
-                const double r = (xr - cell.x.col(i)).norm();
-                k[i] = kernel.value(r);
-                if (with_gradient || with_variance_gradient) slope[i] = kernel.derivativeOverDistance(r);
-              }
-              // Gradient of sum_i c_i k(|x - x_i|): sum_i c_i (dk/dr / r)_i (x - x_i).
-              const auto weighted = [&](const Eigen::VectorXd& coefficients) {
-                Vector3 g = Vector3::Zero();
-                for (Eigen::Index i = 0; i < n; ++i) g += coefficients[i] * slope[i] * (xr - cell.x.col(i));
-                return g;
-              };
-              const double r_c = k.dot(cell.alpha);
-              sum_w += w;
-              sum_wr += w * r_c;
-              sum_gw += gw;
-              if (with_gradient) sum_g_wr += gw * r_c + w * weighted(cell.alpha);
-              if (need_variance) {
-                solved = k;
-                const auto lower = cell.chol.triangularView<Eigen::Lower>();
-                lower.solveInPlace(solved);
-                const double v_c = std::max(0.0, kernel.s2 - solved.squaredNorm());
-                sum_wv += w * v_c;
-                if (with_variance_gradient) {
-                  lower.transpose().solveInPlace(solved);  // K^-1 k*
-                  sum_g_wv += gw * v_c + w * (-2.0 * weighted(solved));
-                }
-              }
-            }
+  });
+
+  // Queries grouped by cell, so that each cell's factor is used once per batch (a triangular
+  // solve with many right-hand sides instead of one per query).
+  std::vector<std::size_t> offset(m.cells.size() + 1, 0);
+  for (Eigen::Index col = 0; col < q; ++col)
+    for (int k = 0; k < num_slots[static_cast<std::size_t>(col)]; ++k) ++offset[slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(k)].cell + 1];
+  for (std::size_t c = 0; c < m.cells.size(); ++c) offset[c + 1] += offset[c];
+  std::vector<std::size_t> fill(offset.begin(), offset.end() - 1);
+  std::vector<std::size_t> entries(offset.back());  // query * kMaxSlots + slot
+  for (Eigen::Index col = 0; col < q; ++col)
+    for (int k = 0; k < num_slots[static_cast<std::size_t>(col)]; ++k)
+      entries[fill[slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(k)].cell]++] =
+          static_cast<std::size_t>(col) * kMaxSlots + static_cast<std::size_t>(k);
+
+  // Per (query, slot): the cell's residual mean and variance and their gradients.
+  const std::size_t num_entries = static_cast<std::size_t>(q) * kMaxSlots;
+  std::vector<double> cell_mean(num_entries), cell_variance(need_variance ? num_entries : 0);
+  std::vector<Vector3> cell_gradient(with_gradient ? num_entries : 0), cell_variance_gradient(with_variance_gradient ? num_entries : 0);
+  tbb::parallel_for(std::size_t{0}, m.cells.size(), [&](std::size_t c) {
+    const std::size_t begin = offset[c], count = offset[c + 1] - begin;
+    if (count == 0) return;
+    const Cell& cell = m.cells[c];
+    const Eigen::Index n = cell.x.cols(), mq = static_cast<Eigen::Index>(count);
+    Eigen::MatrixXd k(n, mq), slope(need_slope ? n : 0, need_slope ? mq : 0);
+    Points3 xr(3, mq);
+    for (Eigen::Index j = 0; j < mq; ++j) {
+      xr.col(j) = x_world.col(static_cast<Eigen::Index>(entries[begin + static_cast<std::size_t>(j)] / kMaxSlots)) - cell.centre;
+      for (Eigen::Index i = 0; i < n; ++i) {
+        const double r = (xr.col(j) - cell.x.col(i)).norm();
+        k(i, j) = kernel.value(r);
+        if (need_slope) slope(i, j) = kernel.derivativeOverDistance(r);
       }
-      // Quotient rule on r = sum w r_c / sum w (the zero expert's weight is constant).
-      const double r = sum_wr / sum_w;
-      out.mean[col] = coarse.mean[j] + r;
-      out.in_domain[col] = coarse.in_domain[j];
-      if (with_gradient) out.gradient.col(col) = coarse.gradient.col(j) + (sum_g_wr - r * sum_gw) / sum_w;
-      if (need_variance) {
-        const double v = sum_wv / sum_w;
-        out.variance[col] = coarse.variance[j] + unit * v;
-        if (with_variance_gradient)
-          out.variance_gradient.col(col) = coarse.variance_gradient.col(j) + unit * (sum_g_wv - v * sum_gw) / sum_w;
-      } else {
-        out.variance[col] = kNaN;
-      }
+    }
+    // Gradient of sum_i a_i k(|x - x_i|): sum_i a_i (dk/dr / r)_i (x - x_i).
+    const auto weighted = [&](Eigen::Index j, const auto& coefficients) {
+      Vector3 g = Vector3::Zero();
+      for (Eigen::Index i = 0; i < n; ++i) g += coefficients[i] * slope(i, j) * (xr.col(j) - cell.x.col(i));
+      return g;
+    };
+    for (Eigen::Index j = 0; j < mq; ++j) {
+      const std::size_t e = entries[begin + static_cast<std::size_t>(j)];
+      cell_mean[e] = k.col(j).dot(cell.alpha);
+      if (with_gradient) cell_gradient[e] = weighted(j, cell.alpha);
+    }
+    if (!need_variance) return;
+    const auto lower = cell.chol.triangularView<Eigen::Lower>();
+    lower.solveInPlace(k);  // L^-1 k*
+    for (Eigen::Index j = 0; j < mq; ++j)
+      cell_variance[entries[begin + static_cast<std::size_t>(j)]] = std::max(0.0, kernel.s2 - k.col(j).squaredNorm());
+    if (!with_variance_gradient) return;
+    lower.transpose().solveInPlace(k);  // K^-1 k*
+    for (Eigen::Index j = 0; j < mq; ++j)
+      cell_variance_gradient[entries[begin + static_cast<std::size_t>(j)]] = -2.0 * weighted(j, k.col(j));
+  });
+
+  // Blend: r = sum w r_c / (sum w + w0), v = (sum w v_c + w0 sigma^2) / (sum w + w0), with their
+  // gradients by the quotient rule (the zero expert's weight is constant).
+  tbb::parallel_for(Eigen::Index{0}, q, [&](Eigen::Index col) {
+    const std::size_t jq = static_cast<std::size_t>(col);
+    double sum_w = w0, sum_wr = 0.0, sum_wv = w0 * kernel.s2;
+    Vector3 sum_gw = Vector3::Zero(), sum_g_wr = Vector3::Zero(), sum_g_wv = Vector3::Zero();
+    for (int k = 0; k < num_slots[jq]; ++k) {
+      const Slot& slot = slots[jq][static_cast<std::size_t>(k)];
+      const std::size_t e = jq * kMaxSlots + static_cast<std::size_t>(k);
+      sum_w += slot.weight;
+      sum_gw += slot.weight_gradient;
+      sum_wr += slot.weight * cell_mean[e];
+      if (with_gradient) sum_g_wr += slot.weight_gradient * cell_mean[e] + slot.weight * cell_gradient[e];
+      if (need_variance) sum_wv += slot.weight * cell_variance[e];
+      if (with_variance_gradient)
+        sum_g_wv += slot.weight_gradient * cell_variance[e] + slot.weight * cell_variance_gradient[e];
+    }
+    const double r = sum_wr / sum_w;
+    out.mean[col] = coarse.mean[col] + r;
+    out.in_domain[col] = coarse.in_domain[col];
+    if (with_gradient) out.gradient.col(col) = coarse.gradient.col(col) + (sum_g_wr - r * sum_gw) / sum_w;
+    if (need_variance) {
+      const double v = sum_wv / sum_w;
+      out.variance[col] = coarse.variance[col] + unit * v;
+      if (with_variance_gradient)
+        out.variance_gradient.col(col) = coarse.variance_gradient.col(col) + unit * (sum_g_wv - v * sum_gw) / sum_w;
+    } else {
+      out.variance[col] = kNaN;
     }
   });
   return out;
