@@ -1,6 +1,7 @@
 // Micro-benchmarks of the GPIS core. Run: make bench-core (or the binary in the devel space).
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
+#include "gpatlas_core/multiscale_gpis_model.h"
 
 #include <benchmark/benchmark.h>
 
@@ -102,8 +103,77 @@ void BM_Tune(benchmark::State& state) {
   }
 }
 
+// ---- MultiscaleGpisModel at the sizes it is for (a 2 mm voxel grid of a view: 10,000-40,000
+// points), tuning on fit included (its default).
+using gpatlas_core::MultiscaleGpisModel;
+
+void BM_MultiscaleFit(benchmark::State& state) {
+  const auto pts = viewOfSphere(static_cast<int>(state.range(0)), 1);
+  for (auto _ : state) {
+    MultiscaleGpisModel model;
+    benchmark::DoNotOptimize(model.fit(pts).ok);
+  }
+}
+
+// Contacts (with their measured normals' positions on the unseen underside) added in one call to
+// a model of N view points.
+void BM_MultiscaleAddContacts(benchmark::State& state) {
+  MultiscaleGpisModel base;
+  base.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  std::vector<TrainingPoint> contacts;
+  std::mt19937 rng(4);
+  std::normal_distribution<double> g;
+  while (static_cast<int>(contacts.size()) < state.range(1)) {
+    Eigen::Vector3d d(g(rng), g(rng), g(rng));
+    d.normalize();
+    TrainingPoint p;
+    p.position = Eigen::Vector3d(0.7, 0.0, 0.1) + 0.1 * d;
+    p.noise_sigma = 0.1;
+    p.source = gpatlas_core::PointSource::kTouch;
+    contacts.push_back(p);
+  }
+  for (auto _ : state) {
+    state.PauseTiming();
+    MultiscaleGpisModel model(base);
+    state.ResumeTiming();
+    benchmark::DoNotOptimize(model.addPoints(contacts).ok);
+  }
+}
+
+// Queries within 5 mm of the surface (where the planner and the mesher ask, and where the cells
+// are): the expensive case, unlike queryPoints' box.
+gpatlas_core::Points3 nearSurfaceQueries(int count, unsigned seed) {
+  const auto on = viewOfSphere(count, seed);
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.005, 0.005);
+  gpatlas_core::Points3 q(3, count);
+  for (int j = 0; j < count; ++j) q.col(j) = on[static_cast<std::size_t>(j)].position + Eigen::Vector3d(u(rng), u(rng), u(rng));
+  return q;
+}
+
+void BM_MultiscalePredictMeanVariance(benchmark::State& state) {
+  MultiscaleGpisModel model;
+  model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const auto q = state.range(1) ? nearSurfaceQueries(1000, 3) : queryPoints(1000, 3);
+  for (auto _ : state) benchmark::DoNotOptimize(model.predictBatch(q, true, false).variance.sum());
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
+void BM_MultiscalePredictMean(benchmark::State& state) {
+  MultiscaleGpisModel model;
+  model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const auto q = state.range(1) ? nearSurfaceQueries(1000, 3) : queryPoints(1000, 3);
+  for (auto _ : state) benchmark::DoNotOptimize(model.predictBatch(q, false, false, false).mean.sum());
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
 }  // namespace
 
+BENCHMARK(BM_MultiscaleFit)->Arg(2000)->Arg(10000)->Arg(40000)->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_MultiscaleAddContacts)->Args({10000, 300})->Args({40000, 300})->Unit(benchmark::kMillisecond)->Iterations(2);
+// Second argument: 0 queries in the object's bounding box, 1 within 5 mm of the surface.
+BENCHMARK(BM_MultiscalePredictMeanVariance)->ArgsProduct({{10000, 40000}, {0, 1}})->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_MultiscalePredictMean)->ArgsProduct({{10000, 40000}, {0, 1}})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_FullFit)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_AddPoints)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PredictMeanVariance)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);

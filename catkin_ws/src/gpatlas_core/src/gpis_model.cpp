@@ -12,21 +12,21 @@
 
 namespace gpatlas_core {
 
-namespace {
-
-constexpr double kLog2Pi = 1.8378770664093453;
-
-bool isFinite(const Vector3& v) { return v.allFinite(); }
-
-// The frame's scale matters for outside and inside points with a known distance to the surface: their
-// target is that distance in normalised units, so it follows every renormalisation.
-double targetOf(const TrainingPoint& p, double scale) {
+double gpisTarget(const TrainingPoint& p, double scale) {
   if (std::isfinite(p.target_override)) return p.target_override;
   if (observesSlope(p)) return 1.0;
   if (p.label != PointLabel::kSurface && std::isfinite(p.surface_distance_m) && scale > 0.0)
     return static_cast<double>(static_cast<int>(p.label)) * std::min(1.0, std::max(0.0, p.surface_distance_m) / scale);
   return static_cast<double>(static_cast<int>(p.label));
 }
+
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093453;
+
+bool isFinite(const Vector3& v) { return v.allFinite(); }
+
+double targetOf(const TrainingPoint& p, double scale) { return gpisTarget(p, scale); }
 
 
 // Covariance between two observations at normalised positions a and b: of f itself where the

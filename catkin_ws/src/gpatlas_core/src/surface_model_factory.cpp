@@ -14,6 +14,9 @@ struct Registry {
 
   Registry() {
     factories[GpisModel::kName] = [](const SurfaceModelConfig& c) { return std::make_unique<GpisModel>(c.gpis); };
+    factories[MultiscaleGpisModel::kName] = [](const SurfaceModelConfig& c) {
+      return std::make_unique<MultiscaleGpisModel>(c.multiscale, c.gpis);
+    };
   }
 };
 

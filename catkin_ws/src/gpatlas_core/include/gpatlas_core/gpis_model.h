@@ -83,6 +83,12 @@ struct GpisModelConfig {
   }
 };
 
+// The value a GPIS fits at an observation, in units of f for a frame of the given scale (metres):
+// target_override when finite; +1 per normalised unit for a slope; for an outside (inside) point
+// with a known surface_distance_m, min(1, distance / scale) (its negative), so that the target
+// follows every renormalisation; else the label's value (-1, 0, +1).
+double gpisTarget(const TrainingPoint& point, double scale);
+
 // Gaussian Process Implicit Surface (paper section 3.1): a GP with zero prior mean fit to
 // surface points (target 0), outside points (+1) and inside points (-1), evaluated in a
 // normalised frame (centroid at the origin, surface data inside a ball of fixed radius), so

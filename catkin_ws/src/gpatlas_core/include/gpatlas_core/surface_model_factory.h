@@ -1,6 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/multiscale_gpis_model.h"
 #include "gpatlas_core/surface_model.h"
 
 #include <functional>
@@ -13,7 +14,8 @@ namespace gpatlas_core {
 // Which surface model to build (the YAML's model/type), and the settings of the built-in ones.
 struct SurfaceModelConfig {
   std::string type{GpisModel::kName};
-  GpisModelConfig gpis;  // the global GPIS (the paper's model)
+  GpisModelConfig gpis;  // the global GPIS (the paper's model); also the multiscale model's coarse level
+  MultiscaleGpisConfig multiscale;  // "multiscale": coarse GPIS + local GPs of its residual
 };
 
 using SurfaceModelFactory = std::function<std::unique_ptr<SurfaceModel>(const SurfaceModelConfig&)>;
