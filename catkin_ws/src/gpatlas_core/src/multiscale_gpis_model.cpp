@@ -890,9 +890,13 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   const std::size_t num_entries = static_cast<std::size_t>(q) * kMaxSlots;
   std::vector<double> cell_mean(num_entries), cell_variance(need_variance ? num_entries : 0);
   std::vector<Vector3> cell_gradient(with_gradient ? num_entries : 0), cell_variance_gradient(with_variance_gradient ? num_entries : 0);
-  tbb::parallel_for(std::size_t{0}, m.cells.size(), [&](std::size_t c) {
+  // Only the cells some query falls in (a single query must not pay for a pass over every cell).
+  std::vector<std::size_t> active;
+  for (std::size_t c = 0; c < m.cells.size(); ++c)
+    if (offset[c + 1] > offset[c]) active.push_back(c);
+  tbb::parallel_for(std::size_t{0}, active.size(), [&](std::size_t a) {
+    const std::size_t c = active[a];
     const std::size_t begin = offset[c], count = offset[c + 1] - begin;
-    if (count == 0) return;
     const Cell& cell = m.cells[c];
     const Eigen::Index n = cell.x.cols(), mq = static_cast<Eigen::Index>(count);
     Eigen::MatrixXd k(n, mq), slope(need_slope ? n : 0, need_slope ? mq : 0);
