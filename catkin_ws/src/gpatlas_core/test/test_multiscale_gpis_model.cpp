@@ -9,6 +9,7 @@
 #include <functional>
 #include <iostream>
 #include <random>
+#include <thread>
 
 using gpatlas_core::BatchPrediction;
 using gpatlas_core::FitReport;
@@ -538,6 +539,24 @@ TEST(MultiscaleGpisModel, TuneTunesTheCoarseLevelAndRefitsTheFineOne) {
   MultiscaleGpisModel replica;
   ASSERT_TRUE(replica.restore(model.state()).ok);
   EXPECT_EQ(replica.mean(kSphereCentre), model.mean(kSphereCentre));
+}
+
+TEST(MultiscaleGpisModel, ConcurrentQueriesAgreeWithSerialOnes) {
+  const MultiscaleGpisModel& model = sphereModel();
+  Points3 q(3, 200);
+  const auto dirs = randomDirections(200, -1.0, 51);
+  for (int j = 0; j < 200; ++j) q.col(j) = kSphereCentre + (0.045 + 0.00005 * j) * dirs[static_cast<std::size_t>(j)];
+  const BatchPrediction serial = model.predictBatch(q);
+  std::vector<BatchPrediction> results(4);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < results.size(); ++t)
+    threads.emplace_back([&, t] { results[t] = model.predictBatch(q); });
+  for (std::thread& t : threads) t.join();
+  for (const BatchPrediction& r : results) {
+    EXPECT_EQ(r.mean, serial.mean);
+    EXPECT_EQ(r.variance, serial.variance);
+    EXPECT_EQ(r.gradient, serial.gradient);
+  }
 }
 
 TEST(MultiscaleGpisModel, FailedFitLeavesTheModelUnchanged) {
