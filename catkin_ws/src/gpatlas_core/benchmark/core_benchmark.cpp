@@ -167,8 +167,22 @@ void BM_MultiscalePredictMean(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * q.cols());
 }
 
+// One query per call near the surface (mean, variance, mean gradient), as a planner's loop asks.
+void BM_MultiscalePredictLoop(benchmark::State& state) {
+  MultiscaleGpisModel model;
+  model.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const auto q = nearSurfaceQueries(1000, 3);
+  for (auto _ : state) {
+    double sum = 0.0;
+    for (int j = 0; j < q.cols(); ++j) sum += model.predictBatch(q.col(j), true, false).variance[0];
+    benchmark::DoNotOptimize(sum);
+  }
+  state.SetItemsProcessed(state.iterations() * q.cols());
+}
+
 }  // namespace
 
+BENCHMARK(BM_MultiscalePredictLoop)->Arg(10000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MultiscaleFit)->Arg(2000)->Arg(10000)->Arg(40000)->Unit(benchmark::kMillisecond)->Iterations(2);
 BENCHMARK(BM_MultiscaleAddContacts)->Args({10000, 300})->Args({40000, 300})->Unit(benchmark::kMillisecond)->Iterations(2);
 // Second argument: 0 queries in the object's bounding box, 1 within 5 mm of the surface.

@@ -256,22 +256,32 @@ struct MultiscaleGpisModel::Impl {
                            clamp(config.noise_m, config.noise_min_m, config.noise_max_m));
   }
 
-  // The observations the coarse model is given: view surface values thinned to the cap, every
-  // touch contact on top of it (the budget is the view's alone, so that a new contact never
-  // changes which view points are kept and the coarse factor can be extended), free space and
-  // interior thinned to their cap, every slope.
+  // The observations the coarse model is given: the view's surface values and its free space
+  // and interior (source vision), each thinned to its cap; every contact and slope on top; the
+  // probe's other values (approach free space, interior behind contacts) greedily in the order
+  // they came, one per voxel of a fixed world grid, up to their cap. None of the probe's data
+  // changes which earlier points are kept, so an exploration step extends the coarse factor
+  // instead of refitting it.
   std::vector<std::size_t> coarseSelection(const std::vector<TrainingPoint>& obs) const {
-    std::vector<std::size_t> touch, vision, other, slopes;
+    std::vector<std::size_t> always, view_surface, view_other;
+    std::unordered_set<CellKey> probe_voxels;
+    const double voxel = config.coarse_probe_voxel_m;
     for (std::size_t i = 0; i < obs.size(); ++i) {
       const TrainingPoint& p = obs[i];
-      if (observesSlope(p)) slopes.push_back(i);
-      else if (p.label != PointLabel::kSurface) other.push_back(i);
-      else if (p.source == PointSource::kTouch) touch.push_back(i);
-      else vision.push_back(i);
+      if (observesSlope(p) || (p.source != PointSource::kVision && p.label == PointLabel::kSurface)) {
+        always.push_back(i);
+      } else if (p.source != PointSource::kVision) {
+        if (probe_voxels.size() >= config.coarse_max_probe_other_points) continue;
+        const Eigen::Vector3i v((p.position / voxel).array().floor().cast<int>());
+        if (probe_voxels.insert(packKey(v)).second) always.push_back(i);
+      } else if (p.label == PointLabel::kSurface) {
+        view_surface.push_back(i);
+      } else {
+        view_other.push_back(i);
+      }
     }
-    std::vector<std::size_t> selected = mergeSorted(touch, thinByVoxels(obs, vision, config.coarse_max_surface_points));
-    selected = mergeSorted(selected, thinByVoxels(obs, other, config.coarse_max_other_points));
-    return mergeSorted(selected, slopes);
+    std::vector<std::size_t> selected = mergeSorted(always, thinByVoxels(obs, view_surface, config.coarse_max_surface_points));
+    return mergeSorted(selected, thinByVoxels(obs, view_other, config.coarse_max_other_points));
   }
 
   // Keys of the cells whose extended region holds the point (at most 2 per axis).
@@ -553,9 +563,11 @@ MultiscaleGpisModel::MultiscaleGpisModel(Config config, GpisModelConfig coarse_c
   if (!(c.sigma_min > 0.0 && c.sigma_min <= c.sigma_max) || !(c.length_min_m > 0.0 && c.length_min_m <= impl_->lengthMax()) ||
       !(c.noise_min_m > 0.0 && c.noise_min_m <= c.noise_max_m))
     throw std::invalid_argument("MultiscaleGpisModel: need 0 < min <= max for sigma, length_m and noise_m");
-  if (c.max_points_per_cell < 1 || c.coarse_max_surface_points < 4 || !(c.zero_expert_weight > 0.0))
+  if (c.max_points_per_cell < 1 || c.coarse_max_surface_points < 4 || !(c.zero_expert_weight > 0.0) ||
+      !(c.coarse_probe_voxel_m > 0.0))
     throw std::invalid_argument(
-        "MultiscaleGpisModel: need max_points_per_cell >= 1, coarse_max_surface_points >= 4, zero_expert_weight > 0");
+        "MultiscaleGpisModel: need max_points_per_cell >= 1, coarse_max_surface_points >= 4, zero_expert_weight > 0, "
+        "coarse_probe_voxel_m > 0");
   impl_->log_fine = impl_->defaultLogFine();
   impl_->fine_tune.message = "no fine tuning ran yet";
 }
@@ -578,6 +590,7 @@ FitReport MultiscaleGpisModel::fit(const std::vector<TrainingPoint>& points) {
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
   trial.observations = screenPoints(points, &screen);
+  trial.fine_tune = impl_->fine_tune;
   FitReport report = trial.build(nullptr, 0.0, trial.config.tune_on_fit);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
   report.num_rejected += screen.num_rejected;
@@ -596,6 +609,7 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
   trial.observations = screenPoints(points, &screen);
+  trial.fine_tune = impl_->fine_tune;
   FitReport report = trial.build(&centroid, scale, trial.config.tune_on_fit);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
   report.num_rejected += screen.num_rejected;
@@ -638,7 +652,7 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
 
   for (const TrainingPoint& p : accepted) {
     if (!isSurfaceValue(p)) continue;
-    if (p.source != PointSource::kTouch) return fullRefit("new surface data from a view, refitted");
+    if (p.source == PointSource::kVision) return fullRefit("new surface data from a view, refitted");
     if (((p.position - m.coarse.centroid()) / m.coarse.scale()).norm() > m.coarse_config.renormalise_radius)
       return fullRefit("a contact beyond the frame's radius, renormalised and refitted");
   }
@@ -876,9 +890,13 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   const std::size_t num_entries = static_cast<std::size_t>(q) * kMaxSlots;
   std::vector<double> cell_mean(num_entries), cell_variance(need_variance ? num_entries : 0);
   std::vector<Vector3> cell_gradient(with_gradient ? num_entries : 0), cell_variance_gradient(with_variance_gradient ? num_entries : 0);
-  tbb::parallel_for(std::size_t{0}, m.cells.size(), [&](std::size_t c) {
+  // Only the cells some query falls in (a single query must not pay for a pass over every cell).
+  std::vector<std::size_t> active;
+  for (std::size_t c = 0; c < m.cells.size(); ++c)
+    if (offset[c + 1] > offset[c]) active.push_back(c);
+  tbb::parallel_for(std::size_t{0}, active.size(), [&](std::size_t a) {
+    const std::size_t c = active[a];
     const std::size_t begin = offset[c], count = offset[c + 1] - begin;
-    if (count == 0) return;
     const Cell& cell = m.cells[c];
     const Eigen::Index n = cell.x.cols(), mq = static_cast<Eigen::Index>(count);
     Eigen::MatrixXd k(n, mq), slope(need_slope ? n : 0, need_slope ? mq : 0);

@@ -9,6 +9,7 @@
 #include <functional>
 #include <iostream>
 #include <random>
+#include <thread>
 
 using gpatlas_core::BatchPrediction;
 using gpatlas_core::FitReport;
@@ -36,13 +37,14 @@ TrainingPoint surfacePoint(const Vector3d& x, PointSource source = PointSource::
   return p;
 }
 
-TrainingPoint freeSpacePoint(const Vector3d& x, double distance) {
+// Free space seen by the camera (view_free_space's source) unless a probe's approach says so.
+TrainingPoint freeSpacePoint(const Vector3d& x, double distance, PointSource source = PointSource::kVision) {
   TrainingPoint p;
   p.position = x;
   p.label = PointLabel::kOutside;
   p.surface_distance_m = distance;
   p.noise_sigma = kNoise;
-  p.source = PointSource::kFreeSpace;
+  p.source = source;
   return p;
 }
 
@@ -388,7 +390,7 @@ TEST(MultiscaleGpisModel, IncrementalContactsAndFreeSpaceEqualAFitFromScratch) {
     if (d.z() > -0.2) continue;
     auto& batch = contacts < 30 ? first : second;
     batch.push_back(surfacePoint(kSphereCentre + kSphereRadius * d, PointSource::kTouch));
-    batch.push_back(freeSpacePoint(kSphereCentre + (kSphereRadius + 0.003) * d, 0.003));
+    batch.push_back(freeSpacePoint(kSphereCentre + (kSphereRadius + 0.003) * d, 0.003, PointSource::kFreeSpace));
     if (contacts % 5 == 0) {
       TrainingPoint slope = surfacePoint(kSphereCentre + kSphereRadius * d, PointSource::kTouch);
       slope.slope_direction = d;
@@ -400,14 +402,27 @@ TEST(MultiscaleGpisModel, IncrementalContactsAndFreeSpaceEqualAFitFromScratch) {
   const FitReport r1 = incremental.addPoints(first);
   ASSERT_TRUE(r1.ok) << r1.message;
   EXPECT_FALSE(r1.full_refit);
+  EXPECT_NE(r1.message.find("coarse extended"), std::string::npos) << r1.message;
   const FitReport r2 = incremental.addPoints(second);
   ASSERT_TRUE(r2.ok) << r2.message;
   EXPECT_FALSE(r2.full_refit);
   std::cout << "incremental: " << r1.message << "\n             " << r2.message << " ("
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() << " s for both)\n";
 
-  // Contacts and normals alone: the coarse thinning keeps every old point, the coarse factor is
-  // extended rather than refitted.
+  // Free space seen by the camera below the sphere: changes the coarse level's thinning of the
+  // view's free space, so the coarse level is refitted in its frame.
+  std::vector<TrainingPoint> view_free;
+  for (const Vector3d& d : randomDirections(40, -1.0, 24))
+    if (d.z() < 0.0) {
+      view_free.push_back(freeSpacePoint(kSphereCentre + (kSphereRadius + 0.006) * d, 0.006));
+    }
+  const FitReport r_view = incremental.addPoints(view_free);
+  ASSERT_TRUE(r_view.ok) << r_view.message;
+  EXPECT_FALSE(r_view.full_refit);
+  EXPECT_NE(r_view.message.find("coarse refitted in its frame"), std::string::npos) << r_view.message;
+  std::cout << "             " << r_view.message << "\n";
+
+  // Contacts and normals alone.
   std::vector<TrainingPoint> third;
   for (const Vector3d& d : randomDirections(12, -1.0, 23)) {
     if (d.z() > -0.1) continue;
@@ -524,6 +539,24 @@ TEST(MultiscaleGpisModel, TuneTunesTheCoarseLevelAndRefitsTheFineOne) {
   MultiscaleGpisModel replica;
   ASSERT_TRUE(replica.restore(model.state()).ok);
   EXPECT_EQ(replica.mean(kSphereCentre), model.mean(kSphereCentre));
+}
+
+TEST(MultiscaleGpisModel, ConcurrentQueriesAgreeWithSerialOnes) {
+  const MultiscaleGpisModel& model = sphereModel();
+  Points3 q(3, 200);
+  const auto dirs = randomDirections(200, -1.0, 51);
+  for (int j = 0; j < 200; ++j) q.col(j) = kSphereCentre + (0.045 + 0.00005 * j) * dirs[static_cast<std::size_t>(j)];
+  const BatchPrediction serial = model.predictBatch(q);
+  std::vector<BatchPrediction> results(4);
+  std::vector<std::thread> threads;
+  for (std::size_t t = 0; t < results.size(); ++t)
+    threads.emplace_back([&, t] { results[t] = model.predictBatch(q); });
+  for (std::thread& t : threads) t.join();
+  for (const BatchPrediction& r : results) {
+    EXPECT_EQ(r.mean, serial.mean);
+    EXPECT_EQ(r.variance, serial.variance);
+    EXPECT_EQ(r.gradient, serial.gradient);
+  }
 }
 
 TEST(MultiscaleGpisModel, FailedFitLeavesTheModelUnchanged) {

@@ -16,12 +16,18 @@ namespace gpatlas_core {
 struct MultiscaleGpisConfig {
   // ---- coarse level: a global GpisModel (SurfaceModelConfig::gpis) on a thinned copy of the data.
   // Its O(n^3) fit bounds how much it can take; the thinning keeps the coverage of the data
-  // (one point per voxel) rather than its density, and never drops a touch contact or a slope.
-  // View (non-touch) surface values; touch contacts come on top of this budget (they are few,
-  // and a contact that changed the view's thinning would force a full coarse refit).
+  // (one point per voxel) rather than its density. These caps are for the view's data (source
+  // vision); the probe's data come on top (below), thinned so that an exploration step never
+  // changes which earlier points are kept: it extends the coarse factor instead of refitting it.
+  // View surface values.
   std::size_t coarse_max_surface_points{600};
-  // Free-space (outside) and interior (inside) value observations, thinned the same way.
+  // View free space (outside) and interior (inside) values.
   std::size_t coarse_max_other_points{600};
+  // Every contact and slope (one per touch waypoint: hundreds, not thousands) is kept; the
+  // probe's free space and interior points are kept in the order they came, at most one per
+  // voxel of this side on a fixed world grid, up to the count below.
+  double coarse_probe_voxel_m{0.01};
+  std::size_t coarse_max_probe_other_points{600};
 
   // ---- fine level: local GPs of the coarse model's residual on a sparse grid of cubic cells.
   // A cell's side: small enough that its factorisation stays cheap at the densest data (a 2 mm
@@ -97,7 +103,8 @@ class MultiscaleGpisModel : public SurfaceModel {
   FitReport fit(const std::vector<TrainingPoint>& points) override;
   FitReport fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) override;
   // New vision surface data (or a surface point that moves the frame): full refit in the current
-  // frame, without tuning. Contacts, free space and slopes: the coarse model is extended, the
+  // frame, without tuning. Contacts, free space and slopes: the coarse model is extended (refitted
+  // in its frame when new view free space changes its thinning), the
   // cells whose region holds a new point are refactored (new ones created), the others only
   // re-solved for the new residual targets. Both give what a fit of all the data in this frame
   // with these hyperparameters gives (restore()).
