@@ -58,6 +58,42 @@ void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c) {
     c->type = SurfaceModelConfig().type;
   }
   readGpis(r, &c->gpis);
+  readMultiscale(r, &c->multiscale);
+}
+
+void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c) {
+  const MultiscaleGpisConfig defaults;
+  c->coarse_max_surface_points = static_cast<std::size_t>(r.integer(
+      "multiscale/coarse_max_surface_points", static_cast<int>(c->coarse_max_surface_points), 4, 100000));
+  c->coarse_max_other_points = static_cast<std::size_t>(
+      r.integer("multiscale/coarse_max_other_points", static_cast<int>(c->coarse_max_other_points), 0, 100000));
+  c->coarse_probe_voxel_m = r.number("multiscale/coarse_probe_voxel_m", c->coarse_probe_voxel_m, 1e-4, 1.0);
+  c->coarse_max_probe_other_points = static_cast<std::size_t>(r.integer(
+      "multiscale/coarse_max_probe_other_points", static_cast<int>(c->coarse_max_probe_other_points), 0, 100000));
+  c->cell_size_m = r.number("multiscale/cell_size_m", c->cell_size_m, 1e-3, 1.0);
+  c->overlap_m = r.number("multiscale/overlap_m", c->overlap_m, 0.0, 0.5);
+  c->max_points_per_cell = r.integer("multiscale/max_points_per_cell", c->max_points_per_cell, 4, 100000);
+  c->zero_expert_weight = r.number("multiscale/zero_expert_weight", c->zero_expert_weight, 1e-9, 1.0);
+  c->sigma = r.number("multiscale/sigma", c->sigma, 1e-6, 100.0);
+  c->length_m = r.number("multiscale/length_m", c->length_m, 1e-5, 1.0);
+  c->noise_m = r.number("multiscale/noise_m", c->noise_m, 1e-7, 1.0);
+  c->tune_on_fit = r.flag("multiscale/tune_on_fit", c->tune_on_fit);
+  c->tune_max_cells = r.integer("multiscale/tune_max_cells", c->tune_max_cells, 1, 10000);
+  c->tune_max_iterations = r.integer("multiscale/tune_max_iterations", c->tune_max_iterations, 0, 1000);
+  c->length_min_m = r.number("multiscale/length_min_m", c->length_min_m, 1e-5, 1.0);
+  c->length_max_m = r.number("multiscale/length_max_m", c->length_max_m, 0.0, 1.0);
+  c->sigma_min = r.number("multiscale/sigma_min", c->sigma_min, 1e-6, 100.0);
+  c->sigma_max = r.number("multiscale/sigma_max", c->sigma_max, 1e-6, 100.0);
+  c->noise_min_m = r.number("multiscale/noise_min_m", c->noise_min_m, 1e-7, 1.0);
+  c->noise_max_m = r.number("multiscale/noise_max_m", c->noise_max_m, 1e-7, 1.0);
+  // The model checks what no single parameter can (the overlap against the cell, the bounds'
+  // order): every reader falls back to the same defaults, so replicas stay exact.
+  try {
+    MultiscaleGpisModel check(*c);
+  } catch (const std::exception& e) {
+    r.invalid("multiscale", std::string(e.what()) + " (all multiscale/ defaults used)");
+    *c = defaults;
+  }
 }
 
 void readTuning(ParamReader& r, TuningConfig* c) {

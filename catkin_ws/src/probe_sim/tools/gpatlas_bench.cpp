@@ -300,6 +300,9 @@ struct RunResult {
   gpatlas_core::ShapeMetricsResult metrics;
   // Truth-to-predicted RMSE over the reachable truth only (GroundTruth::sample_reachable).
   double rmse_gt_to_pred_reachable{std::nan("")};
+  // Truth-to-predicted RMSE over the truth the camera saw, and over the rest (touch's part).
+  double rmse_gt_to_pred_seen{std::nan("")};
+  double rmse_gt_to_pred_unseen{std::nan("")};
   // The share of true-surface samples whose predicted f is within 2 sd of 0 (0.95 is calibrated).
   double calibration{std::nan("")};
   double max_surface_variance{0.0};
@@ -329,10 +332,50 @@ double sampledMaxVariance(const gpatlas_core::SurfaceModel& model) {
   return sample.ok ? sample.maxVariance() : std::nan("");
 }
 
-// `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured.
+// The RMSE of the distances whose mask entry equals `in`; NaN when there are none.
+double maskedRmse(const std::vector<double>& distances, const std::vector<bool>& mask, bool in) {
+  double sum_squared = 0.0;
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < distances.size() && i < mask.size(); ++i)
+    if (mask[i] == in) {
+      sum_squared += distances[i] * distances[i];
+      ++n;
+    }
+  return n > 0 ? std::sqrt(sum_squared / static_cast<double>(n)) : std::nan("");
+}
+
+// Which of the shape metrics' truth samples the camera at `eye` sees: the first hit of its ray
+// to the sample is the sample itself.
+std::vector<bool> samplesSeenFrom(const probe_sim::Scene& scene, const probe_sim::TriangleMesh& mesh,
+                                  const Eigen::Vector3d& eye) {
+  const gpatlas_core::ShapeMetrics::Config metrics;
+  const std::vector<gpatlas_core::Vector3> samples =
+      gpatlas_core::sampleMeshSurface(mesh, metrics.samples_per_mesh, gpatlas_core::truthSampleSeed(metrics.seed));
+  Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(samples.size())), to(3, from.cols());
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    from.col(static_cast<Eigen::Index>(i)) = eye;
+    // A millimetre beyond the sample, so that the sample's own triangle is hit.
+    to.col(static_cast<Eigen::Index>(i)) = samples[i] + 1e-3 * (samples[i] - eye).normalized();
+  }
+  const std::vector<probe_sim::RayHit> hits = scene.castRays(from, to);
+  std::vector<bool> seen(samples.size(), false);
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    seen[i] = hits[i].hit && hits[i].distance >= (samples[i] - eye).norm() - 1e-3;
+  return seen;
+}
+
+// `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured;
+// `seen` (the samples the camera saw, samplesSeenFrom): also over the seen and the unseen truth.
+struct TruthSubsets {
+  const std::vector<bool>* seen{nullptr};
+  double* rmse_reachable{nullptr};
+  double* rmse_seen{nullptr};
+  double* rmse_unseen{nullptr};
+};
+
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
-                                         double* rmse_reachable = nullptr) {
+                                         const TruthSubsets& subsets = TruthSubsets()) {
   const auto surface = gpatlas_core::SurfaceMesher(o.pipeline.mesh).mesh(model);
   if (!surface.ok || surface.mesh.empty()) {
     gpatlas_core::ShapeMetricsResult failed;
@@ -344,18 +387,14 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
   }
   gpatlas_core::ShapeMetrics::Config metrics_config;
-  metrics_config.keep_truth_distances = rmse_reachable && gt.reachability_measured;
+  metrics_config.keep_truth_distances = (subsets.rmse_reachable && gt.reachability_measured) || subsets.seen;
   gpatlas_core::ShapeMetricsResult metrics = gpatlas_core::ShapeMetrics(metrics_config).compare(surface.mesh, gt.mesh);
   const std::vector<double>& distances = metrics.truth_to_predicted_distances;
-  if (metrics.ok && metrics_config.keep_truth_distances && distances.size() == gt.sample_reachable.size()) {
-    double sum_squared = 0.0;
-    std::size_t n = 0;
-    for (std::size_t i = 0; i < distances.size(); ++i)
-      if (gt.sample_reachable[i]) {
-        sum_squared += distances[i] * distances[i];
-        ++n;
-      }
-    if (n > 0) *rmse_reachable = std::sqrt(sum_squared / static_cast<double>(n));
+  if (metrics.ok && subsets.rmse_reachable && gt.reachability_measured && distances.size() == gt.sample_reachable.size())
+    *subsets.rmse_reachable = maskedRmse(distances, gt.sample_reachable, true);
+  if (metrics.ok && subsets.seen && distances.size() == subsets.seen->size()) {
+    if (subsets.rmse_seen) *subsets.rmse_seen = maskedRmse(distances, *subsets.seen, true);
+    if (subsets.rmse_unseen) *subsets.rmse_unseen = maskedRmse(distances, *subsets.seen, false);
   }
   metrics.truth_to_predicted_distances = {};  // 20000 numbers per run, not needed after this
   return metrics;
@@ -500,7 +539,13 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const std::string mesh_file =
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
-  r.metrics = measure(model, gt, o, mesh_file, &r.rmse_gt_to_pred_reachable);
+  const std::vector<bool> seen = samplesSeenFrom(*scene, gt.mesh, eye);
+  TruthSubsets subsets;
+  subsets.seen = &seen;
+  subsets.rmse_reachable = &r.rmse_gt_to_pred_reachable;
+  subsets.rmse_seen = &r.rmse_gt_to_pred_seen;
+  subsets.rmse_unseen = &r.rmse_gt_to_pred_unseen;
+  r.metrics = measure(model, gt, o, mesh_file, subsets);
   const gpatlas_core::CalibrationResult calibration = gpatlas_core::surfaceCalibration(
       model, gpatlas_core::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed));
   if (calibration.ok) r.calibration = calibration.fraction;
@@ -541,7 +586,7 @@ std::string csvField(const std::string& text) {
 void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
-       "rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,calibration_2sd,max_surface_variance,wall_s,plan_ms_median,"
+       "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,max_surface_variance,wall_s,plan_ms_median,"
        "update_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
@@ -549,7 +594,8 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << ',' << r.contacts << ',' << (r.converged ? 1 : 0) << ',' << csvField(r.status) << ',' << csvField(r.stop_reason)
       << ',' << r.n_train << ','
       << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','
-      << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
+      << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << num(r.rmse_gt_to_pred_seen) << ','
+      << num(r.rmse_gt_to_pred_unseen) << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.max_surface_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << '\n';
   }
@@ -849,6 +895,9 @@ int main(int argc, char** argv) {
                   << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;
       if (std::isfinite(r.rmse_gt_to_pred_reachable))
         std::cout << ", reachable truth->predicted " << r.rmse_gt_to_pred_reachable * 1000 << " mm";
+      if (std::isfinite(r.rmse_gt_to_pred_seen))
+        std::cout << " (seen by the camera " << r.rmse_gt_to_pred_seen * 1000 << " mm, unseen "
+                  << r.rmse_gt_to_pred_unseen * 1000 << " mm)";
       if (std::isfinite(r.calibration)) std::cout << ", calibration " << r.calibration;
       std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
                 << r.wall_s << " s";

@@ -55,6 +55,7 @@ std::uint64_t readSeed(ParamReader& r, std::uint64_t fallback = 0);
 void readGpis(ParamReader& r, GpisModel::Config* c);
 // model/type and the settings of every built-in model.
 void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c);
+void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c);
 void readTuning(ParamReader& r, TuningConfig* c);
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
 // Whether the table found by segmentation is used (the view's below-support points, no guesses
