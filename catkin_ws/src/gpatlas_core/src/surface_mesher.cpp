@@ -84,8 +84,9 @@ bool evaluateNodes(const SurfaceModel& model, double resolution, int batch_size,
 // closer to the zero level than `band` (in f). Elsewhere the block's nodes take the trilinear
 // interpolation of its corners, which keeps their common sign, so marching cubes finds there
 // exactly what it would find on the full grid: no crossing. Near the data f grows like the
-// normalised distance to the surface, so a band of two block diagonals (over the model's
-// scale) keeps every block a surface can enter.
+// normalised distance to the surface, so a band of one block diagonal (over the model's scale)
+// keeps every block a surface can enter; where f grows more slowly (far from the data) the band
+// only takes in more blocks.
 bool evaluateMissingNodes(const SurfaceModel& model, double resolution, int batch_size, int stride, Grid& grid) {
   const auto coarse_index = [&](int axis, int c) { return std::min(c * stride, grid.size[axis] - 1); };
   Eigen::Vector3i blocks;
@@ -97,7 +98,7 @@ bool evaluateMissingNodes(const SurfaceModel& model, double resolution, int batc
   if (!evaluateNodes(model, resolution, batch_size, nodes, grid)) return false;
   if (stride <= 1) return true;
 
-  const double band = 2.0 * std::sqrt(3.0) * stride * resolution / model.scale();
+  const double band = std::sqrt(3.0) * stride * resolution / model.scale();
   std::vector<Eigen::Vector3i> refined, smooth;  // block origins (coarse indices)
   for (int c = 0; c < blocks.z(); ++c)
     for (int b = 0; b < blocks.y(); ++b)
@@ -313,6 +314,8 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
     result.message = "the GP mean has no zero crossing inside the grid";
     return result;
   }
+  result.ok = true;
+  if (!config_.vertex_variances) return result;
   mesh.vertex_variances.assign(mesh.vertices.size(), 0.0);
   predictInBatches(model, mesh.vertices, config_.batch_size, /*with_variance=*/true,
                    [&](std::size_t n, const BatchPrediction& prediction, Eigen::Index row) {

@@ -245,7 +245,9 @@ class ExplorationNode {
     const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
     if (sample.ok) record.sampled_max_variance = sample.maxVariance();
     if (ground_truth_.empty()) return;
-    const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(model);
+    gpatlas_core::SurfaceMesher::Config shape_only = mesher_config_;
+    shape_only.vertex_variances = false;  // only the shape is measured here
+    const auto surface = gpatlas_core::SurfaceMesher(shape_only).mesh(model);
     if (!surface.ok) return;
     const auto metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
     if (!metrics.ok) return;

@@ -376,7 +376,15 @@ struct TruthSubsets {
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
                                          const TruthSubsets& subsets = TruthSubsets()) {
-  const auto surface = gpatlas_core::SurfaceMesher(o.pipeline.mesh).mesh(model);
+  const auto mesh_start = std::chrono::steady_clock::now();
+  // The variances only colour a saved mesh.
+  gpatlas_core::SurfaceMesher::Config mesh_config = o.pipeline.mesh;
+  mesh_config.vertex_variances = !save_as.empty();
+  const auto surface = gpatlas_core::SurfaceMesher(mesh_config).mesh(model);
+  const double mesh_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
+  if (o.verbose)
+    std::cout << "  [" << gt.name << "] mesh: " << surface.mesh.triangles.size() << " triangles on a "
+              << surface.grid_size.transpose() << " grid in " << mesh_s << " s" << std::endl;
   if (!surface.ok || surface.mesh.empty()) {
     gpatlas_core::ShapeMetricsResult failed;
     failed.message = "no predicted surface: " + surface.message;
@@ -388,7 +396,12 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
   }
   gpatlas_core::ShapeMetrics::Config metrics_config;
   metrics_config.keep_truth_distances = (subsets.rmse_reachable && gt.reachability_measured) || subsets.seen;
+  const auto metrics_start = std::chrono::steady_clock::now();
   gpatlas_core::ShapeMetricsResult metrics = gpatlas_core::ShapeMetrics(metrics_config).compare(surface.mesh, gt.mesh);
+  if (o.verbose)
+    std::cout << "  [" << gt.name << "] shape metrics in "
+              << std::chrono::duration<double>(std::chrono::steady_clock::now() - metrics_start).count() << " s"
+              << std::endl;
   const std::vector<double>& distances = metrics.truth_to_predicted_distances;
   if (metrics.ok && subsets.rmse_reachable && gt.reachability_measured && distances.size() == gt.sample_reachable.size())
     *subsets.rmse_reachable = maskedRmse(distances, gt.sample_reachable, true);

@@ -11,7 +11,7 @@ namespace gpatlas_core {
 struct SurfaceMeshResult {
   bool ok{false};
   std::string message;
-  TriangleMesh mesh;  // vertex_variances filled (reported units)
+  TriangleMesh mesh;  // vertex_variances filled (reported units) when Config::vertex_variances
   Eigen::Vector3i grid_size{Eigen::Vector3i::Zero()};
 };
 
@@ -45,6 +45,9 @@ class SurfaceMesher {
     // The model is evaluated on every coarse_stride-th node first, and node by node only in the
     // blocks between them that the surface can enter (1: every node). The mesh is the same.
     int coarse_stride{4};
+    // The variance at every vertex (the displays colour the mesh by it): one variance per vertex
+    // costs more than the whole mesh for a GP of a thousand points.
+    bool vertex_variances{true};
     int batch_size{2048};
   };
 
