@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 namespace {
@@ -45,6 +46,15 @@ TEST(SurfaceCalibration, HighOnTheTrueSurfaceLowOnAWrongOne) {
   EXPECT_EQ(on_truth.samples, truth.size());
   EXPECT_GT(on_truth.fraction, 0.9);
   EXPECT_NEAR(on_truth.fraction, bruteForceFraction(model, truth, 2.0), 1e-12);
+  // Sharpness: sd(f) / |grad f| at the median truth point, from the definition.
+  std::vector<double> position_sd;
+  for (const Vector3& p : truth) {
+    const gpatlas_core::Prediction prediction = model.predict(p);
+    position_sd.push_back(std::sqrt(prediction.variance / model.varianceUnitFactor()) / prediction.gradient.norm());
+  }
+  std::nth_element(position_sd.begin(), position_sd.begin() + position_sd.size() / 2, position_sd.end());
+  EXPECT_NEAR(on_truth.median_position_sd_m, position_sd[position_sd.size() / 2], 1e-9);
+  EXPECT_GT(on_truth.median_position_sd_m, 0.0);
 
   // A surface 3 cm outside the data: the model is sure f is well above 0 there.
   const std::vector<Vector3> wrong = onSphere(sphere.centre, sphere.radius + 0.03, 500);

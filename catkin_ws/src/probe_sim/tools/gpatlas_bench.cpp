@@ -305,6 +305,8 @@ struct RunResult {
   double rmse_gt_to_pred_unseen{std::nan("")};
   // The share of true-surface samples whose predicted f is within 2 sd of 0 (0.95 is calibrated).
   double calibration{std::nan("")};
+  // Its sharpness: the median sd of the surface's position along the normal there (m).
+  double position_sd_m{std::nan("")};
   double max_surface_variance{0.0};
   double wall_s{0.0};
   double plan_ms_median{0.0};
@@ -561,7 +563,10 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.metrics = measure(model, gt, o, mesh_file, subsets);
   const gpatlas_core::CalibrationResult calibration = gpatlas_core::surfaceCalibration(
       model, gpatlas_core::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed));
-  if (calibration.ok) r.calibration = calibration.fraction;
+  if (calibration.ok) {
+    r.calibration = calibration.fraction;
+    r.position_sd_m = calibration.median_position_sd_m;
+  }
   // A run that leaves no predicted surface is an error whatever the loop said.
   r.status = gpatlas_core::runStatus(result, r.metrics.ok, r.metrics.message);
   r.converged = r.status == "converged";
@@ -599,7 +604,8 @@ std::string csvField(const std::string& text) {
 void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
-       "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,max_surface_variance,wall_s,plan_ms_median,"
+       "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
+       "position_sd_m,max_surface_variance,wall_s,plan_ms_median,"
        "update_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
@@ -609,7 +615,8 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','
       << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << num(r.rmse_gt_to_pred_seen) << ','
       << num(r.rmse_gt_to_pred_unseen) << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
-      << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.max_surface_variance) << ','
+      << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.position_sd_m) << ','
+      << num(r.max_surface_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << '\n';
   }
 }
@@ -911,7 +918,8 @@ int main(int argc, char** argv) {
       if (std::isfinite(r.rmse_gt_to_pred_seen))
         std::cout << " (seen by the camera " << r.rmse_gt_to_pred_seen * 1000 << " mm, unseen "
                   << r.rmse_gt_to_pred_unseen * 1000 << " mm)";
-      if (std::isfinite(r.calibration)) std::cout << ", calibration " << r.calibration;
+      if (std::isfinite(r.calibration))
+        std::cout << ", calibration " << r.calibration << " (median position sd " << r.position_sd_m * 1000 << " mm)";
       std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
                 << r.wall_s << " s";
       if (!r.error.empty()) std::cout << " (" << r.error << ")";

@@ -19,6 +19,10 @@ struct CalibrationResult {
   std::size_t within{0};         // |mean| <= k * sd
   std::size_t out_of_domain{0};  // counted as not within: the model makes no claim there
   double fraction{0.0};          // within / samples
+  // Sharpness, the other half of the story: a model can be calibrated by being vague. The median
+  // over the in-domain samples of sd(f) / |grad f|, the standard deviation of the surface's
+  // position along its normal (metres).
+  double median_position_sd_m{0.0};
 };
 
 // `surface_points`: samples of the true surface (world frame). The standard deviation is that

@@ -40,8 +40,9 @@ class SurfaceMesher {
     // Explicit axis-aligned bounds override the automatic ones (and are never moved).
     std::optional<Vector3> min_corner;
     std::optional<Vector3> max_corner;
-    // Safety bound on the grid's nodes (memory, and one GP mean evaluation per node in the domain).
-    std::size_t max_nodes{4'000'000};
+    // Safety bound on the grid's nodes: 4 bytes each; the model is evaluated at a fraction of
+    // them (coarse_stride).
+    std::size_t max_nodes{32'000'000};
     // The model is evaluated on every coarse_stride-th node first, and node by node only in the
     // blocks between them that the surface can enter (1: every node). The mesh is the same.
     int coarse_stride{4};
