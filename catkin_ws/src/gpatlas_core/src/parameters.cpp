@@ -215,6 +215,15 @@ std::unique_ptr<YamlParameters> YamlParameters::fromFile(const std::string& path
   return params;
 }
 
+bool YamlParameters::overlay(const YamlParameters& overlay, std::string* error) {
+  for (const std::string& name : overlay.leafNames()) {
+    YAML::Emitter value;
+    value << YAML::Flow << overlay.impl_->find(name);
+    if (!set(name + "=" + value.c_str(), error)) return false;
+  }
+  return true;
+}
+
 bool YamlParameters::set(const std::string& assignment, std::string* error) {
   const std::size_t equals = assignment.find('=');
   if (equals == std::string::npos || equals == 0) {

@@ -44,6 +44,21 @@ TEST(PipelineYaml, ValuesReachTheConfigs) {
   EXPECT_EQ(c.touch.min_point_spacing_m, gpatlas_core::TouchObservationConfig().min_point_spacing_m);
 }
 
+TEST(YamlParameters, AnOverlaySetsItsLeavesAndKeepsTheRest) {
+  std::string error;
+  auto base = YamlParameters::fromString(
+      "exploration: {v_max: 0.1, max_actions: 100}\nsegmentation: {crop_min_m: [0, 0, 0]}\nstrategy: atlas_poke\n", &error);
+  auto overlay = YamlParameters::fromString(
+      "exploration: {v_max: 0.05}\nsegmentation: {crop_min_m: [0.1, -0.2, 0.3]}\nmodel: {type: gpis}\n", &error);
+  ASSERT_TRUE(base && overlay) << error;
+  ASSERT_TRUE(base->overlay(*overlay, &error)) << error;
+  EXPECT_DOUBLE_EQ(*base->number("exploration/v_max"), 0.05);
+  EXPECT_EQ(*base->integer("exploration/max_actions"), 100);
+  EXPECT_EQ(*base->numbers("segmentation/crop_min_m"), std::vector<double>({0.1, -0.2, 0.3}));
+  EXPECT_EQ(*base->text("strategy"), "atlas_poke");
+  EXPECT_EQ(*base->text("model/type"), "gpis");
+}
+
 TEST(YamlParameters, OverridesAndBadInputSayWhatIsWrong) {
   std::string error;
   auto params = YamlParameters::fromString("exploration: {v_max: 0.1}\nstrategy: atlas_poke\n", &error);

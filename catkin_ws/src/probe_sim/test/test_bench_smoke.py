@@ -111,9 +111,13 @@ class BenchSmokeTest(unittest.TestCase):
         # The mean row's mean NN per strategy is the mean of runs.csv's chamfer_l1_m (one run each).
         mean_row = next(line for line in summary.splitlines() if line.startswith("| **mean** |"))
         cells = [c.strip() for c in mean_row.strip("|").split("|")]
+        # Six cells per strategy: steps, RMSE, mean NN, F@5mm, calibration, converged.
         for i, strategy in enumerate(["atlas_poke", "random"]):
-            expected = float(next(r for r in rows if r["strategy"] == strategy)["chamfer_l1_m"])
-            self.assertAlmostEqual(float(cells[1 + 4 * i + 2]), expected, delta=1e-4, msg=mean_row)
+            run = next(r for r in rows if r["strategy"] == strategy)
+            self.assertAlmostEqual(float(cells[1 + 6 * i + 2]), float(run["chamfer_l1_m"]), delta=1e-4, msg=mean_row)
+            self.assertAlmostEqual(float(cells[1 + 6 * i + 4]), float(run["calibration_2sd"]), delta=1e-3, msg=mean_row)
+            self.assertTrue(0.0 <= float(run["calibration_2sd"]) <= 1.0, run)
+            self.assertGreater(float(run["position_sd_m"]), 0.0, run)
         self.assertIn("g->p reachable", summary)
         self.assertIn("- atlas_poke: median", summary)
         self.assertIn("planning time, random: median", proc.stdout)

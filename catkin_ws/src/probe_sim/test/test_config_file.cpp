@@ -7,6 +7,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 #include <set>
 
@@ -65,6 +66,25 @@ TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
       EXPECT_EQ(params->text(name).value_or("?"), in_code->text("v").value_or("")) << name;
     }
   }
+}
+
+// config/paper.yaml, the paper's configuration over the file: every name it sets is a parameter,
+// and the result reads cleanly.
+TEST(PipelineYaml, ThePapersOverlaySetsOnlyParametersAndSelectsTheGlobalGpis) {
+  std::string error;
+  const auto base = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
+  const auto overlay = gpatlas_core::YamlParameters::fromFile(GPATLAS_PAPER_OVERLAY, &error);
+  ASSERT_TRUE(base && overlay) << error;
+  const std::vector<std::string> names = base->leafNames();
+  for (const std::string& key : overlay->leafNames())
+    EXPECT_TRUE(std::find(names.begin(), names.end(), key) != names.end()) << "not a parameter: '" << key << "'";
+  ASSERT_TRUE(base->overlay(*overlay, &error)) << error;
+  gpatlas_core::ParamReader reader(*base);
+  gpatlas_core::PipelineConfig pipeline;
+  gpatlas_core::readPipeline(reader, &pipeline);
+  EXPECT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_EQ(pipeline.model.type, "gpis");
+  EXPECT_EQ(pipeline.view.max_surface_points, 600);
 }
 
 }  // namespace

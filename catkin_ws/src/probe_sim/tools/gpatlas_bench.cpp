@@ -65,6 +65,7 @@ struct Options {
   int jobs{1};
   std::string out{"bench_out"};
   std::string config_path{GPATLAS_DEFAULT_CONFIG};
+  std::vector<std::string> overlays;  // partial files over it, in order (e.g. config/paper.yaml)
   std::vector<std::string> overrides;  // --set key=value, in order
   std::string urdf_path{GPATLAS_VITO_URDF};  // the robot: its head camera and its arm
   std::string urdf_xml;
@@ -86,6 +87,8 @@ void printUsage() {
 Runs the pipeline's exploration (segmentation of a simulated depth view, the GPIS, Algorithm 2
 with a strategy, the simulated probe) on objects with a known truth, and measures the shape.
   --config FILE                  the pipeline's parameters [the repository's config/pipeline.yaml]
+  --overlay FILE                 a partial file whose parameters replace the config's (repeatable),
+                                 e.g. config/paper.yaml: the paper's global GPIS
   --set KEY=VALUE                override one of them, e.g. --set exploration/v_max=0.05 (repeatable)
   --object FILE|procedural:NAME  object to explore (repeatable); procedural names: )"
             << [] {
@@ -151,6 +154,7 @@ Options parseArgs(int argc, char** argv) {
       printUsage();
       std::exit(0);
     } else if (a == "--config") o.config_path = next();
+    else if (a == "--overlay") o.overlays.push_back(next());
     else if (a == "--set") o.overrides.push_back(next());
     else if (a == "--object") o.objects.push_back({next(), o.scale});
     else if (a == "--scale") {
@@ -191,6 +195,12 @@ Options parseArgs(int argc, char** argv) {
   std::string error;
   const std::unique_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
   if (!params) throw std::invalid_argument("--config: " + error);
+  std::vector<std::string> overlaid;
+  for (const std::string& path : o.overlays) {
+    const std::unique_ptr<gpatlas_core::YamlParameters> overlay = gpatlas_core::YamlParameters::fromFile(path, &error);
+    if (!overlay || !params->overlay(*overlay, &error)) throw std::invalid_argument("--overlay " + path + ": " + error);
+    for (const std::string& name : overlay->leafNames()) overlaid.push_back(name + " (" + path + ")");
+  }
   for (const std::string& assignment : o.overrides)
     if (!params->set(assignment, &error)) throw std::invalid_argument("--set: " + error);
   gpatlas_core::ParamReader reader(*params);
@@ -204,12 +214,14 @@ Options parseArgs(int argc, char** argv) {
   std::ifstream urdf(o.urdf_path);
   if (!urdf) throw std::invalid_argument("--urdf: cannot read " + o.urdf_path);
   o.urdf_xml.assign(std::istreambuf_iterator<char>(urdf), std::istreambuf_iterator<char>());
-  // A --set of a name no reader knows is a typo, not a setting.
-  for (const std::string& assignment : o.overrides) {
-    const std::string key = assignment.substr(0, assignment.find('='));
+  // A --set or an overlay of a name no reader knows is a typo, not a setting.
+  std::vector<std::string> given = overlaid;
+  for (const std::string& assignment : o.overrides) given.push_back(assignment);
+  for (const std::string& setting : given) {
+    const std::string key = setting.substr(0, setting.find_first_of("= "));
     const auto& read = reader.readNames();
     if (std::find(read.begin(), read.end(), key) == read.end())
-      throw std::invalid_argument("--set " + assignment + ": no such parameter (see " + o.config_path + ")");
+      throw std::invalid_argument(setting + ": no such parameter (see " + o.config_path + ")");
   }
   for (const std::string& library : o.pipeline.strategy_choice.libraries) {
     const auto load = gpatlas_core::loadStrategyLibrary(library);
@@ -719,6 +731,7 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   std::ofstream f(path);
   f << "# gpatlas_bench summary\n\n";
   f << "config `" << o.config_path << "`";
+  for (const auto& overlay : o.overlays) f << " --overlay " << overlay;
   for (const auto& assignment : o.overrides) f << " --set " << assignment;
   f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
   for (int s : o.seeds) f << ' ' << s;

@@ -81,6 +81,9 @@ class YamlParameters : public ParameterSource {
   bool set(const std::string& assignment, std::string* error);
   // Every leaf (scalar or sequence) name in the file, sorted.
   std::vector<std::string> leafNames() const;
+  // Sets every leaf of `overlay` here (a partial file over a full one); false with the reason
+  // if one cannot be set.
+  bool overlay(const YamlParameters& overlay, std::string* error);
 
   bool exists(const std::string& name) const override;
   std::optional<double> number(const std::string& name) const override;
