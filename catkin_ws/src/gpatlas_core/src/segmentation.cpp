@@ -108,7 +108,13 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
       // The inliers' footprint in the plane. A table's own side faces, seen at its edge, lie
       // below it but project onto the footprint's border: they do not count against it. What
       // lies below it elsewhere (an object under a flat face of its own) does.
-      const Vector3 u = n.unitOrthogonal(), v = n.cross(u);
+      // Box axes: the world's x (else y) projected onto the plane, so that a table aligned with
+      // the world has its sides on the box's border whatever the fitted normal's small tilt (an
+      // arbitrary orthogonal, e.g. Eigen's unitOrthogonal, turns with the tilt's direction).
+      Vector3 u = Vector3::UnitX() - n.x() * n;
+      if (u.norm() < 0.5) u = Vector3::UnitY() - n.y() * n;
+      u.normalize();
+      const Vector3 v = n.cross(u);
       Eigen::AlignedBox2d footprint;
       for (int index : inliers->indices) {
         const auto& p = downsampled->points[static_cast<std::size_t>(index)];
@@ -123,16 +129,21 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
         return outer.contains(q) && !inner.contains(q);
       };
       Cloud::Ptr above(new Cloud);
-      std::size_t below = 0;
+      std::size_t below = 0, below_on_border = 0;
       for (const auto& p : downsampled->points) {
         const Vector3 x(p.x, p.y, p.z);
         const double height = n.dot(x) + d;
         if (height > c.plane_distance_m) above->push_back(p);
-        else if (height < -c.plane_distance_m && !onBorder(x)) ++below;
+        else if (height < -c.plane_distance_m) ++(onBorder(x) ? below_on_border : below);
       }
       // A support plane has (almost) nothing under it. A horizontal face of the object itself,
       // e.g. a mug's rim in an object-only cloud, has the object below: keep everything then.
-      if (static_cast<double>(below) <= c.plane_max_fraction_below * static_cast<double>(downsampled->size())) {
+      // Nor is a plane with nothing on it and faces hanging from its border: the top of a box
+      // seen alone has its sides there, as a table has its own. (A bare plane is an empty table:
+      // removed, it leaves nothing, which is the error to report.)
+      const bool box_top = above->size() < c.cluster_min_points && below_on_border > 0;
+      if (!box_top &&
+          static_cast<double>(below) <= c.plane_max_fraction_below * static_cast<double>(downsampled->size())) {
         result.plane_found = true;
         result.plane_normal = n;
         result.plane_offset = d;

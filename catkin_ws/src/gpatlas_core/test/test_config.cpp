@@ -107,12 +107,16 @@ TEST(ViewTraining, OneSeedGivesOneTrainingSetWithEveryPart) {
   const std::vector<Vector3> view = sphereView(4000, eye);
   const gpatlas_core::SupportPlane table;  // z = 0
   gpatlas_core::ViewTrainingConfig config;
+  config.max_surface_points = 600;  // fewer than the view's: a random subset
+  config.near_surface_free_space.max_points = 500;
   const auto a = gpatlas_core::buildViewTraining(view, eye, table, config, 3);
   ASSERT_TRUE(a.ok) << a.message;
   EXPECT_EQ(a.surface, 600u);
   EXPECT_GT(a.free_space, 0u);
+  EXPECT_EQ(a.near_surface_free_space, 500u);
   EXPECT_GT(a.below_support, 0u);
-  EXPECT_EQ(a.points.size(), a.surface + a.free_space + a.occluded_interior + a.below_support);
+  EXPECT_EQ(a.points.size(),
+            a.surface + a.free_space + a.near_surface_free_space + a.occluded_interior + a.below_support);
   for (std::size_t i = 0; i < a.surface; ++i) {
     EXPECT_EQ(a.points[i].label, gpatlas_core::PointLabel::kSurface);
     EXPECT_NEAR((a.points[i].position - Vector3(0.7, 0.0, 0.05)).norm(), 0.05, 1e-12);  // a view point

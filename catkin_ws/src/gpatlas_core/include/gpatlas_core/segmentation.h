@@ -41,7 +41,7 @@ class ObjectSegmenter {
   struct Config {
     Vector3 crop_min_m{0.2, -0.5, -0.05};
     Vector3 crop_max_m{1.4, 0.5, 0.6};
-    double voxel_leaf_m{0.003};  // 0 disables the voxel grid
+    double voxel_leaf_m{0.002};  // 0 disables the voxel grid
     bool remove_plane{true};
     double plane_distance_m{0.006};
     int plane_max_iterations{300};

@@ -29,7 +29,7 @@ struct SurfaceMeshResult {
 class SurfaceMesher {
  public:
   struct Config {
-    double resolution_m{0.005};
+    double resolution_m{0.003};
     // Margin around the box of the surface observations, as a fraction of the radius of the
     // model's surface data (GpisModelConfig::data_radius in metres: data_radius * scale). One
     // radius: the unseen back of a partial view can lie about one visible width beyond the data,

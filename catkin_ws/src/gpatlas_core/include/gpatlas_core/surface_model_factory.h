@@ -13,7 +13,7 @@ namespace gpatlas_core {
 
 // Which surface model to build (the YAML's model/type), and the settings of the built-in ones.
 struct SurfaceModelConfig {
-  std::string type{GpisModel::kName};
+  std::string type{MultiscaleGpisModel::kName};
   GpisModelConfig gpis;  // the global GPIS (the paper's model); also the multiscale model's coarse level
   MultiscaleGpisConfig multiscale;  // "multiscale": coarse GPIS + local GPs of its residual
 };

@@ -53,7 +53,7 @@ struct NearSurfaceFreeSpaceConfig {
   // Distance in front of each view point, along the ray to the sensor.
   double offset_m{0.003};
   // At most this many (an even subset of the view's points); 0 disables them.
-  int max_points{0};
+  int max_points{50000};
   // Noise sigma of the samples, in the model's reference units.
   double noise_sigma{0.1};
 };
