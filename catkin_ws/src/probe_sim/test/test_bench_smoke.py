@@ -9,8 +9,9 @@ import tempfile
 import unittest
 
 COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,"
-           "rmse_pred_to_gt_m,rmse_gt_to_pred_m,chamfer_l1_m,fscore_5mm,max_surface_variance,wall_s,"
-           "plan_ms_median,update_ms_median").split(",")
+           "rmse_pred_to_gt_m,rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,"
+           "fscore_5mm,calibration_2sd,position_sd_m,max_surface_variance,wall_s,plan_ms_median,"
+           "update_ms_median").split(",")
 
 
 CURVE_EVERY = 2
