@@ -1,5 +1,7 @@
 #include "gpatlas_core/hyperparameter_tuner.h"
 
+#include "gpatlas_core/bounded_parameter.h"
+
 #include <ceres/ceres.h>
 
 #include <chrono>
@@ -11,25 +13,10 @@ namespace gpatlas_core {
 
 namespace {
 
-struct Box {
-  double lo;  // natural-log bounds
-  double hi;
-};
-
-double sigmoid(double z) { return 1.0 / (1.0 + std::exp(-z)); }
-
-// Maps unconstrained z to a log-parameter inside [lo, hi] and back.
-double toBounded(double z, const Box& b) { return b.lo + (b.hi - b.lo) * sigmoid(z); }
-double toUnbounded(double theta, const Box& b) {
-  const double eps = 1e-9;
-  double s = (theta - b.lo) / (b.hi - b.lo);
-  s = std::min(1.0 - eps, std::max(eps, s));
-  return std::log(s / (1.0 - s));
-}
 
 class NegativeLogLikelihood : public ceres::FirstOrderFunction {
  public:
-  NegativeLogLikelihood(const GpisModel& model, std::vector<Box> boxes, bool tune_noise, double fixed_log_noise)
+  NegativeLogLikelihood(const GpisModel& model, std::vector<BoundedParameter> boxes, bool tune_noise, double fixed_log_noise)
       : model_(model), boxes_(std::move(boxes)), tune_noise_(tune_noise), fixed_log_noise_(fixed_log_noise) {}
 
   int NumParameters() const override { return static_cast<int>(boxes_.size()); }
@@ -37,17 +24,15 @@ class NegativeLogLikelihood : public ceres::FirstOrderFunction {
   bool Evaluate(const double* z, double* cost, double* gradient) const override {
     const int p = model_.kernel().numParams();
     Eigen::VectorXd kernel_params(p);
-    for (int i = 0; i < p; ++i) kernel_params[i] = toBounded(z[i], boxes_[static_cast<std::size_t>(i)]);
-    const double log_noise = tune_noise_ ? toBounded(z[p], boxes_[static_cast<std::size_t>(p)]) : fixed_log_noise_;
+    for (int i = 0; i < p; ++i) kernel_params[i] = boxes_[static_cast<std::size_t>(i)].fromUnbounded(z[i]);
+    const double log_noise = tune_noise_ ? boxes_[static_cast<std::size_t>(p)].fromUnbounded(z[p]) : fixed_log_noise_;
     Eigen::VectorXd grad;
     const double lml = model_.logMarginalLikelihood(kernel_params, log_noise, gradient ? &grad : nullptr);
     if (!std::isfinite(lml)) return false;
     *cost = -lml;
     if (gradient) {
       for (int i = 0; i < NumParameters(); ++i) {
-        const Box& b = boxes_[static_cast<std::size_t>(i)];
-        const double s = sigmoid(z[i]);
-        gradient[i] = -grad[i] * (b.hi - b.lo) * s * (1.0 - s);
+        gradient[i] = -grad[i] * boxes_[static_cast<std::size_t>(i)].derivative(z[i]);
       }
     }
     return true;
@@ -55,7 +40,7 @@ class NegativeLogLikelihood : public ceres::FirstOrderFunction {
 
  private:
   const GpisModel& model_;
-  std::vector<Box> boxes_;
+  std::vector<BoundedParameter> boxes_;
   bool tune_noise_;
   double fixed_log_noise_;
 };
@@ -81,7 +66,7 @@ TuneReport HyperparameterTuner::tune(GpisModel& model) const {
   report.noise_scale_before = model.noiseScale();
   report.log_likelihood_before = model.logMarginalLikelihood();
 
-  std::vector<Box> boxes;
+  std::vector<BoundedParameter> boxes;
   if (!config_.param_bounds.empty()) {
     if (static_cast<int>(config_.param_bounds.size()) != p) {
       report.message = "param_bounds has " + std::to_string(config_.param_bounds.size()) + " entries, kernel '" +
@@ -107,9 +92,9 @@ TuneReport HyperparameterTuner::tune(GpisModel& model) const {
   if (config_.tune_noise) boxes.push_back({std::log(config_.min_noise_scale), std::log(config_.max_noise_scale)});
 
   std::vector<double> z(boxes.size());
-  for (int i = 0; i < p; ++i) z[static_cast<std::size_t>(i)] = toUnbounded(log_before[i], boxes[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < p; ++i) z[static_cast<std::size_t>(i)] = boxes[static_cast<std::size_t>(i)].toUnbounded(log_before[i]);
   const double log_noise_before = std::log(model.noiseScale());
-  if (config_.tune_noise) z[static_cast<std::size_t>(p)] = toUnbounded(log_noise_before, boxes.back());
+  if (config_.tune_noise) z[static_cast<std::size_t>(p)] = boxes.back().toUnbounded(log_noise_before);
 
   ceres::GradientProblem problem(
       new NegativeLogLikelihood(model, boxes, config_.tune_noise, log_noise_before));
@@ -135,8 +120,8 @@ TuneReport HyperparameterTuner::tune(GpisModel& model) const {
   if (!summary.IsSolutionUsable()) return finish(false, "Ceres found no usable solution: " + summary.message);
 
   Eigen::VectorXd log_after(p);
-  for (int i = 0; i < p; ++i) log_after[i] = toBounded(z[static_cast<std::size_t>(i)], boxes[static_cast<std::size_t>(i)]);
-  const double noise_after = config_.tune_noise ? std::exp(toBounded(z[static_cast<std::size_t>(p)], boxes.back()))
+  for (int i = 0; i < p; ++i) log_after[i] = boxes[static_cast<std::size_t>(i)].fromUnbounded(z[static_cast<std::size_t>(i)]);
+  const double noise_after = config_.tune_noise ? std::exp(boxes.back().fromUnbounded(z[static_cast<std::size_t>(p)]))
                                                 : model.noiseScale();
   if (!(-summary.final_cost >= report.log_likelihood_before - 1e-9))
     return finish(false, "tuning did not improve the likelihood; previous hyperparameters kept");

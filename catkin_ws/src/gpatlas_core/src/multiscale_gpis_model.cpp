@@ -1,5 +1,7 @@
 #include "gpatlas_core/multiscale_gpis_model.h"
 
+#include "gpatlas_core/bounded_parameter.h"
+
 #include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/kernel.h"
 
@@ -211,16 +213,6 @@ double cellLogLikelihood(const Cell& cell, const FineParams& p, double scale, Ei
   return lml;
 }
 
-struct Box {
-  double lo, hi;  // natural-log bounds
-};
-double sigmoid(double z) { return 1.0 / (1.0 + std::exp(-z)); }
-double toBounded(double z, const Box& b) { return b.lo + (b.hi - b.lo) * sigmoid(z); }
-double toUnbounded(double theta, const Box& b) {
-  const double eps = 1e-9;
-  const double s = std::min(1.0 - eps, std::max(eps, (theta - b.lo) / (b.hi - b.lo)));
-  return std::log(s / (1.0 - s));
-}
 
 }  // namespace
 
@@ -434,28 +426,26 @@ TuneReport MultiscaleGpisModel::Impl::tuneFine() {
     report.message = "fine tuning skipped: no cell";
     return report;
   }
-  const std::array<Box, 3> boxes{Box{std::log(config.sigma_min), std::log(config.sigma_max)},
-                                 Box{std::log(config.length_min_m), std::log(lengthMax())},
-                                 Box{std::log(config.noise_min_m), std::log(config.noise_max_m)}};
+  const std::array<BoundedParameter, 3> boxes{BoundedParameter{std::log(config.sigma_min), std::log(config.sigma_max)},
+                                 BoundedParameter{std::log(config.length_min_m), std::log(lengthMax())},
+                                 BoundedParameter{std::log(config.noise_min_m), std::log(config.noise_max_m)}};
   report.log_likelihood_before = sampleLogLikelihood(sample, log_fine, nullptr);
 
   class Objective : public ceres::FirstOrderFunction {
    public:
-    Objective(const Impl& m, const std::vector<std::size_t>& sample, const std::array<Box, 3>& boxes)
+    Objective(const Impl& m, const std::vector<std::size_t>& sample, const std::array<BoundedParameter, 3>& boxes)
         : m_(m), sample_(sample), boxes_(boxes) {}
     int NumParameters() const override { return 3; }
     bool Evaluate(const double* z, double* cost, double* gradient) const override {
       Eigen::Vector3d theta;
-      for (int i = 0; i < 3; ++i) theta[i] = toBounded(z[i], boxes_[static_cast<std::size_t>(i)]);
+      for (int i = 0; i < 3; ++i) theta[i] = boxes_[static_cast<std::size_t>(i)].fromUnbounded(z[i]);
       Eigen::Vector3d grad;
       const double lml = m_.sampleLogLikelihood(sample_, theta, gradient ? &grad : nullptr);
       if (!std::isfinite(lml)) return false;
       *cost = -lml;
       if (gradient)
         for (int i = 0; i < 3; ++i) {
-          const Box& b = boxes_[static_cast<std::size_t>(i)];
-          const double s = sigmoid(z[i]);
-          gradient[i] = -grad[i] * (b.hi - b.lo) * s * (1.0 - s);
+          gradient[i] = -grad[i] * boxes_[static_cast<std::size_t>(i)].derivative(z[i]);
         }
       return true;
     }
@@ -463,11 +453,11 @@ TuneReport MultiscaleGpisModel::Impl::tuneFine() {
    private:
     const Impl& m_;
     const std::vector<std::size_t>& sample_;
-    std::array<Box, 3> boxes_;
+    std::array<BoundedParameter, 3> boxes_;
   };
 
   double z[3];
-  for (int i = 0; i < 3; ++i) z[i] = toUnbounded(log_fine[i], boxes[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < 3; ++i) z[i] = boxes[static_cast<std::size_t>(i)].toUnbounded(log_fine[i]);
   ceres::GradientProblem problem(new Objective(*this, sample, boxes));
   ceres::GradientProblemSolver::Options options;
   options.line_search_direction_type = ceres::LBFGS;
@@ -478,7 +468,7 @@ TuneReport MultiscaleGpisModel::Impl::tuneFine() {
   ceres::Solve(options, problem, z, &summary);
   report.iterations = static_cast<int>(summary.iterations.size());
   Eigen::Vector3d tuned;
-  for (int i = 0; i < 3; ++i) tuned[i] = toBounded(z[i], boxes[static_cast<std::size_t>(i)]);
+  for (int i = 0; i < 3; ++i) tuned[i] = boxes[static_cast<std::size_t>(i)].fromUnbounded(z[i]);
   const double after = summary.IsSolutionUsable() ? sampleLogLikelihood(sample, tuned, nullptr) : kNaN;
   std::ostringstream msg;
   if (std::isfinite(after) && after > report.log_likelihood_before) {
