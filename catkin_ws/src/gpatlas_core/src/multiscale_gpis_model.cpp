@@ -268,7 +268,10 @@ struct MultiscaleGpisModel::Impl {
         if (probe_voxels.insert(packKey(v)).second) always.push_back(i);
       } else if (p.label == PointLabel::kSurface) {
         view_surface.push_back(i);
-      } else {
+      } else if (!(p.surface_distance_m < config.overlap_m)) {
+        // Free space and interior closer to the surface than the fine level's reach are detail
+        // the coarse level cannot represent: left to the cells, they do not crowd out the far
+        // free space, the interior and the table that shape the unseen parts.
         view_other.push_back(i);
       }
     }
