@@ -327,7 +327,17 @@ class ExplorationNode {
       srv.request.strategy = node_.strategy_;
       srv.request.seed = request.seed;
       for (const auto& p : request.evidence.attempted_targets) srv.request.attempted_targets.push_back(toPointMsg(p));
-      if (!node_.callService("next_touch", srv)) throw std::runtime_error("next_touch did not answer");
+      // Plan on the model that holds the last update: the planner rebuilds its replica from the
+      // training set this node has seen, which can take it longer than this node took to see it.
+      if (const auto training = node_.latestTraining()) srv.request.model_stamp = training->header.stamp;
+      const ros::WallTime asked = ros::WallTime::now();
+      while (true) {
+        if (!node_.callService("next_touch", srv)) throw std::runtime_error("next_touch did not answer");
+        if (srv.response.status != gpatlas_msgs::GetNextTouch::Response::STALE_MODEL) break;
+        if ((ros::WallTime::now() - asked).toSec() > node_.node_config_.call_timeout_s)
+          throw std::runtime_error("next_touch: " + srv.response.message);
+        ros::WallDuration(0.02).sleep();
+      }
       gpatlas_core::PlanResult plan;
       plan.message = srv.response.message;
       plan.max_surface_variance = srv.response.max_surface_variance;

@@ -267,6 +267,18 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
   EXPECT_NE(bad.response.message.find("atlas_poke"), std::string::npos) << bad.response.message;
 
+  // A request for a model newer than the planner's (its training set not rebuilt yet) is told so,
+  // and one for the model it holds is planned.
+  gpatlas_msgs::GetNextTouch fresh;
+  fresh.request.v_max = 0.1;
+  fresh.request.model_stamp = ros::Time::now() + ros::Duration(3600.0);
+  ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", fresh));
+  EXPECT_EQ(fresh.response.status, gpatlas_msgs::GetNextTouch::Response::STALE_MODEL) << fresh.response.message;
+  EXPECT_NE(fresh.response.message.find("older"), std::string::npos) << fresh.response.message;
+  fresh.request.model_stamp = ros::Time(1.0);
+  ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", fresh));
+  EXPECT_EQ(fresh.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << fresh.response.message;
+
   // Where earlier touches aimed counts as evidence: with the variance out of the way (V_max
   // 1e9), the unseen side still needs a touch (max_evidence_distance), until the request says
   // that touches aimed all over the sphere.

@@ -159,6 +159,7 @@ class AtlasPlannerServer {
 
   std::mutex mutex_;
   std::unique_ptr<gpatlas_core::SurfaceModel> model_;
+  ros::Time model_stamp_;  // the stamp of the training set model_ was rebuilt from
   std::string model_error_;
   std::map<std::string, std::unique_ptr<gpatlas_core::ExplorationStrategy>> strategies_;
   std::uint64_t plan_count_{0};

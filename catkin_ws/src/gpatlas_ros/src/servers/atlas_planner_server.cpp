@@ -8,6 +8,7 @@
 #include <gpatlas_core/strategy_library.h>
 
 #include <cmath>
+#include <sstream>
 
 namespace gpatlas_ros {
 
@@ -109,6 +110,7 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       return;
     }
     model_ = std::move(model);
+    model_stamp_ = msg->header.stamp;
     model_error_.clear();
     ROS_DEBUG_STREAM("atlas_planner: " << model_->name() << " model with " << model_->observations().size() << " observations");
   } catch (const std::exception& e) {
@@ -126,6 +128,14 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
     res.status = gpatlas_msgs::GetNextTouch::Response::NO_MODEL;
     res.message = model_error_.empty() ? "no model yet: the GP has not published a training set"
                                        : "no usable model: " + model_error_;
+    return true;
+  }
+  if (!req.model_stamp.isZero() && model_stamp_ < req.model_stamp) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::STALE_MODEL;
+    std::ostringstream message;
+    message << "the planner's model (training set of " << model_stamp_ << ") is older than the one asked for ("
+            << req.model_stamp << "): its training set has not been rebuilt yet";
+    res.message = message.str();
     return true;
   }
   const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
