@@ -427,29 +427,6 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
   return metrics;
 }
 
-// Plans on a replica of `model` rebuilt from its state before every plan, as the AtlasPlanner
-// nodelet does from the training set.
-class ReplicaTouchPlanner : public gpatlas_core::TouchPlanner {
- public:
-  ReplicaTouchPlanner(const gpatlas_core::SurfaceModel& model, gpatlas_core::SurfaceModelConfig config,
-                      const gpatlas_core::ExplorationStrategy& strategy, gpatlas_core::EvidenceRule evidence)
-      : model_(model), config_(std::move(config)), strategy_(strategy), evidence_(std::move(evidence)) {}
-
-  gpatlas_core::PlanResult plan(const gpatlas_core::PlanRequest& request) override {
-    std::unique_ptr<gpatlas_core::SurfaceModel> replica = gpatlas_core::makeSurfaceModel(config_);
-    const gpatlas_core::FitReport rebuilt = replica->restore(model_.state());
-    if (!rebuilt.ok) throw std::runtime_error("cannot rebuild the model to plan on: " + rebuilt.message);
-    return gpatlas_core::ModelTouchPlanner(*replica, strategy_, evidence_).plan(request);
-  }
-  std::size_t modelSize() const override { return model_.observations().size(); }
-
- private:
-  const gpatlas_core::SurfaceModel& model_;
-  gpatlas_core::SurfaceModelConfig config_;
-  const gpatlas_core::ExplorationStrategy& strategy_;
-  gpatlas_core::EvidenceRule evidence_;
-};
-
 RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
                  std::mutex& print_mutex) {
   const auto start = std::chrono::steady_clock::now();
@@ -572,13 +549,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     std::lock_guard<std::mutex> lock(print_mutex);
     std::cout << line.str() << std::endl;
   };
-  // The pipeline plans on a replica that the planner nodelet rebuilds from the GP's training set
-  // after every update (SurfaceModel::restore): so does the bench, so that both plan on the
-  // same numbers (an incrementally updated model differs from a rebuilt one in its last digits,
-  // and the planner turns such a difference into another touch).
-  ReplicaTouchPlanner planner(model, pipeline.model, *strategy, evidence);
-  gpatlas_core::ModelTouchUpdater updater(model, pipeline.touch);
-  gpatlas_core::ExplorationResult result = explorer.run(planner, prober, updater, progress);
+  gpatlas_core::ExplorationResult result = explorer.run(model, *strategy, prober, pipeline.touch, evidence, progress);
 
   r.actions = result.actions;
   r.contacts = result.contacts;
