@@ -1,6 +1,7 @@
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/strategy_library.h"
+#include "gpatlas_core/surface_model_factory.h"
 
 #include "analytic_sphere.h"
 
@@ -20,6 +21,30 @@ constexpr const char* kStrategy = "farthest_from_evidence";
 bool known(const std::string& name) {
   const auto names = gpatlas_core::strategyNames();
   return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+// A library that registers a surface model: built by name like the built-in ones, and rebuilt
+// exactly from its state (what the nodelets' replicas do).
+TEST(StrategyLibrary, LoadsASurfaceModelThatFitsAndRebuildsFromItsState) {
+  const auto load = loadStrategyLibrary(GPATLAS_EXAMPLE_MODEL_LIBRARY);
+  ASSERT_TRUE(load.ok) << load.message;
+  EXPECT_TRUE(load.added.empty());
+  EXPECT_EQ(load.added_models, std::vector<std::string>{"gpis_matern52"});
+  gpatlas_core::SurfaceModelConfig config;
+  config.type = "gpis_matern52";
+  const std::unique_ptr<gpatlas_core::SurfaceModel> model = gpatlas_core::makeSurfaceModel(config);
+  EXPECT_EQ(model->name(), "gpis_matern52");
+  const AnalyticSphere sphere;
+  ASSERT_TRUE(model->fit(sphere.view(200, -1.0, 0.1, 2)).ok);
+  // The kernel is the library's, not the default's: its parameters are a sigma and a length.
+  EXPECT_EQ(model->hyperparameterNames(), (std::vector<std::string>{"log_sigma", "log_length", "log_noise_scale"}));
+  const gpatlas_core::Vector3 on_surface = sphere.centre + sphere.radius * gpatlas_core::Vector3(0.6, 0.0, 0.8);
+  EXPECT_NEAR(model->mean(on_surface), 0.0, 0.05);
+  const std::unique_ptr<gpatlas_core::SurfaceModel> replica = gpatlas_core::makeSurfaceModel(config);
+  ASSERT_TRUE(replica->restore(model->state()).ok);
+  EXPECT_EQ(replica->mean(sphere.centre), model->mean(sphere.centre));
+  EXPECT_EQ(replica->variance(on_surface), model->variance(on_surface));
+  EXPECT_EQ(replica->clone()->name(), "gpis_matern52");
 }
 
 TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {

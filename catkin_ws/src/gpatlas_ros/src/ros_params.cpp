@@ -1,5 +1,8 @@
 #include "gpatlas_ros/ros_params.h"
 
+#include <gpatlas_core/config_readers.h>
+#include <gpatlas_core/strategy_library.h>
+
 #include <ros/console.h>
 
 namespace gpatlas_ros {
@@ -16,6 +19,22 @@ void ParamReader::report(const std::string& who) const {
   if (!ok()) ROS_ERROR_STREAM(who << ": invalid parameters, defaults used instead: " << errors());
   if (!defaultedNames().empty())
     ROS_INFO_STREAM(who << ": parameters not set in " << ns() << ", defaults used: " << defaulted());
+}
+
+void loadPluginLibraries(gpatlas_core::ParamReader& reader, const std::string& who) {
+  gpatlas_core::StrategyChoice choice;
+  gpatlas_core::readStrategyChoice(reader, &choice);
+  for (const std::string& library : choice.libraries) {
+    const gpatlas_core::StrategyLibraryLoad load = gpatlas_core::loadStrategyLibrary(library);
+    if (!load.ok) {
+      reader.invalid("strategy_libraries", load.message);
+      continue;
+    }
+    std::string names;
+    for (const std::string& name : load.added) names += " " + name;
+    for (const std::string& name : load.added_models) names += " " + name + " (surface model)";
+    ROS_INFO_STREAM(who << ": " << library << " adds" << names);
+  }
 }
 
 }  // namespace gpatlas_ros

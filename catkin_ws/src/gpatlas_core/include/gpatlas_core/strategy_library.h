@@ -20,11 +20,14 @@ struct StrategyLibraryLoad {
   bool ok{false};
   std::string message;             // what went wrong, when !ok
   std::vector<std::string> added;  // the strategy names the library registered
+  // The surface models it registered (GPATLAS_REGISTER_SURFACE_MODEL, surface_model_factory.h):
+  // a library may add strategies, models or both.
+  std::vector<std::string> added_models;
 };
 
 // Loads the library once: later calls with the same file, under any name, give the names of the
 // first load. Fails with a message when the file cannot be loaded (dlerror's reason) or registers
-// no new strategy (no GPATLAS_REGISTER_STRATEGY, only names that are already taken, or a library
+// no new strategy nor surface model (no GPATLAS_REGISTER_STRATEGY, only names that are already taken, or a library
 // the program already holds). The library stays loaded for the life of the process: the factories
 // it registered live in it. Its static initialisers run in the caller's process (a nodelet
 // manager, for the AtlasPlanner): a library that throws or crashes there takes the process down.

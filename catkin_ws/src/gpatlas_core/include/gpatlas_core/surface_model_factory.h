@@ -30,3 +30,12 @@ bool registerSurfaceModel(const std::string& name, SurfaceModelFactory factory);
 std::vector<std::string> surfaceModelNames();
 
 }  // namespace gpatlas_core
+
+#define GPATLAS_SURFACE_MODEL_CONCAT_INNER(a, b) a##b
+#define GPATLAS_SURFACE_MODEL_CONCAT(a, b) GPATLAS_SURFACE_MODEL_CONCAT_INNER(a, b)
+// Registers a surface model factory when the translation unit (or the plugin library holding it,
+// loaded as a strategy library is: strategy_library.h) is loaded. The model's name() must be the
+// registered name, which replicas are rebuilt by.
+#define GPATLAS_REGISTER_SURFACE_MODEL(name, ...)                                                            \
+  static const bool GPATLAS_SURFACE_MODEL_CONCAT(gpatlas_surface_model_registered_, __COUNTER__) [[maybe_unused]] = \
+      ::gpatlas_core::registerSurfaceModel(name, __VA_ARGS__)

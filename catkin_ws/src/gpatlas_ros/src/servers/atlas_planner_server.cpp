@@ -29,17 +29,8 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   default_strategy_ = choice.name;
   readSurfaceModel(reader, &model_config_);
   readStrategy(reader, &strategy_config_);
-  // Strategies of your own (gpatlas_core/strategy_library.h), before the default is looked up.
-  for (const std::string& library : choice.libraries) {
-    const gpatlas_core::StrategyLibraryLoad load = gpatlas_core::loadStrategyLibrary(library);
-    if (!load.ok) {
-      reader.invalid("strategy_libraries", load.message);
-      continue;
-    }
-    std::string names;
-    for (const std::string& name : load.added) names += " " + name;
-    ROS_INFO_STREAM("atlas_planner: " << library << " adds the strategies:" << names);
-  }
+  // Strategies and models of your own, before the default is looked up.
+  loadPluginLibraries(reader, "atlas_planner");
   std::string error;
   if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
   reader.report("atlas_planner");

@@ -22,6 +22,7 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
   readSurfaceModel(reader, &model_config_);
+  loadPluginLibraries(reader, "collision_map");
   readCollisionMap(reader, &map_config_);
   reader.report("collision_map");
   octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);

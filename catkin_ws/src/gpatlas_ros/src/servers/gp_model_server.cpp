@@ -31,6 +31,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readExplorer(reader, &loop);
   display_v_max_ = loop.v_max;
   readSurfaceModel(reader, &model_config_);
+  loadPluginLibraries(reader, "gp_model");  // a model of your own, before it is built
   readMesher(reader, &mesher_config_);
   reader.report("gp_model");
   try {
