@@ -26,8 +26,6 @@ constexpr double kLog2Pi = 1.8378770664093453;
 
 bool isFinite(const Vector3& v) { return v.allFinite(); }
 
-double targetOf(const TrainingPoint& p, double scale) { return gpisTarget(p, scale); }
-
 
 // Covariance between two observations at normalised positions a and b: of f itself where the
 // direction is zero, else of f's slope along that unit direction. With d = a - b and k' = dk/dr:
@@ -150,7 +148,7 @@ struct GpisModel::Impl {
     }
   }
   // The GP's target for an observation: its label's value minus the prior mean there.
-  double residualOf(const TrainingPoint& p) const { return targetOf(p, scale) - priorOf(p); }
+  double residualOf(const TrainingPoint& p) const { return gpisTarget(p, scale) - priorOf(p); }
 
   bool isSlopeRow(Eigen::Index i) const { return slope_dir.col(i).squaredNorm() > 0.0; }
   void collectSlopeRows() {
@@ -425,7 +423,7 @@ FitReport GpisModel::refit(bool renormalise) {
     // Duplicates: the same label's value (or the same slope) at (nearly) the same place; kept
     // observations are in the order of m.x after the pseudo-points.
     bool duplicate = false;
-    const double value = targetOf(p, m.scale);
+    const double value = gpisTarget(p, m.scale);
     for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
       duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
                   (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
@@ -507,7 +505,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   std::vector<double> kept_values;  // label values (targets before the prior), as for the model's
   std::vector<double> observation_values;
   observation_values.reserve(m.observations.size());
-  for (const auto& o : m.observations) observation_values.push_back(targetOf(o, m.scale));
+  for (const auto& o : m.observations) observation_values.push_back(gpisTarget(o, m.scale));
   std::size_t out_of_domain = 0, duplicates = 0, bad_prior = 0;
   const double dup2 = c.duplicate_distance * c.duplicate_distance;
   for (const auto& p : accepted) {
@@ -521,7 +519,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
       ++bad_prior;
       continue;
     }
-    const double value = targetOf(p, m.scale);
+    const double value = gpisTarget(p, m.scale);
     bool duplicate = false;
     for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
       duplicate = observation_values[j] == value && sameSlopeDirection(m.observations[j], p) &&

@@ -395,6 +395,9 @@ struct MultiscaleGpisModel::Impl {
   // Fits everything from `observations` (in the given frame when `frame_centroid` is set), with
   // the current coarse and fine hyperparameters (fine ones tuned first when `tune`).
   FitReport build(const Vector3* frame_centroid, double frame_scale, bool tune);
+  // `trial` (a fresh Impl of the same configs) with these log-hyperparameters (the coarse GPIS's,
+  // then the fine level's) and this model's last fine tuning; false with the reason in `report`.
+  bool withHyperparameters(const Eigen::VectorXd& log_params, Impl* trial, FitReport* report) const;
 
   FitReport factorCells(std::vector<Cell*> targets) const {
     FitReport report;
@@ -489,6 +492,21 @@ TuneReport MultiscaleGpisModel::Impl::tuneFine() {
   report.params_after = log_fine.array().exp();
   report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
+}
+
+bool MultiscaleGpisModel::Impl::withHyperparameters(const Eigen::VectorXd& log_params, Impl* trial,
+                                                    FitReport* report) const {
+  const Eigen::Index nc = coarse.hyperparameters().size();
+  if (log_params.size() != nc + 3 || !log_params.allFinite()) {
+    report->message = "expected " + std::to_string(nc + 3) + " finite log-parameters (" + std::to_string(nc) +
+                      " of the coarse GPIS, then fine sigma, length_m, noise_m), got " + std::to_string(log_params.size());
+    return false;
+  }
+  *report = trial->coarse.setHyperparameters(log_params.head(nc));
+  if (!report->ok) return false;
+  trial->log_fine = log_params.tail(3);
+  trial->fine_tune = fine_tune;
+  return true;
 }
 
 FitReport MultiscaleGpisModel::Impl::build(const Vector3* frame_centroid, double frame_scale, bool tune) {
@@ -984,17 +1002,8 @@ Eigen::VectorXd MultiscaleGpisModel::hyperparameters() const {
 
 FitReport MultiscaleGpisModel::setHyperparameters(const Eigen::VectorXd& log_params) {
   FitReport report;
-  const Eigen::Index nc = impl_->coarse.hyperparameters().size();
-  if (log_params.size() != nc + 3 || !log_params.allFinite()) {
-    report.message = "expected " + std::to_string(nc + 3) + " finite log-parameters (" + std::to_string(nc) +
-                     " of the coarse GPIS, then fine sigma, length_m, noise_m), got " + std::to_string(log_params.size());
-    return report;
-  }
   Impl trial(impl_->config, impl_->coarse_config);
-  report = trial.coarse.setHyperparameters(log_params.head(nc));
-  if (!report.ok) return report;
-  trial.log_fine = log_params.tail(3);
-  trial.fine_tune = impl_->fine_tune;
+  if (!impl_->withHyperparameters(log_params, &trial, &report)) return report;
   if (!impl_->fitted) {
     *impl_ = std::move(trial);
     report.message = "hyperparameters set; model not fitted yet";
@@ -1045,23 +1054,14 @@ FitReport MultiscaleGpisModel::restore(const SurfaceModelState& state) {
     report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
     return report;
   }
-  const Eigen::Index nc = impl_->coarse.hyperparameters().size();
-  const Eigen::VectorXd params =
-      Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(), static_cast<Eigen::Index>(state.hyperparameters.size()));
-  if (params.size() != nc + 3 || !params.allFinite()) {
-    report.message = "the state has " + std::to_string(params.size()) + " hyperparameters, this model has " +
-                     std::to_string(nc + 3) + " (or they are not finite)";
-    return report;
-  }
   if (!state.centroid.allFinite() || !(state.scale > 0.0)) {
     report.message = "invalid normalisation frame in the state";
     return report;
   }
+  const Eigen::VectorXd params =
+      Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(), static_cast<Eigen::Index>(state.hyperparameters.size()));
   Impl trial(impl_->config, impl_->coarse_config);
-  report = trial.coarse.setHyperparameters(params.head(nc));
-  if (!report.ok) return report;
-  trial.log_fine = params.tail(3);
-  trial.fine_tune = impl_->fine_tune;
+  if (!impl_->withHyperparameters(params, &trial, &report)) return report;
   FitReport screen;
   trial.observations = screenPoints(state.observations, &screen);
   report = trial.build(&state.centroid, state.scale, false);

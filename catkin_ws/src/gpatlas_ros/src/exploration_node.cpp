@@ -58,7 +58,7 @@ class ExplorationNode {
     readExplorationNode(r, &node_config_);
     results_dir_ = node_config_.results_dir;
     readSurfaceModel(r, &model_config_);
-    loadPluginLibraries(r, "exploration");
+    loadPluginLibraries(choice.libraries, r, "exploration");
     readMesher(r, &mesher_config_);
     if (!r.ok()) throw std::runtime_error("invalid parameters: " + r.errors());
     r.report("exploration");

@@ -1,6 +1,5 @@
 #include "gpatlas_ros/ros_params.h"
 
-#include <gpatlas_core/config_readers.h>
 #include <gpatlas_core/strategy_library.h>
 
 #include <ros/console.h>
@@ -21,10 +20,9 @@ void ParamReader::report(const std::string& who) const {
     ROS_INFO_STREAM(who << ": parameters not set in " << ns() << ", defaults used: " << defaulted());
 }
 
-void loadPluginLibraries(gpatlas_core::ParamReader& reader, const std::string& who) {
-  gpatlas_core::StrategyChoice choice;
-  gpatlas_core::readStrategyChoice(reader, &choice);
-  for (const std::string& library : choice.libraries) {
+void loadPluginLibraries(const std::vector<std::string>& libraries, gpatlas_core::ParamReader& reader,
+                         const std::string& who) {
+  for (const std::string& library : libraries) {
     const gpatlas_core::StrategyLibraryLoad load = gpatlas_core::loadStrategyLibrary(library);
     if (!load.ok) {
       reader.invalid("strategy_libraries", load.message);

@@ -257,6 +257,10 @@ struct GroundTruth {
   double reachable_area_fraction{1.0};
   double floor_rmse_gt_to_pred{0.0};
   std::vector<bool> sample_reachable;
+  // Which of the same samples the camera sees (samplesSeenFrom); empty without a camera.
+  std::vector<bool> sample_seen;
+  // The truth samples of the calibration (surfaceCalibration).
+  std::vector<gpatlas_core::Vector3> calibration_samples;
 };
 
 void measureReachability(GroundTruth& gt, const probe_sim::SimulationSettings& simulation, int directions) {
@@ -288,6 +292,30 @@ void measureReachability(GroundTruth& gt, const probe_sim::SimulationSettings& s
 }
 
 
+// The truth samples of the calibration (surfaceCalibration): the same for every run of an object.
+constexpr std::size_t kCalibrationSamples = 2000;
+constexpr std::uint64_t kCalibrationSeed = 11;
+
+// Which of the shape metrics' truth samples the camera at `eye` sees: the first hit of its ray
+// to the sample is the sample itself.
+std::vector<bool> samplesSeenFrom(const probe_sim::Scene& scene, const probe_sim::TriangleMesh& mesh,
+                                  const Eigen::Vector3d& eye) {
+  const gpatlas_core::ShapeMetrics::Config metrics;
+  const std::vector<gpatlas_core::Vector3> samples =
+      gpatlas_core::sampleMeshSurface(mesh, metrics.samples_per_mesh, gpatlas_core::truthSampleSeed(metrics.seed));
+  Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(samples.size())), to(3, from.cols());
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    from.col(static_cast<Eigen::Index>(i)) = eye;
+    // A millimetre beyond the sample, so that the sample's own triangle is hit.
+    to.col(static_cast<Eigen::Index>(i)) = samples[i] + 1e-3 * (samples[i] - eye).normalized();
+  }
+  const std::vector<probe_sim::RayHit> hits = scene.castRays(from, to);
+  std::vector<bool> seen(samples.size(), false);
+  for (std::size_t i = 0; i < samples.size(); ++i)
+    seen[i] = hits[i].hit && hits[i].distance >= (samples[i] - eye).norm() - 1e-3;
+  return seen;
+}
+
 GroundTruth loadObject(const std::string& spec, double scale, const Options& o) {
   GroundTruth gt;
   const std::string prefix = "procedural:";
@@ -296,6 +324,12 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
   simulation.object = spec;
   simulation.object_scale = scale;
   gt.mesh = probe_sim::loadSimulatedObject(simulation);
+  gt.calibration_samples = gpatlas_core::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed);
+  // A camera the settings cannot place fails every run of the object, with the reason.
+  std::string camera_error;
+  if (const std::optional<Eigen::Isometry3d> camera = probe_sim::cameraPose(simulation, o.urdf_xml, &camera_error))
+    gt.sample_seen = samplesSeenFrom(probe_sim::Scene(gt.mesh, probe_sim::sceneConfig(simulation)), gt.mesh,
+                                     camera->translation());
   return gt;
 }
 
@@ -328,10 +362,6 @@ struct RunResult {
   std::string error;
 };
 
-// The truth samples of the calibration (surfaceCalibration): the same for every run of an object.
-constexpr std::size_t kCalibrationSamples = 2000;
-constexpr std::uint64_t kCalibrationSeed = 11;
-
 double median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -358,38 +388,16 @@ double maskedRmse(const std::vector<double>& distances, const std::vector<bool>&
   return n > 0 ? std::sqrt(sum_squared / static_cast<double>(n)) : std::nan("");
 }
 
-// Which of the shape metrics' truth samples the camera at `eye` sees: the first hit of its ray
-// to the sample is the sample itself.
-std::vector<bool> samplesSeenFrom(const probe_sim::Scene& scene, const probe_sim::TriangleMesh& mesh,
-                                  const Eigen::Vector3d& eye) {
-  const gpatlas_core::ShapeMetrics::Config metrics;
-  const std::vector<gpatlas_core::Vector3> samples =
-      gpatlas_core::sampleMeshSurface(mesh, metrics.samples_per_mesh, gpatlas_core::truthSampleSeed(metrics.seed));
-  Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(samples.size())), to(3, from.cols());
-  for (std::size_t i = 0; i < samples.size(); ++i) {
-    from.col(static_cast<Eigen::Index>(i)) = eye;
-    // A millimetre beyond the sample, so that the sample's own triangle is hit.
-    to.col(static_cast<Eigen::Index>(i)) = samples[i] + 1e-3 * (samples[i] - eye).normalized();
-  }
-  const std::vector<probe_sim::RayHit> hits = scene.castRays(from, to);
-  std::vector<bool> seen(samples.size(), false);
-  for (std::size_t i = 0; i < samples.size(); ++i)
-    seen[i] = hits[i].hit && hits[i].distance >= (samples[i] - eye).norm() - 1e-3;
-  return seen;
-}
-
-// `rmse_reachable`: also the truth-to-predicted RMSE over the reachable truth, when measured;
-// `seen` (the samples the camera saw, samplesSeenFrom): also over the seen and the unseen truth.
-struct TruthSubsets {
-  const std::vector<bool>* seen{nullptr};
-  double* rmse_reachable{nullptr};
-  double* rmse_seen{nullptr};
-  double* rmse_unseen{nullptr};
+// Truth-to-predicted RMSE over parts of the truth (GroundTruth's masks); NaN where not measured.
+struct TruthSubsetRmse {
+  double reachable{std::nan("")};
+  double seen{std::nan("")};
+  double unseen{std::nan("")};
 };
 
 gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
-                                         const TruthSubsets& subsets = TruthSubsets()) {
+                                         TruthSubsetRmse* subsets = nullptr) {
   const auto mesh_start = std::chrono::steady_clock::now();
   // The variances only colour a saved mesh.
   gpatlas_core::SurfaceMesher::Config mesh_config = o.pipeline.mesh;
@@ -409,7 +417,7 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
   }
   gpatlas_core::ShapeMetrics::Config metrics_config;
-  metrics_config.keep_truth_distances = (subsets.rmse_reachable && gt.reachability_measured) || subsets.seen;
+  metrics_config.keep_truth_distances = subsets && (gt.reachability_measured || !gt.sample_seen.empty());
   const auto metrics_start = std::chrono::steady_clock::now();
   gpatlas_core::ShapeMetricsResult metrics = gpatlas_core::ShapeMetrics(metrics_config).compare(surface.mesh, gt.mesh);
   if (o.verbose)
@@ -417,11 +425,11 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
               << std::chrono::duration<double>(std::chrono::steady_clock::now() - metrics_start).count() << " s"
               << std::endl;
   const std::vector<double>& distances = metrics.truth_to_predicted_distances;
-  if (metrics.ok && subsets.rmse_reachable && gt.reachability_measured && distances.size() == gt.sample_reachable.size())
-    *subsets.rmse_reachable = maskedRmse(distances, gt.sample_reachable, true);
-  if (metrics.ok && subsets.seen && distances.size() == subsets.seen->size()) {
-    if (subsets.rmse_seen) *subsets.rmse_seen = maskedRmse(distances, *subsets.seen, true);
-    if (subsets.rmse_unseen) *subsets.rmse_unseen = maskedRmse(distances, *subsets.seen, false);
+  if (metrics.ok && subsets && gt.reachability_measured && distances.size() == gt.sample_reachable.size())
+    subsets->reachable = maskedRmse(distances, gt.sample_reachable, true);
+  if (metrics.ok && subsets && distances.size() == gt.sample_seen.size()) {
+    subsets->seen = maskedRmse(distances, gt.sample_seen, true);
+    subsets->unseen = maskedRmse(distances, gt.sample_seen, false);
   }
   metrics.truth_to_predicted_distances = {};  // 20000 numbers per run, not needed after this
   return metrics;
@@ -566,15 +574,12 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const std::string mesh_file =
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
-  const std::vector<bool> seen = samplesSeenFrom(*scene, gt.mesh, eye);
-  TruthSubsets subsets;
-  subsets.seen = &seen;
-  subsets.rmse_reachable = &r.rmse_gt_to_pred_reachable;
-  subsets.rmse_seen = &r.rmse_gt_to_pred_seen;
-  subsets.rmse_unseen = &r.rmse_gt_to_pred_unseen;
-  r.metrics = measure(model, gt, o, mesh_file, subsets);
-  const gpatlas_core::CalibrationResult calibration = gpatlas_core::surfaceCalibration(
-      model, gpatlas_core::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed));
+  TruthSubsetRmse subsets;
+  r.metrics = measure(model, gt, o, mesh_file, &subsets);
+  r.rmse_gt_to_pred_reachable = subsets.reachable;
+  r.rmse_gt_to_pred_seen = subsets.seen;
+  r.rmse_gt_to_pred_unseen = subsets.unseen;
+  const gpatlas_core::CalibrationResult calibration = gpatlas_core::surfaceCalibration(model, gt.calibration_samples);
   if (calibration.ok) {
     r.calibration = calibration.fraction;
     r.position_sd_m = calibration.median_position_sd_m;

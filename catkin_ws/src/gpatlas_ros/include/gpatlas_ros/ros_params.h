@@ -59,9 +59,10 @@ class ParamReader : private detail::SourceHolder, public gpatlas_core::ParamRead
 
 void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c);
 
-// Loads `strategy_libraries` (strategies and surface models of your own, strategy_library.h),
-// logging what each adds under `who`; a library that fails is an invalid parameter of `reader`.
-// Every node that builds or plans on a model loads them before it does.
-void loadPluginLibraries(gpatlas_core::ParamReader& reader, const std::string& who);
+// Loads `libraries` (strategy_libraries: strategies and surface models of your own,
+// strategy_library.h), logging what each adds under `who`; a library that fails is an invalid
+// `strategy_libraries` of `reader`. Every node that builds or plans on a model loads them first.
+void loadPluginLibraries(const std::vector<std::string>& libraries, gpatlas_core::ParamReader& reader,
+                         const std::string& who);
 
 }  // namespace gpatlas_ros

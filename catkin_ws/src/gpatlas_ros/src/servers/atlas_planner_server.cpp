@@ -30,7 +30,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readSurfaceModel(reader, &model_config_);
   readStrategy(reader, &strategy_config_);
   // Strategies and models of your own, before the default is looked up.
-  loadPluginLibraries(reader, "atlas_planner");
+  loadPluginLibraries(choice.libraries, reader, "atlas_planner");
   std::string error;
   if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
   reader.report("atlas_planner");

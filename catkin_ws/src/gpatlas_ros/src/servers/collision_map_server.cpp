@@ -22,7 +22,9 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
   readSurfaceModel(reader, &model_config_);
-  loadPluginLibraries(reader, "collision_map");
+  gpatlas_core::StrategyChoice plugins;  // a model of your own, loaded before it is built
+  readStrategyChoice(reader, &plugins);
+  loadPluginLibraries(plugins.libraries, reader, "collision_map");
   readCollisionMap(reader, &map_config_);
   reader.report("collision_map");
   octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);

@@ -31,7 +31,9 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readExplorer(reader, &loop);
   display_v_max_ = loop.v_max;
   readSurfaceModel(reader, &model_config_);
-  loadPluginLibraries(reader, "gp_model");  // a model of your own, before it is built
+  gpatlas_core::StrategyChoice plugins;  // a model of your own, loaded before it is built
+  readStrategyChoice(reader, &plugins);
+  loadPluginLibraries(plugins.libraries, reader, "gp_model");
   readMesher(reader, &mesher_config_);
   reader.report("gp_model");
   try {
