@@ -56,7 +56,7 @@ TEST(ObjectSegmenter, KeepsTheSphereAndDropsTableAndOutliers) {
   for (const auto& p : result.object_points) {
     // Voxel centroids of sphere points lie within half a voxel diagonal of the surface.
     EXPECT_NEAR((p - kSphereCentre).norm(), kSphereRadius, 0.003);
-    EXPECT_GT(p.z(), 0.005);
+    EXPECT_GT(p.z(), ObjectSegmenter::Config().plane_distance_m);
   }
 }
 
@@ -141,6 +141,42 @@ TEST(ObjectSegmenter, ATableWhoseSideIsSeenIsStillTheSupport) {
   EXPECT_TRUE(result.plane_found);
   EXPECT_NEAR(result.plane_offset, 0.0, 0.002);
   for (const auto& p : result.object_points) EXPECT_NEAR((p - kSphereCentre).norm(), kSphereRadius, 0.003);
+}
+
+}  // namespace
+
+namespace {
+
+// The funnel's view: a body, and a rim seen edge-on, a line of points a few millimetres apart,
+// separated from the body by a gap where the rays graze the surface. Both are the object.
+TEST(ObjectSegmenter, ARimSeenEdgeOnBeyondAGapStaysWithTheObject) {
+  std::vector<Vector3> pts = tableTopScene(4);
+  std::size_t body = 0;
+  for (const Vector3& p : pts) body += (p - kSphereCentre).norm() < kSphereRadius + 0.002 && p.z() > 0.01 ? 1 : 0;
+  // An arc 15 mm from the sphere, 3 mm between points.
+  const double gap = 0.015, rim_radius = 0.03;
+  const double rim_height = kSphereCentre.z() + std::sqrt(std::pow(kSphereRadius + gap, 2) - rim_radius * rim_radius);
+  std::vector<Vector3> rim;
+  for (double angle = 0.0; angle < M_PI; angle += 0.003 / rim_radius)
+    rim.emplace_back(kSphereCentre.x() + rim_radius * std::cos(angle), kSphereCentre.y() + rim_radius * std::sin(angle),
+                     rim_height);
+  ASSERT_GT(rim.size(), 25u);
+  pts.insert(pts.end(), rim.begin(), rim.end());
+
+  const ObjectSegmenter::Config defaults;
+  const auto result = ObjectSegmenter(defaults).segment(pts);
+  ASSERT_TRUE(result.ok) << result.message;
+  std::size_t kept_rim = 0, kept_body = 0;
+  for (const Vector3& p : result.object_points) {
+    if (std::abs(p.z() - rim_height) < 0.002 && std::abs((p - kSphereCentre).head<2>().norm() - rim_radius) < 0.002)
+      ++kept_rim;
+    else if (std::abs((p - kSphereCentre).norm() - kSphereRadius) < 0.003)
+      ++kept_body;
+  }
+  // Voxels of 2 mm hold one rim point each, so the count is the rim's.
+  EXPECT_GE(kept_rim, rim.size() - 2);
+  EXPECT_GT(kept_body, body / 4);  // the body is still there (its points are voxel-thinned)
+  EXPECT_EQ(kept_rim + kept_body, result.object_points.size());
 }
 
 }  // namespace

@@ -43,15 +43,25 @@ class ObjectSegmenter {
     Vector3 crop_max_m{1.4, 0.5, 0.6};
     double voxel_leaf_m{0.002};  // 0 disables the voxel grid
     bool remove_plane{true};
-    double plane_distance_m{0.006};
+    // Points within this distance of the support plane are the table: about 4 depth-noise
+    // sigmas (the simulated camera's is 1 mm). Larger removes the foot of every object and most
+    // of a flat one (a pan, a spoon lying down).
+    double plane_distance_m{0.004};
     int plane_max_iterations{300};
     double plane_max_tilt_deg{20.0};  // only planes whose normal is this close to world z
     std::size_t plane_min_inliers{200};
     // The plane is a support only if at most this fraction of the points lies below it.
     double plane_max_fraction_below{0.05};
-    int outlier_mean_k{20};           // 0 disables statistical outlier removal
+    // Statistical outlier removal (PCL's), 0: off. It judges a point by its mean distance to
+    // k neighbours, so it also removes thin parts seen edge-on (a rim, a handle), whose points
+    // form a line; isolated speckle already falls out of the clustering (cluster_min_points).
+    // For sensors that leave veils at depth edges.
+    int outlier_mean_k{0};
     double outlier_stddev_multiplier{2.5};
-    double cluster_tolerance_m{0.012};
+    // Single-linkage distance: larger than the gaps that occlusion and grazing rays leave
+    // between parts of one object (a funnel's spout and its rim), smaller than the space
+    // between two objects.
+    double cluster_tolerance_m{0.02};
     std::size_t cluster_min_points{50};
     std::size_t cluster_max_points{2'000'000};
     // Keep the cluster closest to this point instead of the largest one.
