@@ -174,14 +174,22 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
     update.message = "no model yet: the GP is not fitted";
     return update;
   }
+  const GatedObservations gated = gateObservations(model, contacts, free_space, config.gate);
+  update.contacts_refused = gated.contacts_refused;
+  update.free_space_refused = gated.free_space_refused;
+  if (gated.contacts.empty() && gated.free_space.empty()) {
+    update.message = gated.refused() > 0 ? "nothing added: " + gated.message : "no observation";
+    return update;
+  }
+  if (!gated.message.empty()) update.warnings.push_back(gated.message);
   TouchPointCounts counts;
-  std::vector<TrainingPoint> new_points = touchTrainingPoints(model, contacts, free_space, config, &counts);
+  std::vector<TrainingPoint> new_points = touchTrainingPoints(model, gated.contacts, gated.free_space, config, &counts);
   if (new_points.empty()) {
     update.message = "no observation inside the model's domain";
     return update;
   }
   const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
-  const std::vector<Vector3> measured = measuredPositions(contacts, free_space);
+  const std::vector<Vector3> measured = measuredPositions(gated.contacts, gated.free_space);
   FitReport report = addTouchPoints(model, new_points, measured, config, &update.retraction);
   if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
     new_points.resize(num_contact_points);
@@ -189,7 +197,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
   }
   update.ok = report.ok;
   update.message = report.message;
-  update.warnings = report.warnings;
+  update.warnings.insert(update.warnings.end(), report.warnings.begin(), report.warnings.end());
   if (!report.ok) return update;
   // The model reports acceptance as a total; free-space points are the ones it drops
   // (duplicates, out of domain), so rejections are attributed to them first.
@@ -214,6 +222,8 @@ std::string validate(const TouchObservationConfig& config) {
   nonNegative(config.guess_min_depth_fraction, "guess_min_depth_fraction");
   if (!std::isfinite(config.contact_tangent_noise_sigma))
     problem << "contact_tangent_noise_sigma must be finite (negative: no tangent slopes); ";
+  const std::string gate = validate(config.gate);
+  if (!gate.empty()) problem << "gate: " << gate;
   return problem.str();
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/observation_gate.h"
 #include "gpatlas_core/surface_model.h"
 #include "gpatlas_core/prober.h"
 #include "gpatlas_core/surface_evidence.h"
@@ -51,6 +52,8 @@ struct TouchObservationConfig {
   // (retractContradictedInterior), dropping those left shallower than this fraction of the
   // model's scale (the view's radius; the occluded interior's own margin_fraction).
   double guess_min_depth_fraction{0.08};
+  // Which observations the model takes at all (gateObservations), checked first.
+  ObservationGateConfig gate;
 };
 
 // Empty when the config is usable; otherwise what is wrong with it.
@@ -65,6 +68,9 @@ struct TouchUpdate {
   int free_points_added{0};  // outside points accepted by the model
   int points_added{0};       // every training point accepted (points behind contacts, slopes too)
   InteriorRetraction retraction;  // occluded-interior guesses the touch contradicted
+  // Observations the gate refused (TouchObservationConfig::gate), and why in `warnings`.
+  GateRefusals contacts_refused;
+  GateRefusals free_space_refused;
   std::vector<std::string> warnings;
 };
 

@@ -87,9 +87,10 @@ class GpModelServer {
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
-  // Adds observations; false with a message when nothing could be used.
+  // Adds observations; false with a message when nothing could be used. `num_refused`: those
+  // the gate (touch/gate) refused.
   bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added,
-                       std::uint32_t* num_contacts_added);
+                       std::uint32_t* num_contacts_added, std::uint32_t* num_refused);
   void publishModel();
 
   ros::NodeHandle nh_, pnh_;

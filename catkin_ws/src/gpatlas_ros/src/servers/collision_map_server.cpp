@@ -6,7 +6,11 @@
 
 #include <octomap/OcTree.h>
 
+#include <cerrno>
 #include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <sstream>
 
 namespace gpatlas_ros {
@@ -131,8 +135,20 @@ bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_
     res.message = "path is empty";
     return true;
   }
-  res.success = map->tree.writeBinaryConst(req.path);
-  res.message = res.success ? "wrote " + req.path : "cannot write " + req.path;
+  // The answer names the absolute path: a relative one is resolved against the node's working
+  // directory, which roslaunch sets to ~/.ros.
+  std::error_code ignored;
+  const std::filesystem::path absolute = std::filesystem::absolute(req.path, ignored);
+  const std::string shown = absolute.empty() ? req.path : absolute.string();
+  errno = 0;
+  std::ofstream file(shown, std::ios::binary | std::ios::trunc);
+  if (!file) {
+    res.success = false;
+    res.message = "cannot write " + shown + ": " + (errno != 0 ? std::strerror(errno) : "cannot open the file");
+    return true;
+  }
+  res.success = map->tree.writeBinaryConst(file) && static_cast<bool>(file.flush());
+  res.message = res.success ? "wrote " + shown : "cannot write " + shown + ": the write failed (disk full?)";
   return true;
 }
 

@@ -171,8 +171,8 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
 void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
   try {
     std::string message;
-    std::uint32_t added = 0, contacts = 0;
-    if (addObservations(*msg, &message, &added, &contacts)) ROS_INFO_STREAM("gp_model: " << message);
+    std::uint32_t added = 0, contacts = 0, refused = 0;
+    if (addObservations(*msg, &message, &added, &contacts, &refused)) ROS_INFO_STREAM("gp_model: " << message);
     else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("gp_model: observations ignored: " << e.what());
@@ -181,7 +181,7 @@ void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) 
 
 bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& req,
                                       gpatlas_msgs::AddObservations::Response& res) {
-  res.success = addObservations(req.observations, &res.message, &res.num_added, &res.num_contacts_added);
+  res.success = addObservations(req.observations, &res.message, &res.num_added, &res.num_contacts_added, &res.num_refused);
   return true;
 }
 
@@ -205,9 +205,11 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
 }
 
 bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::string* message,
-                                    std::uint32_t* num_added, std::uint32_t* num_contacts_added) {
+                                    std::uint32_t* num_added, std::uint32_t* num_contacts_added,
+                                    std::uint32_t* num_refused) {
   *num_added = 0;
   *num_contacts_added = 0;
+  *num_refused = 0;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
   // One transform for everything: contacts, then the tips of their normals (a normal moves as
@@ -240,6 +242,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(*model_, observed.contacts, free_space, touch_config_);
   *num_added = static_cast<std::uint32_t>(update.points_added);
   *num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
+  *num_refused = static_cast<std::uint32_t>(update.contacts_refused.total() + update.free_space_refused.total());
   *message = update.message;
   if (update.retraction.any())
     *message += "; the touch contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +

@@ -8,7 +8,11 @@ namespace gpatlas_ros {
 bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_frame, const std::string& frame,
                       const ros::Time& stamp, double timeout_s, std::vector<Eigen::Vector3d>* points,
                       std::string* error) {
-  if (frame.empty() || frame == world_frame) return true;
+  if (frame.empty()) {
+    *error = "header.frame_id is empty: say which frame the points are in (e.g. '" + world_frame + "')";
+    return false;
+  }
+  if (frame == world_frame) return true;
   try {
     const geometry_msgs::TransformStamped tf =
         buffer.lookupTransform(world_frame, frame, stamp, ros::Duration(timeout_s));
@@ -30,7 +34,11 @@ bool cloudToWorld(const sensor_msgs::PointCloud2& cloud, const tf2_ros::Buffer& 
 bool planeToWorld(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& buffer, const std::string& world_frame,
                   double timeout_s, gpatlas_core::SupportPlane* plane, std::string* error) {
   if (!fromMsg(msg, plane, error)) return false;
-  if (msg.header.frame_id.empty() || msg.header.frame_id == world_frame) return true;
+  if (msg.header.frame_id.empty()) {
+    *error = "header.frame_id is empty: say which frame the plane is in (e.g. '" + world_frame + "')";
+    return false;
+  }
+  if (msg.header.frame_id == world_frame) return true;
   try {
     const geometry_msgs::TransformStamped tf =
         buffer.lookupTransform(world_frame, msg.header.frame_id, msg.header.stamp, ros::Duration(timeout_s));
