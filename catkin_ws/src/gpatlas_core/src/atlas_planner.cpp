@@ -105,6 +105,9 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
     result.elapsed_s = secondsSince(started);
     for (const Chart& chart : result.atlas.charts())
       result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
+    if (result.retouch_skipped > 0)
+      result.message += "; " + std::to_string(result.retouch_skipped) +
+                        " chart(s) above V_max need no touch: measured or aimed at already";
     return result;
   };
 
@@ -119,9 +122,17 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
   const SurfaceEvidence evidence(model, config_.evidence);
-  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt.
+  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart above
+  // V_max right at a measurement or an earlier touch's target needs none
+  // (EvidenceRule::retouch_radius_m).
   const auto needsTouch = [&](const Chart& chart) {
-    return chart.variance > v_max || evidence.isUnsupported(chart.centre, chart.normal);
+    if (evidence.isUnsupported(chart.centre, chart.normal)) return true;
+    if (!(chart.variance > v_max)) return false;
+    if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
+      ++result.retouch_skipped;
+      return false;
+    }
+    return true;
   };
   const auto makeChart = [&](const SurfacePoint& point, int parent) {
     return createChart(model, point, parent, config_.chart, rng,

@@ -19,6 +19,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   result.message = planned.message;
   result.max_surface_variance = planned.max_chart_variance;
   result.elapsed_s = planned.elapsed_s;
+  if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
   if (planned.status == PlanStatus::kTouch) {
     Touch& touch = result.touch;
     touch.strategy = name();

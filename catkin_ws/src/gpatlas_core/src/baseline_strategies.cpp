@@ -13,12 +13,18 @@ using Clock = std::chrono::steady_clock;
 
 // A sampled surface and, per point, whether it needs a touch: variance above V_max or no
 // measured surface point within the request's evidence distance.
+// A point above V_max at a measurement or an earlier touch's target
+// (EvidenceRule::retouch_radius_m) needs no touch.
 struct NeedySample {
   SurfaceSample sample;
   std::vector<char> unsupported;
+  std::vector<char> retouched;
+  bool needsTouch(std::size_t i, double v_max) const {
+    return unsupported[i] || (sample.variances[i] > v_max && !retouched[i]);
+  }
   bool anyNeedsTouch(double v_max) const {
     for (std::size_t i = 0; i < sample.points.size(); ++i)
-      if (sample.variances[i] > v_max || unsupported[i]) return true;
+      if (needsTouch(i, v_max)) return true;
     return false;
   }
 };
@@ -38,12 +44,18 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
   }
   const SurfaceEvidence evidence(model, request.evidence);
   needy->unsupported.clear();
-  for (std::size_t i = 0; i < needy->sample.points.size(); ++i)
+  needy->retouched.clear();
+  for (std::size_t i = 0; i < needy->sample.points.size(); ++i) {
     needy->unsupported.push_back(evidence.isUnsupported(needy->sample.points[i], needy->sample.normals[i]));
+    needy->retouched.push_back(evidence.measuredNear(needy->sample.points[i], request.evidence.retouch_radius_m));
+  }
   result.max_surface_variance = needy->sample.maxVariance();
   if (!needy->anyNeedsTouch(request.v_max)) {
     result.status = PlanStatus::kConverged;
     result.message = "no sampled surface point has variance above V_max or lacks evidence";
+    const auto retouched = std::count(needy->retouched.begin(), needy->retouched.end(), 1);
+    if (retouched > 0)
+      result.message += " (" + std::to_string(retouched) + " above V_max at measurements or earlier targets)";
     return result;
   }
   return std::nullopt;
@@ -70,13 +82,14 @@ PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, c
                         std::uint64_t seed, const std::string& name, Pick pick) {
   const Clock::time_point started = Clock::now();
   NeedySample needy;
-  if (auto finished = sampleOrFinish(model, request, config, seed, &needy)) {
-    finished->elapsed_s = secondsSince(started);
-    return *finished;
-  }
-  PlanResult result = pokeAt(needy.sample, pick(needy, request, seed), name);
-  result.elapsed_s = secondsSince(started);
-  return result;
+  const auto noted = [&](PlanResult result) {
+    if (result.status != PlanStatus::kError)
+      if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
+    result.elapsed_s = secondsSince(started);
+    return result;
+  };
+  if (auto finished = sampleOrFinish(model, request, config, seed, &needy)) return noted(*finished);
+  return noted(pokeAt(needy.sample, pick(needy, request, seed), name));
 }
 
 }  // namespace
@@ -98,12 +111,14 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, std::uin
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
+                        // The largest variance among the points that need a touch (one does).
                         const std::vector<double>& variances = needy.sample.variances;
-                        const auto best = std::max_element(variances.begin(), variances.end());
-                        if (*best > request.v_max) return static_cast<std::size_t>(best - variances.begin());
-                        // Every variance is below V_max: the first point without evidence.
-                        const auto unsupported = std::find(needy.unsupported.begin(), needy.unsupported.end(), 1);
-                        return static_cast<std::size_t>(unsupported - needy.unsupported.begin());
+                        std::size_t best = variances.size();
+                        for (std::size_t i = 0; i < variances.size(); ++i) {
+                          if (!needy.needsTouch(i, request.v_max)) continue;
+                          if (best == variances.size() || variances[i] > variances[best]) best = i;
+                        }
+                        return best;
                       });
 }
 

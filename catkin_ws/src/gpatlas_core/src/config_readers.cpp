@@ -155,6 +155,7 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
 void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->max_distance = r.number("evidence/max_distance", c->max_distance, 0.0, 100.0);
   c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
+  c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
 }
 
 void readExplorer(ParamReader& r, Explorer::Config* c) {

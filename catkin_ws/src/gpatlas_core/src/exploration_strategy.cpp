@@ -3,9 +3,12 @@
 #include "gpatlas_core/atlas_strategy.h"
 #include "gpatlas_core/baseline_strategies.h"
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 
 namespace gpatlas_core {
@@ -68,6 +71,18 @@ std::vector<std::string> strategyNames() {
   std::vector<std::string> names;
   for (const auto& entry : r.factories) names.push_back(entry.first);
   return names;
+}
+
+std::string vMaxNoiseNote(const SurfaceModel& model, double v_max) {
+  double smallest = std::numeric_limits<double>::infinity();
+  for (const TrainingPoint& point : model.observations())
+    if (isSurfaceValue(point) && point.noise_sigma > 0.0 && std::isfinite(point.noise_sigma))
+      smallest = std::min(smallest, point.noise_sigma * point.noise_sigma);
+  if (!std::isfinite(smallest) || !(v_max < 0.1 * smallest)) return "";
+  std::ostringstream note;
+  note << "V_max " << v_max << " is below a tenth of the smallest observation noise variance (" << smallest
+       << "): a point must be observed more than ten times to get there, so the exploration may not converge";
+  return note.str();
 }
 
 std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRequest& request) {

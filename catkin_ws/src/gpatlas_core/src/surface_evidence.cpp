@@ -16,10 +16,10 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
                                  const std::optional<SupportPlane>& support, double approach_m,
                                  const std::vector<Vector3>& attempted)
     : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0) {
-  if (!enabled()) return;
+  // Without the distance test the points are still kept for measuredNear, without the grid.
   const auto add = [&](const Vector3& p) {
     if (!p.allFinite()) return;
-    cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
+    if (enabled()) cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
     points_.push_back(p);
   };
   for (const TrainingPoint& point : model.observations()) {
@@ -38,7 +38,26 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& 
     : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
                       rule.attempted_targets) {}
 
+bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
+  if (!x.allFinite() || !(radius_m > 0.0)) return false;
+  const double squared = radius_m * radius_m;
+  const auto near = [&](const Vector3& p) { return (p - x).squaredNorm() <= squared; };
+  if (!enabled() || radius_m > max_distance_m_) return std::any_of(points_.begin(), points_.end(), near);
+  // Cells of side max_distance_m: every point within radius_m is in the 27 around x.
+  for (int di = -1; di <= 1; ++di)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int dk = -1; dk <= 1; ++dk) {
+        const auto it = cells_.find(key(x, di, dj, dk));
+        if (it == cells_.end()) continue;
+        for (const std::uint32_t index : it->second)
+          if (near(points_[index])) return true;
+      }
+  return false;
+}
+
 std::string validate(const EvidenceRule& rule) {
+  if (!(rule.retouch_radius_m >= 0.0) || !std::isfinite(rule.retouch_radius_m))
+    return "retouch_radius_m must be finite and >= 0";
   if (!(rule.approach_distance_m >= 0.0) || !std::isfinite(rule.approach_distance_m))
     return "approach_distance_m must be finite and >= 0";
   if (!(rule.max_distance >= 0.0) || !std::isfinite(rule.max_distance))

@@ -56,7 +56,11 @@ ExplorationResult explore(const std::string& strategy_name, std::uint64_t seed, 
   config.v_max = 0.1;
   config.max_actions = 60;
   config.seed = seed;
-  return Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), EvidenceRule(), progress);
+  // The paper's loop: V_max alone decides (no evidence distance), so that every touch is planned
+  // above V_max.
+  EvidenceRule variance_alone;
+  variance_alone.max_distance = 0.0;
+  return Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), variance_alone, progress);
 }
 
 TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
@@ -353,6 +357,44 @@ TEST(Explorer, BadInputStopsWithAReason) {
   result = Explorer(config).run(model, *strategy, missing);
   EXPECT_EQ(result.stop_reason, "consecutive_failures");
   EXPECT_EQ(result.actions, 3);
+}
+
+// A V_max that the noise cannot reach (every point stays above it) must not make the loop touch
+// where nothing is left to learn: each of ten actions in a row aims somewhere neither seen nor
+// aimed at before, for each strategy, and the plan says why V_max will not be reached.
+TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
+  const AnalyticSphere sphere;
+  for (const std::string strategy_name : {"atlas_poke", "atlas_slide", "max_variance"}) {
+    GpisModel model = initialModel(sphere, 3);
+    std::vector<Vector3> seen;
+    for (const TrainingPoint& p : model.observations())
+      if (isSurfaceValue(p)) seen.push_back(p.position);
+    AnalyticSphereProber prober(sphere);
+    StrategyConfig strategy_config;
+    strategy_config.seed = 3;
+    const auto strategy = makeStrategy(strategy_name, strategy_config);
+    Explorer::Config config;
+    config.v_max = 1e-4;
+    config.max_actions = 10;
+    config.seed = 3;
+    const EvidenceRule evidence;
+    const ExplorationResult result = Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), evidence);
+    EXPECT_EQ(result.stop_reason, "max_actions") << strategy_name;
+    ASSERT_EQ(result.records.size(), 10u) << strategy_name;
+    for (std::size_t a = 0; a < result.records.size(); ++a) {
+      const Vector3 target = result.records[a].touch.points.back();
+      for (const Vector3& p : seen)
+        EXPECT_GT((target - p).norm(), evidence.retouch_radius_m) << strategy_name << ": action " << a << " aims at the view";
+      for (std::size_t b = 0; b < a; ++b)
+        for (const Vector3& earlier : result.records[b].touch.points)
+          EXPECT_GT((target - earlier).norm(), evidence.retouch_radius_m)
+              << strategy_name << ": action " << a << " aims where action " << b << " did";
+    }
+    PlanRequest request;
+    request.v_max = config.v_max;
+    request.evidence = evidence;
+    EXPECT_NE(strategy->plan(model, request).message.find("more than ten times"), std::string::npos) << strategy_name;
+  }
 }
 
 }  // namespace

@@ -30,6 +30,7 @@ struct AtlasPlanResult {
   double max_chart_variance{0.0};  // over all charts of the atlas
   int expansions{0};               // EXPANDCHART calls
   int failed_projections{0};       // candidates dropped because eq. 13 had no solution
+  int retouch_skipped{0};          // charts above V_max at a measurement or an earlier target (EvidenceRule::retouch_radius_m)
   double elapsed_s{0.0};
 };
 

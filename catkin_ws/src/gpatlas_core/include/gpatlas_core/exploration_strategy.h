@@ -17,7 +17,7 @@ namespace gpatlas_core {
 struct PlanRequest {
   double v_max{0.1};  // reported (paper-equivalent) variance units
   // Every strategy applies the evidence test (SurfaceEvidence) to its convergence test; the
-  // Explorer fills attempted_targets. Default: off, V_max alone (the paper).
+  // Explorer fills attempted_targets (max_distance 0: off, V_max alone as in the paper).
   EvidenceRule evidence;
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
@@ -71,6 +71,12 @@ std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name,
 // Returns false (and changes nothing) if the name is taken or the factory is empty.
 bool registerStrategy(const std::string& name, StrategyFactory factory);
 std::vector<std::string> strategyNames();
+
+// Empty, or a note that V_max lies below a tenth of the smallest noise variance of the model's
+// surface observations: a point would have to be observed more than ten times to get there
+// (a point observed k times gets to about sigma^2 / k), so the loop may not converge. Strategies
+// append it to every answer.
+std::string vMaxNoiseNote(const SurfaceModel& model, double v_max);
 
 // Shared argument checks: an error PlanResult for an unusable model or V_max, else nullopt.
 std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRequest& request);

@@ -19,13 +19,18 @@ struct EvidenceRule {
   // A predicted surface point farther than this (normalised units: the initial view's radius
   // is 1) from every measured surface point needs a touch whatever its variance. 0: V_max alone
   // (the paper).
-  double max_distance{0.5};
+  double max_distance{0.35};
   // The table the object rests on, if known, and how far along the normal a probe approaches
   // a touch: surface whose approach would start under the table needs no evidence.
   std::optional<SupportPlane> support_plane;
   double approach_distance_m{0.1};
   // Surface points earlier touches aimed at (world frame): evidence whatever the touch found.
   std::vector<Vector3> attempted_targets;
+  // A place whose variance is above V_max needs no touch when a measured surface point (a view
+  // point or a contact) or an earlier touch's target lies within this distance: a touch there
+  // would find what was found already. Otherwise a V_max below what the noise allows would
+  // spend every touch where nothing is left to learn (0: variance alone).
+  double retouch_radius_m{0.005};
 };
 
 // Empty when the rule is usable; otherwise what is wrong with it.
@@ -66,6 +71,9 @@ class SurfaceEvidence {
   // farther could hide an unsupported surface point inside its ball. Never below `floor_m`.
   double radiusCap(const Vector3& x, double floor_m) const;
   std::size_t size() const { return points_.size(); }
+  // Whether a measured surface point or an `attempted` target lies within `radius_m` of x,
+  // whether or not the distance test is enabled.
+  bool measuredNear(const Vector3& x, double radius_m) const;
 
  private:
   // The cell of x (side max_distance_m), moved by (di, dj, dk) cells, packed into one key.
@@ -73,7 +81,7 @@ class SurfaceEvidence {
   double max_distance_m_{0.0};
   std::optional<SupportPlane> support_;
   double approach_m_{0.0};
-  std::vector<Vector3> points_;
+  std::vector<Vector3> points_;  // measured surface points and attempted targets
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side max_distance_m
 };
 
