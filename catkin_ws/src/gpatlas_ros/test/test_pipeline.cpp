@@ -1,6 +1,7 @@
 // Drives pipeline.launch the way a user does: a cloud in, rosservice calls out.
 
 #include <gpatlas_msgs/AddObservations.h>
+#include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <gpatlas_msgs/SaveMap.h>
@@ -421,11 +422,59 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_TRUE(save.response.success) << save.response.message;
   const std::string prefix = "wrote /";
   ASSERT_EQ(save.response.message.rfind(prefix, 0), 0u) << save.response.message;
-  std::remove(save.response.message.substr(prefix.size() - 1).c_str());
+  const std::string written_path =
+      save.response.message.substr(prefix.size() - 1, save.response.message.find(" (") - (prefix.size() - 1));
+  EXPECT_TRUE(std::ifstream(written_path).good()) << written_path;
+  std::remove(written_path.c_str());
   save.request.path = "/nonexistent_gpatlas_directory/map.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
   EXPECT_FALSE(save.response.success);
   EXPECT_NE(save.response.message.find("No such file or directory"), std::string::npos) << save.response.message;
+
+  // The map says which training set it shows. Once it is current, a training set whose map
+  // cannot be built (here a malformed one) leaves the old map published, reported STALE with the
+  // reason, and save_map says so.
+  gpatlas_msgs::CollisionMapStatus::ConstPtr status;
+  std::mutex status_mutex;
+  ros::Subscriber status_sub = nh.subscribe<gpatlas_msgs::CollisionMapStatus>(
+      "/gpatlas/collision_map/status", 5, [&](const gpatlas_msgs::CollisionMapStatus::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(status_mutex);
+        status = m;
+      });
+  const auto waitForState = [&](std::uint8_t state) {
+    for (int i = 0; i < 300; ++i) {
+      {
+        std::lock_guard<std::mutex> lock(status_mutex);
+        if (status && status->state == state) return status;
+      }
+      ros::Duration(0.1).sleep();
+    }
+    std::lock_guard<std::mutex> lock(status_mutex);
+    return status;
+  };
+  const auto current = waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
+  ASSERT_TRUE(current);
+  ASSERT_EQ(current->state, gpatlas_msgs::CollisionMapStatus::CURRENT) << current->message;
+  EXPECT_EQ(current->map_training_sequence, current->latest_training_sequence);
+  ros::Publisher bad_training = nh.advertise<gpatlas_msgs::TrainingSet>("/gpatlas/gp_model/training_set", 1, true);
+  for (int i = 0; i < 50 && bad_training.getNumSubscribers() < 3; ++i) ros::Duration(0.1).sleep();  // planner, map, this test
+  gpatlas_msgs::TrainingSet malformed = *updated;
+  malformed.sequence = current->latest_training_sequence + 100;
+  malformed.labels.resize(3);
+  bad_training.publish(malformed);
+  const auto stale = waitForState(gpatlas_msgs::CollisionMapStatus::STALE);
+  ASSERT_TRUE(stale);
+  ASSERT_EQ(stale->state, gpatlas_msgs::CollisionMapStatus::STALE) << stale->message;
+  EXPECT_EQ(stale->latest_training_sequence, malformed.sequence);
+  EXPECT_EQ(stale->map_training_sequence, current->map_training_sequence);
+  EXPECT_NE(stale->message.find("failed"), std::string::npos) << stale->message;
+  save.request.path = "/tmp/gpatlas_pipeline_test_stale.bt";
+  ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
+  EXPECT_TRUE(save.response.success) << save.response.message;
+  EXPECT_TRUE(save.response.stale);
+  EXPECT_EQ(save.response.training_sequence, current->map_training_sequence);
+  EXPECT_NE(save.response.message.find("STALE"), std::string::npos) << save.response.message;
+  std::remove(save.request.path.c_str());
 
   // After all of this the manager still runs every nodelet.
   nodelet::NodeletList list;

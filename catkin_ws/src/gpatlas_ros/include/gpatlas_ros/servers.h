@@ -25,11 +25,13 @@
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include <condition_variable>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace gpatlas_ros {
@@ -92,6 +94,7 @@ class GpModelServer {
   bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added,
                        std::uint32_t* num_contacts_added, std::uint32_t* num_refused);
   void publishModel();
+  std::uint32_t training_sequence_{0};  // with mutex_
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
@@ -173,13 +176,25 @@ class AtlasPlannerServer {
 // Probabilistic collision map (paper section 4.1): P(occupied) = Phi(-mean / sqrt(variance))
 // from the GP on a coarse grid, stored in an OctoMap octree. Publishes `~octomap_binary`
 // (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
+// Builds the collision map in a thread of its own: a training set only replaces the pending
+// one (latest wins, intermediate models are skipped), so no callback of the manager waits for
+// a rebuild. ~status says which training set the published map is from.
 class CollisionMapServer {
  public:
   CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~CollisionMapServer();
+  CollisionMapServer(const CollisionMapServer&) = delete;
+  CollisionMapServer& operator=(const CollisionMapServer&) = delete;
 
  private:
+  struct Map;
   void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
   bool onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res);
+  void buildLoop();
+  // The map of one training set and what it holds, or null with the reason.
+  std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::string* error, std::string* summary);
+  void publishMap(const Map& map);
+  void publishStatus();  // with mutex_ held
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
@@ -187,12 +202,18 @@ class CollisionMapServer {
   gpatlas_core::CollisionMapConfig map_config_;
 
   std::mutex mutex_;
-  struct Map;
-  std::shared_ptr<Map> map_;
+  std::condition_variable wake_;
+  bool stopping_{false};
+  gpatlas_msgs::TrainingSet::ConstPtr pending_;  // the newest training set not built yet
+  std::shared_ptr<Map> map_;                     // the published map
+  std::uint32_t latest_sequence_{0};
+  std::uint8_t state_{0};
+  std::string status_message_;
+  std::thread builder_;
 
   ros::Subscriber training_sub_;
   ros::ServiceServer save_srv_;
-  ros::Publisher octomap_pub_, voxels_pub_;
+  ros::Publisher octomap_pub_, voxels_pub_, status_pub_;
 };
 
 }  // namespace gpatlas_ros

@@ -1,6 +1,7 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/servers.h"
 
+#include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -18,6 +19,8 @@ namespace gpatlas_ros {
 struct CollisionMapServer::Map {
   explicit Map(double resolution) : tree(resolution) {}
   octomap::OcTree tree;
+  std::uint32_t training_sequence{0};
+  ros::Time training_stamp;
 };
 
 CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
@@ -33,97 +36,181 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
   reader.report("collision_map");
   octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);
   voxels_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_voxels", 1, true);
+  status_pub_ = pnh_.advertise<gpatlas_msgs::CollisionMapStatus>("status", 1, true);
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = gpatlas_msgs::CollisionMapStatus::NONE;
+    status_message_ = "no training set yet";
+    publishStatus();
+  }
+  builder_ = std::thread(&CollisionMapServer::buildLoop, this);
   save_srv_ = pnh_.advertiseService("save_map", &CollisionMapServer::onSaveMap, this);
   training_sub_ = nh_.subscribe("training_set", 1, &CollisionMapServer::onTrainingSet, this);
 }
 
-void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
-  // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
-  // nodelet manager.
-  try {
-    if (msg->points.empty()) {  // the GP node was reset
-      std::lock_guard<std::mutex> lock(mutex_);
-      map_.reset();
-      return;
-    }
-    std::unique_ptr<gpatlas_core::SurfaceModel> model;
-    std::string error;
-    if (!modelFromMsg(*msg, model_config_, &model, &error)) {
-      ROS_ERROR_STREAM("collision_map: " << error);
-      return;
-    }
-    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*model);
-    if (!grid.ok) {
-      ROS_ERROR_STREAM("collision_map: " << grid.message);
-      return;
-    }
-    auto map = std::make_shared<Map>(grid.resolution);
-    map->tree.setOccupancyThres(map_config_.occupied_probability);
-    std::size_t occupied = 0;
-    for (int k = 0; k < grid.size.z(); ++k)
-      for (int j = 0; j < grid.size.y(); ++j)
-        for (int i = 0; i < grid.size.x(); ++i) {
-          const double p = std::clamp(static_cast<double>(grid.probabilities[grid.index(i, j, k)]), 1e-3, 1.0 - 1e-3);
-          const Eigen::Vector3d x = grid.position(i, j, k);
-          map->tree.setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
-                                 static_cast<float>(std::log(p / (1.0 - p))));
-          occupied += p > map_config_.occupied_probability ? 1 : 0;
-        }
-    map->tree.updateInnerOccupancy();
-    map->tree.prune();
-
-    gpatlas_msgs::OctomapBinary out;
-    out.header.frame_id = world_frame_;
-    out.header.stamp = msg->header.stamp;
-    out.id = map->tree.getTreeType();
-    out.resolution = map->tree.getResolution();
-    out.binary = true;
-    std::stringstream stream;
-    map->tree.writeBinaryData(stream);
-    const std::string bytes = stream.str();
-    out.data.assign(bytes.begin(), bytes.end());
-    octomap_pub_.publish(out);
-
-    visualization_msgs::MarkerArray markers;
-    visualization_msgs::Marker cubes;
-    cubes.header = out.header;
-    cubes.ns = "occupied_voxels";
-    cubes.type = visualization_msgs::Marker::CUBE_LIST;
-    cubes.action = visualization_msgs::Marker::ADD;
-    cubes.pose.orientation.w = 1.0;
-    cubes.scale.x = cubes.scale.y = cubes.scale.z = map->tree.getResolution();
-    for (auto it = map->tree.begin_leafs(); it != map->tree.end_leafs(); ++it) {
-      if (!map->tree.isNodeOccupied(*it)) continue;
-      geometry_msgs::Point p;
-      p.x = it.getX();
-      p.y = it.getY();
-      p.z = it.getZ();
-      cubes.points.push_back(p);
-      std_msgs::ColorRGBA c;
-      const double probability = it->getOccupancy();
-      c.r = static_cast<float>(probability);
-      c.g = 0.3f;
-      c.b = static_cast<float>(1.0 - probability);
-      c.a = 0.5f;
-      cubes.colors.push_back(c);
-    }
-    markers.markers.push_back(cubes);
-    voxels_pub_.publish(markers);
-
+CollisionMapServer::~CollisionMapServer() {
+  training_sub_.shutdown();
+  {
     std::lock_guard<std::mutex> lock(mutex_);
-    map_ = map;
-    ROS_INFO_STREAM("collision_map: " << occupied << " of " << grid.probabilities.size() << " cells occupied (P > "
-                                      << map_config_.occupied_probability << ") at " << grid.resolution << " m");
-  } catch (const std::exception& e) {
-    ROS_ERROR_STREAM("collision_map: message ignored: " << e.what());
+    stopping_ = true;
   }
+  wake_.notify_all();
+  if (builder_.joinable()) builder_.join();
+}
+
+void CollisionMapServer::publishStatus() {
+  gpatlas_msgs::CollisionMapStatus status;
+  status.header.frame_id = world_frame_;
+  status.header.stamp = ros::Time::now();
+  status.state = state_;
+  if (map_) {
+    status.map_training_sequence = map_->training_sequence;
+    status.map_training_stamp = map_->training_stamp;
+  }
+  status.latest_training_sequence = latest_sequence_;
+  status.message = status_message_;
+  status_pub_.publish(status);
+}
+
+void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
+  // Only hand the message over: the build runs in builder_.
+  std::lock_guard<std::mutex> lock(mutex_);
+  latest_sequence_ = msg->sequence;
+  if (msg->points.empty()) {  // the GP node was reset
+    pending_.reset();
+    map_.reset();
+    state_ = gpatlas_msgs::CollisionMapStatus::NONE;
+    status_message_ = "the model was reset";
+  } else {
+    pending_ = msg;  // a newer training set replaces one not built yet
+    state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;
+    status_message_ = "building the map of training set " + std::to_string(msg->sequence);
+    wake_.notify_one();
+  }
+  publishStatus();
+}
+
+void CollisionMapServer::buildLoop() {
+  for (;;) {
+    gpatlas_msgs::TrainingSet::ConstPtr msg;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [this] { return stopping_ || pending_; });
+      if (stopping_) return;
+      msg = std::move(pending_);
+      pending_.reset();
+    }
+    std::string error, summary;
+    std::shared_ptr<Map> map;
+    const ros::WallTime started = ros::WallTime::now();
+    // Nothing may escape this thread: an exception would end the nodelet manager.
+    try {
+      map = build(*msg, &error, &summary);
+    } catch (const std::exception& e) {
+      error = e.what();
+    }
+    if (map) publishMap(*map);
+    std::lock_guard<std::mutex> lock(mutex_);
+    const bool superseded = pending_ != nullptr || latest_sequence_ != msg->sequence;
+    if (map) {
+      map_ = map;
+      status_message_ = summary;
+      ROS_INFO_STREAM("collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec() << " s");
+    } else {
+      ROS_ERROR_STREAM("collision_map: no map for training set " << msg->sequence << ": " << error);
+    }
+    if (superseded) {
+      state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;  // a newer set is waiting
+    } else if (map) {
+      state_ = gpatlas_msgs::CollisionMapStatus::CURRENT;
+    } else {
+      state_ = map_ ? gpatlas_msgs::CollisionMapStatus::STALE : gpatlas_msgs::CollisionMapStatus::NONE;
+      status_message_ = "the map of training set " + std::to_string(msg->sequence) + " failed: " + error;
+    }
+    publishStatus();
+  }
+}
+
+std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(const gpatlas_msgs::TrainingSet& msg,
+                                                                   std::string* error, std::string* summary) {
+  std::unique_ptr<gpatlas_core::SurfaceModel> model;
+  if (!modelFromMsg(msg, model_config_, &model, error)) return nullptr;
+  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*model);
+  if (!grid.ok) {
+    *error = grid.message;
+    return nullptr;
+  }
+  auto map = std::make_shared<Map>(grid.resolution);
+  map->training_sequence = msg.sequence;
+  map->training_stamp = msg.header.stamp;
+  map->tree.setOccupancyThres(map_config_.occupied_probability);
+  std::size_t occupied = 0;
+  for (int k = 0; k < grid.size.z(); ++k)
+    for (int j = 0; j < grid.size.y(); ++j)
+      for (int i = 0; i < grid.size.x(); ++i) {
+        const double p = std::clamp(static_cast<double>(grid.probabilities[grid.index(i, j, k)]), 1e-3, 1.0 - 1e-3);
+        const Eigen::Vector3d x = grid.position(i, j, k);
+        map->tree.setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
+                               static_cast<float>(std::log(p / (1.0 - p))));
+        occupied += p > map_config_.occupied_probability ? 1 : 0;
+      }
+  map->tree.updateInnerOccupancy();
+  map->tree.prune();
+  std::ostringstream message;
+  message << "training set " << msg.sequence << ": " << occupied << " of " << grid.probabilities.size()
+          << " cells occupied (P > " << map_config_.occupied_probability << ") at " << grid.resolution << " m";
+  *summary = message.str();
+  return map;
+}
+
+void CollisionMapServer::publishMap(const Map& map) {
+  gpatlas_msgs::OctomapBinary out;
+  out.header.frame_id = world_frame_;
+  out.header.stamp = map.training_stamp;
+  out.training_sequence = map.training_sequence;
+  out.id = map.tree.getTreeType();
+  out.resolution = map.tree.getResolution();
+  out.binary = true;
+  std::stringstream stream;
+  map.tree.writeBinaryData(stream);
+  const std::string bytes = stream.str();
+  out.data.assign(bytes.begin(), bytes.end());
+  octomap_pub_.publish(out);
+
+  visualization_msgs::MarkerArray markers;
+  visualization_msgs::Marker cubes;
+  cubes.header = out.header;
+  cubes.ns = "occupied_voxels";
+  cubes.type = visualization_msgs::Marker::CUBE_LIST;
+  cubes.action = visualization_msgs::Marker::ADD;
+  cubes.pose.orientation.w = 1.0;
+  cubes.scale.x = cubes.scale.y = cubes.scale.z = map.tree.getResolution();
+  for (auto it = map.tree.begin_leafs(); it != map.tree.end_leafs(); ++it) {
+    if (!map.tree.isNodeOccupied(*it)) continue;
+    geometry_msgs::Point p;
+    p.x = it.getX();
+    p.y = it.getY();
+    p.z = it.getZ();
+    cubes.points.push_back(p);
+    std_msgs::ColorRGBA c;
+    const double probability = it->getOccupancy();
+    c.r = static_cast<float>(probability);
+    c.g = 0.3f;
+    c.b = static_cast<float>(1.0 - probability);
+    c.a = 0.5f;
+    cubes.colors.push_back(c);
+  }
+  markers.markers.push_back(cubes);
+  voxels_pub_.publish(markers);
 }
 
 bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res) {
   std::shared_ptr<Map> map;
+  std::uint32_t latest = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     map = map_;
+    latest = latest_sequence_;
   }
   if (!map) {
     res.success = false;
@@ -147,8 +234,12 @@ bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_
     res.message = "cannot write " + shown + ": " + (errno != 0 ? std::strerror(errno) : "cannot open the file");
     return true;
   }
+  res.training_sequence = map->training_sequence;
+  res.stale = latest != map->training_sequence;
   res.success = map->tree.writeBinaryConst(file) && static_cast<bool>(file.flush());
   res.message = res.success ? "wrote " + shown : "cannot write " + shown + ": the write failed (disk full?)";
+  res.message += " (the map of training set " + std::to_string(map->training_sequence) +
+                 (res.stale ? "; STALE: the newest is " + std::to_string(latest) + ", see ~status)" : ", the newest)");
   return true;
 }
 

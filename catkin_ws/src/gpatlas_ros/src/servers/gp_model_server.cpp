@@ -196,6 +196,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
   // An empty training set tells the planner and the collision map to drop their copies.
   gpatlas_msgs::TrainingSet empty;
+  empty.sequence = ++training_sequence_;
   empty.header.frame_id = world_frame_;
   empty.header.stamp = ros::Time::now();
   training_pub_.publish(empty);
@@ -257,6 +258,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
 void GpModelServer::publishModel() {
   // Called with mutex_ held.
   gpatlas_msgs::TrainingSet training = toMsg(*model_);
+  training.sequence = ++training_sequence_;
   training.header.frame_id = world_frame_;
   training.header.stamp = ros::Time::now();
   training_pub_.publish(training);
