@@ -11,6 +11,7 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <gtest/gtest.h>
 #include <nodelet/NodeletList.h>
+#include <shape_msgs/Mesh.h>
 #include <ros/ros.h>
 #include <tf2_ros/static_transform_broadcaster.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -167,6 +168,14 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   visualization_msgs::MarkerArray::ConstPtr atlas;
   ros::Subscriber atlas_sub = nh.subscribe<visualization_msgs::MarkerArray>(
       "/gpatlas/atlas_planner/atlas", 1, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { atlas = m; });
+  // The display mesh, made in the GP nodelet's own thread when someone listens.
+  std::mutex shape_mutex;
+  shape_msgs::Mesh::ConstPtr shape;
+  ros::Subscriber shape_sub = nh.subscribe<shape_msgs::Mesh>(
+      "/gpatlas/gp_model/surface_shape", 1, [&](const shape_msgs::Mesh::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(shape_mutex);
+        shape = m;
+      });
   gpatlas_msgs::OctomapBinary::ConstPtr octomap;
   ros::Subscriber octomap_sub = nh.subscribe<gpatlas_msgs::OctomapBinary>(
       "/gpatlas/collision_map/octomap_binary", 1, [&](const gpatlas_msgs::OctomapBinary::ConstPtr& m) { octomap = m; });
@@ -255,6 +264,19 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_GT(atlas->markers.size(), 2u);
   ASSERT_TRUE(octomap);
   EXPECT_FALSE(octomap->data.empty());
+  for (int i = 0; i < 100; ++i) {
+    {
+      std::lock_guard<std::mutex> lock(shape_mutex);
+      if (shape) break;
+    }
+    ros::Duration(0.1).sleep();
+  }
+  {
+    std::lock_guard<std::mutex> lock(shape_mutex);
+    ASSERT_TRUE(shape) << "no predicted surface on ~surface_shape";
+    EXPECT_GT(shape->triangles.size(), 100u);
+    for (const auto& v : shape->vertices) EXPECT_LT(sphereError(v), 0.5 * kRadius);
+  }
   EXPECT_EQ(octomap->id, "OcTree");
 
   // A strategy from a library named in strategy_libraries answers like the built-in ones.

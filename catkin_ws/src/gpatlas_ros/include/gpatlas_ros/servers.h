@@ -78,9 +78,15 @@ class SegmentationServer {
 // (`contacts` topic and `~add_observations` service). Publishes the training set for the
 // planner and the collision map (`~training_set`, latched), and the predicted surface
 // (`~surface` cloud coloured by variance, `~surface_mesh` marker, `~surface_shape` mesh).
+// The surface model. Its training set is published as soon as the model changes; the predicted
+// surface for display is meshed in a thread of its own from a copy of the newest model (latest
+// wins), so that add_observations never waits behind a mesh.
 class GpModelServer {
  public:
   GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~GpModelServer();
+  GpModelServer(const GpModelServer&) = delete;
+  GpModelServer& operator=(const GpModelServer&) = delete;
 
  private:
   void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
@@ -93,8 +99,16 @@ class GpModelServer {
   // the gate (touch/gate) refused.
   bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added,
                        std::uint32_t* num_contacts_added, std::uint32_t* num_refused);
-  void publishModel();
+  void publishModel();  // with mutex_ held
+  void meshLoop();
   std::uint32_t training_sequence_{0};  // with mutex_
+
+  std::mutex mesh_mutex_;  // guards the three below
+  std::condition_variable mesh_wake_;
+  std::unique_ptr<gpatlas_core::SurfaceModel> mesh_pending_;  // a copy of the newest model
+  ros::Time mesh_stamp_;
+  bool mesh_stopping_{false};
+  std::thread mesher_;
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;

@@ -46,6 +46,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     model_ = gpatlas_core::makeSurfaceModel(model_config_);
   }
 
+  mesher_ = std::thread(&GpModelServer::meshLoop, this);
   training_pub_ = pnh_.advertise<gpatlas_msgs::TrainingSet>("training_set", 1, true);
   surface_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("surface", 1, true);
   mesh_marker_pub_ = pnh_.advertise<visualization_msgs::Marker>("surface_mesh", 1, true);
@@ -266,19 +267,53 @@ void GpModelServer::publishModel() {
   if (surface_pub_.getNumSubscribers() == 0 && mesh_marker_pub_.getNumSubscribers() == 0 &&
       mesh_shape_pub_.getNumSubscribers() == 0)
     return;
-  const gpatlas_core::SurfaceMeshResult surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model_);
-  if (!surface.ok) {
-    ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
-    return;
+  {
+    std::lock_guard<std::mutex> lock(mesh_mutex_);
+    mesh_pending_ = model_->clone();  // replaces a copy not meshed yet
+    mesh_stamp_ = training.header.stamp;
   }
-  visualization_msgs::Marker marker = meshMarker(surface.mesh, display_v_max_, world_frame_);
-  marker.header.stamp = training.header.stamp;
-  mesh_marker_pub_.publish(marker);
-  mesh_shape_pub_.publish(toShapeMsg(surface.mesh));
-  sensor_msgs::PointCloud2 cloud =
-      pointsToCloud(surface.mesh.vertices, surface.mesh.vertex_variances, display_v_max_, world_frame_);
-  cloud.header.stamp = training.header.stamp;
-  surface_pub_.publish(cloud);
+  mesh_wake_.notify_one();
+}
+
+void GpModelServer::meshLoop() {
+  for (;;) {
+    std::unique_ptr<gpatlas_core::SurfaceModel> model;
+    ros::Time stamp;
+    {
+      std::unique_lock<std::mutex> lock(mesh_mutex_);
+      mesh_wake_.wait(lock, [this] { return mesh_stopping_ || mesh_pending_; });
+      if (mesh_stopping_) return;
+      model = std::move(mesh_pending_);
+      stamp = mesh_stamp_;
+    }
+    // Nothing may escape this thread: an exception would end the nodelet manager.
+    try {
+      const gpatlas_core::SurfaceMeshResult surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model);
+      if (!surface.ok) {
+        ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
+        continue;
+      }
+      visualization_msgs::Marker marker = meshMarker(surface.mesh, display_v_max_, world_frame_);
+      marker.header.stamp = stamp;
+      mesh_marker_pub_.publish(marker);
+      mesh_shape_pub_.publish(toShapeMsg(surface.mesh));
+      sensor_msgs::PointCloud2 cloud =
+          pointsToCloud(surface.mesh.vertices, surface.mesh.vertex_variances, display_v_max_, world_frame_);
+      cloud.header.stamp = stamp;
+      surface_pub_.publish(cloud);
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM("gp_model: no predicted surface: " << e.what());
+    }
+  }
+}
+
+GpModelServer::~GpModelServer() {
+  {
+    std::lock_guard<std::mutex> lock(mesh_mutex_);
+    mesh_stopping_ = true;
+  }
+  mesh_wake_.notify_all();
+  if (mesher_.joinable()) mesher_.join();
 }
 
 }  // namespace gpatlas_ros
