@@ -145,6 +145,10 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
   c->contact_tangent_noise_sigma =
       r.number("touch/contact_tangent_noise_sigma", c->contact_tangent_noise_sigma, -1.0, 10.0);
   c->guess_min_depth_fraction = r.number("touch/guess_min_depth_fraction", c->guess_min_depth_fraction, 0.0, 1.0);
+  c->max_contacts_per_touch = static_cast<std::size_t>(
+      r.integer("touch/max_contacts_per_touch", static_cast<int>(c->max_contacts_per_touch), 0, 1000000));
+  c->max_free_space_per_touch = static_cast<std::size_t>(
+      r.integer("touch/max_free_space_per_touch", static_cast<int>(c->max_free_space_per_touch), 0, 1000000));
   c->gate.workspace_min_m = r.vector3("touch/gate/workspace_min_m", c->gate.workspace_min_m);
   c->gate.workspace_max_m = r.vector3("touch/gate/workspace_max_m", c->gate.workspace_max_m);
   c->gate.max_contact_distance_m = r.number("touch/gate/max_contact_distance_m", c->gate.max_contact_distance_m, 0.0, 100.0);

@@ -61,8 +61,21 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
   std::vector<Vector3> positions;
   positions.reserve(contacts.size());
   for (const Contact& contact : contacts) positions.push_back(contact.position);
-  const std::vector<Vector3> kept_contacts = thinToSpacing(positions, config.min_point_spacing_m);
+  // A touch with more contacts than the cap after thinning (a dense sensor, a long slide) is
+  // thinned coarser, 1.5 times the spacing at a time, so that one touch cannot make the model
+  // arbitrarily large.
   TouchPointCounts counted;
+  double spacing = config.min_point_spacing_m;
+  std::vector<Vector3> kept_contacts = thinToSpacing(positions, spacing);
+  if (config.max_contacts_per_touch > 0 && kept_contacts.size() > config.max_contacts_per_touch) {
+    counted.contacts_before_cap = kept_contacts.size();
+    if (!(spacing > 0.0)) spacing = 0.001;
+    while (kept_contacts.size() > config.max_contacts_per_touch) {
+      spacing *= 1.5;
+      kept_contacts = thinToSpacing(positions, spacing);
+    }
+    counted.capped_contact_spacing_m = spacing;
+  }
   std::vector<TrainingPoint> points;
   for (const Vector3& contact : kept_contacts) {
     TrainingPoint point;
@@ -119,7 +132,18 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
   std::vector<Vector3> free_in_domain;
   for (const Vector3& free : free_space)
     if (free.allFinite() && model.inDomain(free)) free_in_domain.push_back(free);
-  for (const Vector3& free : thinFreeSpace(free_in_domain, kept_contacts, config.min_free_space_spacing_m)) {
+  double free_spacing = config.min_free_space_spacing_m;
+  std::vector<Vector3> kept_free = thinFreeSpace(free_in_domain, kept_contacts, free_spacing);
+  if (config.max_free_space_per_touch > 0 && kept_free.size() > config.max_free_space_per_touch) {
+    counted.free_space_before_cap = kept_free.size();
+    if (!(free_spacing > 0.0)) free_spacing = 0.001;
+    while (kept_free.size() > config.max_free_space_per_touch) {
+      free_spacing *= 1.5;
+      kept_free = thinFreeSpace(free_in_domain, kept_contacts, free_spacing);
+    }
+    counted.capped_free_space_spacing_m = free_spacing;
+  }
+  for (const Vector3& free : kept_free) {
     TrainingPoint point;
     point.position = free;
     point.label = PointLabel::kOutside;
@@ -188,6 +212,19 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
     update.message = "no observation inside the model's domain";
     return update;
   }
+  const auto capped = [&](std::size_t before, std::size_t after, double spacing, std::size_t cap, const char* what,
+                          const char* key) {
+    if (before == 0) return;
+    std::ostringstream note;
+    note << "the touch's " << before << " " << what << " (after thinning) were thinned to " << after << " at "
+         << 1000.0 * spacing << " mm spacing (touch/" << key << " " << cap << ")";
+    update.warnings.push_back(note.str());
+  };
+  capped(counts.contacts_before_cap, counts.contacts, counts.capped_contact_spacing_m, config.max_contacts_per_touch,
+         "contacts", "max_contacts_per_touch");
+  capped(counts.free_space_before_cap, counts.free_space, counts.capped_free_space_spacing_m,
+         config.max_free_space_per_touch, "free-space points", "max_free_space_per_touch");
+  update.contacts_capped_from = counts.contacts_before_cap;
   const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
   const std::vector<Vector3> measured = measuredPositions(gated.contacts, gated.free_space);
   FitReport report = addTouchPoints(model, new_points, measured, config, &update.retraction);

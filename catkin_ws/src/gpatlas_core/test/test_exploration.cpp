@@ -397,4 +397,30 @@ TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
   }
 }
 
+// A touch far denser than the model needs (20,000 contacts over the sphere's lower half, a
+// thousand after the 4 mm thinning) is thinned further to the per-touch cap, and says so.
+TEST(Explorer, AnOversizedTouchIsThinnedToTheCapWithItsCountInTheAnswer) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 4);
+  std::vector<Contact> contacts;
+  for (const Vector3& direction : fibonacciSphere(40000)) {
+    if (direction.z() > 0.0) continue;
+    Contact c;
+    c.position = sphere.centre + sphere.radius * direction;
+    c.normal = direction;
+    contacts.push_back(c);
+  }
+  ASSERT_GT(contacts.size(), 19000u);
+  TouchObservationConfig config;
+  config.max_contacts_per_touch = 200;
+  const TouchUpdate update = applyTouch(model, contacts, {}, config);
+  ASSERT_TRUE(update.ok) << update.message;
+  EXPECT_LE(update.contacts_added, 200);
+  EXPECT_GT(update.contacts_added, 80);  // 1.5 times the spacing keeps about 1 / 2.25 of them
+  EXPECT_GT(update.contacts_capped_from, 200u);
+  ASSERT_FALSE(update.warnings.empty());
+  EXPECT_NE(update.warnings.back().find("thinned to"), std::string::npos) << update.warnings.back();
+  EXPECT_NE(update.warnings.back().find("max_contacts_per_touch 200"), std::string::npos) << update.warnings.back();
+}
+
 }  // namespace

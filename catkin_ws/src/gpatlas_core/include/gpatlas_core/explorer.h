@@ -52,6 +52,11 @@ struct TouchObservationConfig {
   // (retractContradictedInterior), dropping those left shallower than this fraction of the
   // model's scale (the view's radius; the occluded interior's own margin_fraction).
   double guess_min_depth_fraction{0.08};
+  // At most this many contacts and free-space points per touch after thinning: a touch with
+  // more is thinned at a coarser spacing (0: no cap). Every contact costs the model's coarse
+  // level a row of its O(n^3) factor, so one dense touch must not be able to stall it.
+  std::size_t max_contacts_per_touch{500};
+  std::size_t max_free_space_per_touch{1000};
   // Which observations the model takes at all (gateObservations), checked first.
   ObservationGateConfig gate;
 };
@@ -71,6 +76,8 @@ struct TouchUpdate {
   // Observations the gate refused (TouchObservationConfig::gate), and why in `warnings`.
   GateRefusals contacts_refused;
   GateRefusals free_space_refused;
+  // Non-zero: the touch had this many contacts after thinning, above max_contacts_per_touch.
+  std::size_t contacts_capped_from{0};
   std::vector<std::string> warnings;
 };
 
@@ -208,6 +215,11 @@ struct TouchPointCounts {
   std::size_t contact_inside{0};
   std::size_t contact_tangents{0};
   std::size_t free_space{0};
+  // Non-zero when the per-touch caps thinned further: the counts before, and the spacing used.
+  std::size_t contacts_before_cap{0};
+  double capped_contact_spacing_m{0.0};
+  std::size_t free_space_before_cap{0};
+  double capped_free_space_spacing_m{0.0};
 };
 
 // A touch's observations as training points for `model` (used by the Explorer and by the GP
