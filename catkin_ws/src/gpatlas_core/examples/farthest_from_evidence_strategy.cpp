@@ -48,7 +48,7 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
       result.message = "surface sampling failed: " + sample.message;
       return result;
     }
-    result.max_surface_variance = sample.maxVariance();
+    result.max_evaluated_variance = sample.maxVariance();
 
     // Measured surface: view points and contacts (not free space, guesses or pseudo-points).
     std::vector<Vector3> measured;

@@ -17,7 +17,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   PlanResult result;
   result.status = planned.status;
   result.message = planned.message;
-  result.max_surface_variance = planned.max_chart_variance;
+  result.max_evaluated_variance = planned.max_chart_variance;
   result.elapsed_s = planned.elapsed_s;
   if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
   if (planned.status == PlanStatus::kTouch) {

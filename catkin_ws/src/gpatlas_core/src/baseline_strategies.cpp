@@ -49,7 +49,7 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
     needy->unsupported.push_back(evidence.isUnsupported(needy->sample.points[i], needy->sample.normals[i]));
     needy->retouched.push_back(evidence.measuredNear(needy->sample.points[i], request.evidence.retouch_radius_m));
   }
-  result.max_surface_variance = needy->sample.maxVariance();
+  result.max_evaluated_variance = needy->sample.maxVariance();
   if (!needy->anyNeedsTouch(request.v_max)) {
     result.status = PlanStatus::kConverged;
     result.message = "no sampled surface point has variance above V_max or lacks evidence";
@@ -65,7 +65,7 @@ PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::str
   PlanResult result;
   result.status = PlanStatus::kTouch;
   result.message = "touch at a sampled surface point";
-  result.max_surface_variance = sample.maxVariance();
+  result.max_evaluated_variance = sample.maxVariance();
   result.touch.kind = Touch::Kind::kPoke;
   result.touch.strategy = strategy;
   result.touch.points.push_back(sample.points[index]);

@@ -36,8 +36,8 @@ const char* jsonBool(bool b) { return b ? "true" : "false"; }
 std::string describeAction(const ExplorationRecord& record) {
   std::ostringstream line;
   line << "action " << std::setw(3) << record.index + 1 << ": " << (record.probe_success ? "contact   " : "no contact")
-       << " +" << record.contacts_added << " contacts (" << record.contacts_total << "), max surface variance "
-       << std::setprecision(3) << record.max_surface_variance << ", plan " << std::fixed << std::setprecision(0)
+       << " +" << record.contacts_added << " contacts (" << record.contacts_total << "), max evaluated variance "
+       << std::setprecision(3) << record.max_evaluated_variance << ", plan " << std::fixed << std::setprecision(0)
        << record.plan_ms << " ms, probe " << record.probe_ms << " ms, update " << record.update_ms << " ms";
   if (std::isfinite(record.rmse_pred_to_gt_m))
     line << std::setprecision(1) << ", RMSE " << 1000 * record.rmse_pred_to_gt_m << "/" << 1000 * record.rmse_gt_to_pred_m
@@ -66,7 +66,7 @@ std::string toJson(const ExplorationReport& report) {
   json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
        << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
        << ",\n  \"contacts\": " << result.contacts
-       << ",\n  \"final_max_surface_variance\": " << jsonNumber(result.final_max_surface_variance) << ",\n";
+       << ",\n  \"final_max_evaluated_variance\": " << jsonNumber(result.final_max_evaluated_variance) << ",\n";
   json << "  \"final_metrics\": ";
   const FinalShape& shape = report.final_shape;
   if (shape.measured)
@@ -87,7 +87,7 @@ std::string toJson(const ExplorationReport& report) {
     json << "    {\"action\": " << r.index + 1 << ", \"probe_success\": " << jsonBool(r.probe_success)
          << ", \"probe_reason\": " << jsonString(r.probe_reason) << ", \"contacts\": " << r.contacts_added
          << ", \"free_points\": " << r.free_points_added << ", \"contacts_total\": " << r.contacts_total
-         << ", \"max_surface_variance\": " << jsonNumber(r.max_surface_variance)
+         << ", \"max_evaluated_variance\": " << jsonNumber(r.max_evaluated_variance)
          << ", \"plan_ms\": " << jsonNumber(r.plan_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
          << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"n_train\": " << r.n_train
          << ", \"update_message\": " << jsonString(r.update_message)

@@ -327,8 +327,8 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       const PlanResult plan = planner.plan(request);
       record.plan_ms = millisecondsSince(plan_started);
       record.plan_status = plan.status;
-      record.max_surface_variance = plan.max_surface_variance;
-      result.final_max_surface_variance = plan.max_surface_variance;
+      record.max_evaluated_variance = plan.max_evaluated_variance;
+      result.final_max_evaluated_variance = plan.max_evaluated_variance;
 
       if (plan.status == PlanStatus::kConverged) {
         result.stop_reason = "converged";

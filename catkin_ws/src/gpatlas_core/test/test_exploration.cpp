@@ -72,14 +72,14 @@ TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
     const GpisModel& m = model;
     EXPECT_EQ(record.index, static_cast<int>(rmse_after_action.size()));
     EXPECT_EQ(record.plan_status, PlanStatus::kTouch);
-    EXPECT_GT(record.max_surface_variance, 0.1);  // a touch is only planned above V_max
+    EXPECT_GT(record.max_evaluated_variance, 0.1);  // a touch is only planned above V_max
     rmse_after_action.push_back(shapeRmse(m, sphere));
   });
   ASSERT_EQ(result.stop_reason, "converged");
   EXPECT_TRUE(result.converged);
   ASSERT_GE(result.actions, 1);
   ASSERT_EQ(result.records.size(), static_cast<std::size_t>(result.actions));
-  EXPECT_LE(result.final_max_surface_variance, 0.1);
+  EXPECT_LE(result.final_max_evaluated_variance, 0.1);
   const int contacts = std::accumulate(result.records.begin(), result.records.end(), 0,
                                        [](int sum, const ExplorationRecord& r) { return sum + r.contacts_added; });
   EXPECT_GE(contacts, 1);

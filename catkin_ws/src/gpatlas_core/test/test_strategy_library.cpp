@@ -92,7 +92,7 @@ TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {
   const auto run = gpatlas_core::Explorer(config).run(model, *strategy, prober);
   EXPECT_TRUE(run.converged) << run.stop_reason << " after " << run.actions << " actions";
   EXPECT_GT(run.actions, 0);
-  EXPECT_LE(run.final_max_surface_variance, config.v_max);
+  EXPECT_LE(run.final_max_evaluated_variance, config.v_max);
 }
 
 // The macro, twice in one file, with a factory whose capture list has a comma.

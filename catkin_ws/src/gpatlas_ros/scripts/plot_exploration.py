@@ -24,7 +24,7 @@ def main(results_dir):
     mesh_var = series("sampled_max_variance")
     if mesh_var:
         ax_var.plot(*zip(*mesh_var), "b.-", label="max variance on the predicted surface")
-    planner_var = series("max_surface_variance")
+    planner_var = series("max_evaluated_variance")
     if planner_var:
         ax_var.plot(*zip(*planner_var), "c.:", lw=0.8, label="planner's estimate before the action")
     ax_var.axhline(report["settings"]["v_max"], color="b", ls="--", lw=0.8, label="V_max")

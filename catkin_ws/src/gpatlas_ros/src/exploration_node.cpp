@@ -341,7 +341,7 @@ class ExplorationNode {
       }
       gpatlas_core::PlanResult plan;
       plan.message = srv.response.message;
-      plan.max_surface_variance = srv.response.max_surface_variance;
+      plan.max_evaluated_variance = srv.response.max_evaluated_variance;
       plan.elapsed_s = srv.response.plan_time_s;
       switch (srv.response.status) {
         case gpatlas_msgs::GetNextTouch::Response::TOUCH: {

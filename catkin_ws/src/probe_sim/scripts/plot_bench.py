@@ -29,7 +29,7 @@ def main(out_dir):
             err = [(int(h["action"]), 1000 * 0.5 * (float(h["rmse_pred_to_gt_m"]) + float(h["rmse_gt_to_pred_m"])))
                    for h in hist if h["rmse_pred_to_gt_m"] != "nan"]
             # The bench's own sample (the same for every strategy); older files lack it.
-            key = "sampled_max_variance" if "sampled_max_variance" in hist[0] else "max_surface_variance"
+            key = "sampled_max_variance" if "sampled_max_variance" in hist[0] else "max_evaluated_variance"
             var = [(int(h["action"]), float(h[key])) for h in hist
                    if h[key] != "nan" and math.isfinite(float(h[key]))]
             if err:

@@ -353,7 +353,7 @@ struct RunResult {
   double calibration{std::nan("")};
   // Its sharpness: the median sd of the surface's position along the normal there (m).
   double position_sd_m{std::nan("")};
-  double max_surface_variance{0.0};
+  double max_evaluated_variance{0.0};
   double wall_s{0.0};
   double plan_ms_median{0.0};
   double update_ms_median{0.0};
@@ -563,7 +563,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.contacts = result.contacts;
   r.stop_reason = result.stop_reason;
   r.n_train = model.observations().size();
-  r.max_surface_variance = result.final_max_surface_variance;
+  r.max_evaluated_variance = result.final_max_evaluated_variance;
   std::vector<double> plan_ms, update_ms;
   for (const auto& rec : result.records) {
     plan_ms.push_back(rec.plan_ms);
@@ -622,7 +622,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
-       "position_sd_m,max_surface_variance,wall_s,plan_ms_median,"
+       "position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
        "update_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
@@ -633,20 +633,20 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << num(r.rmse_gt_to_pred_seen) << ','
       << num(r.rmse_gt_to_pred_unseen) << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.position_sd_m) << ','
-      << num(r.max_surface_variance) << ','
+      << num(r.max_evaluated_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << '\n';
   }
 }
 
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
-  f << "object,strategy,seed,action,contacts_total,max_surface_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
+  f << "object,strategy,seed,action,contacts_total,max_evaluated_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
        "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance\n";
   for (const auto& r : runs)
     for (const auto& h : r.history) {
       const bool initial = h.index < 0;
       f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.index + 1 << ',' << h.contacts_total << ','
-        << (initial ? "nan" : num(h.max_surface_variance)) << ',' << num(h.rmse_pred_to_gt_m) << ','
+        << (initial ? "nan" : num(h.max_evaluated_variance)) << ',' << num(h.rmse_pred_to_gt_m) << ','
         << num(h.rmse_gt_to_pred_m) << ',' << num(h.plan_ms, 4) << ',' << num(h.probe_ms, 4) << ','
         << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << '\n';
     }

@@ -61,7 +61,7 @@ class BenchMatchesDemoTest(unittest.TestCase):
         self.assertGreaterEqual(min(len(demo_history), len(bench_history)), SAME_FIRST_ACTIONS, summary)
         for d, b in zip(demo_history[:SAME_FIRST_ACTIONS], bench_history[:SAME_FIRST_ACTIONS]):
             self.assertEqual(d["contacts_total"], int(b["contacts_total"]), "action %d: %s" % (d["action"], summary))
-            self.assertAlmostEqual(d["max_surface_variance"], float(b["max_surface_variance"]),
+            self.assertAlmostEqual(d["max_evaluated_variance"], float(b["max_evaluated_variance"]),
                                    delta=VARIANCE_TOLERANCE, msg="action %d: %s" % (d["action"], summary))
         self.assertLessEqual(abs(int(bench["actions"]) - demo["actions"]),
                              ACTIONS_RELATIVE_TOLERANCE * max(int(bench["actions"]), demo["actions"]), summary)

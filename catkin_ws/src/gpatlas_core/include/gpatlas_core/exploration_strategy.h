@@ -30,9 +30,10 @@ struct PlanResult {
   PlanStatus status{PlanStatus::kError};
   std::string message;
   Touch touch;  // filled for kTouch
-  // The strategy's estimate of the largest variance left on the predicted surface: the
-  // largest chart variance for the atlas strategies, the largest sampled one for the others.
-  double max_surface_variance{0.0};
+  // The largest variance the plan evaluated: over the atlas's charts (atlas strategies) or the
+  // surface samples (the others). A lower bound on the surface's largest: an atlas that stops
+  // at the first chart above V_max has seen only part of the surface.
+  double max_evaluated_variance{0.0};
   std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
   double elapsed_s{0.0};
 };

@@ -91,7 +91,7 @@ struct ExplorationRecord {
   int free_points_added{0};      // outside points accepted by the model
   int contacts_total{0};         // contacts accepted since the start, this action's included
   std::size_t n_train{0};        // observations of the model this action's plan was made on
-  double max_surface_variance{0.0};  // the strategy's estimate before this action
+  double max_evaluated_variance{0.0};  // this action's plan's (PlanResult::max_evaluated_variance)
   double plan_ms{0.0};
   double probe_ms{0.0};
   double update_ms{0.0};
@@ -115,8 +115,8 @@ struct ExplorationResult {
   int actions{0};  // touches executed (probed), failed ones included
   int contacts{0}; // contacts the model accepted
   std::vector<ExplorationRecord> records;
-  // The strategy's estimate on the final model (from the plan that ended the run).
-  double final_max_surface_variance{0.0};
+  // PlanResult::max_evaluated_variance of the plan that ended the run.
+  double final_max_evaluated_variance{0.0};
 };
 
 // Greedy thinning of one touch's contacts or free space: the finite points, in order, that lie at

@@ -171,7 +171,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   }
   res.plan_time_s = (ros::WallTime::now() - start).toSec();
   res.message = plan.message;
-  res.max_surface_variance = plan.max_surface_variance;
+  res.max_evaluated_variance = plan.max_evaluated_variance;
   switch (plan.status) {
     case gpatlas_core::PlanStatus::kTouch:
       res.status = gpatlas_msgs::GetNextTouch::Response::TOUCH;
