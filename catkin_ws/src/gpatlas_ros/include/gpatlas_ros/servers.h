@@ -7,12 +7,14 @@
 #include <gpatlas_core/explorer.h>
 #include <gpatlas_core/surface_model_factory.h>
 #include <gpatlas_core/hyperparameter_tuner.h>
+#include <gpatlas_core/observation_history.h>
 #include <gpatlas_core/occupancy_grid.h>
 #include <gpatlas_core/segmentation.h>
 #include <gpatlas_core/surface_mesher.h>
 #include <gpatlas_msgs/AddObservations.h>
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/Observations.h>
+#include <gpatlas_msgs/RemoveObservations.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/TrainingSet.h>
@@ -95,10 +97,12 @@ class GpModelServer {
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  bool onRemoveObservations(gpatlas_msgs::RemoveObservations::Request& req,
+                            gpatlas_msgs::RemoveObservations::Response& res);
   // Adds observations; false with a message when nothing could be used. `num_refused`: those
-  // the gate (touch/gate) refused.
+  // the gate (touch/gate) refused; `batch_id`: the touch's number in history_ (0: none).
   bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added,
-                       std::uint32_t* num_contacts_added, std::uint32_t* num_refused);
+                       std::uint32_t* num_contacts_added, std::uint32_t* num_refused, std::uint32_t* batch_id);
   void publishModel();  // with mutex_ held
   void meshLoop();
   std::uint32_t training_sequence_{0};  // with mutex_
@@ -140,12 +144,13 @@ class GpModelServer {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
 
-  std::mutex mutex_;  // guards model_ (callbacks may run concurrently in a multi-threaded manager)
+  std::mutex mutex_;  // guards model_ and history_ (callbacks may run concurrently in a multi-threaded manager)
   std::unique_ptr<gpatlas_core::SurfaceModel> model_;
+  gpatlas_core::ObservationHistory history_;  // the view and each touch, for remove_observations
 
   std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
   ros::Subscriber contacts_sub_, plane_sub_;
-  ros::ServiceServer add_srv_, reset_srv_;
+  ros::ServiceServer add_srv_, reset_srv_, remove_srv_;
   ros::Publisher training_pub_, surface_pub_, mesh_marker_pub_, mesh_shape_pub_;
 };
 

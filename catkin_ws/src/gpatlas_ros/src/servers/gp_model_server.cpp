@@ -53,6 +53,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   mesh_shape_pub_ = pnh_.advertise<shape_msgs::Mesh>("surface_shape", 1, true);
   add_srv_ = pnh_.advertiseService("add_observations", &GpModelServer::onAddObservations, this);
   reset_srv_ = pnh_.advertiseService("reset", &GpModelServer::onReset, this);
+  remove_srv_ = pnh_.advertiseService("remove_observations", &GpModelServer::onRemoveObservations, this);
   points_sub_ = std::make_unique<TfGatedCloudSubscriber>(
       nh_, "points", &tf_buffer_, world_frame_, "gp_model", kTfWaitWarningS,
       [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
@@ -155,6 +156,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << report.message);
     return;
   }
+  history_.setView(view.points);
   {
     std::lock_guard<std::mutex> plane_lock(plane_mutex_);
     last_fit_had_plane_ = plane.has_value();
@@ -172,8 +174,8 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
 void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
   try {
     std::string message;
-    std::uint32_t added = 0, contacts = 0, refused = 0;
-    if (addObservations(*msg, &message, &added, &contacts, &refused)) ROS_INFO_STREAM("gp_model: " << message);
+    std::uint32_t added = 0, contacts = 0, refused = 0, batch = 0;
+    if (addObservations(*msg, &message, &added, &contacts, &refused, &batch)) ROS_INFO_STREAM("gp_model: " << message);
     else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("gp_model: observations ignored: " << e.what());
@@ -182,7 +184,8 @@ void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) 
 
 bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& req,
                                       gpatlas_msgs::AddObservations::Response& res) {
-  res.success = addObservations(req.observations, &res.message, &res.num_added, &res.num_contacts_added, &res.num_refused);
+  res.success = addObservations(req.observations, &res.message, &res.num_added, &res.num_contacts_added, &res.num_refused,
+                                &res.batch_id);
   return true;
 }
 
@@ -195,6 +198,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   }
   std::lock_guard<std::mutex> lock(mutex_);
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
+  history_.clear();
   // An empty training set tells the planner and the collision map to drop their copies.
   gpatlas_msgs::TrainingSet empty;
   empty.sequence = ++training_sequence_;
@@ -206,12 +210,44 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   return true;
 }
 
+bool GpModelServer::onRemoveObservations(gpatlas_msgs::RemoveObservations::Request& req,
+                                         gpatlas_msgs::RemoveObservations::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<std::uint32_t> ids = req.batch_ids;
+  if (req.last > 0) {
+    const std::vector<std::uint32_t> last = history_.lastTouches(req.last);
+    ids.insert(ids.end(), last.begin(), last.end());
+  }
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  if (ids.empty()) {
+    res.success = false;
+    res.message = req.last > 0 ? "no touch to remove" : "say which: batch_ids, or last > 0";
+    return true;
+  }
+  std::string error;
+  const ros::WallTime started = ros::WallTime::now();
+  if (!history_.remove(ids, touch_config_, &model_, &error)) {
+    res.success = false;
+    res.message = error;
+    return true;
+  }
+  res.success = true;
+  res.removed_batch_ids = ids;
+  res.message = "removed " + std::to_string(ids.size()) + " touch(es); the model was rebuilt from the view and " +
+                std::to_string(history_.lastTouches(history_.batches().size()).size()) + " touch(es) in " +
+                std::to_string((ros::WallTime::now() - started).toSec()) + " s";
+  publishModel();
+  return true;
+}
+
 bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::string* message,
                                     std::uint32_t* num_added, std::uint32_t* num_contacts_added,
-                                    std::uint32_t* num_refused) {
+                                    std::uint32_t* num_refused, std::uint32_t* batch_id) {
   *num_added = 0;
   *num_contacts_added = 0;
   *num_refused = 0;
+  *batch_id = 0;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
   // One transform for everything: contacts, then the tips of their normals (a normal moves as
@@ -252,6 +288,8 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
                 std::to_string(update.retraction.shrunk) + " made shallower)";
   for (const auto& w : update.warnings) *message += "; " + w;
   if (!update.ok) return false;
+  *batch_id = history_.addTouch(observed.contacts, free_space);
+  *message += " (batch " + std::to_string(*batch_id) + ")";
   publishModel();
   return true;
 }
