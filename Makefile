@@ -3,6 +3,7 @@
 #   make demo    install, build, run the headless simulated exploration
 #   make bench   the exploration benchmark without ROS (BENCH_ARGS="...")
 #   make demo OBJECT=path/to/mesh.stl SCALE=0.001   the demo on your own mesh
+#   make soak    the long soak: 150 actions of the simulated loop (SOAK_ACTIONS=N), time per action
 SHELL := /bin/bash
 # Debian's ROS python modules live in /usr/bin/python3, not in a pyenv/venv python on PATH.
 export PATH := /usr/bin:$(PATH)
@@ -17,7 +18,9 @@ OBJECT ?= procedural:mug
 SCALE ?= 1.0
 BENCH_ARGS ?= --object procedural:mug --strategy atlas_poke --strategy random --seeds 0
 
-.PHONY: deps build test demo bench lint bench-core clean
+SOAK_ACTIONS ?= 150
+
+.PHONY: deps build test demo bench lint bench-core soak clean
 
 deps:
 	@bash scripts/install_deps.sh
@@ -40,6 +43,11 @@ bench: build
 
 bench-core: build
 	$(WS)/devel/lib/gpatlas_core/gpatlas_core_benchmark $(BENCH_CORE_ARGS)
+
+# The soak test of make test (test/soak.test, 40 actions), longer: it prints where each action's
+# wall time goes and the nodelet manager's memory, and fails if the time per action grows by half.
+soak: build
+	source $(WS)/devel/setup.bash && rostest --text probe_sim_ros soak.test max_actions:=$(SOAK_ACTIONS)
 
 clean:
 	rm -rf $(WS)/build $(WS)/devel $(WS)/install

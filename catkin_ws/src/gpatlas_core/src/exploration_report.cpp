@@ -88,7 +88,8 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"probe_reason\": " << jsonString(r.probe_reason) << ", \"contacts\": " << r.contacts_added
          << ", \"free_points\": " << r.free_points_added << ", \"contacts_total\": " << r.contacts_total
          << ", \"max_evaluated_variance\": " << jsonNumber(r.max_evaluated_variance)
-         << ", \"plan_ms\": " << jsonNumber(r.plan_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
+         << ", \"action_ms\": " << jsonNumber(r.action_ms) << ", \"plan_ms\": " << jsonNumber(r.plan_ms)
+         << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
          << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"n_train\": " << r.n_train
          << ", \"update_message\": " << jsonString(r.update_message)
          << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)

@@ -315,6 +315,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
   std::vector<Vector3> attempted_targets;
   try {
     for (int action = 0;; ++action) {
+      const Clock::time_point action_started = Clock::now();
       ExplorationRecord record;
       record.index = action;
       record.n_train = planner.modelSize();
@@ -378,6 +379,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       const bool touched = probed.success && record.contacts_added > 0;
       consecutive_failures = touched ? 0 : consecutive_failures + 1;
       if (progress) progress(record);
+      record.action_ms = millisecondsSince(action_started);
       result.records.push_back(record);
       if (consecutive_failures >= config_.max_consecutive_failures) {
         result.stop_reason = "consecutive_failures";

@@ -95,6 +95,9 @@ struct ExplorationRecord {
   double plan_ms{0.0};
   double probe_ms{0.0};
   double update_ms{0.0};
+  // The whole action, wall clock: plan, probe, update (with what the steps wait for) and the
+  // caller's progress callback (measurements); set after the callback.
+  double action_ms{0.0};
   std::string update_message;    // why the model refused the new points, if it did
   InteriorRetraction retraction; // occluded-interior guesses this touch contradicted
   Touch touch;
