@@ -7,6 +7,8 @@ namespace gpatlas_core {
 
 namespace {
 constexpr std::int64_t kCellRange = 1 << 20;  // cells per axis: enough for any scene in metres
+// The grid's cell side when the distance test is off (measuredNear alone): about a retouch radius.
+constexpr double kRetouchCellM = 0.01;
 std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
   return ((i + kCellRange / 2) * kCellRange + (j + kCellRange / 2)) * kCellRange + (k + kCellRange / 2);
 }
@@ -15,11 +17,12 @@ std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                                  const std::optional<SupportPlane>& support, double approach_m,
                                  const std::vector<Vector3>& attempted)
-    : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0) {
-  // Without the distance test the points are still kept for measuredNear, without the grid.
+    : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0),
+      cell_m_(enabled() ? max_distance_m_ : kRetouchCellM) {
+  // Without the distance test the points are still kept for measuredNear, on a grid of its own.
   const auto add = [&](const Vector3& p) {
     if (!p.allFinite()) return;
-    if (enabled()) cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
+    cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
     points_.push_back(p);
   };
   for (const TrainingPoint& point : model.observations()) {
@@ -42,8 +45,8 @@ bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
   if (!x.allFinite() || !(radius_m > 0.0)) return false;
   const double squared = radius_m * radius_m;
   const auto near = [&](const Vector3& p) { return (p - x).squaredNorm() <= squared; };
-  if (!enabled() || radius_m > max_distance_m_) return std::any_of(points_.begin(), points_.end(), near);
-  // Cells of side max_distance_m: every point within radius_m is in the 27 around x.
+  if (radius_m > cell_m_) return std::any_of(points_.begin(), points_.end(), near);
+  // Cells of side cell_m_ >= radius_m: every point within radius_m is in the 27 around x.
   for (int di = -1; di <= 1; ++di)
     for (int dj = -1; dj <= 1; ++dj)
       for (int dk = -1; dk <= 1; ++dk) {
@@ -73,7 +76,7 @@ bool SurfaceEvidence::isUnsupported(const Vector3& x, const Vector3& normal) con
 }
 
 std::int64_t SurfaceEvidence::key(const Vector3& x, int di, int dj, int dk) const {
-  const Vector3 cell = (x / max_distance_m_).array().floor();
+  const Vector3 cell = (x / cell_m_).array().floor();
   return packCell(static_cast<std::int64_t>(cell.x()) + di, static_cast<std::int64_t>(cell.y()) + dj,
                   static_cast<std::int64_t>(cell.z()) + dk);
 }

@@ -104,6 +104,27 @@ TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOn
 
 // A hole in the data that the variance does not flag (V_max is out of reach): the planners
 // converge on variance alone, and with an evidence distance they poke into the hole.
+// measuredNear (the retouch rule) against a full search over the measured surface points and
+// the attempted targets, with the distance test on and off, at radii below and above the grid's.
+TEST(SurfaceEvidence, MeasuredNearMatchesABruteForceSearch) {
+  const AnalyticSphere sphere;
+  const GpisModel model = modelWithAHoleOnTop(sphere);
+  const std::vector<Vector3> attempted{sphere.centre + Vector3(0.0, 0.0, sphere.radius)};
+  std::mt19937 rng(6);
+  std::uniform_real_distribution<double> u(-1.2, 1.2);
+  for (const double max_distance : {0.0, 0.03}) {
+    const SurfaceEvidence evidence(model, max_distance, std::nullopt, 0.0, attempted);
+    for (int i = 0; i < 400; ++i) {
+      const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
+      const double to_target = (attempted[0] - x).norm();
+      const double nearest = std::min(bruteForceDistance(model, x), to_target);
+      for (const double radius : {0.005, 0.02, 0.05})
+        EXPECT_EQ(evidence.measuredNear(x, radius), nearest <= radius)
+            << "max_distance " << max_distance << " radius " << radius << " nearest " << nearest;
+    }
+  }
+}
+
 TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) {
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);

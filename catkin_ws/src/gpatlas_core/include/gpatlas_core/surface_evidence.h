@@ -76,13 +76,14 @@ class SurfaceEvidence {
   bool measuredNear(const Vector3& x, double radius_m) const;
 
  private:
-  // The cell of x (side max_distance_m), moved by (di, dj, dk) cells, packed into one key.
+  // The cell of x (side cell_m_), moved by (di, dj, dk) cells, packed into one key.
   std::int64_t key(const Vector3& x, int di = 0, int dj = 0, int dk = 0) const;
   double max_distance_m_{0.0};
+  double cell_m_{0.0};  // max_distance_m_, or a fixed side when the distance test is off
   std::optional<SupportPlane> support_;
   double approach_m_{0.0};
   std::vector<Vector3> points_;  // measured surface points and attempted targets
-  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side max_distance_m
+  std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side cell_m_
 };
 
 }  // namespace gpatlas_core
