@@ -74,8 +74,19 @@ class SoakTest(unittest.TestCase):
         if rss:
             print("  manager RSS: %.0f MB at the first sample, %.0f MB at the end, peak %.0f MB"
                   % (rss[0], rss[-1], max(rss)))
-        self.assertLessEqual(last["action_ms"], 1.5 * first["action_ms"],
-                             "per-action wall time grew from %.0f ms to %.0f ms" % (first["action_ms"], last["action_ms"]))
+        # make test runs two tests at a time, so there the wall time measures the neighbour too:
+        # the time check is make soak's (check_wall_time), on an otherwise idle machine.
+        if rospy.get_param("~check_wall_time", False):
+            self.assertLessEqual(last["action_ms"], 1.5 * first["action_ms"],
+                                 "per-action wall time grew from %.0f ms to %.0f ms"
+                                 % (first["action_ms"], last["action_ms"]))
+        # What does not depend on the load: every action is timed, and the model grows by at most
+        # one capped touch per action (touch/max_contacts_per_touch 500, each with a point behind
+        # it and two tangent slopes at most; max_free_space_per_touch 1000).
+        for h in history:
+            self.assertGreater(h["action_ms"], 0.0)
+        for a, b in zip(history, history[1:]):
+            self.assertLessEqual(b["n_train"] - a["n_train"], 4 * 500 + 1000)
         shutil.rmtree(results, ignore_errors=True)
 
 
