@@ -53,7 +53,9 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
   if (!needy->anyNeedsTouch(request.v_max)) {
     result.status = PlanStatus::kConverged;
     result.message = "no sampled surface point has variance above V_max or lacks evidence";
-    const auto retouched = std::count(needy->retouched.begin(), needy->retouched.end(), 1);
+    std::size_t retouched = 0;
+    for (std::size_t i = 0; i < needy->retouched.size(); ++i)
+      retouched += needy->retouched[i] && needy->sample.variances[i] > request.v_max ? 1 : 0;
     if (retouched > 0)
       result.message += " (" + std::to_string(retouched) + " above V_max at measurements or earlier targets)";
     return result;

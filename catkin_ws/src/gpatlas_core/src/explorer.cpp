@@ -19,6 +19,24 @@ double millisecondsSince(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
 
+// `thin(spacing)` at `spacing`; when that keeps more than `cap` points (a dense sensor, a long
+// slide), again at 1.5 times the spacing until it fits, so that one touch cannot make the model
+// arbitrarily large. `before` and `capped_spacing` say so (0 when the cap did not bind).
+template <typename Thin>
+std::vector<Vector3> thinToCap(Thin thin, double spacing, std::size_t cap, std::size_t* before,
+                               double* capped_spacing) {
+  std::vector<Vector3> kept = thin(spacing);
+  if (cap == 0 || kept.size() <= cap) return kept;
+  *before = kept.size();
+  if (!(spacing > 0.0)) spacing = 0.001;
+  while (kept.size() > cap) {
+    spacing *= 1.5;
+    kept = thin(spacing);
+  }
+  *capped_spacing = spacing;
+  return kept;
+}
+
 }  // namespace
 
 std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double spacing_m) {
@@ -61,21 +79,10 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
   std::vector<Vector3> positions;
   positions.reserve(contacts.size());
   for (const Contact& contact : contacts) positions.push_back(contact.position);
-  // A touch with more contacts than the cap after thinning (a dense sensor, a long slide) is
-  // thinned coarser, 1.5 times the spacing at a time, so that one touch cannot make the model
-  // arbitrarily large.
   TouchPointCounts counted;
-  double spacing = config.min_point_spacing_m;
-  std::vector<Vector3> kept_contacts = thinToSpacing(positions, spacing);
-  if (config.max_contacts_per_touch > 0 && kept_contacts.size() > config.max_contacts_per_touch) {
-    counted.contacts_before_cap = kept_contacts.size();
-    if (!(spacing > 0.0)) spacing = 0.001;
-    while (kept_contacts.size() > config.max_contacts_per_touch) {
-      spacing *= 1.5;
-      kept_contacts = thinToSpacing(positions, spacing);
-    }
-    counted.capped_contact_spacing_m = spacing;
-  }
+  std::vector<Vector3> kept_contacts =
+      thinToCap([&](double spacing) { return thinToSpacing(positions, spacing); }, config.min_point_spacing_m,
+                config.max_contacts_per_touch, &counted.contacts_before_cap, &counted.capped_contact_spacing_m);
   std::vector<TrainingPoint> points;
   for (const Vector3& contact : kept_contacts) {
     TrainingPoint point;
@@ -132,17 +139,10 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
   std::vector<Vector3> free_in_domain;
   for (const Vector3& free : free_space)
     if (free.allFinite() && model.inDomain(free)) free_in_domain.push_back(free);
-  double free_spacing = config.min_free_space_spacing_m;
-  std::vector<Vector3> kept_free = thinFreeSpace(free_in_domain, kept_contacts, free_spacing);
-  if (config.max_free_space_per_touch > 0 && kept_free.size() > config.max_free_space_per_touch) {
-    counted.free_space_before_cap = kept_free.size();
-    if (!(free_spacing > 0.0)) free_spacing = 0.001;
-    while (kept_free.size() > config.max_free_space_per_touch) {
-      free_spacing *= 1.5;
-      kept_free = thinFreeSpace(free_in_domain, kept_contacts, free_spacing);
-    }
-    counted.capped_free_space_spacing_m = free_spacing;
-  }
+  const std::vector<Vector3> kept_free =
+      thinToCap([&](double spacing) { return thinFreeSpace(free_in_domain, kept_contacts, spacing); },
+                config.min_free_space_spacing_m, config.max_free_space_per_touch, &counted.free_space_before_cap,
+                &counted.capped_free_space_spacing_m);
   for (const Vector3& free : kept_free) {
     TrainingPoint point;
     point.position = free;

@@ -29,8 +29,15 @@ std::uint32_t ObservationHistory::addTouch(std::vector<Contact> contacts, std::v
 
 void ObservationHistory::clear() { batches_.clear(); }
 
-bool ObservationHistory::contains(std::uint32_t id) const {
-  return std::any_of(batches_.begin(), batches_.end(), [id](const ObservationBatch& b) { return b.id == id; });
+std::vector<ObservationBatch>::const_iterator ObservationHistory::find(std::uint32_t id) const {
+  return std::find_if(batches_.begin(), batches_.end(), [id](const ObservationBatch& b) { return b.id == id; });
+}
+
+bool ObservationHistory::contains(std::uint32_t id) const { return find(id) != batches_.end(); }
+
+std::size_t ObservationHistory::touchCount() const {
+  return static_cast<std::size_t>(std::count_if(
+      batches_.begin(), batches_.end(), [](const ObservationBatch& b) { return b.kind == ObservationBatch::Kind::kTouch; }));
 }
 
 std::vector<std::uint32_t> ObservationHistory::lastTouches(std::size_t n) const {
@@ -78,7 +85,7 @@ bool ObservationHistory::remove(const std::vector<std::uint32_t>& ids, const Tou
     return false;
   }
   for (const std::uint32_t id : ids) {
-    const auto found = std::find_if(batches_.begin(), batches_.end(), [id](const ObservationBatch& b) { return b.id == id; });
+    const auto found = find(id);
     if (found == batches_.end()) {
       *error = "no batch " + std::to_string(id) + " (removed already, or never added)";
       return false;

@@ -46,16 +46,24 @@ bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
   const double squared = radius_m * radius_m;
   const auto near = [&](const Vector3& p) { return (p - x).squaredNorm() <= squared; };
   if (radius_m > cell_m_) return std::any_of(points_.begin(), points_.end(), near);
-  // Cells of side cell_m_ >= radius_m: every point within radius_m is in the 27 around x.
+  bool found = false;
+  forEachCandidate(x, [&](const Vector3& p) {
+    found = near(p);
+    return !found;
+  });
+  return found;
+}
+
+template <typename Visit>
+void SurfaceEvidence::forEachCandidate(const Vector3& x, Visit visit) const {
   for (int di = -1; di <= 1; ++di)
     for (int dj = -1; dj <= 1; ++dj)
       for (int dk = -1; dk <= 1; ++dk) {
         const auto it = cells_.find(key(x, di, dj, dk));
         if (it == cells_.end()) continue;
         for (const std::uint32_t index : it->second)
-          if (near(points_[index])) return true;
+          if (!visit(points_[index])) return;
       }
-  return false;
 }
 
 std::string validate(const EvidenceRule& rule) {
@@ -86,20 +94,14 @@ double SurfaceEvidence::distance(const Vector3& x) const {
   if (!enabled() || !x.allFinite()) return infinity;
   double best_squared = max_distance_m_ * max_distance_m_;
   bool found = false;
-  // Cells of side max_distance_m: every point within that distance is in the 27 around x.
-  for (int di = -1; di <= 1; ++di)
-    for (int dj = -1; dj <= 1; ++dj)
-      for (int dk = -1; dk <= 1; ++dk) {
-        const auto it = cells_.find(key(x, di, dj, dk));
-        if (it == cells_.end()) continue;
-        for (const std::uint32_t index : it->second) {
-          const double squared = (points_[index] - x).squaredNorm();
-          if (squared <= best_squared) {
-            best_squared = squared;
-            found = true;
-          }
-        }
-      }
+  forEachCandidate(x, [&](const Vector3& p) {
+    const double squared = (p - x).squaredNorm();
+    if (squared <= best_squared) {
+      best_squared = squared;
+      found = true;
+    }
+    return true;
+  });
   return found ? std::sqrt(best_squared) : infinity;
 }
 

@@ -158,6 +158,17 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
         std::lock_guard<std::mutex> lock(training_mutex);
         latest_training = m;
       });
+  // The first training set the GP publishes at or after `since` (null after 5 s).
+  const auto trainingSince = [&](const ros::Time& since) {
+    for (int i = 0; i < 50; ++i) {
+      {
+        std::lock_guard<std::mutex> lock(training_mutex);
+        if (latest_training && latest_training->header.stamp >= since) return latest_training;
+      }
+      ros::Duration(0.1).sleep();
+    }
+    return gpatlas_msgs::TrainingSet::ConstPtr();
+  };
   // A model fitted with segmentation's support plane has outside points under the table top.
   const auto withSupportPlane = [](const gpatlas_msgs::TrainingSet::ConstPtr& m) {
     if (!m) return false;
@@ -388,14 +399,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/remove_observations", remove));
   ASSERT_TRUE(remove.response.success) << remove.response.message;
   EXPECT_EQ(remove.response.removed_batch_ids, std::vector<std::uint32_t>{wrong.response.batch_id});
-  gpatlas_msgs::TrainingSet::ConstPtr after_remove;
-  for (int i = 0; i < 50 && !after_remove; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(training_mutex);
-      if (latest_training && latest_training->header.stamp >= before_remove) after_remove = latest_training;
-    }
-    if (!after_remove) ros::Duration(0.1).sleep();
-  }
+  const gpatlas_msgs::TrainingSet::ConstPtr after_remove = trainingSince(before_remove);
   ASSERT_TRUE(after_remove) << "no training set after remove_observations";
   EXPECT_FALSE(hasPointAt(*after_remove, wrong_contact)) << "the removed contact is still there";
   EXPECT_TRUE(hasPointAt(*after_remove, kCentre + kRadius * Eigen::Vector3d(1, 0, 0))) << "a kept touch was lost";
@@ -421,15 +425,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", with_normal));
   EXPECT_TRUE(with_normal.response.success) << with_normal.response.message;
   EXPECT_EQ(with_normal.response.num_added, 2u);
-  gpatlas_msgs::TrainingSet::ConstPtr updated;
-  for (int i = 0; i < 50; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(training_mutex);
-      if (latest_training && latest_training->header.stamp >= before_add) updated = latest_training;
-    }
-    if (updated) break;
-    ros::Duration(0.1).sleep();
-  }
+  const gpatlas_msgs::TrainingSet::ConstPtr updated = trainingSince(before_add);
   ASSERT_TRUE(updated) << "no training set after add_observations";
   for (std::size_t i = 0; i < updated->points.size(); ++i)
     if (updated->labels[i] == 0) EXPECT_LT(sphereError(updated->points[i]), 0.01) << "a surface point off the sphere";
@@ -460,14 +456,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", contradicting));
   EXPECT_TRUE(contradicting.response.success) << contradicting.response.message;
   EXPECT_NE(contradicting.response.message.find("(1 dropped"), std::string::npos) << contradicting.response.message;
-  gpatlas_msgs::TrainingSet::ConstPtr retracted;
-  for (int i = 0; i < 50 && !retracted; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(training_mutex);
-      if (latest_training && latest_training->header.stamp >= before_contradiction) retracted = latest_training;
-    }
-    if (!retracted) ros::Duration(0.1).sleep();
-  }
+  const gpatlas_msgs::TrainingSet::ConstPtr retracted = trainingSince(before_contradiction);
   ASSERT_TRUE(retracted) << "no training set after the contradicting observation";
   EXPECT_EQ(retracted->points.size(), updated->points.size());  // one guess out, one free point in
   for (std::size_t i = 0; i < retracted->points.size(); ++i)

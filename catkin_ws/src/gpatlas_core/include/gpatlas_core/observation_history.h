@@ -34,6 +34,7 @@ class ObservationHistory {
 
   const std::vector<ObservationBatch>& batches() const { return batches_; }
   bool contains(std::uint32_t id) const;
+  std::size_t touchCount() const;
   // The ids of the last `n` touches, oldest first.
   std::vector<std::uint32_t> lastTouches(std::size_t n) const;
 
@@ -51,6 +52,7 @@ class ObservationHistory {
   FitReport rebuild(SurfaceModel& model, const TouchObservationConfig& touch) const;
 
  private:
+  std::vector<ObservationBatch>::const_iterator find(std::uint32_t id) const;
   std::vector<ObservationBatch> batches_;  // the view (if any) first, then touches in order
   std::uint32_t next_id_{1};
 };

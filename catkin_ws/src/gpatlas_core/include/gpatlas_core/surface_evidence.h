@@ -76,6 +76,10 @@ class SurfaceEvidence {
   bool measuredNear(const Vector3& x, double radius_m) const;
 
  private:
+  // Calls visit(point) for the points in the 27 cells around x (every point within cell_m_ of
+  // it), until visit returns false.
+  template <typename Visit>
+  void forEachCandidate(const Vector3& x, Visit visit) const;
   // The cell of x (side cell_m_), moved by (di, dj, dk) cells, packed into one key.
   std::int64_t key(const Vector3& x, int di = 0, int dj = 0, int dk = 0) const;
   double max_distance_m_{0.0};

@@ -212,7 +212,7 @@ class CollisionMapServer {
   void buildLoop();
   // The map of one training set and what it holds, or null with the reason.
   std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::string* error, std::string* summary);
-  void publishMap(const Map& map);
+  void publishMap(const Map& map);  // with mutex_ held
   void publishStatus();  // with mutex_ held
 
   ros::NodeHandle nh_, pnh_;

@@ -109,17 +109,19 @@ void CollisionMapServer::buildLoop() {
     } catch (const std::exception& e) {
       error = e.what();
     }
-    if (map) publishMap(*map);
     std::lock_guard<std::mutex> lock(mutex_);
-    const bool superseded = pending_ != nullptr || latest_sequence_ != msg->sequence;
+    // A reset while it was built (a newer sequence, nothing pending) makes it worthless: the
+    // status already says NONE.
+    if (!pending_ && latest_sequence_ != msg->sequence) continue;
     if (map) {
       map_ = map;
+      publishMap(*map);
       status_message_ = summary;
       ROS_INFO_STREAM("collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec() << " s");
     } else {
       ROS_ERROR_STREAM("collision_map: no map for training set " << msg->sequence << ": " << error);
     }
-    if (superseded) {
+    if (pending_) {
       state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;  // a newer set is waiting
     } else if (map) {
       state_ = gpatlas_msgs::CollisionMapStatus::CURRENT;

@@ -235,7 +235,7 @@ bool GpModelServer::onRemoveObservations(gpatlas_msgs::RemoveObservations::Reque
   res.success = true;
   res.removed_batch_ids = ids;
   res.message = "removed " + std::to_string(ids.size()) + " touch(es); the model was rebuilt from the view and " +
-                std::to_string(history_.lastTouches(history_.batches().size()).size()) + " touch(es) in " +
+                std::to_string(history_.touchCount()) + " touch(es) in " +
                 std::to_string((ros::WallTime::now() - started).toSec()) + " s";
   publishModel();
   return true;
