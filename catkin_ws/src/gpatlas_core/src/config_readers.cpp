@@ -149,6 +149,8 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
       r.integer("touch/max_contacts_per_touch", static_cast<int>(c->max_contacts_per_touch), 0, 1000000));
   c->max_free_space_per_touch = static_cast<std::size_t>(
       r.integer("touch/max_free_space_per_touch", static_cast<int>(c->max_free_space_per_touch), 0, 1000000));
+  c->max_touch_observations = static_cast<std::size_t>(
+      r.integer("touch/max_touch_observations", static_cast<int>(c->max_touch_observations), 0, 10000000));
   c->gate.workspace_min_m = r.vector3("touch/gate/workspace_min_m", c->gate.workspace_min_m);
   c->gate.workspace_max_m = r.vector3("touch/gate/workspace_max_m", c->gate.workspace_max_m);
   c->gate.max_contact_distance_m = r.number("touch/gate/max_contact_distance_m", c->gate.max_contact_distance_m, 0.0, 100.0);
@@ -199,6 +201,7 @@ void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
 
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
   c->grid.resolution_m = r.number("collision_map/resolution_m", c->grid.resolution_m, 1e-3, 1.0);
+  c->grid.variance_stride = r.integer("collision_map/variance_stride", c->grid.variance_stride, 1, 16);
   c->occupied_probability = r.number("collision_map/occupied_probability", c->occupied_probability, 0.0, 1.0);
 }
 

@@ -89,8 +89,9 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"free_points\": " << r.free_points_added << ", \"contacts_total\": " << r.contacts_total
          << ", \"max_evaluated_variance\": " << jsonNumber(r.max_evaluated_variance)
          << ", \"action_ms\": " << jsonNumber(r.action_ms) << ", \"plan_ms\": " << jsonNumber(r.plan_ms)
-         << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
-         << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"n_train\": " << r.n_train
+         << ", \"plan_compute_ms\": " << jsonNumber(r.plan_compute_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
+         << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"progress_ms\": " << jsonNumber(r.progress_ms)
+         << ", \"n_train\": " << r.n_train
          << ", \"update_message\": " << jsonString(r.update_message)
          << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)
          << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)

@@ -212,6 +212,46 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
     update.message = "no observation inside the model's domain";
     return update;
   }
+  if (config.max_touch_observations > 0) {
+    std::size_t held = 0;
+    for (const TrainingPoint& p : model.observations()) held += p.source != PointSource::kVision ? 1 : 0;
+    const std::size_t room = held < config.max_touch_observations ? config.max_touch_observations - held : 0;
+    const std::size_t wanted = new_points.size();
+    if (wanted > room) {
+      // The free space goes first (the contacts pin the surface down), then contacts are thinned
+      // coarser until the touch fits.
+      TouchObservationConfig thinned = config;
+      std::size_t contacts_cap = counts.contacts;
+      new_points.resize(counts.contacts + counts.contact_inside + counts.contact_tangents);
+      counts.free_space = 0;
+      bool contacts_thinned = false;
+      while (!new_points.empty() && new_points.size() > room) {
+        contacts_thinned = true;
+        contacts_cap = contacts_cap * 2 / 3;
+        if (contacts_cap == 0) {
+          new_points.clear();
+          break;
+        }
+        thinned.max_contacts_per_touch = contacts_cap;
+        new_points = touchTrainingPoints(model, gated.contacts, {}, thinned, &counts);
+      }
+      std::ostringstream note;
+      note << "the model holds " << held << " observations from touches (touch/max_touch_observations "
+           << config.max_touch_observations << ")";
+      if (new_points.empty()) {
+        update.budget_full = true;
+        update.message = "observation budget full: " + note.str() +
+                         "; remove_observations or reset make room, or raise the budget";
+        return update;
+      }
+      note << ": the touch's " << wanted << " training points were thinned to " << new_points.size()
+           << " (its free space dropped" << (contacts_thinned ? ", its contacts thinned" : "") << ")";
+      update.warnings.push_back(note.str());
+      // This note replaces the per-touch caps' own.
+      counts.contacts_before_cap = 0;
+      counts.free_space_before_cap = 0;
+    }
+  }
   const auto capped = [&](std::size_t before, std::size_t after, double spacing, std::size_t cap, const char* what,
                           const char* key) {
     if (before == 0) return;
@@ -327,6 +367,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       const Clock::time_point plan_started = Clock::now();
       const PlanResult plan = planner.plan(request);
       record.plan_ms = millisecondsSince(plan_started);
+      record.plan_compute_ms = 1000.0 * plan.elapsed_s;
       record.plan_status = plan.status;
       record.max_evaluated_variance = plan.max_evaluated_variance;
       result.final_max_evaluated_variance = plan.max_evaluated_variance;
@@ -360,9 +401,11 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       record.probe_success = probed.success;
       record.probe_reason = probed.reason;
 
+      bool budget_full = false;
       if (!probed.contacts.empty() || !probed.free_space.empty()) {
         const Clock::time_point update_started = Clock::now();
         const TouchUpdate update = updater.update(probed);
+        budget_full = update.budget_full;
         record.update_ms = millisecondsSince(update_started);
         if (update.ok) {
           record.contacts_added = update.contacts_added;
@@ -378,9 +421,15 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
 
       const bool touched = probed.success && record.contacts_added > 0;
       consecutive_failures = touched ? 0 : consecutive_failures + 1;
+      const Clock::time_point progress_started = Clock::now();
       if (progress) progress(record);
+      record.progress_ms = millisecondsSince(progress_started);
       record.action_ms = millisecondsSince(action_started);
       result.records.push_back(record);
+      if (budget_full) {
+        result.stop_reason = "observation_budget_full";
+        return result;
+      }
       if (consecutive_failures >= config_.max_consecutive_failures) {
         result.stop_reason = "consecutive_failures";
         return result;

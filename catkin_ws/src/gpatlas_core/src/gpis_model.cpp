@@ -64,7 +64,10 @@ struct GpisModel::Impl {
   Impl() = default;
   Impl(Impl&&) = default;
   Impl& operator=(Impl&&) = default;
-  // Deep copy (the kernel is cloned); the one place that lists the members.
+  // Deep copy (the kernel is cloned); the one place that lists the members. The copy holds
+  // the n training rows without the original's spare capacity: copies are mostly snapshots
+  // that never grow (reserve() makes room again if one does), and the factor's capacity
+  // grows with the square of the size.
   Impl(const Impl& o)
       : config(o.config),
         kernel(o.kernel ? o.kernel->clone() : nullptr),
@@ -77,12 +80,12 @@ struct GpisModel::Impl {
         scale(o.scale),
         n(o.n),
         num_pseudo(o.num_pseudo),
-        x(o.x),
-        slope_dir(o.slope_dir),
+        x(o.x.leftCols(o.n)),
+        slope_dir(o.slope_dir.leftCols(o.n)),
         slope_rows(o.slope_rows),
-        y(o.y),
-        noise_var(o.noise_var),
-        chol(o.chol),
+        y(o.y.head(o.n)),
+        noise_var(o.noise_var.head(o.n)),
+        chol(o.chol.topLeftCorner(o.n, o.n)),
         alpha(o.alpha),
         jitter(o.jitter) {}
 

@@ -14,8 +14,9 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     grid.message = "no model: the GP is not fitted";
     return grid;
   }
-  if (!(config_.resolution_m > 0.0) || !std::isfinite(config_.resolution_m) || config_.batch_size < 1) {
-    grid.message = "resolution_m must be positive and finite, batch_size >= 1";
+  if (!(config_.resolution_m > 0.0) || !std::isfinite(config_.resolution_m) || config_.batch_size < 1 ||
+      config_.variance_stride < 1) {
+    grid.message = "resolution_m must be positive and finite, batch_size >= 1, variance_stride >= 1";
     return grid;
   }
   const Vector3 half_extent = Vector3::Constant(model.domainRadiusWorld());
@@ -40,34 +41,99 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
 
   // Reported variance -> raw posterior variance, the one that is commensurate with f.
   const double unit = model.varianceUnitFactor();
-  std::vector<std::size_t> pending_index;
-  Points3 pending(3, config_.batch_size);
-  auto flush = [&]() {
-    if (pending_index.empty()) return;
-    const BatchPrediction prediction =
-        model.predictBatch(pending.leftCols(static_cast<Eigen::Index>(pending_index.size())), false, false);
-    for (std::size_t k = 0; k < pending_index.size(); ++k) {
-      const Eigen::Index q = static_cast<Eigen::Index>(k);
-      const double mean = prediction.mean(q);
-      const double sd = std::sqrt(std::max(prediction.variance(q) / unit, 0.0));
-      double p = 0.0;
-      if (!std::isfinite(mean) || !std::isfinite(sd)) p = 0.5;  // unknown
-      else if (sd > 0.0) p = standardNormalCdf(-mean / sd);
-      else p = mean < 0.0 ? 1.0 : 0.0;
-      grid.probabilities[pending_index[k]] = static_cast<float>(p);
+  const int stride = config_.variance_stride;
+  const std::size_t num = static_cast<std::size_t>(num_nodes);
+  const std::size_t nx = static_cast<std::size_t>(grid.size.x()), ny = static_cast<std::size_t>(grid.size.y());
+  std::vector<char> in_domain(num, 0);
+  std::vector<double> mean(num, 0.0), variance(num, std::nan(""));
+
+  // The mean, and the variance when asked, of the nodes in `nodes`, in batches.
+  const auto evaluate = [&](const std::vector<std::size_t>& nodes, bool with_mean, bool with_variance) {
+    Points3 batch(3, config_.batch_size);
+    for (std::size_t first = 0; first < nodes.size(); first += static_cast<std::size_t>(config_.batch_size)) {
+      const std::size_t count = std::min(nodes.size() - first, static_cast<std::size_t>(config_.batch_size));
+      for (std::size_t q = 0; q < count; ++q) {
+        const std::size_t n = nodes[first + q];
+        batch.col(static_cast<Eigen::Index>(q)) =
+            grid.position(static_cast<int>(n % nx), static_cast<int>(n / nx % ny), static_cast<int>(n / (nx * ny)));
+      }
+      const BatchPrediction prediction =
+          model.predictBatch(batch.leftCols(static_cast<Eigen::Index>(count)), false, false, with_variance);
+      for (std::size_t q = 0; q < count; ++q) {
+        const Eigen::Index e = static_cast<Eigen::Index>(q);
+        if (with_mean) mean[nodes[first + q]] = prediction.mean(e);
+        if (with_variance) variance[nodes[first + q]] = prediction.variance(e);
+      }
     }
-    pending_index.clear();
   };
+  // Along one axis: the variance lattice's nodes at or below and above index i, and i's weight
+  // on the upper one. The lattice holds every stride-th index and the last.
+  struct Bracket {
+    int lower, upper;
+    double weight;
+  };
+  const auto brackets = [stride](int size) {
+    std::vector<Bracket> out(static_cast<std::size_t>(size));
+    const int last = size - 1;
+    for (int i = 0; i < size; ++i) {
+      const int lower = std::min(i / stride * stride, last);
+      const int upper = std::min(lower + stride, last);
+      out[static_cast<std::size_t>(i)] = {lower, upper, upper > lower ? double(i - lower) / (upper - lower) : 0.0};
+    }
+    return out;
+  };
+  const std::vector<Bracket> bx = brackets(grid.size.x()), by = brackets(grid.size.y()), bz = brackets(grid.size.z());
+
+  std::vector<std::size_t> domain, lattice;
   for (int k = 0; k < grid.size.z(); ++k)
     for (int j = 0; j < grid.size.y(); ++j)
       for (int i = 0; i < grid.size.x(); ++i) {
-        const Vector3 x = grid.position(i, j, k);
-        if (!model.inDomain(x)) continue;
-        pending.col(static_cast<Eigen::Index>(pending_index.size())) = x;
-        pending_index.push_back(grid.index(i, j, k));
-        if (static_cast<int>(pending_index.size()) == config_.batch_size) flush();
+        const std::size_t n = grid.index(i, j, k);
+        if (!model.inDomain(grid.position(i, j, k))) continue;
+        in_domain[n] = 1;
+        domain.push_back(n);
+        if (bx[static_cast<std::size_t>(i)].lower == i && by[static_cast<std::size_t>(j)].lower == j &&
+            bz[static_cast<std::size_t>(k)].lower == k)
+          lattice.push_back(n);
       }
-  flush();
+  grid.domain_nodes = domain.size();
+  evaluate(domain, true, stride <= 1);
+  if (stride <= 1) {
+    grid.exact_variance_nodes = domain.size();
+  } else {
+    evaluate(lattice, false, true);
+    // Trilinear between the eight lattice corners; evaluated where a corner is outside the domain.
+    std::vector<std::size_t> exact;
+    for (const std::size_t n : domain) {
+      if (std::isfinite(variance[n])) continue;  // a lattice node
+      const Bracket& x = bx[n % nx];
+      const Bracket& y = by[n / nx % ny];
+      const Bracket& z = bz[n / (nx * ny)];
+      double interpolated = 0.0;
+      bool complete = true;
+      for (int c = 0; c < 8 && complete; ++c) {
+        const double corner = variance[grid.index((c & 1) ? x.upper : x.lower, (c & 2) ? y.upper : y.lower,
+                                                  (c & 4) ? z.upper : z.lower)];
+        const double w = ((c & 1) ? x.weight : 1.0 - x.weight) * ((c & 2) ? y.weight : 1.0 - y.weight) *
+                         ((c & 4) ? z.weight : 1.0 - z.weight);
+        if (w == 0.0) continue;
+        if (!std::isfinite(corner)) complete = false;
+        interpolated += w * corner;
+      }
+      if (complete) variance[n] = interpolated;
+      else exact.push_back(n);
+    }
+    evaluate(exact, false, true);
+    grid.exact_variance_nodes = lattice.size() + exact.size();
+  }
+  for (const std::size_t n : domain) {
+    const double sd = std::sqrt(std::max(variance[n] / unit, 0.0));
+    double p = 0.0;
+    if (!std::isfinite(mean[n]) || !std::isfinite(sd)) p = 0.5;  // unknown
+    else if (sd > 0.0) p = standardNormalCdf(-mean[n] / sd);
+    else p = mean[n] < 0.0 ? 1.0 : 0.0;
+    grid.probabilities[n] = static_cast<float>(p);
+  }
   grid.ok = true;
   return grid;
 }

@@ -423,4 +423,76 @@ TEST(Explorer, AnOversizedTouchIsThinnedToTheCapWithItsCountInTheAnswer) {
   EXPECT_NE(update.warnings.back().find("max_contacts_per_touch 200"), std::string::npos) << update.warnings.back();
 }
 
+// The observation budget: a touch that would pass it loses its free space first, then is
+// thinned; once the model holds the budget, touches are refused and the exploration stops. The
+// model never holds more touch observations than the budget, counted here from its own list.
+TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 4);
+  const auto touchObservations = [&model] {
+    std::size_t n = 0;
+    for (const TrainingPoint& p : model.observations()) n += p.source != PointSource::kVision ? 1 : 0;
+    return n;
+  };
+  ASSERT_EQ(touchObservations(), 0u);
+  // Contacts 2 cm apart around the sphere's lower half with their normals, and free space 2 cm out.
+  std::vector<Contact> contacts;
+  std::vector<Vector3> free_space;
+  for (const Vector3& direction : fibonacciSphere(200)) {
+    if (direction.z() > -0.2) continue;
+    Contact c;
+    c.position = sphere.centre + sphere.radius * direction;
+    c.normal = direction;
+    contacts.push_back(c);
+    free_space.push_back(sphere.centre + (sphere.radius + 0.02) * direction);
+  }
+  ASSERT_GT(contacts.size(), 40u);
+  TouchObservationConfig config;
+  config.max_touch_observations = 0;  // no bound: what the touch gives
+  GpisModel unbounded = model;
+  const TouchUpdate whole = applyTouch(unbounded, contacts, free_space, config);
+  ASSERT_TRUE(whole.ok) << whole.message;
+  ASSERT_GT(whole.free_points_added, 10);
+
+  // Room for the contacts and the points behind them, not for the free space.
+  config.max_touch_observations = static_cast<std::size_t>(whole.points_added - whole.free_points_added) + 5;
+  const TouchUpdate first = applyTouch(model, contacts, free_space, config);
+  ASSERT_TRUE(first.ok) << first.message;
+  EXPECT_FALSE(first.budget_full);
+  EXPECT_EQ(first.contacts_added, whole.contacts_added);
+  EXPECT_EQ(first.free_points_added, 0);
+  ASSERT_FALSE(first.warnings.empty());
+  EXPECT_NE(first.warnings.back().find("max_touch_observations"), std::string::npos) << first.warnings.back();
+  EXPECT_LE(touchObservations(), config.max_touch_observations);
+
+  // The same contacts 1 cm further out: five places left, so a few of them.
+  std::vector<Contact> outer = contacts;
+  for (Contact& c : outer) c.position += 0.01 * c.normal;
+  const TouchUpdate second = applyTouch(model, outer, {}, config);
+  ASSERT_TRUE(second.ok) << second.message;
+  EXPECT_GT(second.contacts_added, 0);
+  EXPECT_LT(second.contacts_added, whole.contacts_added / 4);
+  EXPECT_LE(touchObservations(), config.max_touch_observations);
+
+  // Full: refused, the model unchanged.
+  const std::size_t held = model.observations().size();
+  config.max_touch_observations = touchObservations();
+  const TouchUpdate third = applyTouch(model, contacts, free_space, config);
+  EXPECT_FALSE(third.ok);
+  EXPECT_TRUE(third.budget_full);
+  EXPECT_NE(third.message.find("observation budget full"), std::string::npos) << third.message;
+  EXPECT_EQ(model.observations().size(), held);
+
+  // The loop stops at the first refused touch and says why.
+  AnalyticSphereProber prober(sphere);
+  const auto strategy = makeStrategy("atlas_poke", StrategyConfig());
+  Explorer::Config loop;
+  loop.max_actions = 10;
+  loop.v_max = 0.001;  // below the noise: a touch is always planned
+  const ExplorationResult result = Explorer(loop).run(model, *strategy, prober, config, EvidenceRule());
+  EXPECT_EQ(result.stop_reason, "observation_budget_full");
+  EXPECT_EQ(result.records.size(), 1u);
+  EXPECT_EQ(model.observations().size(), held);
+}
+
 }  // namespace

@@ -1,5 +1,6 @@
 #include "gpatlas_core/multiscale_gpis_model.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
+#include "gpatlas_core/occupancy_grid.h"
 #include "gpatlas_core/surface_model_factory.h"
 
 #include <gtest/gtest.h>
@@ -597,6 +598,46 @@ TEST(MultiscaleGpisModel, FitsTenThousandViewPoints) {
   std::cout << "10,000 view points: fit in " << seconds << " s (" << model.numCells() << " cells; "
             << model.fineTuneReport().message << ", tuning " << model.fineTuneReport().seconds << " s)\n";
   EXPECT_LT(std::abs(model.mean(centre + 0.1 * Vector3d(0.3, 0.2, 0.5).normalized())) * model.scale(), 0.001);
+}
+
+// The collision map's variance lattice against the variance at every node: the same occupied
+// nodes (that depends on the mean alone) and nearly the same probabilities, on a sphere whose
+// lower half was never seen, so that the variance runs from the data's to the prior's.
+TEST(MultiscaleGpisModel, CollisionMapOnAVarianceLatticeMatchesTheFullEvaluation) {
+  const MultiscaleGpisModel& model = sphereModel();
+  gpatlas_core::OccupancyGridBuilder::Config config;
+  config.resolution_m = 0.01;
+  config.variance_stride = 1;
+  const gpatlas_core::OccupancyGrid full = gpatlas_core::OccupancyGridBuilder(config).build(model);
+  for (int stride : {2, 3}) {
+    config.variance_stride = stride;
+    const gpatlas_core::OccupancyGrid lattice = gpatlas_core::OccupancyGridBuilder(config).build(model);
+    ASSERT_TRUE(full.ok && lattice.ok) << full.message << lattice.message;
+    ASSERT_EQ(full.probabilities.size(), lattice.probabilities.size());
+    EXPECT_EQ(full.exact_variance_nodes, full.domain_nodes);
+    double worst = 0.0, sum = 0.0;
+    std::size_t occupied = 0, disagree = 0, uncertain = 0;
+    for (std::size_t n = 0; n < full.probabilities.size(); ++n) {
+      const double p = full.probabilities[n], q = lattice.probabilities[n];
+      worst = std::max(worst, std::abs(p - q));
+      sum += std::abs(p - q);
+      occupied += p > 0.5 ? 1 : 0;
+      disagree += (p > 0.5) != (q > 0.5) ? 1 : 0;
+      uncertain += p > 0.05 && p < 0.95 ? 1 : 0;
+    }
+    std::cout << "collision map, variance stride " << stride << ": " << lattice.exact_variance_nodes << " of "
+              << lattice.domain_nodes << " nodes' variances evaluated (" << occupied << " occupied, " << uncertain
+              << " with 0.05 < P < 0.95); difference in P: mean " << sum / full.domain_nodes << ", largest " << worst
+              << "\n";
+    EXPECT_GT(occupied, 100u);
+    EXPECT_GT(uncertain, 100u);
+    EXPECT_EQ(disagree, 0u);
+    EXPECT_LT(lattice.exact_variance_nodes, full.domain_nodes / 2);
+    if (stride == 2) {  // the default
+      EXPECT_LT(sum / full.domain_nodes, 0.01);
+      EXPECT_LT(worst, 0.2);
+    }
+  }
 }
 
 }  // namespace

@@ -3,6 +3,7 @@
 // max_actions, or max_consecutive_failures failed touches. The probe service is probe_sim's in
 // simulation; a real robot driver implements the same gpatlas_msgs/Probe service.
 
+#include <gpatlas_core/background_work.h>
 #include <gpatlas_core/exploration_report.h>
 #include <gpatlas_core/explorer.h>
 #include <gpatlas_core/shape_metrics.h>
@@ -32,11 +33,14 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <system_error>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace gpatlas_ros {
@@ -72,6 +76,8 @@ class ExplorationNode {
     training_sub_ = nh_.subscribe("training_set", 1, &ExplorationNode::onTrainingSet, this);
   }
 
+  ~ExplorationNode() { stopMeasurements(); }
+
   int run() {
     ROS_INFO_STREAM("exploration: strategy " << strategy_ << ", V_max " << loop_.v_max << ", at most "
                                              << loop_.max_actions << " actions; results in " << results_dir_);
@@ -85,7 +91,7 @@ class ExplorationNode {
     if (node_config_.capture && !captureView()) return 1;
     if (!waitForModel()) return 1;
     initial_.n_train = latestTraining()->points.size();
-    measure(initial_);
+    measure(*latestTraining(), initial_);
     ROS_INFO_STREAM("exploration: initial model: max surface variance " << initial_.sampled_max_variance << ", RMSE "
                                                                          << 1000 * initial_.rmse_pred_to_gt_m << "/"
                                                                          << 1000 * initial_.rmse_gt_to_pred_m << " mm");
@@ -94,11 +100,14 @@ class ExplorationNode {
     ServiceProber prober(*this);
     ServiceUpdater updater(*this);
     const gpatlas_core::Explorer explorer(loop_);
-    const gpatlas_core::ExplorationResult result =
+    measurer_ = std::thread(&ExplorationNode::measureLoop, this);
+    gpatlas_core::ExplorationResult result =
         explorer.run(planner, prober, updater, [this](gpatlas_core::ExplorationRecord& record) {
-          if (node_config_.metrics_every > 0 && (record.index + 1) % node_config_.metrics_every == 0) measure(record);
           ROS_INFO_STREAM("exploration: " << gpatlas_core::describeAction(record));
+          if (node_config_.metrics_every > 0 && (record.index + 1) % node_config_.metrics_every == 0)
+            requestMeasurement(record.index, latestTraining());
         });
+    mergeMeasurements(&result);
     return finish(result);
   }
 
@@ -107,21 +116,34 @@ class ExplorationNode {
     for (auto& worker : workers_)
       if (worker.joinable()) worker.join();
     workers_.clear();
+    stopMeasurements();
   }
 
  private:
+  // The loop's services over persistent connections: a call per step, several steps a second,
+  // and a new connection for each would ask the master for the service every time (and a busy
+  // master refuses now and then). A connection that failed or timed out is opened again at the
+  // next call.
   template <typename Srv>
   bool callService(const std::string& name, Srv& srv) {
     const std::string resolved = nh_.resolveName(name);
-    if (!ros::service::waitForService(resolved, ros::Duration(node_config_.service_timeout_s))) {
-      ROS_ERROR_STREAM("exploration: service " << resolved << " not available after " << node_config_.service_timeout_s << " s");
-      return false;
+    ros::ServiceClient& client = clients_[resolved];
+    if (!client || !client.isValid()) {
+      if (!ros::service::waitForService(resolved, ros::Duration(node_config_.service_timeout_s))) {
+        ROS_ERROR_STREAM("exploration: service " << resolved << " not available after " << node_config_.service_timeout_s
+                                                 << " s");
+        return false;
+      }
+      client = nh_.serviceClient<Srv>(resolved, true);
     }
-    return timedCall(resolved, srv);
+    if (timedCall(resolved, srv, -1.0, &client)) return true;
+    clients_.erase(resolved);
+    return false;
   }
 
+  // Calls the service on `client` (persistent), or on a connection of its own without one.
   template <typename Srv>
-  bool timedCall(const std::string& resolved, Srv& srv, double timeout_s = -1.0) {
+  bool timedCall(const std::string& resolved, Srv& srv, double timeout_s = -1.0, const ros::ServiceClient* client = nullptr) {
     if (timeout_s < 0.0) timeout_s = node_config_.call_timeout_s;
     // ros::service::call has no timeout: a server that never answers (an arm stuck mid-motion,
     // a hung driver) would freeze the exploration for good. The call runs on a worker thread
@@ -136,9 +158,11 @@ class ExplorationNode {
     };
     auto pending = std::make_shared<Pending>();
     pending->srv = srv;
+    // A copy of the handle: a call given up on keeps its connection, the next gets a new one.
+    ros::ServiceClient connection = client ? *client : ros::ServiceClient();
     try {
-      workers_.emplace_back([pending, resolved]() {
-        const bool ok = ros::service::call(resolved, pending->srv);
+      workers_.emplace_back([pending, resolved, connection]() mutable {
+        const bool ok = connection ? connection.call(pending->srv) : ros::service::call(resolved, pending->srv);
         std::lock_guard<std::mutex> lock(pending->mutex);
         pending->ok = ok;
         pending->done = true;
@@ -234,14 +258,12 @@ class ExplorationNode {
     }
   }
 
-  // Rebuilds the GP from the latest training set and measures it as the bench does: the largest
-  // variance of a fixed surface sample and, with a ground truth, the shape error.
-  void measure(gpatlas_core::ExplorationRecord& record) {
-    const auto training = latestTraining();
-    if (!training) return;
+  // Rebuilds the GP from a training set and measures it as the bench does: the largest variance
+  // of a fixed surface sample and, with a ground truth, the shape error.
+  void measure(const gpatlas_msgs::TrainingSet& training, gpatlas_core::ExplorationRecord& record) {
     std::unique_ptr<gpatlas_core::SurfaceModel> model_ptr;
     std::string error;
-    if (!modelFromMsg(*training, model_config_, &model_ptr, &error)) return;
+    if (!modelFromMsg(training, model_config_, &model_ptr, &error)) return;
     const gpatlas_core::SurfaceModel& model = *model_ptr;
     const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
     if (sample.ok) record.sampled_max_variance = sample.maxVariance();
@@ -254,6 +276,91 @@ class ExplorationNode {
     if (!metrics.ok) return;
     record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
     record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
+  }
+
+  // The models after the actions are measured off the loop's thread: a measurement refits the
+  // model and meshes it, which takes longer than an action, and the robot should not wait for
+  // a number only the report needs. The newest request wins; one still waiting when a newer
+  // one comes is skipped and counted.
+  void requestMeasurement(int action_index, gpatlas_msgs::TrainingSet::ConstPtr training) {
+    if (!training) return;
+    {
+      std::lock_guard<std::mutex> lock(measure_mutex_);
+      if (measure_pending_) ++measurements_skipped_;
+      measure_pending_ = std::make_pair(action_index, std::move(training));
+    }
+    measure_wake_.notify_all();
+  }
+
+  void measureLoop() {
+    // Measurements are for the report: the pipeline's nodelets get the cores first.
+    if (!gpatlas_core::lowerCurrentThreadPriority())
+      ROS_WARN("exploration: cannot lower the measurements' priority; they compete with the pipeline");
+    for (;;) {
+      std::pair<int, gpatlas_msgs::TrainingSet::ConstPtr> job;
+      {
+        std::unique_lock<std::mutex> lock(measure_mutex_);
+        measure_wake_.wait(lock, [this] { return measure_stopping_ || measure_pending_; });
+        if (!measure_pending_) return;  // stopping, nothing left
+        job = std::move(*measure_pending_);
+        measure_pending_.reset();
+        measure_busy_ = true;
+      }
+      gpatlas_core::ExplorationRecord measured;
+      const ros::WallTime started = ros::WallTime::now();
+      try {
+        gpatlas_core::runOnThisThreadOnly([&] { measure(*job.second, measured); });
+      } catch (const std::exception& e) {
+        ROS_WARN_STREAM("exploration: the model after action " << job.first + 1 << " not measured: " << e.what());
+      }
+      if (std::isfinite(measured.rmse_pred_to_gt_m))
+        ROS_INFO_STREAM(std::setprecision(3) << "exploration: model after action " << job.first + 1 << ": RMSE "
+                                             << 1000 * measured.rmse_pred_to_gt_m << "/"
+                                             << 1000 * measured.rmse_gt_to_pred_m << " mm, sampled max variance "
+                                             << measured.sampled_max_variance << " (measured in "
+                                             << (ros::WallTime::now() - started).toSec() << " s)");
+      {
+        std::lock_guard<std::mutex> lock(measure_mutex_);
+        measurements_[job.first] = measured;
+        measure_busy_ = false;
+      }
+      measure_wake_.notify_all();
+    }
+  }
+
+  // Waits for the measurement in progress and the one waiting, then copies every measurement
+  // into the action's record.
+  void mergeMeasurements(gpatlas_core::ExplorationResult* result) {
+    std::map<int, gpatlas_core::ExplorationRecord> measured;
+    int skipped = 0;
+    {
+      std::unique_lock<std::mutex> lock(measure_mutex_);
+      if (measure_busy_ || measure_pending_) ROS_INFO("exploration: waiting for the last model measurement");
+      measure_wake_.wait(lock, [this] { return !measure_busy_ && !measure_pending_; });
+      measured = measurements_;
+      skipped = measurements_skipped_;
+    }
+    for (auto& record : result->records) {
+      const auto it = measured.find(record.index);
+      if (it == measured.end()) continue;
+      record.sampled_max_variance = it->second.sampled_max_variance;
+      record.rmse_pred_to_gt_m = it->second.rmse_pred_to_gt_m;
+      record.rmse_gt_to_pred_m = it->second.rmse_gt_to_pred_m;
+    }
+    if (skipped > 0)
+      ROS_INFO_STREAM("exploration: " << measured.size() << " models measured after actions, " << skipped
+                                      << " skipped (metrics_every " << node_config_.metrics_every
+                                      << ": a measurement took longer than the actions in between)");
+  }
+
+  void stopMeasurements() {
+    {
+      std::lock_guard<std::mutex> lock(measure_mutex_);
+      measure_stopping_ = true;
+      measure_pending_.reset();
+    }
+    measure_wake_.notify_all();
+    if (measurer_.joinable()) measurer_.join();
   }
 
   int finish(const gpatlas_core::ExplorationResult& result) {
@@ -410,6 +517,7 @@ class ExplorationNode {
       update.message = srv.response.message;
       update.contacts_added = static_cast<int>(srv.response.num_contacts_added);
       update.free_points_added = static_cast<int>(srv.response.num_added) - update.contacts_added;
+      update.budget_full = srv.response.observation_budget_full;
       if (update.ok) node_.waitForTrainingSetNewerThan(started);
       return update;
     }
@@ -425,11 +533,21 @@ class ExplorationNode {
   // The ground truth and the map's saving: optional, at the start and the end; not worth a wait.
   static constexpr double kAuxiliaryCallTimeoutS = 30.0;
   std::vector<std::thread> workers_;  // service calls in flight or abandoned (see timedCall)
+  std::map<std::string, ros::ServiceClient> clients_;  // callService's connections, by resolved name
   ExplorationNodeConfig node_config_;
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::SurfaceMesher::Config mesher_config_;
   gpatlas_core::TriangleMesh ground_truth_;
   gpatlas_core::ExplorationRecord initial_;
+
+  std::thread measurer_;  // measureLoop
+  std::mutex measure_mutex_;
+  std::condition_variable measure_wake_;
+  std::optional<std::pair<int, gpatlas_msgs::TrainingSet::ConstPtr>> measure_pending_;
+  bool measure_busy_{false};
+  bool measure_stopping_{false};
+  std::map<int, gpatlas_core::ExplorationRecord> measurements_;  // by action index
+  int measurements_skipped_{0};
 
   std::mutex mutex_;
   gpatlas_msgs::TrainingSet::ConstPtr training_;

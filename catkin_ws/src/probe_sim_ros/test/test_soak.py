@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """The bounded soak: waits for the exploration's report while sampling the nodelet manager's
-memory, then checks that the per-action wall time does not grow and prints where it goes."""
+memory, prints where each action's wall time goes, and checks what the load does not change
+(make soak, on an idle machine, also checks the time)."""
 import json
 import os
 import shutil
@@ -37,11 +38,16 @@ def rss_mb(pid):
     return None
 
 
+STEPS = ("action_ms", "plan_ms", "plan_compute_ms", "probe_ms", "update_ms", "progress_ms")
+
+
 def breakdown(history):
-    """Mean milliseconds per action of each step, and what is left (waits, measurements)."""
-    keys = ("action_ms", "plan_ms", "probe_ms", "update_ms")
-    means = {k: statistics.mean(h[k] for h in history) for k in keys}
-    means["other_ms"] = means["action_ms"] - means["plan_ms"] - means["probe_ms"] - means["update_ms"]
+    """Mean milliseconds per action of each step; plan_wait_ms is the plan's wall time beyond the
+    planner's own (the wait for its replica, the messages), other_ms what no step accounts for."""
+    means = {k: statistics.mean(h[k] for h in history) for k in STEPS}
+    means["plan_wait_ms"] = means["plan_ms"] - means["plan_compute_ms"]
+    means["other_ms"] = (means["action_ms"] - means["plan_ms"] - means["probe_ms"] - means["update_ms"]
+                         - means["progress_ms"])
     return means
 
 
@@ -69,17 +75,27 @@ class SoakTest(unittest.TestCase):
         self.assertEqual(len(history), max_actions)
         first, last = breakdown(history[:10]), breakdown(history[-10:])
         print("\nsoak, mean ms per action (first 10 / last 10):")
-        for key in ("action_ms", "plan_ms", "probe_ms", "update_ms", "other_ms"):
-            print("  %-10s %8.0f %8.0f" % (key, first[key], last[key]))
+        for key in STEPS + ("plan_wait_ms", "other_ms"):
+            print("  %-16s %8.0f %8.0f" % (key, first[key], last[key]))
         if rss:
-            print("  manager RSS: %.0f MB at the first sample, %.0f MB at the end, peak %.0f MB"
-                  % (rss[0], rss[-1], max(rss)))
+            quarters = [rss[min(len(rss) - 1, len(rss) * q // 4)] for q in range(5)]
+            print("  manager RSS (MB) at 0, 1/4, 1/2, 3/4 and the end of the run: %s; peak %.0f"
+                  % (", ".join("%.0f" % m for m in quarters), max(rss)))
         # make test runs two tests at a time, so there the wall time measures the neighbour too:
-        # the time check is make soak's (check_wall_time), on an otherwise idle machine.
+        # the time checks are make soak's (check_wall_time), on an otherwise idle machine.
         if rospy.get_param("~check_wall_time", False):
-            self.assertLessEqual(last["action_ms"], 1.5 * first["action_ms"],
-                                 "per-action wall time grew from %.0f ms to %.0f ms"
-                                 % (first["action_ms"], last["action_ms"]))
+            # Nothing but the three steps: every action within 300 ms of the planner's own time,
+            # the probe and the update.
+            for h in history:
+                overhead = h["action_ms"] - h["plan_compute_ms"] - h["probe_ms"] - h["update_ms"]
+                self.assertLessEqual(overhead, 300.0, "action %d: %.0f ms beyond its steps" % (h["action"], overhead))
+            # No growth over the first 40 actions (later the planner's search grows as the
+            # places left untouched get fewer: a V_max below the noise keeps it searching).
+            # Medians: a single slow action (a page fault, the neighbour's burst) is not growth.
+            start = statistics.median(h["action_ms"] for h in history[:10])
+            by_40 = statistics.median(h["action_ms"] for h in history[30:40])
+            self.assertLessEqual(by_40, 1.5 * start, "median per-action wall time grew from %.0f ms to %.0f ms "
+                                 "by action 40" % (start, by_40))
         # What does not depend on the load: every action is timed, and the model grows by at most
         # one capped touch per action (touch/max_contacts_per_touch 500, each with a point behind
         # it and two tangent slopes at most; max_free_space_per_touch 1000).

@@ -57,6 +57,12 @@ struct TouchObservationConfig {
   // level a row of its O(n^3) factor, so one dense touch must not be able to stall it.
   std::size_t max_contacts_per_touch{500};
   std::size_t max_free_space_per_touch{1000};
+  // The most training points from touches (contacts, the points behind them, slopes, free
+  // space) the model holds: the bound on its memory and on the cost of every later query
+  // however long the exploration runs (0: no bound). A touch that would pass it is thinned to
+  // the room left, its free space first; once there is no room, touches are refused and the
+  // exploration stops (TouchUpdate::budget_full).
+  std::size_t max_touch_observations{20000};
   // Which observations the model takes at all (gateObservations), checked first.
   ObservationGateConfig gate;
 };
@@ -78,6 +84,9 @@ struct TouchUpdate {
   GateRefusals free_space_refused;
   // Non-zero: the touch had this many contacts after thinning, above max_contacts_per_touch.
   std::size_t contacts_capped_from{0};
+  // The model holds max_touch_observations points from touches: this touch was refused, and
+  // so will every other be.
+  bool budget_full{false};
   std::vector<std::string> warnings;
 };
 
@@ -92,11 +101,15 @@ struct ExplorationRecord {
   int contacts_total{0};         // contacts accepted since the start, this action's included
   std::size_t n_train{0};        // observations of the model this action's plan was made on
   double max_evaluated_variance{0.0};  // this action's plan's (PlanResult::max_evaluated_variance)
+  // Wall clock of each step, with what the step waits for (a service's answer, a replica).
   double plan_ms{0.0};
   double probe_ms{0.0};
   double update_ms{0.0};
-  // The whole action, wall clock: plan, probe, update (with what the steps wait for) and the
-  // caller's progress callback (measurements); set after the callback.
+  // The planner's own time (PlanResult::elapsed_s): plan_ms minus this is waiting.
+  double plan_compute_ms{0.0};
+  // The caller's progress callback (logging, measurements it makes on the loop's thread).
+  double progress_ms{0.0};
+  // The whole action, wall clock, the progress callback included; set after the callback.
   double action_ms{0.0};
   std::string update_message;    // why the model refused the new points, if it did
   InteriorRetraction retraction; // occluded-interior guesses this touch contradicted
@@ -109,7 +122,8 @@ struct ExplorationRecord {
 };
 
 struct ExplorationResult {
-  // "converged", "max_actions", "consecutive_failures", "planner_cap_reached",
+  // "converged", "max_actions", "consecutive_failures", "observation_budget_full" (the model
+  // refused a touch for TouchObservationConfig::max_touch_observations), "planner_cap_reached",
   // "planner_error: ...", "error: ..." (an exception from the planner, the prober or the
   // model), "invalid_config: ...". A touch whose points the model refuses counts as a failed
   // touch (see ExplorationRecord::update_message).

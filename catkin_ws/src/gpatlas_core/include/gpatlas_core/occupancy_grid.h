@@ -26,6 +26,8 @@ struct OccupancyGrid {
            (static_cast<std::size_t>(j) + static_cast<std::size_t>(size.y()) * static_cast<std::size_t>(k));
   }
   Vector3 position(int i, int j, int k) const { return origin + resolution * Vector3(i, j, k); }
+  std::size_t domain_nodes{0};          // nodes inside the model's domain
+  std::size_t exact_variance_nodes{0};  // of which the variance was evaluated, not interpolated
 };
 
 // Builds the grid from the GP: P(occupied) = Phi(-mean / sqrt(variance)), the probability
@@ -43,6 +45,11 @@ class OccupancyGridBuilder {
     std::size_t max_nodes{2'000'000};
     // GP queries per batch: bounds the n x batch cross-covariance matrix in memory.
     int batch_size{2048};
+    // The mean is evaluated at every node, the variance, which costs far more (a triangular
+    // solve per node), on every variance_stride-th node of each axis and interpolated
+    // trilinearly in between (1: at every node). Which nodes are occupied (P > 0.5: mean < 0)
+    // does not depend on it.
+    int variance_stride{2};
   };
 
   OccupancyGridBuilder() = default;

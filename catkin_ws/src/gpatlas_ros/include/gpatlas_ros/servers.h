@@ -99,17 +99,16 @@ class GpModelServer {
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onRemoveObservations(gpatlas_msgs::RemoveObservations::Request& req,
                             gpatlas_msgs::RemoveObservations::Response& res);
-  // Adds observations; false with a message when nothing could be used. `num_refused`: those
-  // the gate (touch/gate) refused; `batch_id`: the touch's number in history_ (0: none).
-  bool addObservations(const gpatlas_msgs::Observations& msg, std::string* message, std::uint32_t* num_added,
-                       std::uint32_t* num_contacts_added, std::uint32_t* num_refused, std::uint32_t* batch_id);
+  // Adds observations and fills the answer (AddObservations.srv says what each field is);
+  // false with a message when nothing could be used.
+  bool addObservations(const gpatlas_msgs::Observations& msg, gpatlas_msgs::AddObservations::Response* answer);
   void publishModel();  // with mutex_ held
   void meshLoop();
   std::uint32_t training_sequence_{0};  // with mutex_
 
   std::mutex mesh_mutex_;  // guards the three below
   std::condition_variable mesh_wake_;
-  std::unique_ptr<gpatlas_core::SurfaceModel> mesh_pending_;  // a copy of the newest model
+  std::shared_ptr<const gpatlas_core::SurfaceModel> mesh_pending_;  // the newest model's snapshot
   ros::Time mesh_stamp_;
   bool mesh_stopping_{false};
   std::thread mesher_;
@@ -154,7 +153,7 @@ class GpModelServer {
   ros::Publisher training_pub_, surface_pub_, mesh_marker_pub_, mesh_shape_pub_;
 };
 
-// GPAtlasRRT: `~next_touch` plans on a replica of the GP model (from `training_set`) and
+// GPAtlasRRT: `~next_touch` plans on the GP model of `training_set` (SharedModels) and
 // publishes the grown atlas (`~atlas` markers, `~atlas_charts`) and the touch (`~touch`).
 class AtlasPlannerServer {
  public:
@@ -181,8 +180,9 @@ class AtlasPlannerServer {
   ros::Subscriber plane_sub_;
 
   std::mutex mutex_;
-  std::unique_ptr<gpatlas_core::SurfaceModel> model_;
-  ros::Time model_stamp_;  // the stamp of the training set model_ was rebuilt from
+  // The GP nodelet's snapshot when it is in this manager, otherwise a replica (SharedModels).
+  std::shared_ptr<const gpatlas_core::SurfaceModel> model_;
+  ros::Time model_stamp_;  // the stamp of the training set model_ is from
   std::string model_error_;
   std::map<std::string, std::unique_ptr<gpatlas_core::ExplorationStrategy>> strategies_;
   std::uint64_t plan_count_{0};

@@ -1,6 +1,7 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/markers.h"
 #include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/shared_models.h"
 
 #include <gpatlas_msgs/Atlas.h>
 #include <gpatlas_msgs/Touch.h>
@@ -89,9 +90,10 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       model_error_.clear();
       return;
     }
-    std::unique_ptr<gpatlas_core::SurfaceModel> model;
+    std::shared_ptr<const gpatlas_core::SurfaceModel> model;
     std::string error;
-    const bool ok = modelFromMsg(*msg, model_config_, &model, &error);
+    bool shared = false;
+    const bool ok = modelForTrainingSet(training_sub_.getTopic(), *msg, model_config_, &model, &shared, &error);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!ok) {
       // Planning on the previous model would plan on data the GP no longer has.
@@ -103,7 +105,8 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     model_ = std::move(model);
     model_stamp_ = msg->header.stamp;
     model_error_.clear();
-    ROS_DEBUG_STREAM("atlas_planner: " << model_->name() << " model with " << model_->observations().size() << " observations");
+    ROS_DEBUG_STREAM("atlas_planner: " << model_->name() << " model with " << model_->observations().size()
+                                       << " observations" << (shared ? " (the GP nodelet's)" : " (refitted)"));
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("atlas_planner: message ignored: " << e.what());
   }

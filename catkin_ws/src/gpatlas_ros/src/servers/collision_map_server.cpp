@@ -1,6 +1,8 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/shared_models.h"
 
+#include <gpatlas_core/background_work.h>
 #include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -91,6 +93,9 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
 }
 
 void CollisionMapServer::buildLoop() {
+  // Nobody waits for a map yet: the plans and the model's updates get the cores first.
+  if (!gpatlas_core::lowerCurrentThreadPriority())
+    ROS_WARN("collision_map: cannot lower the map builder's priority; rebuilds compete with planning");
   for (;;) {
     gpatlas_msgs::TrainingSet::ConstPtr msg;
     {
@@ -105,7 +110,7 @@ void CollisionMapServer::buildLoop() {
     const ros::WallTime started = ros::WallTime::now();
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
-      map = build(*msg, &error, &summary);
+      gpatlas_core::runOnThisThreadOnly([&] { map = build(*msg, &error, &summary); });
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -135,8 +140,9 @@ void CollisionMapServer::buildLoop() {
 
 std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(const gpatlas_msgs::TrainingSet& msg,
                                                                    std::string* error, std::string* summary) {
-  std::unique_ptr<gpatlas_core::SurfaceModel> model;
-  if (!modelFromMsg(msg, model_config_, &model, error)) return nullptr;
+  std::shared_ptr<const gpatlas_core::SurfaceModel> model;
+  bool shared = false;
+  if (!modelForTrainingSet(training_sub_.getTopic(), msg, model_config_, &model, &shared, error)) return nullptr;
   const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*model);
   if (!grid.ok) {
     *error = grid.message;

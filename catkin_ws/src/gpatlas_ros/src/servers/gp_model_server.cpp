@@ -1,7 +1,9 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/markers.h"
 #include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/shared_models.h"
 
+#include <gpatlas_core/background_work.h>
 #include <gpatlas_core/explorer.h>
 #include <gpatlas_core/view_training.h>
 #include <tf2_eigen/tf2_eigen.h>
@@ -173,10 +175,9 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
 
 void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
   try {
-    std::string message;
-    std::uint32_t added = 0, contacts = 0, refused = 0, batch = 0;
-    if (addObservations(*msg, &message, &added, &contacts, &refused, &batch)) ROS_INFO_STREAM("gp_model: " << message);
-    else ROS_WARN_STREAM("gp_model: observations ignored: " << message);
+    gpatlas_msgs::AddObservations::Response answer;
+    if (addObservations(*msg, &answer)) ROS_INFO_STREAM("gp_model: " << answer.message);
+    else ROS_WARN_STREAM("gp_model: observations ignored: " << answer.message);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("gp_model: observations ignored: " << e.what());
   }
@@ -184,8 +185,7 @@ void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) 
 
 bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& req,
                                       gpatlas_msgs::AddObservations::Response& res) {
-  res.success = addObservations(req.observations, &res.message, &res.num_added, &res.num_contacts_added, &res.num_refused,
-                                &res.batch_id);
+  res.success = addObservations(req.observations, &res);
   return true;
 }
 
@@ -241,13 +241,10 @@ bool GpModelServer::onRemoveObservations(gpatlas_msgs::RemoveObservations::Reque
   return true;
 }
 
-bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::string* message,
-                                    std::uint32_t* num_added, std::uint32_t* num_contacts_added,
-                                    std::uint32_t* num_refused, std::uint32_t* batch_id) {
-  *num_added = 0;
-  *num_contacts_added = 0;
-  *num_refused = 0;
-  *batch_id = 0;
+bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg,
+                                    gpatlas_msgs::AddObservations::Response* answer) {
+  *answer = gpatlas_msgs::AddObservations::Response();
+  std::string* message = &answer->message;
   gpatlas_core::ProbeResult observed;
   if (!fromMsg(msg, &observed, message)) return false;
   // One transform for everything: contacts, then the tips of their normals (a normal moves as
@@ -278,9 +275,10 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
   }
   // The same rules as the bench's exploration loop (gpatlas_core::applyTouch).
   const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(*model_, observed.contacts, free_space, touch_config_);
-  *num_added = static_cast<std::uint32_t>(update.points_added);
-  *num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
-  *num_refused = static_cast<std::uint32_t>(update.contacts_refused.total() + update.free_space_refused.total());
+  answer->num_added = static_cast<std::uint32_t>(update.points_added);
+  answer->num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
+  answer->num_refused = static_cast<std::uint32_t>(update.contacts_refused.total() + update.free_space_refused.total());
+  answer->observation_budget_full = update.budget_full;
   *message = update.message;
   if (update.retraction.any())
     *message += "; the touch contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +
@@ -288,8 +286,8 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg, std::
                 std::to_string(update.retraction.shrunk) + " made shallower)";
   for (const auto& w : update.warnings) *message += "; " + w;
   if (!update.ok) return false;
-  *batch_id = history_.addTouch(observed.contacts, free_space);
-  *message += " (batch " + std::to_string(*batch_id) + ")";
+  answer->batch_id = history_.addTouch(observed.contacts, free_space);
+  *message += " (batch " + std::to_string(answer->batch_id) + ")";
   publishModel();
   return true;
 }
@@ -300,6 +298,9 @@ void GpModelServer::publishModel() {
   training.sequence = ++training_sequence_;
   training.header.frame_id = world_frame_;
   training.header.stamp = ros::Time::now();
+  // One immutable copy for the planner and the collision map in this manager and for the mesh.
+  const std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot = model_->clone();
+  SharedModels::offer(training_pub_.getTopic(), training, snapshot);
   training_pub_.publish(training);
 
   if (surface_pub_.getNumSubscribers() == 0 && mesh_marker_pub_.getNumSubscribers() == 0 &&
@@ -307,15 +308,18 @@ void GpModelServer::publishModel() {
     return;
   {
     std::lock_guard<std::mutex> lock(mesh_mutex_);
-    mesh_pending_ = model_->clone();  // replaces a copy not meshed yet
+    mesh_pending_ = snapshot;  // replaces one not meshed yet
     mesh_stamp_ = training.header.stamp;
   }
   mesh_wake_.notify_one();
 }
 
 void GpModelServer::meshLoop() {
+  // The display mesh is for people watching: touches and plans come first.
+  if (!gpatlas_core::lowerCurrentThreadPriority())
+    ROS_WARN("gp_model: cannot lower the mesher's priority; display meshes compete with the model's updates");
   for (;;) {
-    std::unique_ptr<gpatlas_core::SurfaceModel> model;
+    std::shared_ptr<const gpatlas_core::SurfaceModel> model;
     ros::Time stamp;
     {
       std::unique_lock<std::mutex> lock(mesh_mutex_);
@@ -326,7 +330,8 @@ void GpModelServer::meshLoop() {
     }
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
-      const gpatlas_core::SurfaceMeshResult surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model);
+      gpatlas_core::SurfaceMeshResult surface;
+      gpatlas_core::runOnThisThreadOnly([&] { surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model); });
       if (!surface.ok) {
         ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
         continue;
@@ -346,6 +351,7 @@ void GpModelServer::meshLoop() {
 }
 
 GpModelServer::~GpModelServer() {
+  SharedModels::withdraw(training_pub_.getTopic());
   {
     std::lock_guard<std::mutex> lock(mesh_mutex_);
     mesh_stopping_ = true;

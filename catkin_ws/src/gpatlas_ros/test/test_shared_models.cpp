@@ -1,0 +1,91 @@
+// SharedModels: a training set finds the snapshot it was published with, only that one, and a
+// training set from elsewhere gets a replica refitted from the message.
+#include "gpatlas_conversions/conversions.h"
+#include "gpatlas_ros/shared_models.h"
+
+#include <gpatlas_core/gpis_model.h>
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+
+namespace {
+
+std::shared_ptr<const gpatlas_core::SurfaceModel> hemisphereModel(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g;
+  std::vector<gpatlas_core::TrainingPoint> points;
+  for (int i = 0; i < 80; ++i) {
+    gpatlas_core::TrainingPoint p;
+    p.position = Eigen::Vector3d(0.5, 0.0, 0.1) + 0.05 * Eigen::Vector3d(g(rng), g(rng), std::abs(g(rng))).normalized();
+    p.noise_sigma = 0.05;
+    points.push_back(p);
+  }
+  auto model = std::make_shared<gpatlas_core::GpisModel>();
+  EXPECT_TRUE(model->fit(points).ok);
+  return model;
+}
+
+gpatlas_msgs::TrainingSet stamped(const gpatlas_core::SurfaceModel& model, std::uint32_t sequence, double stamp_s) {
+  gpatlas_msgs::TrainingSet training = gpatlas_ros::toMsg(model);
+  training.sequence = sequence;
+  training.header.stamp = ros::Time(stamp_s);
+  training.header.frame_id = "world";
+  return training;
+}
+
+TEST(SharedModels, ATrainingSetFindsItsOwnSnapshotOnly) {
+  const std::string topic = "/test/gp_model/training_set";
+  const auto first = hemisphereModel(1), second = hemisphereModel(2), third = hemisphereModel(3);
+  const auto t1 = stamped(*first, 1, 10.0), t2 = stamped(*second, 2, 11.0), t3 = stamped(*third, 3, 12.0);
+  gpatlas_ros::SharedModels::offer(topic, t1, first);
+  gpatlas_ros::SharedModels::offer(topic, t2, second);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t1), first);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t2), second);
+  // Another topic, or the same sequence from a GP nodelet that started again (another stamp).
+  EXPECT_EQ(gpatlas_ros::SharedModels::find("/other/training_set", t1), nullptr);
+  gpatlas_msgs::TrainingSet restarted = t1;
+  restarted.header.stamp = ros::Time(20.0);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, restarted), nullptr);
+  // The last two are kept.
+  gpatlas_ros::SharedModels::offer(topic, t3, third);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t1), nullptr);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), third);
+
+  std::shared_ptr<const gpatlas_core::SurfaceModel> model;
+  bool shared = false;
+  std::string error;
+  ASSERT_TRUE(gpatlas_ros::modelForTrainingSet(topic, t3, gpatlas_core::SurfaceModelConfig(), &model, &shared, &error))
+      << error;
+  EXPECT_TRUE(shared);
+  EXPECT_EQ(model, third);
+  gpatlas_ros::SharedModels::withdraw(topic);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), nullptr);
+}
+
+TEST(SharedModels, ATrainingSetFromElsewhereIsRefitted) {
+  const auto original = hemisphereModel(4);
+  const auto training = stamped(*original, 7, 30.0);
+  std::shared_ptr<const gpatlas_core::SurfaceModel> replica;
+  bool shared = true;
+  std::string error;
+  ASSERT_TRUE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", training, gpatlas_core::SurfaceModelConfig(),
+                                               &replica, &shared, &error))
+      << error;
+  EXPECT_FALSE(shared);
+  ASSERT_NE(replica, original);
+  for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.5, 0.0, 0.16), Eigen::Vector3d(0.52, 0.03, 0.1),
+                                   Eigen::Vector3d(0.5, 0.0, 0.05)}) {
+    EXPECT_NEAR(replica->mean(x), original->mean(x), 1e-9);
+    EXPECT_NEAR(replica->variance(x), original->variance(x), 1e-9);
+  }
+  // A message that describes no model is an error, not a model.
+  gpatlas_msgs::TrainingSet empty = training;
+  empty.points.clear();
+  EXPECT_FALSE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", empty, gpatlas_core::SurfaceModelConfig(),
+                                                &replica, &shared, &error));
+}
+
+}  // namespace
