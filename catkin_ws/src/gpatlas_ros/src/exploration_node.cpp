@@ -91,7 +91,11 @@ class ExplorationNode {
     if (node_config_.capture && !captureView()) return 1;
     if (!waitForModel()) return 1;
     initial_.n_train = latestTraining()->points.size();
-    measure(*latestTraining(), initial_);
+    if (const auto model = measure(*latestTraining(), initial_)) {
+      // Said once here, and in every plan's answer.
+      if (const std::string note = gpatlas_core::vMaxNoiseNote(*model, loop_.v_max); !note.empty())
+        ROS_WARN_STREAM("exploration: " << note);
+    }
     ROS_INFO_STREAM("exploration: initial model: max surface variance " << initial_.sampled_max_variance << ", RMSE "
                                                                          << 1000 * initial_.rmse_pred_to_gt_m << "/"
                                                                          << 1000 * initial_.rmse_gt_to_pred_m << " mm");
@@ -260,11 +264,17 @@ class ExplorationNode {
 
   // Rebuilds the GP from a training set and measures it as the bench does: the largest variance
   // of a fixed surface sample and, with a ground truth, the shape error.
-  void measure(const gpatlas_msgs::TrainingSet& training, gpatlas_core::ExplorationRecord& record) {
+  // Returns the rebuilt model (null when the message gives none).
+  std::unique_ptr<gpatlas_core::SurfaceModel> measure(const gpatlas_msgs::TrainingSet& training,
+                                                      gpatlas_core::ExplorationRecord& record) {
     std::unique_ptr<gpatlas_core::SurfaceModel> model_ptr;
     std::string error;
-    if (!modelFromMsg(training, model_config_, &model_ptr, &error)) return;
-    const gpatlas_core::SurfaceModel& model = *model_ptr;
+    if (!modelFromMsg(training, model_config_, &model_ptr, &error)) return nullptr;
+    measureModel(*model_ptr, record);
+    return model_ptr;
+  }
+
+  void measureModel(const gpatlas_core::SurfaceModel& model, gpatlas_core::ExplorationRecord& record) {
     const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
     if (sample.ok) record.sampled_max_variance = sample.maxVariance();
     if (ground_truth_.empty()) return;

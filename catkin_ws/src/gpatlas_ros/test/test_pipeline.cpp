@@ -462,6 +462,27 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   for (std::size_t i = 0; i < retracted->points.size(); ++i)
     EXPECT_GT((gpatlas_ros::fromMsg(retracted->points[i]) - deepest_guess).norm(), 1e-6) << "the guess is still there";
 
+  gpatlas_msgs::CollisionMapStatus::ConstPtr status;
+  std::mutex status_mutex;
+  ros::Subscriber status_sub = nh.subscribe<gpatlas_msgs::CollisionMapStatus>(
+      "/gpatlas/collision_map/status", 5, [&](const gpatlas_msgs::CollisionMapStatus::ConstPtr& m) {
+        std::lock_guard<std::mutex> lock(status_mutex);
+        status = m;
+      });
+  const auto waitForState = [&](std::uint8_t state) {
+    for (int i = 0; i < 300; ++i) {
+      {
+        std::lock_guard<std::mutex> lock(status_mutex);
+        if (status && status->state == state) return status;
+      }
+      ros::Duration(0.1).sleep();
+    }
+    std::lock_guard<std::mutex> lock(status_mutex);
+    return status;
+  };
+  // A map of the model as it is now, before it is saved (pipeline.test makes rebuilds slow).
+  const auto first_map = waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
+  ASSERT_TRUE(first_map && first_map->state == gpatlas_msgs::CollisionMapStatus::CURRENT);
   gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
@@ -487,24 +508,6 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // The map says which training set it shows. Once it is current, a training set whose map
   // cannot be built (here a malformed one) leaves the old map published, reported STALE with the
   // reason, and save_map says so.
-  gpatlas_msgs::CollisionMapStatus::ConstPtr status;
-  std::mutex status_mutex;
-  ros::Subscriber status_sub = nh.subscribe<gpatlas_msgs::CollisionMapStatus>(
-      "/gpatlas/collision_map/status", 5, [&](const gpatlas_msgs::CollisionMapStatus::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(status_mutex);
-        status = m;
-      });
-  const auto waitForState = [&](std::uint8_t state) {
-    for (int i = 0; i < 300; ++i) {
-      {
-        std::lock_guard<std::mutex> lock(status_mutex);
-        if (status && status->state == state) return status;
-      }
-      ros::Duration(0.1).sleep();
-    }
-    std::lock_guard<std::mutex> lock(status_mutex);
-    return status;
-  };
   const auto current = waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
   ASSERT_TRUE(current);
   ASSERT_EQ(current->state, gpatlas_msgs::CollisionMapStatus::CURRENT) << current->message;
@@ -528,6 +531,33 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_EQ(save.response.training_sequence, current->map_training_sequence);
   EXPECT_NE(save.response.message.find("STALE"), std::string::npos) << save.response.message;
   std::remove(save.request.path.c_str());
+
+  // add_observations does not wait for the map: a touch is answered within a second while the
+  // map of the touch before it is still being built (pipeline.test makes a rebuild take seconds).
+  const auto touchAt = [](const Eigen::Vector3d& direction) {
+    gpatlas_msgs::AddObservations touch;
+    touch.request.observations.header.frame_id = "world";
+    touch.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * direction.normalized()));
+    return touch;
+  };
+  gpatlas_msgs::AddObservations first_touch = touchAt(Eigen::Vector3d(0.3, 0.9, 0.2));
+  const ros::Time before_first_touch = ros::Time::now();
+  ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", first_touch));
+  ASSERT_TRUE(first_touch.response.success) << first_touch.response.message;
+  const gpatlas_msgs::TrainingSet::ConstPtr first_set = trainingSince(before_first_touch);
+  ASSERT_TRUE(first_set);
+  gpatlas_msgs::AddObservations second_touch = touchAt(Eigen::Vector3d(-0.3, 0.9, 0.2));
+  const ros::WallTime asked = ros::WallTime::now();
+  ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", second_touch));
+  const double answered_s = (ros::WallTime::now() - asked).toSec();
+  EXPECT_TRUE(second_touch.response.success) << second_touch.response.message;
+  EXPECT_LT(answered_s, 1.0);
+  {
+    std::lock_guard<std::mutex> lock(status_mutex);
+    ASSERT_TRUE(status);
+    EXPECT_LT(status->map_training_sequence, first_set->sequence)
+        << "the first touch's map was done before the second touch was answered: the rebuild was too quick to tell";
+  }
 
   // After all of this the manager still runs every nodelet.
   nodelet::NodeletList list;
