@@ -14,7 +14,7 @@ PACKAGES=(
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev python3-tf2-ros
   # algorithms
   libyaml-cpp-dev libpcl-dev libpcl-conversions-dev liboctomap-dev libbullet-dev libceres-dev libeigen3-dev libtbb-dev
-  liborocos-kdl-dev libkdl-parser-dev liburdf-dev liburdfdom-dev liburdfdom-tools
+  liborocos-kdl-dev libkdl-parser-dev liburdf-dev liburdfdom-dev liburdfdom-tools libompl-dev libfcl-dev
   ros-robot-state-publisher joint-state-publisher joint-state-publisher-gui
   # tests and benchmarks
   librostest-dev python3-rostest libgtest-dev googletest libbenchmark-dev python3-nose python3-yaml

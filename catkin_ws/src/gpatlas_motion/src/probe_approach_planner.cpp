@@ -1,0 +1,199 @@
+#include "gpatlas_motion/probe_approach_planner.h"
+
+#include <Eigen/Geometry>
+#include <fcl/geometry/octree/octree.h>
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/capsule.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision.h>
+#include <fcl/narrowphase/collision_object.h>
+#include <octomap/OcTree.h>
+#include <ompl/base/spaces/RealVectorStateSpace.h>
+#include <ompl/geometric/SimpleSetup.h>
+#include <ompl/geometric/planners/rrt/RRTConnect.h>
+#include <ompl/util/Console.h>
+#include <ompl/util/RandomNumbers.h>
+
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <sstream>
+
+namespace gpatlas_motion {
+namespace {
+
+namespace ob = ompl::base;
+namespace og = ompl::geometric;
+
+bool finite(const Eigen::Vector3d& v) { return v.allFinite(); }
+
+}  // namespace
+
+struct ProbeApproachPlanner::Impl {
+  ApproachConfig config;
+  ProbeGeometry probe;
+  std::shared_ptr<fcl::Sphered> tip;
+  std::shared_ptr<fcl::Capsuled> shaft;
+  std::shared_ptr<fcl::OcTreed> map;  // null: no map yet
+  std::vector<std::unique_ptr<fcl::CollisionObjectd>> obstacles;  // the map (first, when set) and the static boxes
+  bool has_map{false};
+
+  bool collides(const fcl::CollisionObjectd& a, const fcl::CollisionObjectd& b) const {
+    fcl::CollisionRequestd request;
+    fcl::CollisionResultd result;
+    fcl::collide(&a, &b, request, result);
+    return result.isCollision();
+  }
+
+  bool isFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
+    fcl::Transform3d tip_pose = fcl::Transform3d::Identity();
+    tip_pose.translation() = tip_centre;
+    const fcl::CollisionObjectd tip_object(tip, tip_pose);
+    // The shaft behind the tip, along -direction; FCL's capsule runs along its z axis.
+    fcl::Transform3d shaft_pose = fcl::Transform3d::Identity();
+    shaft_pose.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), direction).toRotationMatrix();
+    shaft_pose.translation() = tip_centre - direction * (probe.tip_radius_m + 0.5 * probe.shaft_length_m);
+    const fcl::CollisionObjectd shaft_object(shaft, shaft_pose);
+    for (const auto& obstacle : obstacles)
+      if (collides(tip_object, *obstacle) || collides(shaft_object, *obstacle)) return false;
+    return true;
+  }
+
+  // Whether every point of the segment, sampled at check_resolution_m, is free.
+  bool segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& direction) const {
+    const double length = (b - a).norm();
+    const int steps = std::max(1, static_cast<int>(std::ceil(length / config.check_resolution_m)));
+    for (int i = 0; i <= steps; ++i)
+      if (!isFree(a + (b - a) * (static_cast<double>(i) / steps), direction)) return false;
+    return true;
+  }
+};
+
+ProbeApproachPlanner::ProbeApproachPlanner(ApproachConfig config, ProbeGeometry probe) : impl_(std::make_unique<Impl>()) {
+  impl_->config = config;
+  impl_->probe = probe;
+  impl_->tip = std::make_shared<fcl::Sphered>(probe.tip_radius_m + config.clearance_m);
+  impl_->shaft = std::make_shared<fcl::Capsuled>(probe.shaft_radius_m + config.clearance_m, probe.shaft_length_m);
+  // OMPL seeds one process-wide generator once, before its first use: plans are reproducible
+  // within a process started the same way.
+  static std::once_flag seeded;
+  std::call_once(seeded, [&config] {
+    ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
+    ompl::RNG::setSeed(config.seed == 0 ? 1 : config.seed);
+  });
+}
+
+ProbeApproachPlanner::~ProbeApproachPlanner() = default;
+
+void ProbeApproachPlanner::setCollisionMap(std::shared_ptr<const octomap::OcTree> map) {
+  if (impl_->has_map) impl_->obstacles.erase(impl_->obstacles.begin());
+  impl_->has_map = false;
+  impl_->map.reset();
+  if (!map) return;
+  impl_->map = std::make_shared<fcl::OcTreed>(map);
+  // Every node is free or occupied at the one threshold: FCL skips "uncertain" nodes.
+  impl_->map->setOccupancyThres(impl_->config.occupied_probability);
+  impl_->map->setFreeThres(impl_->config.occupied_probability);
+  impl_->obstacles.insert(impl_->obstacles.begin(),
+                          std::make_unique<fcl::CollisionObjectd>(impl_->map, fcl::Transform3d::Identity()));
+  impl_->has_map = true;
+}
+
+void ProbeApproachPlanner::addStaticBox(const Eigen::Vector3d& centre, const Eigen::Vector3d& size) {
+  fcl::Transform3d pose = fcl::Transform3d::Identity();
+  pose.translation() = centre;
+  impl_->obstacles.push_back(
+      std::make_unique<fcl::CollisionObjectd>(std::make_shared<fcl::Boxd>(size.x(), size.y(), size.z()), pose));
+}
+
+std::string ProbeApproachPlanner::validate(const ApproachConfig& c, const ProbeGeometry& p) {
+  std::ostringstream problem;
+  const auto positive = [&](double v, const char* name) {
+    if (!(v > 0.0) || !std::isfinite(v)) problem << name << " must be positive and finite; ";
+  };
+  if (!(c.occupied_probability > 0.0 && c.occupied_probability < 1.0)) problem << "occupied_probability must be in (0, 1); ";
+  positive(c.approach_distance_m, "approach_distance_m");
+  positive(c.max_planning_time_s, "max_planning_time_s");
+  positive(c.check_resolution_m, "check_resolution_m");
+  positive(p.tip_radius_m, "tip_radius_m");
+  positive(p.shaft_radius_m, "shaft_radius_m");
+  positive(p.shaft_length_m, "shaft_length_m");
+  if (!(c.clearance_m >= 0.0) || !(c.contact_zone_m >= 0.0) || !(c.workspace_margin_m >= 0.0))
+    problem << "clearance_m, contact_zone_m and workspace_margin_m must be >= 0; ";
+  return problem.str();
+}
+
+bool ProbeApproachPlanner::isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const {
+  return impl_->isFree(tip, direction.normalized());
+}
+
+ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const Eigen::Vector3d& touch_point,
+                                        const Eigen::Vector3d& touch_normal) const {
+  const auto started = std::chrono::steady_clock::now();
+  ApproachPlan plan;
+  const auto finish = [&](std::string message) {
+    plan.message = std::move(message);
+    plan.planning_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+    return plan;
+  };
+  const ApproachConfig& c = impl_->config;
+  if (const std::string problem = validate(c, impl_->probe); !problem.empty()) return finish("invalid config: " + problem);
+  if (!impl_->has_map) return finish("no collision map yet");
+  if (impl_->map->getRoot() == nullptr) return finish("the collision map is empty");
+  if (!finite(start_tip) || !finite(touch_point) || !finite(touch_normal) || touch_normal.norm() < 1e-9)
+    return finish("the start, the touch and its normal must be finite, the normal non-zero");
+  const Eigen::Vector3d normal = touch_normal.normalized();
+  plan.direction = -normal;
+  const Eigen::Vector3d approach_pose = touch_point + c.approach_distance_m * normal;
+  if (!impl_->isFree(start_tip, plan.direction)) return finish("the probe's start is in collision");
+  if (!impl_->isFree(approach_pose, plan.direction))
+    return finish("the approach pose, " + std::to_string(c.approach_distance_m) +
+                  " m out along the normal, is in collision: the touch cannot be approached");
+  // The probing segment, up to the contact zone around the touch.
+  const double probing_length = std::max(0.0, c.approach_distance_m - c.contact_zone_m - impl_->probe.tip_radius_m);
+  if (!impl_->segmentFree(approach_pose, approach_pose - probing_length * normal, plan.direction))
+    return finish("the probing segment meets an obstacle before the touch: the touch is occluded");
+
+  if (impl_->segmentFree(start_tip, approach_pose, plan.direction)) {
+    plan.approach = {start_tip, approach_pose};
+  } else {
+    auto space = std::make_shared<ob::RealVectorStateSpace>(3);
+    ob::RealVectorBounds bounds(3);
+    for (int i = 0; i < 3; ++i) {
+      bounds.setLow(i, std::min(start_tip[i], approach_pose[i]) - c.workspace_margin_m);
+      bounds.setHigh(i, std::max(start_tip[i], approach_pose[i]) + c.workspace_margin_m);
+    }
+    space->setBounds(bounds);
+    og::SimpleSetup setup(space);
+    const Eigen::Vector3d direction = plan.direction;
+    setup.setStateValidityChecker([this, direction](const ob::State* state) {
+      const auto* v = state->as<ob::RealVectorStateSpace::StateType>();
+      return impl_->isFree(Eigen::Vector3d(v->values[0], v->values[1], v->values[2]), direction);
+    });
+    setup.getSpaceInformation()->setStateValidityCheckingResolution(c.check_resolution_m / space->getMaximumExtent());
+    ob::ScopedState<> start(space), goal(space);
+    for (int i = 0; i < 3; ++i) {
+      start[i] = start_tip[i];
+      goal[i] = approach_pose[i];
+    }
+    setup.setStartAndGoalStates(start, goal);
+    setup.setPlanner(std::make_shared<og::RRTConnect>(setup.getSpaceInformation()));
+    const ob::PlannerStatus solved = setup.solve(c.max_planning_time_s);
+    if (solved != ob::PlannerStatus::EXACT_SOLUTION) {
+      std::ostringstream message;
+      message << "no collision-free approach found within " << c.max_planning_time_s << " s (" << solved.asString() << ")";
+      return finish(message.str());
+    }
+    setup.simplifySolution(0.25 * c.max_planning_time_s);
+    for (const ob::State* state : setup.getSolutionPath().getStates()) {
+      const auto* v = state->as<ob::RealVectorStateSpace::StateType>();
+      plan.approach.emplace_back(v->values[0], v->values[1], v->values[2]);
+    }
+  }
+  plan.probing = {approach_pose, touch_point};
+  plan.retreat.assign(plan.approach.rbegin(), plan.approach.rend());
+  plan.ok = true;
+  return finish("");
+}
+
+}  // namespace gpatlas_motion
