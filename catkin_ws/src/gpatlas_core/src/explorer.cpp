@@ -218,22 +218,29 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
     const std::size_t room = held < config.max_touch_observations ? config.max_touch_observations - held : 0;
     const std::size_t wanted = new_points.size();
     if (wanted > room) {
-      // The free space goes first (the contacts pin the surface down), then contacts are thinned
-      // coarser until the touch fits.
-      TouchObservationConfig thinned = config;
-      std::size_t contacts_cap = counts.contacts;
-      new_points.resize(counts.contacts + counts.contact_inside + counts.contact_tangents);
-      counts.free_space = 0;
+      // The free space goes first (the contacts pin the surface down): what fits of it is kept,
+      // nearest the contacts first (it comes last, in that order). Then the contacts are thinned
+      // coarser until they fit.
+      const std::size_t contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
       bool contacts_thinned = false;
-      while (!new_points.empty() && new_points.size() > room) {
-        contacts_thinned = true;
-        contacts_cap = contacts_cap * 2 / 3;
-        if (contacts_cap == 0) {
-          new_points.clear();
-          break;
+      if (contact_points <= room) {
+        new_points.resize(room);
+        counts.free_space = room - contact_points;
+      } else {
+        TouchObservationConfig thinned = config;
+        std::size_t contacts_cap = counts.contacts;
+        new_points.resize(contact_points);
+        counts.free_space = 0;
+        while (!new_points.empty() && new_points.size() > room) {
+          contacts_thinned = true;
+          contacts_cap = contacts_cap * 2 / 3;
+          if (contacts_cap == 0) {
+            new_points.clear();
+            break;
+          }
+          thinned.max_contacts_per_touch = contacts_cap;
+          new_points = touchTrainingPoints(model, gated.contacts, {}, thinned, &counts);
         }
-        thinned.max_contacts_per_touch = contacts_cap;
-        new_points = touchTrainingPoints(model, gated.contacts, {}, thinned, &counts);
       }
       std::ostringstream note;
       note << "the model holds " << held << " observations from touches (touch/max_touch_observations "
@@ -245,7 +252,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
         return update;
       }
       note << ": the touch's " << wanted << " training points were thinned to " << new_points.size()
-           << " (its free space dropped" << (contacts_thinned ? ", its contacts thinned" : "") << ")";
+           << (contacts_thinned ? " (its free space dropped, its contacts thinned)" : " (its free space thinned)");
       update.warnings.push_back(note.str());
       // This note replaces the per-touch caps' own.
       counts.contacts_before_cap = 0;

@@ -44,7 +44,6 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
   const int stride = config_.variance_stride;
   const std::size_t num = static_cast<std::size_t>(num_nodes);
   const std::size_t nx = static_cast<std::size_t>(grid.size.x()), ny = static_cast<std::size_t>(grid.size.y());
-  std::vector<char> in_domain(num, 0);
   std::vector<double> mean(num, 0.0), variance(num, std::nan(""));
 
   // The mean, and the variance when asked, of the nodes in `nodes`, in batches.
@@ -90,7 +89,6 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
       for (int i = 0; i < grid.size.x(); ++i) {
         const std::size_t n = grid.index(i, j, k);
         if (!model.inDomain(grid.position(i, j, k))) continue;
-        in_domain[n] = 1;
         domain.push_back(n);
         if (bx[static_cast<std::size_t>(i)].lower == i && by[static_cast<std::size_t>(j)].lower == j &&
             bz[static_cast<std::size_t>(k)].lower == k)

@@ -423,9 +423,9 @@ TEST(Explorer, AnOversizedTouchIsThinnedToTheCapWithItsCountInTheAnswer) {
   EXPECT_NE(update.warnings.back().find("max_contacts_per_touch 200"), std::string::npos) << update.warnings.back();
 }
 
-// The observation budget: a touch that would pass it loses its free space first, then is
-// thinned; once the model holds the budget, touches are refused and the exploration stops. The
-// model never holds more touch observations than the budget, counted here from its own list.
+// The observation budget: a touch that would pass it loses free space first, then its contacts
+// are thinned; once the model holds the budget, touches are refused and the exploration stops.
+// The model never holds more touch observations than the budget, counted from its own list.
 TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 4);
@@ -454,24 +454,36 @@ TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration
   ASSERT_TRUE(whole.ok) << whole.message;
   ASSERT_GT(whole.free_points_added, 10);
 
-  // Room for the contacts and the points behind them, not for the free space.
+  // Room for the contacts, the points behind them and five free-space points.
   config.max_touch_observations = static_cast<std::size_t>(whole.points_added - whole.free_points_added) + 5;
   const TouchUpdate first = applyTouch(model, contacts, free_space, config);
   ASSERT_TRUE(first.ok) << first.message;
   EXPECT_FALSE(first.budget_full);
   EXPECT_EQ(first.contacts_added, whole.contacts_added);
-  EXPECT_EQ(first.free_points_added, 0);
+  EXPECT_GT(first.free_points_added, 0);
+  EXPECT_LE(first.free_points_added, 5);
   ASSERT_FALSE(first.warnings.empty());
   EXPECT_NE(first.warnings.back().find("max_touch_observations"), std::string::npos) << first.warnings.back();
   EXPECT_LE(touchObservations(), config.max_touch_observations);
 
-  // The same contacts 1 cm further out: five places left, so a few of them.
+  // The same contacts 1 cm further out, with room for six points: a few of them.
+  config.max_touch_observations = touchObservations() + 6;
   std::vector<Contact> outer = contacts;
   for (Contact& c : outer) c.position += 0.01 * c.normal;
   const TouchUpdate second = applyTouch(model, outer, {}, config);
   ASSERT_TRUE(second.ok) << second.message;
   EXPECT_GT(second.contacts_added, 0);
   EXPECT_LT(second.contacts_added, whole.contacts_added / 4);
+  EXPECT_LE(touchObservations(), config.max_touch_observations);
+
+  // Free space alone, with room for three points: three of it, and the touch is not refused.
+  config.max_touch_observations = touchObservations() + 3;
+  std::vector<Vector3> farther;
+  for (const Contact& c : contacts) farther.push_back(c.position + 0.025 * c.normal);
+  const TouchUpdate misses = applyTouch(model, {}, farther, config);
+  ASSERT_TRUE(misses.ok) << misses.message;
+  EXPECT_FALSE(misses.budget_full);
+  EXPECT_GT(misses.free_points_added, 0);
   EXPECT_LE(touchObservations(), config.max_touch_observations);
 
   // Full: refused, the model unchanged.
