@@ -199,6 +199,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   std::lock_guard<std::mutex> lock(mutex_);
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
   history_.clear();
+  SharedModels::withdraw(training_pub_.getTopic());
   // An empty training set tells the planner and the collision map to drop their copies.
   gpatlas_msgs::TrainingSet empty;
   empty.sequence = ++training_sequence_;
