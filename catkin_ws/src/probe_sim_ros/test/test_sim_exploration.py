@@ -18,7 +18,12 @@ class SimExplorationTest(unittest.TestCase):
         while not os.path.exists(report_path) and time.time() < deadline and not rospy.is_shutdown():
             time.sleep(0.5)
         self.assertTrue(os.path.exists(report_path), "no report.json after 200 s")
-        time.sleep(2.0)  # the plot is written right after the report
+        # The plot is drawn from the report, after it (matplotlib takes seconds on a busy machine).
+        plot_path = os.path.join(results, "exploration.png")
+        plot_deadline = time.time() + 60.0
+        while not os.path.exists(plot_path) and time.time() < plot_deadline:
+            time.sleep(0.5)
+        time.sleep(1.0)  # its writing finished
         with open(report_path) as f:
             report = json.load(f)
         self.assertIn(report["stop_reason"], ("max_actions", "consecutive_failures"), report["stop_reason"])
