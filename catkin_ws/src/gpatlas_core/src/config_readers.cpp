@@ -1,6 +1,7 @@
 #include "gpatlas_core/config_readers.h"
 
 #include <cmath>
+#include <sstream>
 
 namespace gpatlas_core {
 
@@ -205,6 +206,36 @@ void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
   c->occupied_probability = r.number("collision_map/occupied_probability", c->occupied_probability, 0.0, 1.0);
 }
 
+void readApproach(ParamReader& r, ApproachConfig* c) {
+  c->occupied_probability = r.number("approach/occupied_probability", c->occupied_probability, 1e-6, 1.0 - 1e-6);
+  c->approach_distance_m = r.number("approach/approach_distance_m", c->approach_distance_m, 1e-3, 1.0);
+  c->clearance_m = r.number("approach/clearance_m", c->clearance_m, 0.0, 0.5);
+  c->contact_zone_m = r.number("approach/contact_zone_m", c->contact_zone_m, 0.0, 0.5);
+  c->max_planning_time_s = r.number("approach/max_planning_time_s", c->max_planning_time_s, 1e-3, 60.0);
+  c->workspace_margin_m = r.number("approach/workspace_margin_m", c->workspace_margin_m, 0.0, 5.0);
+  c->check_resolution_m = r.number("approach/check_resolution_m", c->check_resolution_m, 1e-4, 0.1);
+  c->probe.tip_radius_m = r.number("approach/tip_radius_m", c->probe.tip_radius_m, 1e-4, 0.5);
+  c->probe.shaft_radius_m = r.number("approach/shaft_radius_m", c->probe.shaft_radius_m, 1e-4, 0.5);
+  c->probe.shaft_length_m = r.number("approach/shaft_length_m", c->probe.shaft_length_m, 1e-4, 2.0);
+}
+
+std::string validate(const ApproachConfig& c) {
+  std::ostringstream problem;
+  const auto positive = [&](double v, const char* name) {
+    if (!(v > 0.0) || !std::isfinite(v)) problem << name << " must be positive and finite; ";
+  };
+  if (!(c.occupied_probability > 0.0 && c.occupied_probability < 1.0)) problem << "occupied_probability must be in (0, 1); ";
+  positive(c.approach_distance_m, "approach_distance_m");
+  positive(c.max_planning_time_s, "max_planning_time_s");
+  positive(c.check_resolution_m, "check_resolution_m");
+  positive(c.probe.tip_radius_m, "tip_radius_m");
+  positive(c.probe.shaft_radius_m, "shaft_radius_m");
+  positive(c.probe.shaft_length_m, "shaft_length_m");
+  if (!(c.clearance_m >= 0.0) || !(c.contact_zone_m >= 0.0) || !(c.workspace_margin_m >= 0.0))
+    problem << "clearance_m, contact_zone_m and workspace_margin_m must be >= 0; ";
+  return problem.str();
+}
+
 void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
   c->crop_min_m = r.vector3("segmentation/crop_min_m", c->crop_min_m);
   c->crop_max_m = r.vector3("segmentation/crop_max_m", c->crop_max_m);
@@ -242,6 +273,7 @@ void readPipeline(ParamReader& r, PipelineConfig* c) {
   readStrategy(r, &c->strategy);
   readMesher(r, &c->mesh);
   readCollisionMap(r, &c->collision_map);
+  readApproach(r, &c->approach);
   readSegmenter(r, &c->segmentation);
 }
 

@@ -4,6 +4,7 @@
 #include <fcl/geometry/octree/octree.h>
 #include <fcl/geometry/shape/box.h>
 #include <fcl/geometry/shape/capsule.h>
+#include <fcl/geometry/shape/halfspace.h>
 #include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/collision.h>
 #include <fcl/narrowphase/collision_object.h>
@@ -31,7 +32,7 @@ bool finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
 struct ProbeApproachPlanner::Impl {
   ApproachConfig config;
-  ProbeGeometry probe;
+  const ProbeGeometry& probe{config.probe};
   std::shared_ptr<fcl::Sphered> tip;
   std::shared_ptr<fcl::Capsuled> shaft;
   std::shared_ptr<fcl::OcTreed> map;  // null: no map yet
@@ -69,17 +70,17 @@ struct ProbeApproachPlanner::Impl {
   }
 };
 
-ProbeApproachPlanner::ProbeApproachPlanner(ApproachConfig config, ProbeGeometry probe) : impl_(std::make_unique<Impl>()) {
+ProbeApproachPlanner::ProbeApproachPlanner(ApproachConfig config) : impl_(std::make_unique<Impl>()) {
   impl_->config = config;
-  impl_->probe = probe;
+  const ProbeGeometry& probe = config.probe;
   impl_->tip = std::make_shared<fcl::Sphered>(probe.tip_radius_m + config.clearance_m);
   impl_->shaft = std::make_shared<fcl::Capsuled>(probe.shaft_radius_m + config.clearance_m, probe.shaft_length_m);
   // OMPL seeds one process-wide generator once, before its first use: plans are reproducible
   // within a process started the same way.
   static std::once_flag seeded;
-  std::call_once(seeded, [&config] {
+  std::call_once(seeded, [] {
     ompl::msg::setLogLevel(ompl::msg::LOG_WARN);
-    ompl::RNG::setSeed(config.seed == 0 ? 1 : config.seed);
+    ompl::RNG::setSeed(1);
   });
 }
 
@@ -106,21 +107,11 @@ void ProbeApproachPlanner::addStaticBox(const Eigen::Vector3d& centre, const Eig
       std::make_unique<fcl::CollisionObjectd>(std::make_shared<fcl::Boxd>(size.x(), size.y(), size.z()), pose));
 }
 
-std::string ProbeApproachPlanner::validate(const ApproachConfig& c, const ProbeGeometry& p) {
-  std::ostringstream problem;
-  const auto positive = [&](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v)) problem << name << " must be positive and finite; ";
-  };
-  if (!(c.occupied_probability > 0.0 && c.occupied_probability < 1.0)) problem << "occupied_probability must be in (0, 1); ";
-  positive(c.approach_distance_m, "approach_distance_m");
-  positive(c.max_planning_time_s, "max_planning_time_s");
-  positive(c.check_resolution_m, "check_resolution_m");
-  positive(p.tip_radius_m, "tip_radius_m");
-  positive(p.shaft_radius_m, "shaft_radius_m");
-  positive(p.shaft_length_m, "shaft_length_m");
-  if (!(c.clearance_m >= 0.0) || !(c.contact_zone_m >= 0.0) || !(c.workspace_margin_m >= 0.0))
-    problem << "clearance_m, contact_zone_m and workspace_margin_m must be >= 0; ";
-  return problem.str();
+void ProbeApproachPlanner::addStaticHalfSpace(const Eigen::Vector3d& normal, double offset) {
+  // FCL's half-space is solid where n . x < d.
+  const double length = normal.norm();
+  impl_->obstacles.push_back(std::make_unique<fcl::CollisionObjectd>(
+      std::make_shared<fcl::Halfspaced>(normal / length, -offset / length), fcl::Transform3d::Identity()));
 }
 
 bool ProbeApproachPlanner::isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const {
@@ -137,7 +128,7 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
     return plan;
   };
   const ApproachConfig& c = impl_->config;
-  if (const std::string problem = validate(c, impl_->probe); !problem.empty()) return finish("invalid config: " + problem);
+  if (const std::string problem = gpatlas_core::validate(c); !problem.empty()) return finish("invalid config: " + problem);
   if (!impl_->has_map) return finish("no collision map yet");
   if (impl_->map->getRoot() == nullptr) return finish("the collision map is empty");
   if (!finite(start_tip) || !finite(touch_point) || !finite(touch_normal) || touch_normal.norm() < 1e-9)

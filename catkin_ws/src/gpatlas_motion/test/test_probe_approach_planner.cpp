@@ -73,10 +73,10 @@ const Box kRegion{Vector3d(-0.3, -0.3, -0.3), Vector3d(0.8, 0.3, 0.3)};
 const Vector3d kTouch(0.03, 0.0, 0.0), kNormal(1.0, 0.0, 0.0), kStart(0.55, 0.0, 0.0);
 
 TEST(ProbeApproachPlanner, FindsAPathAroundABoxInTheOcTree) {
-  const ProbeGeometry probe;
   ApproachConfig config;
   config.max_planning_time_s = 1.0;
-  ProbeApproachPlanner planner(config, probe);
+  const ProbeGeometry& probe = config.probe;
+  ProbeApproachPlanner planner(config);
   planner.setCollisionMap(mapOf({kObject, kWall}, kRegion));
   const ApproachPlan plan = planner.plan(kStart, kTouch, kNormal);
   ASSERT_TRUE(plan.ok) << plan.message;
@@ -114,10 +114,9 @@ TEST(ProbeApproachPlanner, RefusesATargetEnclosedByOccupiedVoxels) {
   shell.push_back({Vector3d(-out, -out, in), Vector3d(out, out, out)});
   shell.push_back({Vector3d(-out, -out, -out), Vector3d(out, out, -in)});
   shell.push_back(kObject);
-  ProbeGeometry probe;
-  probe.shaft_length_m = 0.02;  // a stub, so that the probe fits inside the shell
   ApproachConfig config;
-  ProbeApproachPlanner planner(config, probe);
+  config.probe.shaft_length_m = 0.02;  // a stub, so that the probe fits inside the shell
+  ProbeApproachPlanner planner(config);
   planner.setCollisionMap(mapOf(shell, kRegion));
   EXPECT_TRUE(planner.isFree(kTouch + config.approach_distance_m * kNormal, -kNormal));
   const ApproachPlan plan = planner.plan(kStart, kTouch, kNormal);
@@ -126,9 +125,8 @@ TEST(ProbeApproachPlanner, RefusesATargetEnclosedByOccupiedVoxels) {
 }
 
 TEST(ProbeApproachPlanner, TheTableIsAnObstacleAndBadInputGetsAReason) {
-  const ProbeGeometry probe;
   const ApproachConfig config;
-  ProbeApproachPlanner planner(config, probe);
+  ProbeApproachPlanner planner(config);
   EXPECT_NE(planner.plan(kStart, kTouch, kNormal).message.find("no collision map"), std::string::npos);
   planner.setCollisionMap(std::make_shared<octomap::OcTree>(kVoxel));
   EXPECT_NE(planner.plan(kStart, kTouch, kNormal).message.find("empty"), std::string::npos);
@@ -138,8 +136,9 @@ TEST(ProbeApproachPlanner, TheTableIsAnObstacleAndBadInputGetsAReason) {
   EXPECT_NE(planner.plan(kStart, kTouch, Vector3d::Zero()).message.find("non-zero"), std::string::npos);
   EXPECT_NE(planner.plan(Vector3d(0.0, 0.0, 0.0), kTouch, kNormal).message.find("start is in collision"),
             std::string::npos);
-  // The object's underside, where it stands on a table: the approach pose is in the table.
-  planner.addStaticBox(Vector3d(0.0, 0.0, -0.09), Vector3d(1.0, 1.0, 0.12));
+  // The object's underside, where it stands on a table: the approach pose is in the table (a
+  // half-space below its top, 3 cm under the object's centre).
+  planner.addStaticHalfSpace(Vector3d(0.0, 0.0, 2.0), 2.0 * 0.03);
   const ApproachPlan under = planner.plan(Vector3d(0.55, 0.0, 0.3), Vector3d(0.0, 0.0, -0.03), Vector3d(0.0, 0.0, -1.0));
   EXPECT_FALSE(under.ok);
   EXPECT_NE(under.message.find("approach pose"), std::string::npos) << under.message;
@@ -148,10 +147,14 @@ TEST(ProbeApproachPlanner, TheTableIsAnObstacleAndBadInputGetsAReason) {
   const ApproachPlan occluded = planner.plan(kStart, kTouch, kNormal);
   EXPECT_FALSE(occluded.ok);
   EXPECT_NE(occluded.message.find("occluded"), std::string::npos) << occluded.message;
+  // A static box: a touch whose approach pose lies in it.
+  planner.addStaticBox(Vector3d(0.13, 0.0, 0.0), Vector3d(0.02, 0.02, 0.02));
+  EXPECT_NE(planner.plan(kStart, kTouch, kNormal).message.find("approach pose"), std::string::npos);
   ApproachConfig bad;
   bad.occupied_probability = 1.5;
-  EXPECT_FALSE(ProbeApproachPlanner::validate(bad, probe).empty());
-  EXPECT_TRUE(ProbeApproachPlanner::validate(config, probe).empty());
+  EXPECT_FALSE(gpatlas_core::validate(bad).empty());
+  EXPECT_NE(ProbeApproachPlanner(bad).plan(kStart, kTouch, kNormal).message.find("invalid config"), std::string::npos);
+  EXPECT_TRUE(gpatlas_core::validate(config).empty());
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/OctomapBinary.h>
+#include <gpatlas_msgs/PlanApproach.h>
 #include <gpatlas_msgs/RemoveObservations.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/TrainingSet.h>
@@ -132,6 +133,13 @@ TEST(Pipeline, AnswersBeforeTheModelExists) {
   save.request.path = "/tmp/gpatlas_pipeline_test_early.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
   EXPECT_FALSE(save.response.success);
+
+  gpatlas_msgs::PlanApproach approach;
+  approach.request.touch.points.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * Eigen::Vector3d::UnitX()));
+  approach.request.touch.normals.push_back(gpatlas_ros::toVectorMsg(Eigen::Vector3d::UnitX()));
+  ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", approach));
+  EXPECT_FALSE(approach.response.success);
+  EXPECT_NE(approach.response.message.find("no collision map"), std::string::npos) << approach.response.message;
 }
 
 TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
@@ -483,6 +491,58 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // A map of the model as it is now, before it is saved (pipeline.test makes rebuilds slow).
   const auto first_map = waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
   ASSERT_TRUE(first_map && first_map->state == gpatlas_msgs::CollisionMapStatus::CURRENT);
+
+  // The probe's way to the planned touch on that map and the table, from the far side of the
+  // sphere, so that the straight line runs through it: the path ends at the approach pose 10 cm
+  // out along the touch's normal, and the tip's centre stays out of the true sphere and above
+  // the table.
+  const Eigen::Vector3d target = gpatlas_ros::fromMsg(touch.response.touch.points.front());
+  const Eigen::Vector3d target_normal = gpatlas_ros::fromMsg(touch.response.touch.normals.front()).normalized();
+  const Eigen::Vector3d across = Eigen::Vector3d(target_normal.x(), target_normal.y(), 0.0).normalized();
+  ASSERT_TRUE(across.allFinite()) << "the touch is on top of the sphere";
+  gpatlas_msgs::PlanApproach approach;
+  approach.request.touch = touch.response.touch;
+  approach.request.start = gpatlas_ros::toPointMsg(kCentre - 0.25 * across + Eigen::Vector3d(0.0, 0.0, 0.03));
+  ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", approach));
+  ASSERT_TRUE(approach.response.success) << approach.response.message;
+  EXPECT_EQ(approach.response.map_training_sequence, first_map->map_training_sequence);
+  EXPECT_GE(approach.response.approach.size(), 3u);  // a detour around the sphere
+  EXPECT_LT((gpatlas_ros::fromMsg(approach.response.approach.back()) - (target + 0.1 * target_normal)).norm(), 1e-6);
+  ASSERT_EQ(approach.response.probing.size(), 2u);
+  EXPECT_LT((gpatlas_ros::fromMsg(approach.response.probing.back()) - target).norm(), 1e-6);
+  EXPECT_EQ(approach.response.retreat.size(), approach.response.approach.size());
+  double closest = 1.0, lowest = 1.0;
+  for (std::size_t i = 0; i + 1 < approach.response.approach.size(); ++i) {
+    const Eigen::Vector3d a = gpatlas_ros::fromMsg(approach.response.approach[i]);
+    const Eigen::Vector3d b = gpatlas_ros::fromMsg(approach.response.approach[i + 1]);
+    for (int s = 0; s <= 100; ++s) {
+      const Eigen::Vector3d p = a + (b - a) * (s / 100.0);
+      closest = std::min(closest, (p - kCentre).norm() - kRadius);
+      lowest = std::min(lowest, p.z());
+    }
+  }
+  std::cout << "approach: " << approach.response.approach.size() << " waypoints in "
+            << approach.response.planning_time_s * 1000 << " ms, the tip's centre at least " << closest * 1000
+            << " mm from the sphere and " << lowest * 1000 << " mm above the table\n";
+  EXPECT_GT(closest, 0.02);  // the tip's radius: the tip itself stays out of the sphere
+  EXPECT_GT(lowest, 0.02);   // and off the table
+  // Bad requests: another frame, a touch without waypoints, a NaN start.
+  gpatlas_msgs::PlanApproach bad_approach = approach;
+  bad_approach.request.touch.header.frame_id = "test_camera";
+  ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", bad_approach));
+  EXPECT_FALSE(bad_approach.response.success);
+  EXPECT_NE(bad_approach.response.message.find("frame"), std::string::npos) << bad_approach.response.message;
+  bad_approach = approach;
+  bad_approach.request.touch.points.clear();
+  bad_approach.request.touch.normals.clear();
+  bad_approach.request.touch.variances.clear();
+  ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", bad_approach));
+  EXPECT_FALSE(bad_approach.response.success);
+  bad_approach = approach;
+  bad_approach.request.start.x = std::nan("");
+  ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", bad_approach));
+  EXPECT_FALSE(bad_approach.response.success);
+  EXPECT_NE(bad_approach.response.message.find("finite"), std::string::npos) << bad_approach.response.message;
   gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));

@@ -5,6 +5,7 @@
 // nothing else. The nodelets read them from the ROS parameter server, gpatlas_bench from the
 // file itself.
 
+#include "gpatlas_core/approach_config.h"
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/surface_model_factory.h"
@@ -68,6 +69,7 @@ void readStrategyChoice(ParamReader& r, StrategyChoice* c);
 void readStrategy(ParamReader& r, StrategyConfig* c);
 void readMesher(ParamReader& r, SurfaceMesher::Config* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);
+void readApproach(ParamReader& r, ApproachConfig* c);
 void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c);
 
 // Every section of config/pipeline.yaml that the pipeline reads.
@@ -85,6 +87,7 @@ struct PipelineConfig {
   StrategyConfig strategy;
   SurfaceMesher::Config mesh;
   CollisionMapConfig collision_map;
+  ApproachConfig approach;
   ObjectSegmenter::Config segmentation;
 };
 void readPipeline(ParamReader& r, PipelineConfig* c);

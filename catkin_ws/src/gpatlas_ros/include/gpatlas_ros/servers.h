@@ -15,6 +15,7 @@
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/Observations.h>
 #include <gpatlas_msgs/RemoveObservations.h>
+#include <gpatlas_msgs/PlanApproach.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/TrainingSet.h>
@@ -197,7 +198,9 @@ class AtlasPlannerServer {
 // (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
 // Builds the collision map in a thread of its own: a training set only replaces the pending
 // one (latest wins, intermediate models are skipped), so no callback of the manager waits for
-// a rebuild. ~status says which training set the published map is from.
+// a rebuild. ~status says which training set the published map is from. `~plan_approach`
+// plans the probe's way to a touch on the published map and the table (`support_plane`), with
+// gpatlas_motion's ProbeApproachPlanner, and shows it on `~approach_path`.
 class CollisionMapServer {
  public:
   CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
@@ -209,6 +212,8 @@ class CollisionMapServer {
   struct Map;
   void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
   bool onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res);
+  bool onPlanApproach(gpatlas_msgs::PlanApproach::Request& req, gpatlas_msgs::PlanApproach::Response& res);
+  void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   void buildLoop();
   // The map of one training set and what it holds, or null with the reason.
   std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::string* error, std::string* summary);
@@ -219,9 +224,14 @@ class CollisionMapServer {
   std::string world_frame_;
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::CollisionMapConfig map_config_;
+  gpatlas_core::ApproachConfig approach_config_;
+  double tf_timeout_s_{0.5};
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
 
   std::mutex mutex_;
   std::condition_variable wake_;
+  std::optional<gpatlas_core::SupportPlane> support_plane_;  // the table, world frame
   bool stopping_{false};
   gpatlas_msgs::TrainingSet::ConstPtr pending_;  // the newest training set not built yet
   std::shared_ptr<Map> map_;                     // the published map
@@ -230,9 +240,9 @@ class CollisionMapServer {
   std::string status_message_;
   std::thread builder_;
 
-  ros::Subscriber training_sub_;
-  ros::ServiceServer save_srv_;
-  ros::Publisher octomap_pub_, voxels_pub_, status_pub_;
+  ros::Subscriber training_sub_, plane_sub_;
+  ros::ServiceServer save_srv_, approach_srv_;
+  ros::Publisher octomap_pub_, voxels_pub_, status_pub_, approach_pub_;
 };
 
 }  // namespace gpatlas_ros

@@ -3,6 +3,7 @@
 #include "gpatlas_ros/shared_models.h"
 
 #include <gpatlas_core/background_work.h>
+#include <gpatlas_motion/probe_approach_planner.h>
 #include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -25,11 +26,15 @@ struct CollisionMapServer::Map {
   ros::Time training_stamp;
 };
 
-CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
+CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
+    : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
   gpatlas_core::PipelineFrames frames;
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
+  tf_timeout_s_ = frames.tf_timeout_s;
+  readApproach(reader, &approach_config_);
+  const bool use_support_plane = readUseSupportPlane(reader);
   readSurfaceModel(reader, &model_config_);
   gpatlas_core::StrategyChoice plugins;  // a model of your own, loaded before it is built
   readStrategyChoice(reader, &plugins);
@@ -46,8 +51,97 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh) 
     publishStatus();
   }
   builder_ = std::thread(&CollisionMapServer::buildLoop, this);
+  approach_pub_ = pnh_.advertise<visualization_msgs::Marker>("approach_path", 1, true);
   save_srv_ = pnh_.advertiseService("save_map", &CollisionMapServer::onSaveMap, this);
+  approach_srv_ = pnh_.advertiseService("plan_approach", &CollisionMapServer::onPlanApproach, this);
   training_sub_ = nh_.subscribe("training_set", 1, &CollisionMapServer::onTrainingSet, this);
+  if (use_support_plane)
+    plane_sub_ = nh_.subscribe("support_plane", 1, &CollisionMapServer::onSupportPlane, this);
+}
+
+void CollisionMapServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
+  // roscpp does not catch exceptions thrown by callbacks: one would end the nodelet manager.
+  try {
+    gpatlas_core::SupportPlane plane;
+    std::string error;
+    if (!planeToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &plane, &error)) {
+      ROS_WARN_STREAM("collision_map: support plane ignored: " << error);
+      return;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    support_plane_ = plane;
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("collision_map: support plane ignored: " << e.what());
+  }
+}
+
+bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req,
+                                        gpatlas_msgs::PlanApproach::Response& res) {
+  res.success = false;
+  try {
+    std::shared_ptr<Map> map;
+    std::uint32_t latest = 0;
+    std::optional<gpatlas_core::SupportPlane> plane;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      map = map_;
+      latest = latest_sequence_;
+      plane = support_plane_;
+    }
+    if (!map) {
+      res.message = "no collision map yet: the GP has not published a model, or its map is not built";
+      return true;
+    }
+    const std::string& frame = req.touch.header.frame_id;
+    if (!frame.empty() && frame != world_frame_) {
+      res.message = "the touch is in frame '" + frame + "', plan_approach works in '" + world_frame_ + "'";
+      return true;
+    }
+    gpatlas_core::Touch touch;
+    if (!fromMsg(req.touch, &touch, &res.message)) {
+      res.message = "invalid touch: " + res.message;
+      return true;
+    }
+    if (touch.points.empty()) {
+      res.message = "invalid touch: no waypoint";
+      return true;
+    }
+    res.map_training_sequence = map->training_sequence;
+    res.map_stale = map->training_sequence != latest;
+    gpatlas_motion::ProbeApproachPlanner planner(approach_config_);
+    // The octree lives as long as the planner holds it, with the map it belongs to.
+    planner.setCollisionMap(std::shared_ptr<const octomap::OcTree>(map, &map->tree));
+    if (plane) planner.addStaticHalfSpace(plane->normal, plane->offset);
+    const gpatlas_motion::ApproachPlan plan =
+        planner.plan(fromMsg(req.start), touch.points.front(), touch.normals.front());
+    res.planning_time_s = plan.planning_ms / 1000.0;
+    res.success = plan.ok;
+    res.message = plan.message;
+    for (const auto& p : plan.approach) res.approach.push_back(toPointMsg(p));
+    for (const auto& p : plan.probing) res.probing.push_back(toPointMsg(p));
+    for (const auto& p : plan.retreat) res.retreat.push_back(toPointMsg(p));
+    res.direction = toVectorMsg(plan.direction);
+    if (plan.ok) {
+      visualization_msgs::Marker path;
+      path.header.frame_id = world_frame_;
+      path.header.stamp = ros::Time::now();
+      path.ns = "approach";
+      path.type = visualization_msgs::Marker::LINE_STRIP;
+      path.action = visualization_msgs::Marker::ADD;
+      path.pose.orientation.w = 1.0;
+      path.scale.x = 0.004;
+      path.color.g = 0.8f;
+      path.color.b = 0.2f;
+      path.color.a = 1.0f;
+      path.points = res.approach;
+      path.points.push_back(res.probing.back());
+      approach_pub_.publish(path);
+    }
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = std::string("approach planning failed: ") + e.what();
+  }
+  return true;
 }
 
 CollisionMapServer::~CollisionMapServer() {
