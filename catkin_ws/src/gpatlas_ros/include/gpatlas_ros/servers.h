@@ -53,6 +53,13 @@ bool transformToWorld(const tf2_ros::Buffer& buffer, const std::string& world_fr
 bool planeToWorld(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& buffer, const std::string& world_frame,
                   double timeout_s, gpatlas_core::SupportPlane* plane, std::string* error);
 
+// A `support_plane` callback's work: the plane moved to world_frame and stored in `*latest`
+// under `mutex`, or a warning from `who` with the reason. Never throws (roscpp does not catch
+// exceptions from callbacks, and one would end the nodelet manager).
+void receiveSupportPlane(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& buffer,
+                         const std::string& world_frame, double timeout_s, const char* who, std::mutex* mutex,
+                         std::optional<gpatlas_core::SupportPlane>* latest);
+
 // The finite points of a cloud, in world_frame; false with the reason when the cloud has no
 // x/y/z or there is no transform.
 bool cloudToWorld(const sensor_msgs::PointCloud2& cloud, const tf2_ros::Buffer& buffer, const std::string& world_frame,

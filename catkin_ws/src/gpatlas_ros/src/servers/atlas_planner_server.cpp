@@ -65,19 +65,7 @@ const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std:
 }
 
 void AtlasPlannerServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
-  // roscpp does not catch exceptions thrown by callbacks: one would end the nodelet manager.
-  try {
-    gpatlas_core::SupportPlane plane;
-    std::string error;
-    if (!planeToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &plane, &error)) {
-      ROS_WARN_STREAM("atlas_planner: support plane ignored: " << error);
-      return;
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    support_plane_ = plane;
-  } catch (const std::exception& e) {
-    ROS_ERROR_STREAM("atlas_planner: support plane ignored: " << e.what());
-  }
+  receiveSupportPlane(*msg, tf_buffer_, world_frame_, tf_timeout_s_, "atlas_planner", &mutex_, &support_plane_);
 }
 
 void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {

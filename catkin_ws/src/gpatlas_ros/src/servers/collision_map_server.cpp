@@ -60,19 +60,7 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 void CollisionMapServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
-  // roscpp does not catch exceptions thrown by callbacks: one would end the nodelet manager.
-  try {
-    gpatlas_core::SupportPlane plane;
-    std::string error;
-    if (!planeToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &plane, &error)) {
-      ROS_WARN_STREAM("collision_map: support plane ignored: " << error);
-      return;
-    }
-    std::lock_guard<std::mutex> lock(mutex_);
-    support_plane_ = plane;
-  } catch (const std::exception& e) {
-    ROS_ERROR_STREAM("collision_map: support plane ignored: " << e.what());
-  }
+  receiveSupportPlane(*msg, tf_buffer_, world_frame_, tf_timeout_s_, "collision_map", &mutex_, &support_plane_);
 }
 
 bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req,

@@ -50,6 +50,23 @@ bool planeToWorld(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& 
   }
 }
 
+void receiveSupportPlane(const gpatlas_msgs::SupportPlane& msg, const tf2_ros::Buffer& buffer,
+                         const std::string& world_frame, double timeout_s, const char* who, std::mutex* mutex,
+                         std::optional<gpatlas_core::SupportPlane>* latest) {
+  try {
+    gpatlas_core::SupportPlane plane;
+    std::string error;
+    if (!planeToWorld(msg, buffer, world_frame, timeout_s, &plane, &error)) {
+      ROS_WARN_STREAM(who << ": support plane ignored: " << error);
+      return;
+    }
+    std::lock_guard<std::mutex> lock(*mutex);
+    *latest = plane;
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM(who << ": support plane ignored: " << e.what());
+  }
+}
+
 SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   ParamReader reader(pnh_);
