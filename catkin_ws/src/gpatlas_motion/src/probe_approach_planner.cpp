@@ -19,6 +19,7 @@
 #include <cmath>
 #include <mutex>
 #include <sstream>
+#include <stdexcept>
 
 namespace gpatlas_motion {
 namespace {
@@ -110,6 +111,8 @@ void ProbeApproachPlanner::addStaticBox(const Eigen::Vector3d& centre, const Eig
 void ProbeApproachPlanner::addStaticHalfSpace(const Eigen::Vector3d& normal, double offset) {
   // FCL's half-space is solid where n . x < d.
   const double length = normal.norm();
+  if (!normal.allFinite() || !std::isfinite(offset) || !(length > 0.0))
+    throw std::invalid_argument("a static half-space needs a finite, non-zero normal and a finite offset");
   impl_->obstacles.push_back(std::make_unique<fcl::CollisionObjectd>(
       std::make_shared<fcl::Halfspaced>(normal / length, -offset / length), fcl::Transform3d::Identity()));
 }

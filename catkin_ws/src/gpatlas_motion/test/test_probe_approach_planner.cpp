@@ -10,6 +10,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <stdexcept>
 
 namespace {
 
@@ -150,6 +151,7 @@ TEST(ProbeApproachPlanner, TheTableIsAnObstacleAndBadInputGetsAReason) {
   // A static box: a touch whose approach pose lies in it.
   planner.addStaticBox(Vector3d(0.13, 0.0, 0.0), Vector3d(0.02, 0.02, 0.02));
   EXPECT_NE(planner.plan(kStart, kTouch, kNormal).message.find("approach pose"), std::string::npos);
+  EXPECT_THROW(planner.addStaticHalfSpace(Vector3d::Zero(), 0.0), std::invalid_argument);
   ApproachConfig bad;
   bad.occupied_probability = 1.5;
   EXPECT_FALSE(gpatlas_core::validate(bad).empty());

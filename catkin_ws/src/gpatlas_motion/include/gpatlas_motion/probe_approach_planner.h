@@ -46,7 +46,8 @@ class ProbeApproachPlanner {
   void setCollisionMap(std::shared_ptr<const octomap::OcTree> map);
   // A box of the known static world, axis-aligned.
   void addStaticBox(const Eigen::Vector3d& centre, const Eigen::Vector3d& size);
-  // Everything below a plane (the table): solid where normal . x + offset < 0.
+  // Everything below a plane (the table): solid where normal . x + offset < 0. Throws
+  // std::invalid_argument for a zero or non-finite normal.
   void addStaticHalfSpace(const Eigen::Vector3d& normal, double offset);
 
   ApproachPlan plan(const Eigen::Vector3d& start_tip, const Eigen::Vector3d& touch_point,
