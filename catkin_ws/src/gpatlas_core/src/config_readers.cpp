@@ -1,7 +1,6 @@
 #include "gpatlas_core/config_readers.h"
 
 #include <cmath>
-#include <sstream>
 
 namespace gpatlas_core {
 
@@ -217,23 +216,6 @@ void readApproach(ParamReader& r, ApproachConfig* c) {
   c->probe.tip_radius_m = r.number("approach/tip_radius_m", c->probe.tip_radius_m, 1e-4, 0.5);
   c->probe.shaft_radius_m = r.number("approach/shaft_radius_m", c->probe.shaft_radius_m, 1e-4, 0.5);
   c->probe.shaft_length_m = r.number("approach/shaft_length_m", c->probe.shaft_length_m, 1e-4, 2.0);
-}
-
-std::string validate(const ApproachConfig& c) {
-  std::ostringstream problem;
-  const auto positive = [&](double v, const char* name) {
-    if (!(v > 0.0) || !std::isfinite(v)) problem << name << " must be positive and finite; ";
-  };
-  if (!(c.occupied_probability > 0.0 && c.occupied_probability < 1.0)) problem << "occupied_probability must be in (0, 1); ";
-  positive(c.approach_distance_m, "approach_distance_m");
-  positive(c.max_planning_time_s, "max_planning_time_s");
-  positive(c.check_resolution_m, "check_resolution_m");
-  positive(c.probe.tip_radius_m, "tip_radius_m");
-  positive(c.probe.shaft_radius_m, "shaft_radius_m");
-  positive(c.probe.shaft_length_m, "shaft_length_m");
-  if (!(c.clearance_m >= 0.0) || !(c.contact_zone_m >= 0.0) || !(c.workspace_margin_m >= 0.0))
-    problem << "clearance_m, contact_zone_m and workspace_margin_m must be >= 0; ";
-  return problem.str();
 }
 
 void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {

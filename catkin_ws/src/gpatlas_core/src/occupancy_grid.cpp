@@ -45,6 +45,9 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
   const std::size_t num = static_cast<std::size_t>(num_nodes);
   const std::size_t nx = static_cast<std::size_t>(grid.size.x()), ny = static_cast<std::size_t>(grid.size.y());
   std::vector<double> mean(num, 0.0), variance(num, std::nan(""));
+  const auto coordinates = [&](std::size_t n) {
+    return Eigen::Vector3i(static_cast<int>(n % nx), static_cast<int>(n / nx % ny), static_cast<int>(n / (nx * ny)));
+  };
 
   // The mean, and the variance when asked, of the nodes in `nodes`, in batches.
   const auto evaluate = [&](const std::vector<std::size_t>& nodes, bool with_mean, bool with_variance) {
@@ -52,9 +55,8 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     for (std::size_t first = 0; first < nodes.size(); first += static_cast<std::size_t>(config_.batch_size)) {
       const std::size_t count = std::min(nodes.size() - first, static_cast<std::size_t>(config_.batch_size));
       for (std::size_t q = 0; q < count; ++q) {
-        const std::size_t n = nodes[first + q];
-        batch.col(static_cast<Eigen::Index>(q)) =
-            grid.position(static_cast<int>(n % nx), static_cast<int>(n / nx % ny), static_cast<int>(n / (nx * ny)));
+        const Eigen::Vector3i c = coordinates(nodes[first + q]);
+        batch.col(static_cast<Eigen::Index>(q)) = grid.position(c.x(), c.y(), c.z());
       }
       const BatchPrediction prediction =
           model.predictBatch(batch.leftCols(static_cast<Eigen::Index>(count)), false, false, with_variance);
@@ -104,9 +106,10 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     std::vector<std::size_t> exact;
     for (const std::size_t n : domain) {
       if (std::isfinite(variance[n])) continue;  // a lattice node
-      const Bracket& x = bx[n % nx];
-      const Bracket& y = by[n / nx % ny];
-      const Bracket& z = bz[n / (nx * ny)];
+      const Eigen::Vector3i at = coordinates(n);
+      const Bracket& x = bx[static_cast<std::size_t>(at.x())];
+      const Bracket& y = by[static_cast<std::size_t>(at.y())];
+      const Bracket& z = bz[static_cast<std::size_t>(at.z())];
       double interpolated = 0.0;
       bool complete = true;
       for (int c = 0; c < 8 && complete; ++c) {

@@ -27,18 +27,15 @@ namespace {
 namespace ob = ompl::base;
 namespace og = ompl::geometric;
 
-bool finite(const Eigen::Vector3d& v) { return v.allFinite(); }
-
 }  // namespace
 
 struct ProbeApproachPlanner::Impl {
   ApproachConfig config;
-  const ProbeGeometry& probe{config.probe};
   std::shared_ptr<fcl::Sphered> tip;
   std::shared_ptr<fcl::Capsuled> shaft;
   std::shared_ptr<fcl::OcTreed> map;  // null: no map yet
-  std::vector<std::unique_ptr<fcl::CollisionObjectd>> obstacles;  // the map (first, when set) and the static boxes
-  bool has_map{false};
+  std::unique_ptr<fcl::CollisionObjectd> map_object;
+  std::vector<std::unique_ptr<fcl::CollisionObjectd>> static_obstacles;  // boxes, half-spaces
 
   bool collides(const fcl::CollisionObjectd& a, const fcl::CollisionObjectd& b) const {
     fcl::CollisionRequestd request;
@@ -54,10 +51,15 @@ struct ProbeApproachPlanner::Impl {
     // The shaft behind the tip, along -direction; FCL's capsule runs along its z axis.
     fcl::Transform3d shaft_pose = fcl::Transform3d::Identity();
     shaft_pose.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), direction).toRotationMatrix();
-    shaft_pose.translation() = tip_centre - direction * (probe.tip_radius_m + 0.5 * probe.shaft_length_m);
+    shaft_pose.translation() =
+        tip_centre - direction * (config.probe.tip_radius_m + 0.5 * config.probe.shaft_length_m);
     const fcl::CollisionObjectd shaft_object(shaft, shaft_pose);
-    for (const auto& obstacle : obstacles)
-      if (collides(tip_object, *obstacle) || collides(shaft_object, *obstacle)) return false;
+    const auto hits = [&](const fcl::CollisionObjectd& obstacle) {
+      return collides(tip_object, obstacle) || collides(shaft_object, obstacle);
+    };
+    if (map_object && hits(*map_object)) return false;
+    for (const auto& obstacle : static_obstacles)
+      if (hits(*obstacle)) return false;
     return true;
   }
 
@@ -88,23 +90,20 @@ ProbeApproachPlanner::ProbeApproachPlanner(ApproachConfig config) : impl_(std::m
 ProbeApproachPlanner::~ProbeApproachPlanner() = default;
 
 void ProbeApproachPlanner::setCollisionMap(std::shared_ptr<const octomap::OcTree> map) {
-  if (impl_->has_map) impl_->obstacles.erase(impl_->obstacles.begin());
-  impl_->has_map = false;
+  impl_->map_object.reset();
   impl_->map.reset();
   if (!map) return;
   impl_->map = std::make_shared<fcl::OcTreed>(map);
   // Every node is free or occupied at the one threshold: FCL skips "uncertain" nodes.
   impl_->map->setOccupancyThres(impl_->config.occupied_probability);
   impl_->map->setFreeThres(impl_->config.occupied_probability);
-  impl_->obstacles.insert(impl_->obstacles.begin(),
-                          std::make_unique<fcl::CollisionObjectd>(impl_->map, fcl::Transform3d::Identity()));
-  impl_->has_map = true;
+  impl_->map_object = std::make_unique<fcl::CollisionObjectd>(impl_->map, fcl::Transform3d::Identity());
 }
 
 void ProbeApproachPlanner::addStaticBox(const Eigen::Vector3d& centre, const Eigen::Vector3d& size) {
   fcl::Transform3d pose = fcl::Transform3d::Identity();
   pose.translation() = centre;
-  impl_->obstacles.push_back(
+  impl_->static_obstacles.push_back(
       std::make_unique<fcl::CollisionObjectd>(std::make_shared<fcl::Boxd>(size.x(), size.y(), size.z()), pose));
 }
 
@@ -113,7 +112,7 @@ void ProbeApproachPlanner::addStaticHalfSpace(const Eigen::Vector3d& normal, dou
   const double length = normal.norm();
   if (!normal.allFinite() || !std::isfinite(offset) || !(length > 0.0))
     throw std::invalid_argument("a static half-space needs a finite, non-zero normal and a finite offset");
-  impl_->obstacles.push_back(std::make_unique<fcl::CollisionObjectd>(
+  impl_->static_obstacles.push_back(std::make_unique<fcl::CollisionObjectd>(
       std::make_shared<fcl::Halfspaced>(normal / length, -offset / length), fcl::Transform3d::Identity()));
 }
 
@@ -132,9 +131,9 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
   };
   const ApproachConfig& c = impl_->config;
   if (const std::string problem = gpatlas_core::validate(c); !problem.empty()) return finish("invalid config: " + problem);
-  if (!impl_->has_map) return finish("no collision map yet");
+  if (!impl_->map) return finish("no collision map yet");
   if (impl_->map->getRoot() == nullptr) return finish("the collision map is empty");
-  if (!finite(start_tip) || !finite(touch_point) || !finite(touch_normal) || touch_normal.norm() < 1e-9)
+  if (!start_tip.allFinite() || !touch_point.allFinite() || !touch_normal.allFinite() || touch_normal.norm() < 1e-9)
     return finish("the start, the touch and its normal must be finite, the normal non-zero");
   const Eigen::Vector3d normal = touch_normal.normalized();
   plan.direction = -normal;
@@ -144,7 +143,7 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
     return finish("the approach pose, " + std::to_string(c.approach_distance_m) +
                   " m out along the normal, is in collision: the touch cannot be approached");
   // The probing segment, up to the contact zone around the touch.
-  const double probing_length = std::max(0.0, c.approach_distance_m - c.contact_zone_m - impl_->probe.tip_radius_m);
+  const double probing_length = std::max(0.0, c.approach_distance_m - c.contact_zone_m - c.probe.tip_radius_m);
   if (!impl_->segmentFree(approach_pose, approach_pose - probing_length * normal, plan.direction))
     return finish("the probing segment meets an obstacle before the touch: the touch is occluded");
 

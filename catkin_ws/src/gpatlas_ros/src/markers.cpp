@@ -30,6 +30,16 @@ visualization_msgs::Marker baseMarker(const std::string& frame, const std::strin
 
 }  // namespace
 
+visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector3>& tip_path, const std::string& frame) {
+  auto line = baseMarker(frame, "approach", 0, visualization_msgs::Marker::LINE_STRIP);
+  line.scale.x = 0.004;
+  line.color.r = 0.0f;
+  line.color.g = 0.8f;
+  line.color.b = 0.2f;
+  for (const auto& p : tip_path) line.points.push_back(toPointMsg(p));
+  return line;
+}
+
 visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame) {
   auto m = baseMarker(frame, "predicted_surface", 0, visualization_msgs::Marker::TRIANGLE_LIST);
   const bool has_variance = mesh.vertex_variances.size() == mesh.vertices.size();

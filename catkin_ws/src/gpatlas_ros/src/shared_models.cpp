@@ -57,13 +57,13 @@ void SharedModels::withdraw(const std::string& topic) {
 
 bool modelForTrainingSet(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                          const gpatlas_core::SurfaceModelConfig& config,
-                         std::shared_ptr<const gpatlas_core::SurfaceModel>* model, bool* shared, std::string* error) {
-  if (auto snapshot = SharedModels::find(topic, training)) {
+                         std::shared_ptr<const gpatlas_core::SurfaceModel>* model, std::string* error, bool* shared) {
+  auto snapshot = SharedModels::find(topic, training);
+  if (shared) *shared = snapshot != nullptr;
+  if (snapshot) {
     *model = std::move(snapshot);
-    *shared = true;
     return true;
   }
-  *shared = false;
   std::unique_ptr<gpatlas_core::SurfaceModel> rebuilt;
   if (!modelFromMsg(training, config, &rebuilt, error)) return false;
   *model = std::move(rebuilt);

@@ -57,7 +57,7 @@ TEST(SharedModels, ATrainingSetFindsItsOwnSnapshotOnly) {
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
   bool shared = false;
   std::string error;
-  ASSERT_TRUE(gpatlas_ros::modelForTrainingSet(topic, t3, gpatlas_core::SurfaceModelConfig(), &model, &shared, &error))
+  ASSERT_TRUE(gpatlas_ros::modelForTrainingSet(topic, t3, gpatlas_core::SurfaceModelConfig(), &model, &error, &shared))
       << error;
   EXPECT_TRUE(shared);
   EXPECT_EQ(model, third);
@@ -72,7 +72,7 @@ TEST(SharedModels, ATrainingSetFromElsewhereIsRefitted) {
   bool shared = true;
   std::string error;
   ASSERT_TRUE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", training, gpatlas_core::SurfaceModelConfig(),
-                                               &replica, &shared, &error))
+                                               &replica, &error, &shared))
       << error;
   EXPECT_FALSE(shared);
   ASSERT_NE(replica, original);
@@ -85,7 +85,7 @@ TEST(SharedModels, ATrainingSetFromElsewhereIsRefitted) {
   gpatlas_msgs::TrainingSet empty = training;
   empty.points.clear();
   EXPECT_FALSE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", empty, gpatlas_core::SurfaceModelConfig(),
-                                                &replica, &shared, &error));
+                                                &replica, &error, &shared));
 }
 
 }  // namespace

@@ -17,6 +17,8 @@ namespace gpatlas_ros {
 // Triangle list with per-vertex colours from the vertex variances (blue low, red >= v_max).
 visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame);
 shape_msgs::Mesh toShapeMsg(const gpatlas_core::TriangleMesh& mesh);
+// The probe's planned approach: its tip's path as a green line.
+visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector3>& tip_path, const std::string& frame);
 
 // Chart disks (coloured by variance), tree edges, and the chosen path (thick, yellow).
 visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, const std::vector<int>& path,

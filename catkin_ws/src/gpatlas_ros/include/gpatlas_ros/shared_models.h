@@ -30,9 +30,10 @@ class SharedModels {
 };
 
 // The model a received training set describes: the publisher's snapshot when it is in this
-// process, otherwise a replica refitted from the message. `shared` says which.
+// process, otherwise a replica refitted from the message; `shared`, when given, says which.
 bool modelForTrainingSet(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                          const gpatlas_core::SurfaceModelConfig& config,
-                         std::shared_ptr<const gpatlas_core::SurfaceModel>* model, bool* shared, std::string* error);
+                         std::shared_ptr<const gpatlas_core::SurfaceModel>* model, std::string* error,
+                         bool* shared = nullptr);
 
 }  // namespace gpatlas_ros

@@ -81,7 +81,7 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     std::shared_ptr<const gpatlas_core::SurfaceModel> model;
     std::string error;
     bool shared = false;
-    const bool ok = modelForTrainingSet(training_sub_.getTopic(), *msg, model_config_, &model, &shared, &error);
+    const bool ok = modelForTrainingSet(training_sub_.getTopic(), *msg, model_config_, &model, &error, &shared);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!ok) {
       // Planning on the previous model would plan on data the GP no longer has.

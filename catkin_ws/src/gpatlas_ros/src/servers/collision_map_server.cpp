@@ -1,4 +1,5 @@
 #include "gpatlas_conversions/conversions.h"
+#include "gpatlas_ros/markers.h"
 #include "gpatlas_ros/servers.h"
 #include "gpatlas_ros/shared_models.h"
 
@@ -110,20 +111,11 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     for (const auto& p : plan.retreat) res.retreat.push_back(toPointMsg(p));
     res.direction = toVectorMsg(plan.direction);
     if (plan.ok) {
-      visualization_msgs::Marker path;
-      path.header.frame_id = world_frame_;
-      path.header.stamp = ros::Time::now();
-      path.ns = "approach";
-      path.type = visualization_msgs::Marker::LINE_STRIP;
-      path.action = visualization_msgs::Marker::ADD;
-      path.pose.orientation.w = 1.0;
-      path.scale.x = 0.004;
-      path.color.g = 0.8f;
-      path.color.b = 0.2f;
-      path.color.a = 1.0f;
-      path.points = res.approach;
-      path.points.push_back(res.probing.back());
-      approach_pub_.publish(path);
+      std::vector<Eigen::Vector3d> tip_path = plan.approach;
+      tip_path.push_back(plan.probing.back());
+      visualization_msgs::Marker marker = approachMarker(tip_path, world_frame_);
+      marker.header.stamp = ros::Time::now();
+      approach_pub_.publish(marker);
     }
   } catch (const std::exception& e) {
     res.success = false;
@@ -223,8 +215,7 @@ void CollisionMapServer::buildLoop() {
 std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(const gpatlas_msgs::TrainingSet& msg,
                                                                    std::string* error, std::string* summary) {
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
-  bool shared = false;
-  if (!modelForTrainingSet(training_sub_.getTopic(), msg, model_config_, &model, &shared, error)) return nullptr;
+  if (!modelForTrainingSet(training_sub_.getTopic(), msg, model_config_, &model, error)) return nullptr;
   const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*model);
   if (!grid.ok) {
     *error = grid.message;
