@@ -60,6 +60,8 @@ gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch) {
   for (const auto& n : touch.normals) msg.normals.push_back(toVectorMsg(n));
   msg.variances = touch.variances;
   msg.strategy = touch.strategy;
+  for (const auto& p : touch.approach_path) msg.approach_path.push_back(toPointMsg(p));
+  for (const auto& p : touch.retreat_path) msg.retreat_path.push_back(toPointMsg(p));
   return msg;
 }
 
@@ -83,6 +85,8 @@ bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::st
   for (const auto& n : msg.normals) out.normals.push_back(fromMsg(n));
   out.variances = msg.variances;
   out.strategy = msg.strategy;
+  for (const auto& p : msg.approach_path) out.approach_path.push_back(fromMsg(p));
+  for (const auto& p : msg.retreat_path) out.retreat_path.push_back(fromMsg(p));
   *touch = std::move(out);
   return true;
 }

@@ -17,6 +17,8 @@ TEST(Conversions, TouchRoundTrip) {
   touch.normals = {{0.0, 0.0, 1.0}, {1.0, 0.0, 0.0}};
   touch.variances = {0.05, 0.3};
   touch.strategy = "atlas_slide";
+  touch.approach_path = {{0.5, 0.25, 0.4}, {0.3, 0.2, 0.3}, {0.2, 0.2, 0.3}};
+  touch.retreat_path = {{-0.9, 2.5, 0.0}, {0.5, 0.25, 0.4}};
   gpatlas_core::Touch back;
   std::string error;
   ASSERT_TRUE(fromMsg(toMsg(touch), &back, &error)) << error;
@@ -28,6 +30,8 @@ TEST(Conversions, TouchRoundTrip) {
     EXPECT_EQ(back.variances[i], touch.variances[i]);
   }
   EXPECT_EQ(back.strategy, "atlas_slide");
+  EXPECT_EQ(back.approach_path, touch.approach_path);
+  EXPECT_EQ(back.retreat_path, touch.retreat_path);
 }
 
 TEST(Conversions, MalformedTouchIsRefused) {

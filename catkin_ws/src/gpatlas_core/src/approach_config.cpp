@@ -17,6 +17,7 @@ std::string validate(const ApproachConfig& c) {
   positive(c.probe.tip_radius_m, "tip_radius_m");
   positive(c.probe.shaft_radius_m, "shaft_radius_m");
   positive(c.probe.shaft_length_m, "shaft_length_m");
+  if (!c.rest_tip_position_m.allFinite()) problem << "rest_tip_position_m must be finite; ";
   if (!(c.clearance_m >= 0.0) || !(c.contact_zone_m >= 0.0) || !(c.workspace_margin_m >= 0.0))
     problem << "clearance_m, contact_zone_m and workspace_margin_m must be >= 0; ";
   return problem.str();

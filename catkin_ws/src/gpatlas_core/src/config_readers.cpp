@@ -168,6 +168,7 @@ void readExplorer(ParamReader& r, Explorer::Config* c) {
   c->v_max = r.number("exploration/v_max", c->v_max, 1e-12, 1e12);
   c->max_actions = r.integer("exploration/max_actions", c->max_actions, 0, 1000000);
   c->max_consecutive_failures = r.integer("exploration/max_consecutive_failures", c->max_consecutive_failures, 1, 1000000);
+  c->max_approach_attempts = r.integer("exploration/max_approach_attempts", c->max_approach_attempts, 1, 1000);
   c->seed = readSeed(r, c->seed);
 }
 
@@ -206,6 +207,8 @@ void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
 }
 
 void readApproach(ParamReader& r, ApproachConfig* c) {
+  c->enabled = r.flag("approach/enabled", c->enabled);
+  c->rest_tip_position_m = r.vector3("approach/rest_tip_position_m", c->rest_tip_position_m);
   c->occupied_probability = r.number("approach/occupied_probability", c->occupied_probability, 1e-6, 1.0 - 1e-6);
   c->approach_distance_m = r.number("approach/approach_distance_m", c->approach_distance_m, 1e-3, 1.0);
   c->clearance_m = r.number("approach/clearance_m", c->clearance_m, 0.0, 0.5);

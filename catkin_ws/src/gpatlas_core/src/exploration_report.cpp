@@ -1,8 +1,10 @@
 #include "gpatlas_core/exploration_report.h"
 
+#include <algorithm>
 #include <cmath>
 #include <iomanip>
 #include <sstream>
+#include <vector>
 
 namespace gpatlas_core {
 
@@ -42,9 +44,26 @@ std::string describeAction(const ExplorationRecord& record) {
   if (std::isfinite(record.rmse_pred_to_gt_m))
     line << std::setprecision(1) << ", RMSE " << 1000 * record.rmse_pred_to_gt_m << "/" << 1000 * record.rmse_gt_to_pred_m
          << " mm";
+  if (record.approach_ms > 0.0) {
+    line << ", approach " << record.approach_ms << " ms";
+    if (record.approach_refusals > 0)
+      line << " (" << record.approach_refusals << " touch(es) refused: " << record.approach_message << ")";
+  }
+  if (record.approach_collisions + record.retreat_collisions > 0)
+    line << ", " << record.approach_collisions << "+" << record.retreat_collisions << " collisions on the way";
   if (!record.probe_reason.empty()) line << " (probe: " << record.probe_reason << ")";
   if (!record.update_message.empty()) line << " (model: " << record.update_message << ")";
   return line.str();
+}
+
+double approachPlanMsMedian(const ExplorationResult& result) {
+  std::vector<double> times;
+  for (const ExplorationRecord& r : result.records)
+    if (r.approach_ms > 0.0) times.push_back(r.approach_compute_ms);
+  if (times.empty()) return std::nan("");
+  std::sort(times.begin(), times.end());
+  const std::size_t m = times.size() / 2;
+  return times.size() % 2 ? times[m] : 0.5 * (times[m - 1] + times[m]);
 }
 
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message) {
@@ -65,7 +84,10 @@ std::string toJson(const ExplorationReport& report) {
        << ", \"model\": " << jsonString(report.model) << "},\n";
   json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
        << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
-       << ",\n  \"contacts\": " << result.contacts
+       << ",\n  \"contacts\": " << result.contacts << ",\n  \"unreachable_touches\": " << result.unreachable_touches
+       << ",\n  \"approach_collisions\": " << result.approach_collisions
+       << ",\n  \"retreat_collisions\": " << result.retreat_collisions
+       << ",\n  \"approach_plan_ms_median\": " << jsonNumber(approachPlanMsMedian(result))
        << ",\n  \"final_max_evaluated_variance\": " << jsonNumber(result.final_max_evaluated_variance) << ",\n";
   json << "  \"final_metrics\": ";
   const FinalShape& shape = report.final_shape;
@@ -91,7 +113,12 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"action_ms\": " << jsonNumber(r.action_ms) << ", \"plan_ms\": " << jsonNumber(r.plan_ms)
          << ", \"plan_compute_ms\": " << jsonNumber(r.plan_compute_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
          << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"progress_ms\": " << jsonNumber(r.progress_ms)
-         << ", \"n_train\": " << r.n_train
+         << ", \"approach_ms\": " << jsonNumber(r.approach_ms)
+         << ", \"approach_compute_ms\": " << jsonNumber(r.approach_compute_ms)
+         << ", \"approach_refusals\": " << r.approach_refusals
+         << ", \"approach_message\": " << jsonString(r.approach_message)
+         << ", \"approach_collisions\": " << r.approach_collisions
+         << ", \"retreat_collisions\": " << r.retreat_collisions << ", \"n_train\": " << r.n_train
          << ", \"update_message\": " << jsonString(r.update_message)
          << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)
          << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)

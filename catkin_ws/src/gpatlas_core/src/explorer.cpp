@@ -316,6 +316,7 @@ std::string validate(const Explorer::Config& config) {
   if (!(config.v_max > 0.0) || !std::isfinite(config.v_max)) problem << "v_max must be positive and finite; ";
   if (config.max_actions < 0) problem << "max_actions must be >= 0; ";
   if (config.max_consecutive_failures < 1) problem << "max_consecutive_failures must be >= 1; ";
+  if (config.max_approach_attempts < 1) problem << "max_approach_attempts must be >= 1; ";
   return problem.str();
 }
 
@@ -333,7 +334,7 @@ TouchUpdate ModelTouchUpdater::update(const ProbeResult& probed) {
 
 ExplorationResult Explorer::run(SurfaceModel& model, const ExplorationStrategy& strategy, Prober& prober,
                                 const TouchObservationConfig& touch, const EvidenceRule& evidence,
-                                const Progress& progress) const {
+                                const Progress& progress, TouchApproacher* approacher) const {
   if (!model.isFitted()) {
     ExplorationResult result;
     result.stop_reason = "planner_error: no model: the GP is not fitted";
@@ -346,11 +347,11 @@ ExplorationResult Explorer::run(SurfaceModel& model, const ExplorationStrategy& 
   }
   ModelTouchPlanner planner(model, strategy, evidence);
   ModelTouchUpdater updater(model, touch);
-  return run(planner, prober, updater, progress);
+  return run(planner, prober, updater, progress, approacher);
 }
 
 ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpdater& updater,
-                                const Progress& progress) const {
+                                const Progress& progress, TouchApproacher* approacher) const {
   ExplorationResult result;
   if (const std::string problem = validate(config_); !problem.empty()) {
     result.stop_reason = "invalid_config: " + problem;
@@ -367,38 +368,81 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       record.index = action;
       record.n_train = planner.modelSize();
 
-      PlanRequest request;
-      request.v_max = config_.v_max;
-      request.evidence.attempted_targets = attempted_targets;
-      request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
-      const Clock::time_point plan_started = Clock::now();
-      const PlanResult plan = planner.plan(request);
-      record.plan_ms = millisecondsSince(plan_started);
-      record.plan_compute_ms = 1000.0 * plan.elapsed_s;
-      record.plan_status = plan.status;
-      record.max_evaluated_variance = plan.max_evaluated_variance;
-      result.final_max_evaluated_variance = plan.max_evaluated_variance;
+      // Plan; with an approacher, until it finds a way to the touch or refused too many.
+      PlanResult plan;
+      bool approach_refused = false;
+      for (int attempt = 0;; ++attempt) {
+        PlanRequest request;
+        request.v_max = config_.v_max;
+        request.evidence.attempted_targets = attempted_targets;
+        request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
+        if (attempt > 0) request.seed = mixSeeds(request.seed, static_cast<std::uint64_t>(attempt));
+        const Clock::time_point plan_started = Clock::now();
+        plan = planner.plan(request);
+        record.plan_ms += millisecondsSince(plan_started);
+        record.plan_compute_ms += 1000.0 * plan.elapsed_s;
+        record.plan_status = plan.status;
+        record.max_evaluated_variance = plan.max_evaluated_variance;
+        result.final_max_evaluated_variance = plan.max_evaluated_variance;
 
-      if (plan.status == PlanStatus::kConverged) {
-        result.stop_reason = "converged";
-        result.converged = true;
-        return result;
-      }
-      if (plan.status == PlanStatus::kCapReached) {
-        result.stop_reason = "planner_cap_reached";
-        return result;
-      }
-      if (plan.status == PlanStatus::kError) {
-        result.stop_reason = "planner_error: " + plan.message;
-        return result;
-      }
-      // Checked after planning so that a model that converges exactly at the cap says so.
-      if (action >= config_.max_actions) {
-        result.stop_reason = "max_actions";
-        return result;
+        if (plan.status == PlanStatus::kConverged) {
+          result.stop_reason = "converged";
+          result.converged = true;
+          return result;
+        }
+        if (plan.status == PlanStatus::kCapReached) {
+          result.stop_reason = "planner_cap_reached";
+          return result;
+        }
+        if (plan.status == PlanStatus::kError) {
+          result.stop_reason = "planner_error: " + plan.message;
+          return result;
+        }
+        // Checked after planning so that a model that converges exactly at the cap says so.
+        if (action >= config_.max_actions) {
+          result.stop_reason = "max_actions";
+          return result;
+        }
+        if (!approacher) break;
+        const Clock::time_point approach_started = Clock::now();
+        ApproachResult approach = approacher->plan(plan.touch);
+        record.approach_ms += millisecondsSince(approach_started);
+        record.approach_compute_ms += approach.planning_ms;
+        if (approach.ok) {
+          plan.touch.approach_path = std::move(approach.approach_path);
+          plan.touch.retreat_path = std::move(approach.retreat_path);
+          break;
+        }
+        // No safe way there: the target counts as evidence, as a touch made would, so that the
+        // next plan looks elsewhere.
+        ++record.approach_refusals;
+        ++result.unreachable_touches;
+        record.approach_message = approach.message;
+        const std::vector<Vector3> aimed = aimedPoints(plan.touch);
+        attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
+        if (record.approach_refusals >= config_.max_approach_attempts) {
+          approach_refused = true;
+          break;
+        }
       }
 
       record.touch = plan.touch;
+      if (approach_refused) {
+        record.probe_reason = "no safe approach to " + std::to_string(record.approach_refusals) +
+                              " touches in a row; the last: " + record.approach_message;
+        ++consecutive_failures;
+        const Clock::time_point progress_started = Clock::now();
+        if (progress) progress(record);
+        record.progress_ms = millisecondsSince(progress_started);
+        record.action_ms = millisecondsSince(action_started);
+        record.contacts_total = result.contacts;
+        result.records.push_back(record);
+        if (consecutive_failures >= config_.max_consecutive_failures) {
+          result.stop_reason = "consecutive_failures";
+          return result;
+        }
+        continue;
+      }
       const Clock::time_point probe_started = Clock::now();
       const ProbeResult probed = prober.probe(plan.touch);
       record.probe_ms = millisecondsSince(probe_started);
@@ -407,6 +451,10 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       ++result.actions;
       record.probe_success = probed.success;
       record.probe_reason = probed.reason;
+      record.approach_collisions = probed.approach_collisions;
+      record.retreat_collisions = probed.retreat_collisions;
+      result.approach_collisions += probed.approach_collisions;
+      result.retreat_collisions += probed.retreat_collisions;
 
       bool budget_full = false;
       if (!probed.contacts.empty() || !probed.free_space.empty()) {
@@ -415,6 +463,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         budget_full = update.budget_full;
         record.update_ms = millisecondsSince(update_started);
         if (update.ok) {
+          if (approacher) approacher->modelChanged();
           record.contacts_added = update.contacts_added;
           record.free_points_added = update.free_points_added;
           record.retraction = update.retraction;

@@ -33,4 +33,10 @@ std::vector<Vector3> aimedPoints(const Touch& touch) {
   return touch.points;
 }
 
+std::size_t approachTarget(const Touch& touch) {
+  return touch.kind == Touch::Kind::kPoke && !touch.points.empty() ? touch.points.size() - 1 : 0;
+}
+
+std::size_t retreatTarget(const Touch& touch) { return touch.points.empty() ? 0 : touch.points.size() - 1; }
+
 }  // namespace gpatlas_core

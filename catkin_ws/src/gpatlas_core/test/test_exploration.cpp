@@ -508,3 +508,123 @@ TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration
 }
 
 }  // namespace
+
+namespace {
+
+// An approach planner that finds no way to the sphere's bottom (below half its radius under the
+// centre: an arm that cannot reach the underside) and a fixed path everywhere else.
+class EquatorApproacher : public TouchApproacher {
+ public:
+  explicit EquatorApproacher(const AnalyticSphere& sphere) : sphere_(sphere) {}
+  ApproachResult plan(const Touch& touch) override {
+    ApproachResult result;
+    const Vector3& target = touch.points[approachTarget(touch)];
+    result.planning_ms = 1.0;
+    if (target.z() < bottom()) {
+      refused.push_back(target);
+      result.message = "under the sphere";
+      return result;
+    }
+    result.ok = true;
+    result.approach_path = {Vector3(0.0, 0.0, 1.0), target + 0.1 * touch.normals[approachTarget(touch)]};
+    result.retreat_path = {target, Vector3(0.0, 0.0, 1.0)};
+    return result;
+  }
+  void modelChanged() override { ++model_changes; }
+  double bottom() const { return sphere_.centre.z() - 0.5 * sphere_.radius; }
+  std::vector<Vector3> refused;
+  int model_changes{0};
+
+ private:
+  const AnalyticSphere& sphere_;
+};
+
+// Passes the touches to the sphere's prober and reports one bump on every approach, as a probe
+// judged against a scene would.
+class RecordingProber : public Prober {
+ public:
+  explicit RecordingProber(const AnalyticSphere& sphere) : inner_(sphere) {}
+  ProbeResult probe(const Touch& touch) override {
+    executed.push_back(touch);
+    ProbeResult result = inner_.probe(touch);
+    result.approach_collisions = 1;
+    return result;
+  }
+  std::vector<Touch> executed;
+
+ private:
+  AnalyticSphereProber inner_;
+};
+
+}  // namespace
+
+// Touches with no safe approach are not executed: each counts as evidence, the planner is asked
+// for another, and the executed ones carry the approacher's paths to the probe.
+TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 2);
+  EquatorApproacher approacher(sphere);
+  RecordingProber prober(sphere);
+  StrategyConfig strategy_config;
+  strategy_config.seed = 2;
+  const auto strategy = makeStrategy("atlas_poke", strategy_config);
+  Explorer::Config config;
+  config.max_actions = 25;
+  config.seed = 2;
+  EvidenceRule evidence;
+  const ExplorationResult result =
+      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), evidence, {}, &approacher);
+  ASSERT_FALSE(prober.executed.empty()) << result.stop_reason;
+  ASSERT_FALSE(approacher.refused.empty()) << "the strategy never aimed under the sphere";
+  int refusals = 0, updates = 0;
+  for (const ExplorationRecord& record : result.records) {
+    refusals += record.approach_refusals;
+    updates += record.contacts_added > 0 ? 1 : 0;
+  }
+  EXPECT_EQ(result.unreachable_touches, static_cast<int>(approacher.refused.size()));
+  // The refusals before the plan that ended the run belong to no action's record.
+  EXPECT_LE(refusals, result.unreachable_touches);
+  EXPECT_GE(refusals, result.unreachable_touches - config.max_approach_attempts);
+  EXPECT_EQ(approacher.model_changes, updates);
+  EXPECT_EQ(result.approach_collisions, result.actions);
+  for (const Touch& touch : prober.executed) {
+    const Vector3& target = touch.points[approachTarget(touch)];
+    EXPECT_GE(target.z(), approacher.bottom()) << "a refused touch was executed";
+    ASSERT_EQ(touch.approach_path.size(), 2u);
+    EXPECT_EQ(touch.approach_path.back(), target + 0.1 * touch.normals[approachTarget(touch)]);
+    ASSERT_EQ(touch.retreat_path.size(), 2u);
+  }
+  // A refused target is not asked for again: it counts as evidence.
+  for (std::size_t a = 0; a < approacher.refused.size(); ++a)
+    for (std::size_t b = a + 1; b < approacher.refused.size(); ++b)
+      EXPECT_GT((approacher.refused[a] - approacher.refused[b]).norm(), evidence.retouch_radius_m)
+          << "refused target " << b << " repeats " << a;
+}
+
+// An approacher that refuses everything: no touch is made, each action gives up after
+// max_approach_attempts refusals, and the run stops after max_consecutive_failures such actions.
+TEST(Explorer, AnApproacherThatRefusesEverythingEndsTheRunWithoutATouch) {
+  struct Nowhere : TouchApproacher {
+    ApproachResult plan(const Touch&) override { return ApproachResult{false, "walled in", {}, {}, 0.5}; }
+  } nowhere;
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 4);
+  RecordingProber prober(sphere);
+  const auto strategy = makeStrategy("atlas_poke");
+  Explorer::Config config;
+  config.max_approach_attempts = 3;
+  config.max_consecutive_failures = 2;
+  const ExplorationResult result = Explorer(config).run(model, *strategy, prober, {}, {}, {}, &nowhere);
+  EXPECT_EQ(result.stop_reason, "consecutive_failures");
+  EXPECT_TRUE(prober.executed.empty());
+  EXPECT_EQ(result.actions, 0);
+  EXPECT_EQ(result.unreachable_touches, 6);
+  ASSERT_EQ(result.records.size(), 2u);
+  EXPECT_EQ(result.records[0].approach_refusals, 3);
+  EXPECT_FALSE(result.records[0].probe_success);
+  EXPECT_NE(result.records[0].probe_reason.find("walled in"), std::string::npos) << result.records[0].probe_reason;
+  EXPECT_DOUBLE_EQ(result.records[0].approach_compute_ms, 1.5);
+
+  config.max_approach_attempts = 0;
+  EXPECT_EQ(Explorer(config).run(model, *strategy, prober, {}, {}, {}, &nowhere).stop_reason.rfind("invalid_config", 0), 0u);
+}

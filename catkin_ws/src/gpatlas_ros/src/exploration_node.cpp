@@ -14,6 +14,7 @@
 #include <gpatlas_msgs/Capture.h>
 #include <gpatlas_msgs/GetMesh.h>
 #include <gpatlas_msgs/GetNextTouch.h>
+#include <gpatlas_msgs/PlanApproach.h>
 #include <gpatlas_msgs/Probe.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/TrainingSet.h>
@@ -64,6 +65,7 @@ class ExplorationNode {
     readSurfaceModel(r, &model_config_);
     loadPluginLibraries(choice.libraries, r, "exploration");
     readMesher(r, &mesher_config_);
+    readApproach(r, &approach_config_);
     if (!r.ok()) throw std::runtime_error("invalid parameters: " + r.errors());
     r.report("exploration");
     if (results_dir_.empty()) {
@@ -103,6 +105,7 @@ class ExplorationNode {
     ServicePlanner planner(*this);
     ServiceProber prober(*this);
     ServiceUpdater updater(*this);
+    ServiceApproacher approacher(*this);
     const gpatlas_core::Explorer explorer(loop_);
     measurer_ = std::thread(&ExplorationNode::measureLoop, this);
     gpatlas_core::ExplorationResult result =
@@ -110,7 +113,7 @@ class ExplorationNode {
           ROS_INFO_STREAM("exploration: " << gpatlas_core::describeAction(record));
           if (node_config_.metrics_every > 0 && (record.index + 1) % node_config_.metrics_every == 0)
             requestMeasurement(record.index, latestTraining());
-        });
+        }, approach_config_.enabled ? &approacher : nullptr);
     mergeMeasurements(&result);
     return finish(result);
   }
@@ -505,6 +508,8 @@ class ExplorationNode {
       }
       result.success = srv.response.success;
       result.reason = srv.response.reason;
+      result.approach_collisions = srv.response.approach_collisions;
+      result.retreat_collisions = srv.response.retreat_collisions;
       node_.observations_header_ = srv.response.observations.header;
       return result;
     }
@@ -536,8 +541,49 @@ class ExplorationNode {
     ExplorationNode& node_;
   };
 
+  // Approach planning on the collision map nodelet (plan_approach), on the map of the newest
+  // training set this node has seen: after a touch the map is rebuilt from the updated model,
+  // and the approach waits for it.
+  class ServiceApproacher : public gpatlas_core::TouchApproacher {
+   public:
+    explicit ServiceApproacher(ExplorationNode& node) : node_(node) {}
+    gpatlas_core::ApproachResult plan(const gpatlas_core::Touch& touch) override {
+      gpatlas_msgs::PlanApproach srv;
+      srv.request.touch = toMsg(touch);
+      srv.request.touch.header.frame_id = node_.world_frame_;
+      srv.request.touch.header.stamp = ros::Time::now();
+      srv.request.start = toPointMsg(node_.approach_config_.rest_tip_position_m);
+      const auto training = node_.latestTraining();
+      const std::uint32_t wanted = training ? training->sequence : 0;
+      const ros::WallTime asked = ros::WallTime::now();
+      while (true) {
+        if (!node_.callService("plan_approach", srv)) throw std::runtime_error("plan_approach did not answer");
+        const bool built = srv.response.map_training_sequence >= wanted &&
+                           srv.response.message.rfind("no collision map yet", 0) != 0;
+        if (built) break;
+        if ((ros::WallTime::now() - asked).toSec() > node_.node_config_.call_timeout_s)
+          throw std::runtime_error("plan_approach: no collision map of training set " + std::to_string(wanted) +
+                                   " within " + std::to_string(node_.node_config_.call_timeout_s) +
+                                   " s (the newest: " + std::to_string(srv.response.map_training_sequence) + "): " +
+                                   srv.response.message);
+        ros::WallDuration(0.05).sleep();
+      }
+      gpatlas_core::ApproachResult result;
+      result.ok = srv.response.success;
+      result.message = srv.response.message;
+      result.planning_ms = 1000.0 * srv.response.planning_time_s;
+      for (const auto& p : srv.response.approach) result.approach_path.push_back(fromMsg(p));
+      for (const auto& p : srv.response.retreat) result.retreat_path.push_back(fromMsg(p));
+      return result;
+    }
+
+   private:
+    ExplorationNode& node_;
+  };
+
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_, strategy_, results_dir_;
+  gpatlas_core::ApproachConfig approach_config_;
   gpatlas_core::Explorer::Config loop_;
   std_msgs::Header observations_header_;  // the frame of the last probe's observations
   // The ground truth and the map's saving: optional, at the start and the end; not worth a wait.

@@ -150,6 +150,34 @@ std::vector<ProbeAttempt> interpolateSlide(const std::vector<Eigen::Vector3d>& p
 
 // ================================================================ prober
 
+int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
+                      const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m) {
+  const Eigen::Vector3d d = direction.normalized();
+  const auto collides = [&](const Eigen::Vector3d& tip) {
+    if (scene.sphereOverlaps(body.tip_radius_m, tip) != 0) return true;
+    Capsule shaft;
+    shaft.a = tip - body.tip_radius_m * d;
+    shaft.b = tip - (body.tip_radius_m + body.shaft_length_m) * d;
+    shaft.radius = body.shaft_radius_m;
+    return scene.capsuleOverlaps({shaft}).front() != 0;
+  };
+  int contacts = 0;
+  bool in_contact = false;
+  for (std::size_t i = 0; i < tip_path.size(); ++i) {
+    const Eigen::Vector3d& from = tip_path[i];
+    const Eigen::Vector3d& to = i + 1 < tip_path.size() ? tip_path[i + 1] : tip_path[i];
+    const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step_m)));
+    // The segment's last sample is the next one's first.
+    const int last = i + 1 < tip_path.size() ? steps - 1 : steps;
+    for (int s = 0; s <= last; ++s) {
+      const bool hit = collides(from + (to - from) * (static_cast<double>(s) / steps));
+      contacts += hit && !in_contact ? 1 : 0;
+      in_contact = hit;
+    }
+  }
+  return contacts;
+}
+
 SimulatedProber::SimulatedProber(std::shared_ptr<const Scene> scene,
                                  std::unique_ptr<ProbeModel> model, const Config& config)
     : scene_(std::move(scene)), model_(std::move(model)), config_(config) {
@@ -157,6 +185,8 @@ SimulatedProber::SimulatedProber(std::shared_ptr<const Scene> scene,
   if (!(config_.slide_step_m > 0.0)) {
     throw std::runtime_error("SimulatedProber: slide_step_m must be > 0");
   }
+  if (!(config_.motion_check_step_m > 0.0) || !config_.rest_tip_position.allFinite())
+    throw std::runtime_error("SimulatedProber: motion_check_step_m must be > 0 and the rest position finite");
 }
 
 std::string SimulatedProber::validate(const gpatlas_core::Touch& touch) const {
@@ -221,6 +251,22 @@ gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touc
   }
   const std::vector<ProbeAttempt> attempts =
       slide ? interpolateSlide(touch.points, touch.normals, config_.slide_step_m) : waypoints;
+
+  // The way there and back: planned, or straight from and to the rest.
+  const ProbeAttempt& first = waypoints.front();
+  const ProbeAttempt& last = waypoints.back();
+  const std::vector<Eigen::Vector3d> approach =
+      !touch.approach_path.empty() ? touch.approach_path
+                                   : std::vector<Eigen::Vector3d>{config_.rest_tip_position,
+                                                                  first.point + model_->startOffset() * first.normal};
+  const std::vector<Eigen::Vector3d> retreat =
+      !touch.retreat_path.empty() ? touch.retreat_path
+                                  : std::vector<Eigen::Vector3d>{last.point + model_->startOffset() * last.normal,
+                                                                 config_.rest_tip_position};
+  result.approach_collisions = countPathContacts(*scene_, config_.body, approach, -first.normal,
+                                                 config_.motion_check_step_m);
+  result.retreat_collisions = countPathContacts(*scene_, config_.body, retreat, -last.normal,
+                                                config_.motion_check_step_m);
 
   unsigned other_surfaces = 0;
   std::string stroke_failure;

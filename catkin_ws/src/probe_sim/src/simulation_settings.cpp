@@ -165,4 +165,19 @@ std::optional<Eigen::Isometry3d> cameraPose(const SimulationSettings& s, const s
   return pose;
 }
 
+std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene> scene,
+                                                     const SimulationSettings& settings,
+                                                     const gpatlas_core::ApproachConfig& approach) {
+  ProbeModelConfig model_config;
+  model_config.sphere.radius_m = settings.probe_radius_m;
+  // Strokes start at the approach planner's approach pose.
+  model_config.ray.start_offset_m = approach.approach_distance_m;
+  model_config.sphere.start_offset_m = approach.approach_distance_m;
+  SimulatedProber::Config config;
+  config.slide_step_m = settings.slide_step_m;
+  config.body = approach.probe;
+  config.rest_tip_position = approach.rest_tip_position_m;
+  return std::make_unique<SimulatedProber>(std::move(scene), makeProbeModel(settings.probe, model_config), config);
+}
+
 }  // namespace probe_sim

@@ -379,3 +379,53 @@ TEST(HollowObjects, MugHandleStandsOutOnThePlusXSide) {
   ASSERT_TRUE(back.hit);
   EXPECT_NEAR(back.point.x(), box.min().x(), 1e-3 * size);
 }
+
+// The probe's body (a 2 cm tip and a shaft behind it) moved along a path of tip positions: each
+// separate stretch in contact with the scene counts once.
+TEST_F(SphereObject, PathContactsCountEachStretchThroughTheSceneOnce) {
+  const gpatlas_core::ProbeGeometry body;
+  const Eigen::Vector3d down = -Eigen::Vector3d::UnitZ();
+  const auto contacts = [&](const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& direction) {
+    return probe_sim::countPathContacts(*scene_, body, path, direction, 0.002);
+  };
+  const Eigen::Vector3d left(-0.2, 0.0, kRadius), right(0.2, 0.0, kRadius);
+  EXPECT_EQ(contacts({left, right}, down), 1);
+  EXPECT_EQ(contacts({left, right, left}, down), 2);
+  // 2 mm above the sphere's top with the tip, the shaft pointing away: clear.
+  const Eigen::Vector3d over(0.0, 0.0, 2 * kRadius + body.tip_radius_m + 0.002);
+  EXPECT_EQ(contacts({over - Eigen::Vector3d(0.2, 0, 0), over + Eigen::Vector3d(0.2, 0, 0)}, down), 0);
+  // The same path with the probe pointing up: its shaft hangs through the sphere and the table.
+  EXPECT_EQ(contacts({over - Eigen::Vector3d(0.2, 0, 0), over + Eigen::Vector3d(0.2, 0, 0)}, -down), 1);
+  // Grazing the table away from the sphere is one long contact.
+  EXPECT_EQ(contacts({Eigen::Vector3d(-0.3, 0.3, 0.01), Eigen::Vector3d(0.3, 0.3, 0.01)}, down), 1);
+  EXPECT_EQ(contacts({over}, down), 0);
+  EXPECT_EQ(contacts({}, down), 0);
+}
+
+// Without a planned path the probe goes straight from its rest to the approach pose, through
+// the object when it stands in the way; along a planned path round it, it hits nothing. The touch
+// is made either way.
+TEST_F(SphereObject, TheWayToATouchAndBackIsJudgedAgainstTheTrueScene) {
+  probe_sim::SimulatedProber::Config config;
+  config.rest_tip_position = Eigen::Vector3d(0.3, 0.0, kRadius);
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("ray"), config);
+  Touch touch = poke(kCentre - kRadius * Eigen::Vector3d::UnitX(), -Eigen::Vector3d::UnitX());
+  ProbeResult straight = prober.probe(touch);
+  EXPECT_TRUE(straight.success) << straight.reason;
+  EXPECT_EQ(straight.approach_collisions, 1);
+  EXPECT_EQ(straight.retreat_collisions, 1);
+
+  const Eigen::Vector3d approach_pose = touch.points[0] - 0.1 * Eigen::Vector3d::UnitX();
+  touch.approach_path = {config.rest_tip_position, Eigen::Vector3d(0.3, 0.0, 0.3), Eigen::Vector3d(-0.15, 0.0, 0.3),
+                         approach_pose};
+  touch.retreat_path.assign(touch.approach_path.rbegin(), touch.approach_path.rend());
+  const ProbeResult planned = prober.probe(touch);
+  EXPECT_TRUE(planned.success) << planned.reason;
+  EXPECT_EQ(planned.approach_collisions, 0);
+  EXPECT_EQ(planned.retreat_collisions, 0);
+  ASSERT_EQ(planned.contacts.size(), 1u);
+  EXPECT_NEAR((planned.contacts[0].position - touch.points[0]).norm(), 0.0, 1e-3);
+
+  config.motion_check_step_m = 0.0;
+  EXPECT_THROW(SimulatedProber(scene_, probe_sim::makeProbeModel("ray"), config), std::runtime_error);
+}

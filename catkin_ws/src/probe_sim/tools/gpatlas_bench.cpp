@@ -11,6 +11,7 @@
 #include <gpatlas_core/exploration_strategy.h>
 #include <gpatlas_core/model_calibration.h>
 #include <gpatlas_core/explorer.h>
+#include <gpatlas_motion/touch_approach.h>
 #include <gpatlas_core/shape_metrics.h>
 #include <gpatlas_core/strategy_library.h>
 #include <gpatlas_core/surface_sampler.h>
@@ -357,6 +358,12 @@ struct RunResult {
   double wall_s{0.0};
   double plan_ms_median{0.0};
   double update_ms_median{0.0};
+  // Approach planning (approach/): touches refused for want of a safe approach, the probe's
+  // contacts with the true scene on the way to the touches and back, and the planner's time.
+  int unreachable_touches{0};
+  int approach_collisions{0};
+  int retreat_collisions{0};
+  double approach_plan_ms_median{std::nan("")};
   // The initial model (action 0) and every action, as the ROS exploration node records them.
   std::vector<gpatlas_core::ExplorationRecord> history;
   std::string error;
@@ -508,11 +515,9 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
   strategy_config.seed = static_cast<std::uint64_t>(seed);
   const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
-  probe_sim::ProbeModelConfig probe_config;
-  probe_config.sphere.radius_m = simulation.probe_radius_m;
-  probe_sim::SimulatedProber::Config prober_config;
-  prober_config.slide_step_m = simulation.slide_step_m;
-  probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel(simulation.probe, probe_config), prober_config);
+  const std::unique_ptr<probe_sim::SimulatedProber> prober_ptr =
+      probe_sim::makeSimulatedProber(scene, simulation, pipeline.approach);
+  probe_sim::SimulatedProber& prober = *prober_ptr;
   if (simulation.use_arm) {
     probe_sim::Arm::Config arm_config;
     arm_config.base_link = simulation.world_frame;
@@ -557,7 +562,12 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     std::lock_guard<std::mutex> lock(print_mutex);
     std::cout << line.str() << std::endl;
   };
-  gpatlas_core::ExplorationResult result = explorer.run(model, *strategy, prober, pipeline.touch, evidence, progress);
+  std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
+  if (pipeline.approach.enabled)
+    approacher = std::make_unique<gpatlas_motion::ModelTouchApproacher>(
+        model, pipeline.approach, pipeline.collision_map.grid, pipeline.collision_map.occupied_probability, support);
+  gpatlas_core::ExplorationResult result =
+      explorer.run(model, *strategy, prober, pipeline.touch, evidence, progress, approacher.get());
 
   r.actions = result.actions;
   r.contacts = result.contacts;
@@ -571,6 +581,10 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   }
   r.plan_ms_median = median(plan_ms);
   r.update_ms_median = median(update_ms);
+  r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
+  r.unreachable_touches = result.unreachable_touches;
+  r.approach_collisions = result.approach_collisions;
+  r.retreat_collisions = result.retreat_collisions;
   const std::string mesh_file =
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
@@ -623,7 +637,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
        "position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
-       "update_ms_median\n";
+       "update_ms_median,unreachable_touches,approach_collisions,retreat_collisions,approach_plan_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
@@ -634,21 +648,26 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << num(r.rmse_gt_to_pred_unseen) << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.position_sd_m) << ','
       << num(r.max_evaluated_variance) << ','
-      << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << '\n';
+      << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << ','
+      << r.unreachable_touches << ',' << r.approach_collisions << ',' << r.retreat_collisions << ','
+      << num(r.approach_plan_ms_median, 4) << '\n';
   }
 }
 
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,seed,action,contacts_total,max_evaluated_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
-       "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance\n";
+       "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,approach_collisions,"
+       "retreat_collisions,approach_ms,approach_plan_ms\n";
   for (const auto& r : runs)
     for (const auto& h : r.history) {
       const bool initial = h.index < 0;
       f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.index + 1 << ',' << h.contacts_total << ','
         << (initial ? "nan" : num(h.max_evaluated_variance)) << ',' << num(h.rmse_pred_to_gt_m) << ','
         << num(h.rmse_gt_to_pred_m) << ',' << num(h.plan_ms, 4) << ',' << num(h.probe_ms, 4) << ','
-        << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << '\n';
+        << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << ','
+        << h.approach_refusals << ',' << h.approach_collisions << ',' << h.retreat_collisions << ','
+        << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << '\n';
     }
 }
 

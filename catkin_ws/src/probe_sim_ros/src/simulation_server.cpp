@@ -122,6 +122,7 @@ std::string SimulationServer::readSettings() {
   const gpatlas_ros::RosParameterSource source(pnh_);
   gpatlas_core::ParamReader reader(source);
   readSimulation(reader, &settings_);
+  gpatlas_core::readApproach(reader, &approach_);
   seed_ = gpatlas_core::readSeed(reader);
   std::string errors = reader.errors();
   const std::string invalid = validate(settings_);
@@ -245,12 +246,7 @@ std::string SimulationServer::setUpCamera() {
 }
 
 std::string SimulationServer::setUpProber() {
-  ProbeModelConfig model_config;
-  model_config.sphere.radius_m = settings_.probe_radius_m;
-  SimulatedProber::Config prober_config;
-  prober_config.slide_step_m = settings_.slide_step_m;
-  prober_ = std::make_unique<SimulatedProber>(
-      scene_, makeProbeModel(settings_.probe, model_config), prober_config);
+  prober_ = makeSimulatedProber(scene_, settings_, approach_);
   if (arm_) prober_->setArm(arm_);
 
   // Not an error (the camera may be meant to see only part of the scene), but a blank view is
@@ -301,6 +297,12 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
     }
     response.success = result.success;
     response.reason = result.reason;
+    response.approach_collisions = result.approach_collisions;
+    response.retreat_collisions = result.retreat_collisions;
+    if (result.approach_collisions + result.retreat_collisions > 0)
+      ROS_WARN_STREAM("probe_sim: the probe hit the scene " << result.approach_collisions << " time(s) on the way to the touch and "
+                      << result.retreat_collisions << " on the way back"
+                      << (touch.approach_path.empty() ? " (no planned approach: a straight motion from the rest)" : ""));
     response.observations = gpatlas_ros::toMsg(result);
     response.observations.header.frame_id = settings_.world_frame;
     response.observations.header.stamp = ros::Time::now();

@@ -1,5 +1,7 @@
 #pragma once
 
+#include "gpatlas_core/types.h"
+
 #include <string>
 
 namespace gpatlas_core {
@@ -15,6 +17,14 @@ struct ProbeGeometry {
 
 // Paper Algorithm 2's APPROACHTO and MOVEAWAY (gpatlas_motion::ProbeApproachPlanner).
 struct ApproachConfig {
+  // Whether the exploration plans every touch's approach and retreat (and skips the touches it
+  // finds no safe way to). Off: the probe moves in a straight line from its rest to each
+  // touch's approach pose and back, which the simulation judges all the same.
+  bool enabled{true};
+  // Where the probe's tip rests between touches (world frame): the start of every approach and
+  // the end of every retreat. Vito's left arm in its ready pose (vito_description) holds the
+  // tip above the table's front, clear of an object standing at simulation/object_position_xy_m.
+  Vector3 rest_tip_position_m{0.5, 0.25, 0.4};
   // A collision-map voxel with P(occupied) above this is an obstacle.
   double occupied_probability{0.5};
   double approach_distance_m{0.1};  // the approach pose's distance from the touch along its normal

@@ -32,6 +32,10 @@ struct ExplorationReport {
   FinalShape final_shape;
 };
 
+// The median over the actions that planned an approach of the motion planner's own time
+// (ExplorationRecord::approach_compute_ms); NaN when none did.
+double approachPlanMsMedian(const ExplorationResult& result);
+
 // The status of a finished run: "converged", "stopped: <reason>" or "error: <reason>", and
 // "error: no predicted surface: ..." whenever there is no surface, whatever the loop said.
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message);

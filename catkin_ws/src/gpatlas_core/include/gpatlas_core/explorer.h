@@ -112,6 +112,17 @@ struct ExplorationRecord {
   // The whole action, wall clock, the progress callback included; set after the callback.
   double action_ms{0.0};
   std::string update_message;    // why the model refused the new points, if it did
+  // Approach planning (TouchApproacher), when the loop has one: the touches it refused before
+  // this one (each asked the planner for another), why the last was refused, its wall clock
+  // over every try (with what it waits for: a collision map of the updated model) and the
+  // motion planner's own time (ApproachResult::planning_ms), and the unexpected contacts the
+  // probe reported on the way to the touch and back (ProbeResult).
+  int approach_refusals{0};
+  std::string approach_message;
+  double approach_ms{0.0};
+  double approach_compute_ms{0.0};
+  int approach_collisions{0};
+  int retreat_collisions{0};
   InteriorRetraction retraction; // occluded-interior guesses this touch contradicted
   Touch touch;
   // Filled by the caller's progress callback where it measures the model (NaN otherwise): the
@@ -134,6 +145,12 @@ struct ExplorationResult {
   std::vector<ExplorationRecord> records;
   // PlanResult::max_evaluated_variance of the plan that ended the run.
   double final_max_evaluated_variance{0.0};
+  // Touches the approach planner refused (not executed; those refused before the plan that
+  // ended the run are in no record), and the probe's unexpected contacts on the way to the
+  // touches and back.
+  int unreachable_touches{0};
+  int approach_collisions{0};
+  int retreat_collisions{0};
 };
 
 // Greedy thinning of one touch's contacts or free space: the finite points, in order, that lie at
@@ -163,6 +180,27 @@ class ModelUpdater {
   virtual TouchUpdate update(const ProbeResult& probed) = 0;
 };
 
+// How the probe gets to a touch and back (Algorithm 2's APPROACHTO and MOVEAWAY), planned on
+// the current model: Touch::approach_path and retreat_path, or why there is no safe way.
+struct ApproachResult {
+  bool ok{false};
+  std::string message;  // why not, when !ok
+  std::vector<Vector3> approach_path;
+  std::vector<Vector3> retreat_path;
+  double planning_ms{0.0};
+};
+
+// Approach planning for the loop: gpatlas_motion's on a collision map of the model in one
+// process, the collision map nodelet's plan_approach service in ROS. May throw (the run then
+// stops with "error: ...").
+class TouchApproacher {
+ public:
+  virtual ~TouchApproacher() = default;
+  virtual ApproachResult plan(const Touch& touch) = 0;
+  // The model took a touch: what the next plan sees must come from the updated model.
+  virtual void modelChanged() {}
+};
+
 // Tactile exploration, paper Algorithm 2: plan a touch on the current model, probe it, add the
 // contacts as surface points and the free-space observations as outside points, update the
 // model, and repeat until the planner reports convergence. The bench and the ROS exploration
@@ -177,6 +215,10 @@ class Explorer {
     int max_consecutive_failures{5};
     // Plan k is asked with seed mixSeeds(seed, k).
     std::uint64_t seed{0};
+    // With an approach planner: a touch it refuses is not executed, counts as evidence (like a
+    // touch made) and the planner is asked for another, up to this many touches per action.
+    // An action with all of them refused is a failed touch.
+    int max_approach_attempts{5};
   };
   // Called after every action with its record, which it may complete (the measurements);
   // may be empty.
@@ -186,14 +228,15 @@ class Explorer {
   explicit Explorer(Config config) : config_(std::move(config)) {}
   const Config& config() const { return config_; }
 
+  // Without an approacher every touch is executed as planned (the probe moves straight to it).
   ExplorationResult run(TouchPlanner& planner, Prober& prober, ModelUpdater& updater,
-                        const Progress& progress = {}) const;
+                        const Progress& progress = {}, TouchApproacher* approacher = nullptr) const;
 
   // In one process: plans with `strategy` on `model` (fitted: the initial view) under
   // `evidence`, and adds the touches to it with `touch` (applyTouch).
   ExplorationResult run(SurfaceModel& model, const ExplorationStrategy& strategy, Prober& prober,
                         const TouchObservationConfig& touch = {}, const EvidenceRule& evidence = {},
-                        const Progress& progress = {}) const;
+                        const Progress& progress = {}, TouchApproacher* approacher = nullptr) const;
 
  private:
   Config config_;

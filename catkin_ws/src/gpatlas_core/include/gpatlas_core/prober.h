@@ -15,6 +15,11 @@ struct ProbeResult {
   std::string reason;
   std::vector<Contact> contacts;
   std::vector<Vector3> free_space;  // points observed to be outside the object, world frame
+  // Unexpected contacts of the probe or the arm on the way to the touch (before the probing
+  // segment starts) and on the way back: what the robot felt, or what the simulation saw
+  // against the true scene. Each contact counts once, however long it lasts.
+  int approach_collisions{0};
+  int retreat_collisions{0};
 };
 
 // Executes touches: the simulated probe, a real robot driver, or an analytic shape in tests.

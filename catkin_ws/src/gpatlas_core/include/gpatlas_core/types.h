@@ -75,7 +75,19 @@ struct Touch {
   std::vector<Vector3> normals;
   std::vector<double> variances;  // in the model's reported (paper-equivalent) units
   std::string strategy;
+  // How the probe's tip gets there and back (Algorithm 2's APPROACHTO and MOVEAWAY), when
+  // planned (TouchApproacher): from the rest to the approach pose in front of approachTarget,
+  // and from the approach pose in front of retreatTarget back to the rest, world frame. The
+  // probe points along -normal of its target on the way. Empty: not planned; the probe then
+  // moves in a straight line.
+  std::vector<Vector3> approach_path;
+  std::vector<Vector3> retreat_path;
 };
+
+// The waypoint a touch's probe goes to first (a poke's target, a slide's first waypoint) and
+// the one it leaves from (a poke's target, a slide's last waypoint). The touch must have one.
+std::size_t approachTarget(const Touch& touch);
+std::size_t retreatTarget(const Touch& touch);
 
 // The surface points a touch aims at: a poke's target (its path's end), every waypoint of a
 // slide. They count as evidence once touched, whatever the probe found (EvidenceRule).

@@ -4,7 +4,7 @@
 #include "gpatlas_ros/shared_models.h"
 
 #include <gpatlas_core/background_work.h>
-#include <gpatlas_motion/probe_approach_planner.h>
+#include <gpatlas_motion/touch_approach.h>
 #include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -21,8 +21,7 @@
 namespace gpatlas_ros {
 
 struct CollisionMapServer::Map {
-  explicit Map(double resolution) : tree(resolution) {}
-  octomap::OcTree tree;
+  std::shared_ptr<const octomap::OcTree> tree;
   std::uint32_t training_sequence{0};
   ros::Time training_stamp;
 };
@@ -98,11 +97,9 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     res.map_training_sequence = map->training_sequence;
     res.map_stale = map->training_sequence != latest;
     gpatlas_motion::ProbeApproachPlanner planner(approach_config_);
-    // The octree lives as long as the planner holds it, with the map it belongs to.
-    planner.setCollisionMap(std::shared_ptr<const octomap::OcTree>(map, &map->tree));
+    planner.setCollisionMap(map->tree);
     if (plane) planner.addStaticHalfSpace(plane->normal, plane->offset);
-    const gpatlas_motion::ApproachPlan plan =
-        planner.plan(fromMsg(req.start), touch.points.front(), touch.normals.front());
+    const gpatlas_motion::TouchMotion plan = gpatlas_motion::planTouchMotion(planner, touch, fromMsg(req.start));
     res.planning_time_s = plan.planning_ms / 1000.0;
     res.success = plan.ok;
     res.message = plan.message;
@@ -221,22 +218,11 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(const gpatlas
     *error = grid.message;
     return nullptr;
   }
-  auto map = std::make_shared<Map>(grid.resolution);
+  auto map = std::make_shared<Map>();
   map->training_sequence = msg.sequence;
   map->training_stamp = msg.header.stamp;
-  map->tree.setOccupancyThres(map_config_.occupied_probability);
   std::size_t occupied = 0;
-  for (int k = 0; k < grid.size.z(); ++k)
-    for (int j = 0; j < grid.size.y(); ++j)
-      for (int i = 0; i < grid.size.x(); ++i) {
-        const double p = std::clamp(static_cast<double>(grid.probabilities[grid.index(i, j, k)]), 1e-3, 1.0 - 1e-3);
-        const Eigen::Vector3d x = grid.position(i, j, k);
-        map->tree.setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
-                               static_cast<float>(std::log(p / (1.0 - p))));
-        occupied += p > map_config_.occupied_probability ? 1 : 0;
-      }
-  map->tree.updateInnerOccupancy();
-  map->tree.prune();
+  map->tree = gpatlas_motion::collisionOctree(grid, map_config_.occupied_probability, &occupied);
   std::ostringstream message;
   message << "training set " << msg.sequence << ": " << occupied << " of " << grid.probabilities.size()
           << " cells occupied (P > " << map_config_.occupied_probability << ") at " << grid.resolution << " m";
@@ -249,11 +235,11 @@ void CollisionMapServer::publishMap(const Map& map) {
   out.header.frame_id = world_frame_;
   out.header.stamp = map.training_stamp;
   out.training_sequence = map.training_sequence;
-  out.id = map.tree.getTreeType();
-  out.resolution = map.tree.getResolution();
+  out.id = map.tree->getTreeType();
+  out.resolution = map.tree->getResolution();
   out.binary = true;
   std::stringstream stream;
-  map.tree.writeBinaryData(stream);
+  map.tree->writeBinaryData(stream);
   const std::string bytes = stream.str();
   out.data.assign(bytes.begin(), bytes.end());
   octomap_pub_.publish(out);
@@ -265,9 +251,9 @@ void CollisionMapServer::publishMap(const Map& map) {
   cubes.type = visualization_msgs::Marker::CUBE_LIST;
   cubes.action = visualization_msgs::Marker::ADD;
   cubes.pose.orientation.w = 1.0;
-  cubes.scale.x = cubes.scale.y = cubes.scale.z = map.tree.getResolution();
-  for (auto it = map.tree.begin_leafs(); it != map.tree.end_leafs(); ++it) {
-    if (!map.tree.isNodeOccupied(*it)) continue;
+  cubes.scale.x = cubes.scale.y = cubes.scale.z = map.tree->getResolution();
+  for (auto it = map.tree->begin_leafs(); it != map.tree->end_leafs(); ++it) {
+    if (!map.tree->isNodeOccupied(*it)) continue;
     geometry_msgs::Point p;
     p.x = it.getX();
     p.y = it.getY();
@@ -317,7 +303,7 @@ bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_
   }
   res.training_sequence = map->training_sequence;
   res.stale = latest != map->training_sequence;
-  res.success = map->tree.writeBinaryConst(file) && static_cast<bool>(file.flush());
+  res.success = map->tree->writeBinaryConst(file) && static_cast<bool>(file.flush());
   res.message = res.success ? "wrote " + shown : "cannot write " + shown + ": the write failed (disk full?)";
   res.message += " (the map of training set " + std::to_string(map->training_sequence) +
                  (res.stale ? "; STALE: the newest is " + std::to_string(latest) + ", see ~status)" : ", the newest)");

@@ -3,6 +3,7 @@
 #include "probe_sim/arm.h"
 #include "probe_sim/scene.h"
 
+#include <gpatlas_core/approach_config.h>
 #include <gpatlas_core/prober.h>
 #include <gpatlas_core/types.h>
 
@@ -36,6 +37,8 @@ class ProbeModel {
   // Distance from the touched surface to the arm's tip frame while touching (0 for a ray,
   // the radius for a sphere centred on the tip frame).
   virtual double tipStandoff() const = 0;
+  // d above: how far out along the normal a stroke starts (the approach pose).
+  virtual double startOffset() const = 0;
 };
 
 struct RayProbeConfig {
@@ -55,6 +58,7 @@ class RayProbe : public ProbeModel {
   ProbeStroke stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
                      const Eigen::Vector3d& outward_normal) override;
   double tipStandoff() const override { return 0.0; }
+  double startOffset() const override { return config_.start_offset_m; }
 
  private:
   Config config_;
@@ -80,6 +84,7 @@ class SphereProbe : public ProbeModel {
   ProbeStroke stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
                      const Eigen::Vector3d& outward_normal) override;
   double tipStandoff() const override { return config_.radius_m; }
+  double startOffset() const override { return config_.start_offset_m; }
 
  private:
   Config config_;
@@ -111,11 +116,26 @@ std::vector<ProbeAttempt> interpolateSlide(const std::vector<Eigen::Vector3d>& p
 struct SimulatedProberConfig {
   double slide_step_m = 0.005;
   std::size_t max_slide_attempts = 20000;  // refuses absurd paths instead of looping for long
+  // The judge of the way to a touch and back: the probe's body (the approach planner's,
+  // approach/ in the YAML) moved along the touch's approach and retreat paths, or in a straight
+  // line between the rest and the approach pose where the touch has none, pointing along the
+  // target's -normal, checked against the true scene every motion_check_step_m.
+  gpatlas_core::ProbeGeometry body;
+  Eigen::Vector3d rest_tip_position{0.5, 0.25, 0.4};
+  double motion_check_step_m = 0.004;  // below the shaft's diameter: no crossing is missed
 };
+
+// Where the probe's body (a tip sphere and the shaft behind it, pointing along `direction`)
+// penetrates the scene along a polyline of tip positions sampled every `step_m`: the number of
+// separate contacts (a run of colliding samples counts once).
+int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
+                      const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m);
 
 // gpatlas_core::Prober on the simulated scene: a poke probes the last waypoint of the touch, a
 // slide follows the path with an attempt every slide_step_m. With an arm, every waypoint must
-// have a collision-free inverse kinematics solution or the touch fails before probing.
+// have a collision-free inverse kinematics solution or the touch fails before probing. The way
+// there and back is judged (SimulatedProberConfig) and reported as approach and retreat
+// collisions; the touch is made all the same, as a robot that felt a bump would go on.
 class SimulatedProber : public gpatlas_core::Prober {
  public:
   using Config = SimulatedProberConfig;

@@ -2,13 +2,16 @@
 
 #include "probe_sim/depth_camera.h"
 #include "probe_sim/object_mesh.h"
+#include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
 
+#include <gpatlas_core/approach_config.h>
 #include <gpatlas_core/parameters.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -64,6 +67,12 @@ std::string validate(const SimulationSettings& settings);
 // std::runtime_error with the reason when the mesh cannot be read or the name is unknown.
 TriangleMesh loadSimulatedObject(const SimulationSettings& settings);
 SceneConfig sceneConfig(const SimulationSettings& settings);
+// The simulated probe of probe_sim_node and gpatlas_bench: the probe model the settings name,
+// their slide step, and the judge of the way to each touch and back with the approach
+// planner's probe body and rest (`approach`). Throws std::runtime_error for an unknown probe.
+std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene> scene,
+                                                     const SimulationSettings& settings,
+                                                     const gpatlas_core::ApproachConfig& approach);
 // The camera's intrinsics and noise; `seed` draws its noise.
 DepthCamera::Config cameraConfig(const SimulationSettings& settings, std::uint32_t seed);
 // The camera's pose: camera_eye_m looking at camera_target_m when given, otherwise the fixed

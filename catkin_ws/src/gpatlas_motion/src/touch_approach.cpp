@@ -1,0 +1,110 @@
+#include "gpatlas_motion/touch_approach.h"
+
+#include <octomap/OcTree.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace gpatlas_motion {
+
+std::unique_ptr<octomap::OcTree> collisionOctree(const gpatlas_core::OccupancyGrid& grid, double occupied_probability,
+                                                 std::size_t* occupied) {
+  if (!grid.ok || grid.resolution <= 0.0)
+    throw std::invalid_argument("no collision octree from a grid that was not built: " + grid.message);
+  auto tree = std::make_unique<octomap::OcTree>(grid.resolution);
+  tree->setOccupancyThres(occupied_probability);
+  // OctoMap's default clamping (0.12 to 0.97, for sensor updates that must stay revisable)
+  // would flatten the model's probabilities: the map is rebuilt, never updated.
+  tree->setClampingThresMin(1e-3);
+  tree->setClampingThresMax(1.0 - 1e-3);
+  std::size_t above = 0;
+  for (int k = 0; k < grid.size.z(); ++k)
+    for (int j = 0; j < grid.size.y(); ++j)
+      for (int i = 0; i < grid.size.x(); ++i) {
+        // Clamped away from 0 and 1, whose log-odds are infinite.
+        const double p = std::clamp(static_cast<double>(grid.probabilities[grid.index(i, j, k)]), 1e-3, 1.0 - 1e-3);
+        const Eigen::Vector3d x = grid.position(i, j, k);
+        tree->setNodeValue(octomap::point3d(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())),
+                           static_cast<float>(std::log(p / (1.0 - p))));
+        above += p > occupied_probability ? 1 : 0;
+      }
+  tree->updateInnerOccupancy();
+  tree->prune();
+  if (occupied) *occupied = above;
+  return tree;
+}
+
+TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_core::Touch& touch,
+                            const Eigen::Vector3d& rest) {
+  TouchMotion motion;
+  if (touch.points.empty() || touch.normals.size() != touch.points.size()) {
+    motion.message = "the touch needs at least one waypoint and a normal for each";
+    return motion;
+  }
+  const std::size_t first = gpatlas_core::approachTarget(touch);
+  const std::size_t last = gpatlas_core::retreatTarget(touch);
+  const ApproachPlan there = planner.plan(rest, touch.points[first], touch.normals[first]);
+  motion.planning_ms = there.planning_ms;
+  if (!there.ok) {
+    motion.message = there.message;
+    return motion;
+  }
+  motion.approach = there.approach;
+  motion.probing = there.probing;
+  motion.direction = there.direction;
+  if (last == first) {
+    motion.retreat = there.retreat;
+  } else {
+    const ApproachPlan back = planner.plan(rest, touch.points[last], touch.normals[last]);
+    motion.planning_ms += back.planning_ms;
+    if (!back.ok) {
+      motion.message = "no way back from the slide's end: " + back.message;
+      return motion;
+    }
+    motion.retreat = back.retreat;
+  }
+  motion.ok = true;
+  return motion;
+}
+
+ModelTouchApproacher::ModelTouchApproacher(const gpatlas_core::SurfaceModel& model, ApproachConfig config,
+                                           gpatlas_core::OccupancyGridBuilder::Config grid,
+                                           double map_occupied_probability,
+                                           std::optional<gpatlas_core::SupportPlane> table)
+    : model_(model),
+      config_(std::move(config)),
+      grid_(std::move(grid)),
+      map_occupied_probability_(map_occupied_probability),
+      table_(std::move(table)) {}
+
+ModelTouchApproacher::~ModelTouchApproacher() = default;
+
+gpatlas_core::ApproachResult ModelTouchApproacher::plan(const gpatlas_core::Touch& touch) {
+  gpatlas_core::ApproachResult result;
+  if (!planner_) {
+    const auto started = std::chrono::steady_clock::now();
+    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_).build(model_);
+    if (!grid.ok) {
+      result.message = "no collision map: " + grid.message;
+      return result;
+    }
+    auto planner = std::make_unique<ProbeApproachPlanner>(config_);
+    planner->setCollisionMap(collisionOctree(grid, map_occupied_probability_));
+    if (table_) planner->addStaticHalfSpace(table_->normal, table_->offset);
+    planner_ = std::move(planner);
+    last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+  }
+  const TouchMotion motion = planTouchMotion(*planner_, touch, config_.rest_tip_position_m);
+  result.ok = motion.ok;
+  result.message = motion.message;
+  result.planning_ms = motion.planning_ms;
+  if (motion.ok) {
+    result.approach_path = motion.approach;
+    result.retreat_path = motion.retreat;
+  }
+  return result;
+}
+
+}  // namespace gpatlas_motion
