@@ -96,7 +96,7 @@ SurfacePoint selectSurfacePoint(const SurfaceModel& model, const std::optional<V
 }  // namespace
 
 AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, const std::optional<Vector3>& start,
-                                   const Progress& progress) const {
+                                   const Progress& progress, const TouchFilter& reachable) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
   auto finish = [&](PlanStatus status, std::string message) {
@@ -108,6 +108,9 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
     if (result.retouch_skipped > 0)
       result.message += "; " + std::to_string(result.retouch_skipped) +
                         " chart(s) above V_max need no touch: measured or aimed at already";
+    if (result.unreachable_skipped > 0)
+      result.message += "; " + std::to_string(result.unreachable_skipped) +
+                        " chart(s) that need a touch passed over: no safe approach";
     return result;
   };
 
@@ -126,10 +129,15 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   // V_max right at a measurement or an earlier touch's target needs none
   // (EvidenceRule::retouch_radius_m).
   const auto needsTouch = [&](const Chart& chart) {
-    if (evidence.isUnsupported(chart.centre, chart.normal)) return true;
-    if (!(chart.variance > v_max)) return false;
-    if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
-      ++result.retouch_skipped;
+    if (!evidence.isUnsupported(chart.centre, chart.normal)) {
+      if (!(chart.variance > v_max)) return false;
+      if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
+        ++result.retouch_skipped;
+        return false;
+      }
+    }
+    if (reachable && !reachable(chart.centre, chart.normal)) {
+      ++result.unreachable_skipped;
       return false;
     }
     return true;

@@ -12,13 +12,14 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
   config.evidence = request.evidence;
-  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start);
+  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start, {}, request.reachable);
 
   PlanResult result;
   result.status = planned.status;
   result.message = planned.message;
   result.max_evaluated_variance = planned.max_chart_variance;
   result.elapsed_s = planned.elapsed_s;
+  result.unreachable_candidates = planned.unreachable_skipped;
   if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
   if (planned.status == PlanStatus::kTouch) {
     Touch& touch = result.touch;

@@ -85,6 +85,7 @@ std::string toJson(const ExplorationReport& report) {
   json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
        << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
        << ",\n  \"contacts\": " << result.contacts << ",\n  \"unreachable_touches\": " << result.unreachable_touches
+       << ",\n  \"unreachable_candidates\": " << result.unreachable_candidates
        << ",\n  \"approach_collisions\": " << result.approach_collisions
        << ",\n  \"retreat_collisions\": " << result.retreat_collisions
        << ",\n  \"approach_plan_ms_median\": " << jsonNumber(approachPlanMsMedian(result))
@@ -116,6 +117,7 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"approach_ms\": " << jsonNumber(r.approach_ms)
          << ", \"approach_compute_ms\": " << jsonNumber(r.approach_compute_ms)
          << ", \"approach_refusals\": " << r.approach_refusals
+         << ", \"unreachable_candidates\": " << r.unreachable_candidates
          << ", \"approach_message\": " << jsonString(r.approach_message)
          << ", \"approach_collisions\": " << r.approach_collisions
          << ", \"retreat_collisions\": " << r.retreat_collisions << ", \"n_train\": " << r.n_train

@@ -377,8 +377,14 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         request.evidence.attempted_targets = attempted_targets;
         request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
         if (attempt > 0) request.seed = mixSeeds(request.seed, static_cast<std::uint64_t>(attempt));
+        if (approacher)
+          request.reachable = [approacher](const Vector3& point, const Vector3& normal) {
+            return approacher->reachable(point, normal);
+          };
         const Clock::time_point plan_started = Clock::now();
         plan = planner.plan(request);
+        record.unreachable_candidates += plan.unreachable_candidates;
+        result.unreachable_candidates += plan.unreachable_candidates;
         record.plan_ms += millisecondsSince(plan_started);
         record.plan_compute_ms += 1000.0 * plan.elapsed_s;
         record.plan_status = plan.status;

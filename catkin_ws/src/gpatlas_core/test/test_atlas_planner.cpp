@@ -250,3 +250,41 @@ TEST(AtlasPlanner, BadInputGivesAnErrorStatus) {
 }
 
 }  // namespace
+
+// A touch filter (the approacher's cheap test) that refuses the sphere's western half: the
+// planner grows past those charts and returns a touch in the eastern half, counting what it
+// passed over; a filter that refuses everything leaves nothing to touch.
+TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+    AtlasPlanner::Config config;
+    config.seed = seed;
+    int asked = 0;
+    const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {
+      ++asked;
+      EXPECT_NEAR(normal.norm(), 1.0, 1e-9);
+      return point.x() > sphere.centre.x();
+    };
+    const AtlasPlanResult result = AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, east);
+    ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
+    const Chart& target = result.atlas.chart(result.path.back());
+    EXPECT_GT(target.centre.x(), sphere.centre.x());
+    EXPECT_GT(target.variance, kVMax);
+    EXPECT_EQ(asked, result.unreachable_skipped + 1);
+    // Every chart above V_max in the western half was passed over, not returned.
+    int western_above = 0;
+    for (std::size_t i = 0; i < result.atlas.size(); ++i) {
+      const Chart& chart = result.atlas.chart(static_cast<int>(i));
+      western_above += chart.variance > kVMax && chart.centre.x() <= sphere.centre.x() ? 1 : 0;
+    }
+    EXPECT_EQ(result.unreachable_skipped, western_above);
+  }
+  AtlasPlanner::Config config;
+  config.max_charts = 400;
+  const AtlasPlanResult nowhere =
+      AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, [](const Vector3&, const Vector3&) { return false; });
+  EXPECT_NE(nowhere.status, PlanStatus::kTouch);
+  EXPECT_GT(nowhere.unreachable_skipped, 0);
+  EXPECT_NE(nowhere.message.find("no safe approach"), std::string::npos) << nowhere.message;
+}

@@ -63,6 +63,20 @@ struct ProbeApproachPlanner::Impl {
     return true;
   }
 
+  // Empty when the approach pose in front of the touch and the probing segment, up to the
+  // contact zone around the touch, are free; otherwise why not. `normal` is unit.
+  std::string approachPoseProblem(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& normal) const {
+    const Eigen::Vector3d approach_pose = touch_point + config.approach_distance_m * normal;
+    if (!isFree(approach_pose, -normal))
+      return "the approach pose, " + std::to_string(config.approach_distance_m) +
+             " m out along the normal, is in collision: the touch cannot be approached";
+    const double probing_length =
+        std::max(0.0, config.approach_distance_m - config.contact_zone_m - config.probe.tip_radius_m);
+    if (!segmentFree(approach_pose, approach_pose - probing_length * normal, -normal))
+      return "the probing segment meets an obstacle before the touch: the touch is occluded";
+    return "";
+  }
+
   // Whether every point of the segment, sampled at check_resolution_m, is free.
   bool segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& direction) const {
     const double length = (b - a).norm();
@@ -116,6 +130,15 @@ void ProbeApproachPlanner::addStaticHalfSpace(const Eigen::Vector3d& normal, dou
       std::make_shared<fcl::Halfspaced>(normal / length, -offset / length), fcl::Transform3d::Identity()));
 }
 
+std::string ProbeApproachPlanner::checkApproachPose(const Eigen::Vector3d& touch_point,
+                                                    const Eigen::Vector3d& touch_normal) const {
+  if (!impl_->map) return "no collision map yet";
+  if (impl_->map->getRoot() == nullptr) return "the collision map is empty";
+  if (!touch_point.allFinite() || !touch_normal.allFinite() || touch_normal.norm() < 1e-9)
+    return "the touch and its normal must be finite, the normal non-zero";
+  return impl_->approachPoseProblem(touch_point, touch_normal.normalized());
+}
+
 bool ProbeApproachPlanner::isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const {
   return impl_->isFree(tip, direction.normalized());
 }
@@ -139,14 +162,8 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
   plan.direction = -normal;
   const Eigen::Vector3d approach_pose = touch_point + c.approach_distance_m * normal;
   if (!impl_->isFree(start_tip, plan.direction)) return finish("the probe's start is in collision");
-  if (!impl_->isFree(approach_pose, plan.direction))
-    return finish("the approach pose, " + std::to_string(c.approach_distance_m) +
-                  " m out along the normal, is in collision: the touch cannot be approached");
-  // The probing segment, up to the contact zone around the touch.
-  const double probing_length = std::max(0.0, c.approach_distance_m - c.contact_zone_m - c.probe.tip_radius_m);
-  if (!impl_->segmentFree(approach_pose, approach_pose - probing_length * normal, plan.direction))
-    return finish("the probing segment meets an obstacle before the touch: the touch is occluded");
-
+  if (std::string blocked = impl_->approachPoseProblem(touch_point, normal); !blocked.empty())
+    return finish(std::move(blocked));
   if (impl_->segmentFree(start_tip, approach_pose, plan.direction)) {
     plan.approach = {start_tip, approach_pose};
   } else {

@@ -81,21 +81,29 @@ ModelTouchApproacher::ModelTouchApproacher(const gpatlas_core::SurfaceModel& mod
 
 ModelTouchApproacher::~ModelTouchApproacher() = default;
 
+std::string ModelTouchApproacher::ensureMap() {
+  if (planner_) return "";
+  const auto started = std::chrono::steady_clock::now();
+  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_).build(model_);
+  if (!grid.ok) return "no collision map: " + grid.message;
+  auto planner = std::make_unique<ProbeApproachPlanner>(config_);
+  planner->setCollisionMap(collisionOctree(grid, map_occupied_probability_));
+  if (table_) planner->addStaticHalfSpace(table_->normal, table_->offset);
+  planner_ = std::move(planner);
+  last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
+  return "";
+}
+
+bool ModelTouchApproacher::reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) {
+  // Without a map nothing can be told: the full plan will say why.
+  if (!ensureMap().empty()) return true;
+  return planner_->checkApproachPose(point, outward_normal).empty();
+}
+
 gpatlas_core::ApproachResult ModelTouchApproacher::plan(const gpatlas_core::Touch& touch) {
   gpatlas_core::ApproachResult result;
-  if (!planner_) {
-    const auto started = std::chrono::steady_clock::now();
-    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_).build(model_);
-    if (!grid.ok) {
-      result.message = "no collision map: " + grid.message;
-      return result;
-    }
-    auto planner = std::make_unique<ProbeApproachPlanner>(config_);
-    planner->setCollisionMap(collisionOctree(grid, map_occupied_probability_));
-    if (table_) planner->addStaticHalfSpace(table_->normal, table_->offset);
-    planner_ = std::move(planner);
-    last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
-  }
+  result.message = ensureMap();
+  if (!result.message.empty()) return result;
   const TouchMotion motion = planTouchMotion(*planner_, touch, config_.rest_tip_position_m);
   result.ok = motion.ok;
   result.message = motion.message;

@@ -163,3 +163,31 @@ TEST(ModelTouchApproacher, ARestInsideTheObjectIsRefused) {
 }
 
 }  // namespace
+
+namespace {
+
+// The cheap test the strategies use: a touch whose approach pose lies under the table, or
+// behind another part of the object, is refused; one in the open is not.
+TEST(ModelTouchApproacher, TheCheapTestRefusesApproachPosesInTheTableOrTheObject) {
+  const gpatlas_core::GpisModel model = sphereModel();
+  gpatlas_core::ApproachConfig config;
+  config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
+  const double table_height = kCentre.z() - kRadius;
+  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, 0.5,
+                                                  gpatlas_core::SupportPlane{Vector3d::UnitZ(), -table_height});
+  EXPECT_TRUE(approacher.reachable(kCentre + kRadius * Vector3d::UnitZ(), Vector3d::UnitZ()));
+  EXPECT_TRUE(approacher.reachable(kCentre + kRadius * Vector3d::UnitX(), Vector3d::UnitX()));
+  // Low on the side, facing down: the approach pose is under the table.
+  const Vector3d low = Vector3d(1.0, 0.0, -0.8).normalized();
+  EXPECT_FALSE(approacher.reachable(kCentre + kRadius * low, low));
+  // A point on the far side, probed from inside the sphere: the approach pose is in the object
+  // (the normal is turned inward).
+  EXPECT_FALSE(approacher.reachable(kCentre + kRadius * Vector3d::UnitY(), -Vector3d::UnitY()));
+  // What the cheap test refuses, the full plan refuses too.
+  Touch touch;
+  touch.points = {kCentre + kRadius * low};
+  touch.normals = {low};
+  EXPECT_FALSE(approacher.plan(touch).ok);
+}
+
+}  // namespace

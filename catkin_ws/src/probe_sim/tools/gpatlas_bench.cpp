@@ -361,6 +361,7 @@ struct RunResult {
   // Approach planning (approach/): touches refused for want of a safe approach, the probe's
   // contacts with the true scene on the way to the touches and back, and the planner's time.
   int unreachable_touches{0};
+  int unreachable_candidates{0};
   int approach_collisions{0};
   int retreat_collisions{0};
   double approach_plan_ms_median{std::nan("")};
@@ -583,6 +584,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.update_ms_median = median(update_ms);
   r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
   r.unreachable_touches = result.unreachable_touches;
+  r.unreachable_candidates = result.unreachable_candidates;
   r.approach_collisions = result.approach_collisions;
   r.retreat_collisions = result.retreat_collisions;
   const std::string mesh_file =
@@ -637,7 +639,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
        "position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
-       "update_ms_median,unreachable_touches,approach_collisions,retreat_collisions,approach_plan_ms_median\n";
+       "update_ms_median,unreachable_touches,unreachable_candidates,approach_collisions,retreat_collisions,approach_plan_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
@@ -649,7 +651,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.position_sd_m) << ','
       << num(r.max_evaluated_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << ','
-      << r.unreachable_touches << ',' << r.approach_collisions << ',' << r.retreat_collisions << ','
+      << r.unreachable_touches << ',' << r.unreachable_candidates << ',' << r.approach_collisions << ',' << r.retreat_collisions << ','
       << num(r.approach_plan_ms_median, 4) << '\n';
   }
 }
@@ -657,7 +659,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,seed,action,contacts_total,max_evaluated_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
-       "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,approach_collisions,"
+       "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,unreachable_candidates,approach_collisions,"
        "retreat_collisions,approach_ms,approach_plan_ms\n";
   for (const auto& r : runs)
     for (const auto& h : r.history) {
@@ -666,7 +668,7 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
         << (initial ? "nan" : num(h.max_evaluated_variance)) << ',' << num(h.rmse_pred_to_gt_m) << ','
         << num(h.rmse_gt_to_pred_m) << ',' << num(h.plan_ms, 4) << ',' << num(h.probe_ms, 4) << ','
         << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << ','
-        << h.approach_refusals << ',' << h.approach_collisions << ',' << h.retreat_collisions << ','
+        << h.approach_refusals << ',' << h.unreachable_candidates << ',' << h.approach_collisions << ',' << h.retreat_collisions << ','
         << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << '\n';
     }
 }

@@ -28,8 +28,17 @@ class SimExplorationTest(unittest.TestCase):
             report = json.load(f)
         self.assertIn(report["stop_reason"], ("max_actions", "consecutive_failures"), report["stop_reason"])
         self.assertLessEqual(report["actions"], 5)
-        self.assertEqual(len(report["history"]), report["actions"])
+        # An action whose every touch had no safe approach made none.
+        probed = [h for h in report["history"] if not h["probe_reason"].startswith("no safe approach")]
+        self.assertEqual(len(probed), report["actions"])
         self.assertEqual(report["contacts"], sum(h["contacts"] for h in report["history"]))
+        # Every touch went along a path planned on the collision map, and the probe met nothing
+        # of the true scene on its way there or back.
+        for h in probed:
+            self.assertGreater(h["approach_ms"], 0.0, h)
+        self.assertEqual(report["approach_collisions"], 0)
+        self.assertEqual(report["retreat_collisions"], 0)
+        self.assertIsNotNone(report["approach_plan_ms_median"])
         # After the simulated actions the largest variance on the predicted surface has dropped.
         initial = report["initial"]["sampled_max_variance"]
         last = report["history"][-1]["sampled_max_variance"]

@@ -14,6 +14,10 @@
 
 namespace gpatlas_core {
 
+// Whether the probe can be brought to a touch of `point` along -outward_normal: a cheap test of
+// the approach (the full plan is made for the chosen touch only). Empty: every point can.
+using TouchFilter = std::function<bool(const Vector3& point, const Vector3& outward_normal)>;
+
 enum class PlanStatus : std::uint8_t {
   kTouch = 0,       // a touch (path) was found
   kConverged = 1,   // the predicted surface was covered without finding variance above V_max
@@ -31,6 +35,7 @@ struct AtlasPlanResult {
   int expansions{0};               // EXPANDCHART calls
   int failed_projections{0};       // candidates dropped because eq. 13 had no solution
   int retouch_skipped{0};          // charts above V_max at a measurement or an earlier target (EvidenceRule::retouch_radius_m)
+  int unreachable_skipped{0};      // charts that needed a touch the TouchFilter said the probe cannot make
   double elapsed_s{0.0};
 };
 
@@ -73,10 +78,12 @@ class AtlasPlanner {
   const Config& config() const { return config_; }
 
   // `start`: a point near the surface (e.g. the probe's position); without it the root is a
-  // random on-surface training point of the model (SELECTSURFACEPOINT).
+  // random on-surface training point of the model (SELECTSURFACEPOINT). A chart that needs a
+  // touch `reachable` refuses is passed over: the atlas grows on past it, and the surface
+  // counts as covered when only such charts are left.
   AtlasPlanResult plan(const SurfaceModel& model, double v_max,
                        const std::optional<Vector3>& start = std::nullopt,
-                       const Progress& progress = {}) const;
+                       const Progress& progress = {}, const TouchFilter& reachable = {}) const;
 
  private:
   Config config_;

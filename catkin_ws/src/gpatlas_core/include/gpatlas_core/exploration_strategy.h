@@ -24,6 +24,10 @@ struct PlanRequest {
   // Mixed with the strategy's own seed so that successive plans of one exploration differ
   // while the whole run stays reproducible.
   std::uint64_t seed{0};
+  // The atlas strategies pass over candidates this refuses (the Explorer's approacher's cheap
+  // test); empty: every candidate is reachable. The baselines ignore it: a touch they choose
+  // that has no safe approach is refused by the approacher itself.
+  TouchFilter reachable;
 };
 
 struct PlanResult {
@@ -36,6 +40,7 @@ struct PlanResult {
   double max_evaluated_variance{0.0};
   std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
   double elapsed_s{0.0};
+  int unreachable_candidates{0};  // candidates passed over for PlanRequest::reachable
 };
 
 // Chooses the next touch on a GPIS model (the step "plan" of Algorithm 2).

@@ -118,6 +118,7 @@ struct ExplorationRecord {
   // motion planner's own time (ApproachResult::planning_ms), and the unexpected contacts the
   // probe reported on the way to the touch and back (ProbeResult).
   int approach_refusals{0};
+  int unreachable_candidates{0};  // candidates the strategy passed over (PlanResult), every try
   std::string approach_message;
   double approach_ms{0.0};
   double approach_compute_ms{0.0};
@@ -149,6 +150,7 @@ struct ExplorationResult {
   // ended the run are in no record), and the probe's unexpected contacts on the way to the
   // touches and back.
   int unreachable_touches{0};
+  int unreachable_candidates{0};  // passed over by the strategies before they chose (PlanRequest::reachable)
   int approach_collisions{0};
   int retreat_collisions{0};
 };
@@ -197,6 +199,10 @@ class TouchApproacher {
  public:
   virtual ~TouchApproacher() = default;
   virtual ApproachResult plan(const Touch& touch) = 0;
+  // A cheap test the strategies apply to their candidates before they choose one
+  // (PlanRequest::reachable): whether a touch of `point` along -outward_normal may have a safe
+  // approach. The default says yes to every one.
+  virtual bool reachable(const Vector3& /*point*/, const Vector3& /*outward_normal*/) { return true; }
   // The model took a touch: what the next plan sees must come from the updated model.
   virtual void modelChanged() {}
 };

@@ -53,6 +53,10 @@ class ProbeApproachPlanner {
   ApproachPlan plan(const Eigen::Vector3d& start_tip, const Eigen::Vector3d& touch_point,
                     const Eigen::Vector3d& touch_normal) const;
 
+  // The cheap part of plan(): whether the approach pose in front of the touch and the probing
+  // segment from there are clear (empty), or why not. Needs a map, like plan().
+  std::string checkApproachPose(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
+
   // Whether the probe, pointing along `direction` with its tip at `tip`, is clear of every
   // obstacle by clearance_m.
   bool isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const;

@@ -50,6 +50,8 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   ~ModelTouchApproacher() override;
 
   gpatlas_core::ApproachResult plan(const gpatlas_core::Touch& touch) override;
+  // The approach pose and the probing segment (ProbeApproachPlanner::checkApproachPose).
+  bool reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) override;
   void modelChanged() override { planner_.reset(); }
 
   // The last map's build time (ms) and size.
@@ -63,6 +65,9 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   std::optional<gpatlas_core::SupportPlane> table_;
   std::unique_ptr<ProbeApproachPlanner> planner_;  // null: the map must be (re)built
   double last_map_ms_{0.0};
+
+  // The planner on a map of the model as it is now; empty with why when the map fails.
+  std::string ensureMap();
 };
 
 }  // namespace gpatlas_motion
