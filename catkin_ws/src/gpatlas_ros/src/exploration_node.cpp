@@ -447,6 +447,8 @@ class ExplorationNode {
       srv.request.v_max = request.v_max;
       srv.request.strategy = node_.strategy_;
       srv.request.seed = request.seed;
+      // The planner's side of the loop's reachability test (PlanRequest::reachable).
+      srv.request.reachable_only = node_.approach_config_.enabled;
       for (const auto& p : request.evidence.attempted_targets) srv.request.attempted_targets.push_back(toPointMsg(p));
       // Plan on the model that holds the last update: the planner rebuilds its replica from the
       // training set this node has seen, which can take it longer than this node took to see it.
@@ -463,6 +465,7 @@ class ExplorationNode {
       plan.message = srv.response.message;
       plan.max_evaluated_variance = srv.response.max_evaluated_variance;
       plan.elapsed_s = srv.response.plan_time_s;
+      plan.unreachable_candidates = static_cast<int>(srv.response.unreachable_candidates);
       switch (srv.response.status) {
         case gpatlas_msgs::GetNextTouch::Response::TOUCH: {
           plan.status = gpatlas_core::PlanStatus::kTouch;

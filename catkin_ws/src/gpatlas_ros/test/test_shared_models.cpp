@@ -5,6 +5,8 @@
 
 #include <gpatlas_core/gpis_model.h>
 
+#include <octomap/OcTree.h>
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -86,6 +88,38 @@ TEST(SharedModels, ATrainingSetFromElsewhereIsRefitted) {
   empty.points.clear();
   EXPECT_FALSE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", empty, gpatlas_core::SurfaceModelConfig(),
                                                 &replica, &error, &shared));
+}
+
+}  // namespace
+
+namespace {
+
+// The collision maps: a topic attended before its first map says "wait", a failed build is
+// offered as none (so nobody waits for it), and a withdrawn topic is no longer attended.
+TEST(SharedCollisionMaps, AttendedOfferedAndFailedMapsAreToldApart) {
+  const std::string topic = "/test/collision_map/training_set";
+  gpatlas_msgs::TrainingSet t1, t2;
+  t1.sequence = 1;
+  t1.header.stamp = ros::Time(10.0);
+  t2.sequence = 2;
+  t2.header.stamp = ros::Time(11.0);
+  EXPECT_FALSE(gpatlas_ros::SharedCollisionMaps::attended(topic));
+  gpatlas_ros::SharedCollisionMaps::attend(topic);
+  EXPECT_TRUE(gpatlas_ros::SharedCollisionMaps::attended(topic));
+  bool offered = true;
+  EXPECT_EQ(gpatlas_ros::SharedCollisionMaps::find(topic, t1, &offered), nullptr);
+  EXPECT_FALSE(offered);
+  auto map = std::make_shared<const octomap::OcTree>(0.01);
+  gpatlas_ros::SharedCollisionMaps::offer(topic, t1, map);
+  gpatlas_ros::SharedCollisionMaps::offer(topic, t2, nullptr);
+  EXPECT_EQ(gpatlas_ros::SharedCollisionMaps::find(topic, t1, &offered), map);
+  EXPECT_TRUE(offered);
+  EXPECT_EQ(gpatlas_ros::SharedCollisionMaps::find(topic, t2, &offered), nullptr);
+  EXPECT_TRUE(offered);
+  gpatlas_ros::SharedCollisionMaps::withdraw(topic);
+  EXPECT_FALSE(gpatlas_ros::SharedCollisionMaps::attended(topic));
+  EXPECT_EQ(gpatlas_ros::SharedCollisionMaps::find(topic, t1, &offered), nullptr);
+  EXPECT_FALSE(offered);
 }
 
 }  // namespace

@@ -191,6 +191,8 @@ class AtlasPlannerServer {
   // The GP nodelet's snapshot when it is in this manager, otherwise a replica (SharedModels).
   std::shared_ptr<const gpatlas_core::SurfaceModel> model_;
   ros::Time model_stamp_;  // the stamp of the training set model_ is from
+  std::uint32_t model_sequence_{0};  // and its sequence number
+  gpatlas_core::ApproachConfig approach_config_;  // for GetNextTouch's reachable_only
   std::string model_error_;
   std::map<std::string, std::unique_ptr<gpatlas_core::ExplorationStrategy>> strategies_;
   std::uint64_t plan_count_{0};

@@ -7,6 +7,7 @@
 #include <gpatlas_msgs/Touch.h>
 
 #include <gpatlas_core/strategy_library.h>
+#include <gpatlas_motion/probe_approach_planner.h>
 
 #include <cmath>
 #include <sstream>
@@ -30,6 +31,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   default_strategy_ = choice.name;
   readSurfaceModel(reader, &model_config_);
   readStrategy(reader, &strategy_config_);
+  readApproach(reader, &approach_config_);
   // Strategies and models of your own, before the default is looked up.
   loadPluginLibraries(choice.libraries, reader, "atlas_planner");
   std::string error;
@@ -92,6 +94,7 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     }
     model_ = std::move(model);
     model_stamp_ = msg->header.stamp;
+    model_sequence_ = msg->sequence;
     model_error_.clear();
     ROS_DEBUG_STREAM("atlas_planner: " << model_->name() << " model with " << model_->observations().size()
                                        << " observations" << (shared ? " (the GP nodelet's)" : " (refitted)"));
@@ -140,6 +143,32 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   request.evidence.support_plane = support_plane_;
   if (req.use_start) request.start = fromMsg(req.start);
   for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
+  // reachable_only: the approach planner's cheap test on the collision map of this model.
+  std::unique_ptr<gpatlas_motion::ProbeApproachPlanner> approach_check;
+  std::string reachability_note;
+  if (req.reachable_only) {
+    const std::string& topic = training_sub_.getTopic();
+    bool offered = false;
+    const std::shared_ptr<const octomap::OcTree> map =
+        SharedCollisionMaps::find(topic, model_sequence_, model_stamp_, &offered);
+    if (SharedCollisionMaps::attended(topic) && !offered) {
+      res.status = gpatlas_msgs::GetNextTouch::Response::STALE_MODEL;
+      res.message = "the collision map of training set " + std::to_string(model_sequence_) +
+                    " is not built yet (reachable_only)";
+      return true;
+    }
+    if (map) {
+      approach_check = std::make_unique<gpatlas_motion::ProbeApproachPlanner>(approach_config_);
+      approach_check->setCollisionMap(map);
+      if (support_plane_) approach_check->addStaticHalfSpace(support_plane_->normal, support_plane_->offset);
+      request.reachable = [&approach_check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
+        return approach_check->checkApproachPose(point, normal).empty();
+      };
+    } else {
+      reachability_note = offered ? "; every candidate taken: the collision map of this model failed"
+                                  : "; every candidate taken: no collision map in this process";
+    }
+  }
   // The exploration loop numbers its plans; a call by hand gets the planner's own count.
   ++plan_count_;
   request.seed = req.seed != 0 ? req.seed : plan_count_;
@@ -161,8 +190,9 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
     plan.message = "strategy '" + name + "' returned a touch without matching points and normals";
   }
   res.plan_time_s = (ros::WallTime::now() - start).toSec();
-  res.message = plan.message;
+  res.message = plan.message + reachability_note;
   res.max_evaluated_variance = plan.max_evaluated_variance;
+  res.unreachable_candidates = static_cast<std::uint32_t>(plan.unreachable_candidates);
   switch (plan.status) {
     case gpatlas_core::PlanStatus::kTouch:
       res.status = gpatlas_msgs::GetNextTouch::Response::TOUCH;

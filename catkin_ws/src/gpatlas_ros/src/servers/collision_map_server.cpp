@@ -55,6 +55,8 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   save_srv_ = pnh_.advertiseService("save_map", &CollisionMapServer::onSaveMap, this);
   approach_srv_ = pnh_.advertiseService("plan_approach", &CollisionMapServer::onPlanApproach, this);
   training_sub_ = nh_.subscribe("training_set", 1, &CollisionMapServer::onTrainingSet, this);
+  // The planner nodelet of this manager tests its candidates on these maps.
+  SharedCollisionMaps::attend(training_sub_.getTopic());
   if (use_support_plane)
     plane_sub_ = nh_.subscribe("support_plane", 1, &CollisionMapServer::onSupportPlane, this);
 }
@@ -122,6 +124,7 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
 }
 
 CollisionMapServer::~CollisionMapServer() {
+  SharedCollisionMaps::withdraw(training_sub_.getTopic());
   training_sub_.shutdown();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -185,6 +188,9 @@ void CollisionMapServer::buildLoop() {
     } catch (const std::exception& e) {
       error = e.what();
     }
+    // Offered even when the build failed (as none), so that the planner does not wait for it.
+    SharedCollisionMaps::offer(training_sub_.getTopic(), *msg,
+                               map ? map->tree : std::shared_ptr<const octomap::OcTree>());
     std::lock_guard<std::mutex> lock(mutex_);
     // A reset while it was built (a newer sequence, nothing pending) makes it worthless: the
     // status already says NONE.
