@@ -222,6 +222,8 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
           if (atlas.chart(last).candidates.empty()) break;
           ChartCreation extension = expand(last);
           if (!extension.ok) break;
+          // A slide ends where the probe can still leave the surface.
+          if (reachable && !reachable(extension.chart.centre, extension.chart.normal)) break;
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);

@@ -27,7 +27,14 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
     touch.kind = mode_ == Mode::kPoke ? Touch::Kind::kPoke : Touch::Kind::kSlide;
     // Poke: only the uncertain end of the path. Slide: the whole path, root first, so the
     // probe starts where the model is certain and slides toward the uncertainty.
-    const std::size_t first = mode_ == Mode::kPoke ? planned.path.size() - 1 : 0;
+    std::size_t first = mode_ == Mode::kPoke ? planned.path.size() - 1 : 0;
+    // A slide starts at the first chart of the path the probe can be brought to.
+    if (mode_ == Mode::kSlide && request.reachable)
+      while (first + 1 < planned.path.size()) {
+        const Chart& chart = planned.atlas.chart(planned.path[first]);
+        if (request.reachable(chart.centre, chart.normal)) break;
+        ++first;
+      }
     for (std::size_t k = first; k < planned.path.size(); ++k) {
       const Chart& chart = planned.atlas.chart(planned.path[k]);
       touch.points.push_back(chart.centre);

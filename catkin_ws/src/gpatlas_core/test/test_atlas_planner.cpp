@@ -280,6 +280,23 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
     }
     EXPECT_EQ(result.unreachable_skipped, western_above);
   }
+  // A slide: its extension stops before the first refused chart, and it starts at the first
+  // chart of the path the filter accepts.
+  StrategyConfig slide_config;
+  slide_config.seed = 4;
+  const auto slide = makeStrategy("atlas_slide", slide_config);
+  PlanRequest request;
+  request.v_max = kVMax;
+  request.reachable = [&](const Vector3& point, const Vector3&) { return point.x() > sphere.centre.x(); };
+  const PlanResult slid = slide->plan(model, request);
+  ASSERT_EQ(slid.status, PlanStatus::kTouch) << slid.message;
+  EXPECT_GT(slid.touch.points.front().x(), sphere.centre.x());
+  const std::vector<int>& path = slid.atlas->path;
+  std::size_t needy = 0;  // the first chart of the path above V_max: the extension follows it
+  while (needy < path.size() && !(slid.atlas->atlas.chart(path[needy]).variance > kVMax)) ++needy;
+  for (std::size_t k = needy; k < path.size(); ++k)
+    EXPECT_GT(slid.atlas->atlas.chart(path[k]).centre.x(), sphere.centre.x()) << "chart " << k << " of the path";
+
   AtlasPlanner::Config config;
   config.max_charts = 400;
   const AtlasPlanResult nowhere =

@@ -62,7 +62,8 @@ class AtlasPlanner {
     bool cover_all_observations{true};
     // Once a chart above V_max is found, extend the path from it by up to this many charts,
     // each grown toward the highest-variance candidate of the previous one: a slide then runs
-    // on into the unknown instead of stopping at its edge. 0: Algorithm 1 verbatim.
+    // on into the unknown instead of stopping at its edge, up to the first chart plan()'s
+    // `reachable` refuses. 0: Algorithm 1 verbatim.
     int extend_path_charts{0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
     // charts are kept small enough that none hides such a point. Default: off, variance alone
