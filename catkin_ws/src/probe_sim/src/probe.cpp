@@ -201,6 +201,9 @@ std::string SimulatedProber::validate(const gpatlas_core::Touch& touch) const {
       return "normal " + std::to_string(i) + " is zero or not finite";
     }
   }
+  for (const auto* path : {&touch.approach_path, &touch.retreat_path})
+    for (const Eigen::Vector3d& p : *path)
+      if (!p.allFinite()) return std::string(path == &touch.approach_path ? "approach" : "retreat") + " path is not finite";
   if (touch.kind == gpatlas_core::Touch::Kind::kSlide) {
     double length = 0.0;
     for (std::size_t i = 1; i < touch.points.size(); ++i) {

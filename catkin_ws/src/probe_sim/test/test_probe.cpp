@@ -309,6 +309,9 @@ TEST_F(SphereObject, BadTouchesFailWithAReason) {
   slide.points.push_back(Eigen::Vector3d(0, 0, std::numeric_limits<double>::infinity()));
   slide.normals.push_back(Eigen::Vector3d::UnitX());
   cases.push_back({slide, "waypoint 1"});
+  Touch bad_path = poke(kCentre + kRadius * Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitX());
+  bad_path.approach_path = {Eigen::Vector3d(0.3, 0, 0.1), Eigen::Vector3d(nan, 0, 0)};
+  cases.push_back({bad_path, "approach path is not finite"});
   for (const Case& c : cases) {
     const ProbeResult result = prober.probe(c.touch);
     EXPECT_FALSE(result.success);
