@@ -196,6 +196,14 @@ class ExplorationNode {
     return true;
   }
 
+  // A touch for the services: in the world frame, stamped now.
+  gpatlas_msgs::Touch touchMsg(const gpatlas_core::Touch& touch) const {
+    gpatlas_msgs::Touch msg = toMsg(touch);
+    msg.header.frame_id = world_frame_;
+    msg.header.stamp = ros::Time::now();
+    return msg;
+  }
+
   void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
     std::lock_guard<std::mutex> lock(mutex_);
     training_ = msg;
@@ -498,9 +506,7 @@ class ExplorationNode {
     explicit ServiceProber(ExplorationNode& node) : node_(node) {}
     gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override {
       gpatlas_msgs::Probe srv;
-      srv.request.touch = toMsg(touch);
-      srv.request.touch.header.frame_id = node_.world_frame_;
-      srv.request.touch.header.stamp = ros::Time::now();
+      srv.request.touch = node_.touchMsg(touch);
       if (!node_.callService("probe", srv)) throw std::runtime_error("probe did not answer");
       gpatlas_core::ProbeResult result;
       std::string error;
@@ -552,9 +558,7 @@ class ExplorationNode {
     explicit ServiceApproacher(ExplorationNode& node) : node_(node) {}
     gpatlas_core::ApproachResult plan(const gpatlas_core::Touch& touch) override {
       gpatlas_msgs::PlanApproach srv;
-      srv.request.touch = toMsg(touch);
-      srv.request.touch.header.frame_id = node_.world_frame_;
-      srv.request.touch.header.stamp = ros::Time::now();
+      srv.request.touch = node_.touchMsg(touch);
       srv.request.start = toPointMsg(node_.approach_config_.rest_tip_position_m);
       const auto training = node_.latestTraining();
       const std::uint32_t wanted = training ? training->sequence : 0;
