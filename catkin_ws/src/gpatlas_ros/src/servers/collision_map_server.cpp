@@ -3,7 +3,6 @@
 #include "gpatlas_ros/servers.h"
 #include "gpatlas_ros/shared_models.h"
 
-#include <gpatlas_core/background_work.h>
 #include <gpatlas_motion/touch_approach.h>
 #include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/OctomapBinary.h>
@@ -167,9 +166,8 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
 }
 
 void CollisionMapServer::buildLoop() {
-  // Nobody waits for a map yet: the plans and the model's updates get the cores first.
-  if (!gpatlas_core::lowerCurrentThreadPriority())
-    ROS_WARN("collision_map: cannot lower the map builder's priority; rebuilds compete with planning");
+  // The exploration's next plan and approach wait for the map of the updated model: it is built
+  // at normal priority, on every core.
   for (;;) {
     gpatlas_msgs::TrainingSet::ConstPtr msg;
     {
@@ -184,7 +182,7 @@ void CollisionMapServer::buildLoop() {
     const ros::WallTime started = ros::WallTime::now();
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
-      gpatlas_core::runOnThisThreadOnly([&] { map = build(*msg, &error, &summary); });
+      map = build(*msg, &error, &summary);
     } catch (const std::exception& e) {
       error = e.what();
     }
