@@ -22,8 +22,9 @@ struct ApproachConfig {
   // touch's approach pose and back, which the simulation judges all the same.
   bool enabled{true};
   // Where the probe's tip rests between touches (world frame): the start of every approach and
-  // the end of every retreat. Vito's left arm in its ready pose (vito_description) holds the
-  // tip above the table's front, clear of an object standing at simulation/object_position_xy_m.
+  // the end of every retreat. The default lies above the table's front, 0.4 m up and 0.3 m
+  // from an object standing at simulation/object_position_xy_m. The robot's own body is not
+  // an obstacle yet.
   Vector3 rest_tip_position_m{0.5, 0.25, 0.4};
   // A collision-map voxel with P(occupied) above this is an obstacle.
   double occupied_probability{0.5};
