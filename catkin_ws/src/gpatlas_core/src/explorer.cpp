@@ -368,6 +368,11 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       record.index = action;
       record.n_train = planner.modelSize();
 
+      if (approacher) {
+        const Clock::time_point prepare_started = Clock::now();
+        approacher->prepare();
+        record.approach_ms += millisecondsSince(prepare_started);
+      }
       // Plan; with an approacher, until it finds a way to the touch or refused too many.
       PlanResult plan;
       bool approach_refused = false;

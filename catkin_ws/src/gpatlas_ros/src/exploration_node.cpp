@@ -12,6 +12,7 @@
 #include <gpatlas_core/triangle_mesh.h>
 #include <gpatlas_msgs/AddObservations.h>
 #include <gpatlas_msgs/Capture.h>
+#include <gpatlas_msgs/CollisionMapStatus.h>
 #include <gpatlas_msgs/GetMesh.h>
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/PlanApproach.h>
@@ -76,6 +77,8 @@ class ExplorationNode {
     }
     cloud_pub_ = nh_.advertise<sensor_msgs::PointCloud2>("camera_points", 1, true);
     training_sub_ = nh_.subscribe("training_set", 1, &ExplorationNode::onTrainingSet, this);
+    if (approach_config_.enabled)
+      map_status_sub_ = nh_.subscribe("collision_map_status", 1, &ExplorationNode::onMapStatus, this);
   }
 
   ~ExplorationNode() { stopMeasurements(); }
@@ -208,6 +211,11 @@ class ExplorationNode {
     std::lock_guard<std::mutex> lock(mutex_);
     training_ = msg;
     training_received_ = ros::WallTime::now();
+  }
+
+  void onMapStatus(const gpatlas_msgs::CollisionMapStatus::ConstPtr& msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    map_status_ = msg;
   }
 
   gpatlas_msgs::TrainingSet::ConstPtr latestTraining() {
@@ -556,6 +564,27 @@ class ExplorationNode {
   class ServiceApproacher : public gpatlas_core::TouchApproacher {
    public:
     explicit ServiceApproacher(ExplorationNode& node) : node_(node) {}
+    // Waits for the collision map of the newest training set (or the news that it failed), so
+    // that neither the planner's reachability test nor plan_approach waits for it.
+    void prepare() override {
+      const auto training = node_.latestTraining();
+      if (!training) return;
+      const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(node_.node_config_.call_timeout_s);
+      while (ros::ok() && ros::WallTime::now() < deadline) {
+        {
+          std::lock_guard<std::mutex> lock(node_.mutex_);
+          const auto& status = node_.map_status_;
+          // Built, or its build failed: STALE (an older map is left) or NONE (none is).
+          const bool failed = status && status->latest_training_sequence >= training->sequence &&
+                              (status->state == gpatlas_msgs::CollisionMapStatus::STALE ||
+                               status->state == gpatlas_msgs::CollisionMapStatus::NONE);
+          if (status && (status->map_training_sequence >= training->sequence || failed)) return;
+        }
+        ros::WallDuration(0.01).sleep();
+      }
+      throw std::runtime_error("no collision map of training set " + std::to_string(training->sequence) + " within " +
+                               std::to_string(node_.node_config_.call_timeout_s) + " s (collision_map_status)");
+    }
     gpatlas_core::ApproachResult plan(const gpatlas_core::Touch& touch) override {
       gpatlas_msgs::PlanApproach srv;
       srv.request.touch = node_.touchMsg(touch);
@@ -615,6 +644,8 @@ class ExplorationNode {
   std::mutex mutex_;
   gpatlas_msgs::TrainingSet::ConstPtr training_;
   ros::WallTime training_received_;
+  gpatlas_msgs::CollisionMapStatus::ConstPtr map_status_;
+  ros::Subscriber map_status_sub_;
   ros::Publisher cloud_pub_;
   ros::Subscriber training_sub_;
 };

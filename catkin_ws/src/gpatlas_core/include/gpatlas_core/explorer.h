@@ -205,6 +205,10 @@ class TouchApproacher {
   virtual bool reachable(const Vector3& /*point*/, const Vector3& /*outward_normal*/) { return true; }
   // The model took a touch: what the next plan sees must come from the updated model.
   virtual void modelChanged() {}
+  // Called before each action's first plan: brings the approacher up to date with the model
+  // (builds or waits for the collision map of the updated model), so that the wait is the
+  // approach's (ExplorationRecord::approach_ms), not the plan's.
+  virtual void prepare() {}
 };
 
 // Tactile exploration, paper Algorithm 2: plan a touch on the current model, probe it, add the

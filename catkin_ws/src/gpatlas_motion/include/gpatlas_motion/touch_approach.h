@@ -53,6 +53,8 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   // The approach pose and the probing segment (ProbeApproachPlanner::checkApproachPose).
   bool reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) override;
   void modelChanged() override { planner_.reset(); }
+  // Builds the map of the model as it is now (a failure is reported by plan()).
+  void prepare() override { ensureMap(); }
 
   // The last map's build time (ms) and size.
   double lastMapBuildMs() const { return last_map_ms_; }
