@@ -589,24 +589,13 @@ class ExplorationNode {
       gpatlas_msgs::PlanApproach srv;
       srv.request.touch = node_.touchMsg(touch);
       srv.request.start = toPointMsg(node_.approach_config_.rest_tip_position_m);
-      const auto training = node_.latestTraining();
-      const std::uint32_t wanted = training ? training->sequence : 0;
-      const ros::WallTime asked = ros::WallTime::now();
-      while (true) {
-        if (!node_.callService("plan_approach", srv)) throw std::runtime_error("plan_approach did not answer");
-        const bool built = srv.response.map_training_sequence >= wanted &&
-                           srv.response.message.rfind("no collision map yet", 0) != 0;
-        if (built) break;
-        if ((ros::WallTime::now() - asked).toSec() > node_.node_config_.call_timeout_s)
-          throw std::runtime_error("plan_approach: no collision map of training set " + std::to_string(wanted) +
-                                   " within " + std::to_string(node_.node_config_.call_timeout_s) +
-                                   " s (the newest: " + std::to_string(srv.response.map_training_sequence) + "): " +
-                                   srv.response.message);
-        ros::WallDuration(0.05).sleep();
-      }
+      // prepare() waited for the map of the newest training set, or for the news that it failed:
+      // then the answer comes from the older map and says so (map_stale).
+      if (!node_.callService("plan_approach", srv)) throw std::runtime_error("plan_approach did not answer");
       gpatlas_core::ApproachResult result;
       result.ok = srv.response.success;
       result.message = srv.response.message;
+      if (srv.response.map_stale) result.message += " (on the map of an older model: its rebuild failed)";
       result.planning_ms = 1000.0 * srv.response.planning_time_s;
       for (const auto& p : srv.response.approach) result.approach_path.push_back(fromMsg(p));
       for (const auto& p : srv.response.retreat) result.retreat_path.push_back(fromMsg(p));
