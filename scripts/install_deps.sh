@@ -20,10 +20,10 @@ PACKAGES=(
   librostest-dev python3-rostest libgtest-dev googletest libbenchmark-dev python3-nose python3-yaml
   # messages (the .msg definitions are needed by message generation)
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-shape-msgs
-  ros-pcl-msgs ros-tf2-msgs ros-std-srvs libstd-msgs-dev libgeometry-msgs-dev
+  ros-pcl-msgs ros-tf2-msgs ros-std-srvs ros-trajectory-msgs libstd-msgs-dev libgeometry-msgs-dev
   libsensor-msgs-dev libvisualization-msgs-dev libshape-msgs-dev libpcl-msgs-dev
-  libtf2-msgs-dev libstd-srvs-dev python3-std-msgs python3-geometry-msgs python3-sensor-msgs
-  python3-visualization-msgs python3-shape-msgs python3-std-srvs
+  libtf2-msgs-dev libstd-srvs-dev libtrajectory-msgs-dev python3-std-msgs python3-geometry-msgs python3-sensor-msgs
+  python3-visualization-msgs python3-shape-msgs python3-std-srvs python3-trajectory-msgs
   # visualisation, plots, screenshots
   rviz xvfb python3-matplotlib python3-numpy imagemagick
 )

@@ -17,6 +17,12 @@ if [[ "$object" != procedural:* ]]; then
   object=$(realpath "$object")
 fi
 
+# The left arm holds the probe (approaches planned for it) unless the arguments say otherwise:
+# use_arm:=false gives the free-floating probe.
+if [[ " $* " != *" use_arm:="* ]]; then
+  set -- use_arm:=true "$@"
+fi
+
 results="$root/results/demo_$(date +%Y%m%d_%H%M%S)"
 # A private master port, so the demo neither needs nor disturbs a running roscore.
 export ROS_MASTER_URI=http://localhost:${DEMO_ROS_PORT:-11511}
@@ -42,5 +48,7 @@ print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['
 if m:
     print(f"[demo] shape RMSE predicted->truth {1000*m['rmse_pred_to_gt_m']:.1f} mm, truth->predicted "
           f"{1000*m['rmse_gt_to_pred_m']:.1f} mm, F-score@5mm {m['fscore_5mm']:.2f}")
+print(f"[demo] approach: {r.get('approach_collisions')} collision(s) on the way to the touches, "
+      f"{r.get('retreat_collisions')} on the way back, {r.get('unreachable_touches')} touch(es) refused as unreachable")
 print(f"[demo] results: {d}/ (report.json, surface.ply, collision_map.bt, exploration.png)")
 PY

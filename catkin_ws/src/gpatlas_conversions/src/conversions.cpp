@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace gpatlas_ros {
 
@@ -53,7 +54,59 @@ gpatlas_core::SupportPlane transformPlane(const gpatlas_core::SupportPlane& plan
   return out;
 }
 
-gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch) {
+trajectory_msgs::JointTrajectory toJointTrajectoryMsg(const std::vector<Eigen::VectorXd>& path,
+                                                      const std::vector<std::string>& joint_names,
+                                                      double joint_speed_rad_s) {
+  if (!(joint_speed_rad_s > 0.0)) throw std::invalid_argument("a joint trajectory needs a positive joint speed");
+  trajectory_msgs::JointTrajectory msg;
+  msg.joint_names = joint_names;
+  double time_s = 0.0;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    if (path[i].size() != static_cast<Eigen::Index>(joint_names.size()))
+      throw std::invalid_argument("a configuration of " + std::to_string(path[i].size()) + " joints for " +
+                                  std::to_string(joint_names.size()) + " joint names");
+    if (i > 0) time_s += (path[i] - path[i - 1]).cwiseAbs().maxCoeff() / joint_speed_rad_s;
+    trajectory_msgs::JointTrajectoryPoint point;
+    point.positions.assign(path[i].data(), path[i].data() + path[i].size());
+    point.time_from_start = ros::Duration(time_s);
+    msg.points.push_back(std::move(point));
+  }
+  return msg;
+}
+
+bool fromJointTrajectoryMsg(const trajectory_msgs::JointTrajectory& msg, const std::vector<std::string>& joint_names,
+                            std::vector<Eigen::VectorXd>* path, std::string* error) {
+  std::vector<std::size_t> index;
+  for (const std::string& name : joint_names) {
+    const auto it = std::find(msg.joint_names.begin(), msg.joint_names.end(), name);
+    if (it == msg.joint_names.end()) {
+      *error = "the joint trajectory has no joint '" + name + "'";
+      return false;
+    }
+    index.push_back(static_cast<std::size_t>(it - msg.joint_names.begin()));
+  }
+  std::vector<Eigen::VectorXd> out;
+  for (std::size_t i = 0; i < msg.points.size(); ++i) {
+    const auto& positions = msg.points[i].positions;
+    if (positions.size() != msg.joint_names.size()) {
+      *error = "point " + std::to_string(i) + " of the joint trajectory has " + std::to_string(positions.size()) +
+               " positions for " + std::to_string(msg.joint_names.size()) + " joints";
+      return false;
+    }
+    Eigen::VectorXd q(static_cast<Eigen::Index>(joint_names.size()));
+    for (std::size_t j = 0; j < index.size(); ++j) q[static_cast<Eigen::Index>(j)] = positions[index[j]];
+    if (!q.allFinite()) {
+      *error = "point " + std::to_string(i) + " of the joint trajectory is not finite";
+      return false;
+    }
+    out.push_back(std::move(q));
+  }
+  *path = std::move(out);
+  return true;
+}
+
+gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch, const std::vector<std::string>& joint_names,
+                          double joint_speed_rad_s) {
   gpatlas_msgs::Touch msg;
   msg.kind = touch.kind == gpatlas_core::Touch::Kind::kSlide ? gpatlas_msgs::Touch::SLIDE : gpatlas_msgs::Touch::POKE;
   for (const auto& p : touch.points) msg.points.push_back(toPointMsg(p));
@@ -62,10 +115,15 @@ gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch) {
   msg.strategy = touch.strategy;
   for (const auto& p : touch.approach_path) msg.approach_path.push_back(toPointMsg(p));
   for (const auto& p : touch.retreat_path) msg.retreat_path.push_back(toPointMsg(p));
+  if (!touch.approach_joints.empty())
+    msg.approach_trajectory = toJointTrajectoryMsg(touch.approach_joints, joint_names, joint_speed_rad_s);
+  if (!touch.retreat_joints.empty())
+    msg.retreat_trajectory = toJointTrajectoryMsg(touch.retreat_joints, joint_names, joint_speed_rad_s);
   return msg;
 }
 
-bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::string* error) {
+bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::string* error,
+             const std::vector<std::string>* joint_names) {
   if (msg.kind != gpatlas_msgs::Touch::POKE && msg.kind != gpatlas_msgs::Touch::SLIDE) {
     *error = "touch kind " + std::to_string(msg.kind) + " is neither POKE (0) nor SLIDE (1)";
     return false;
@@ -87,6 +145,16 @@ bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::st
   out.strategy = msg.strategy;
   for (const auto& p : msg.approach_path) out.approach_path.push_back(fromMsg(p));
   for (const auto& p : msg.retreat_path) out.retreat_path.push_back(fromMsg(p));
+  if (joint_names) {
+    std::string why;
+    if ((!msg.approach_trajectory.points.empty() &&
+         !fromJointTrajectoryMsg(msg.approach_trajectory, *joint_names, &out.approach_joints, &why)) ||
+        (!msg.retreat_trajectory.points.empty() &&
+         !fromJointTrajectoryMsg(msg.retreat_trajectory, *joint_names, &out.retreat_joints, &why))) {
+      *error = "touch trajectory: " + why;
+      return false;
+    }
+  }
   *touch = std::move(out);
   return true;
 }

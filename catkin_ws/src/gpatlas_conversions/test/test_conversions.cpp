@@ -34,6 +34,50 @@ TEST(Conversions, TouchRoundTrip) {
   EXPECT_EQ(back.retreat_path, touch.retreat_path);
 }
 
+TEST(Conversions, TouchJointTrajectoriesRoundTripByName) {
+  gpatlas_core::Touch touch;
+  touch.points = {{0.1, 0.2, 0.3}};
+  touch.normals = {{0.0, 0.0, 1.0}};
+  Eigen::VectorXd rest(3), above(3);
+  rest << 0.1, -0.2, 0.3;
+  above << 0.5, -0.2, 1.3;
+  touch.approach_joints = {rest, above};
+  touch.retreat_joints = {above, rest};
+  const std::vector<std::string> names = {"a1", "a2", "a3"};
+  const gpatlas_msgs::Touch msg = toMsg(touch, names, 0.5);
+  ASSERT_EQ(msg.approach_trajectory.joint_names, names);
+  ASSERT_EQ(msg.approach_trajectory.points.size(), 2u);
+  // The slowest joint (a3: 1 rad) at 0.5 rad/s takes 2 s.
+  EXPECT_DOUBLE_EQ(msg.approach_trajectory.points[0].time_from_start.toSec(), 0.0);
+  EXPECT_NEAR(msg.approach_trajectory.points[1].time_from_start.toSec(), 2.0, 1e-9);
+
+  gpatlas_core::Touch back;
+  std::string error;
+  ASSERT_TRUE(fromMsg(msg, &back, &error, &names)) << error;
+  EXPECT_EQ(back.approach_joints, touch.approach_joints);
+  EXPECT_EQ(back.retreat_joints, touch.retreat_joints);
+  // Without names the trajectories are not read.
+  ASSERT_TRUE(fromMsg(msg, &back, &error)) << error;
+  EXPECT_TRUE(back.approach_joints.empty());
+
+  // A receiver whose chain lists the joints in another order gets them in its own.
+  const std::vector<std::string> reversed = {"a3", "a2", "a1"};
+  std::vector<Eigen::VectorXd> path;
+  ASSERT_TRUE(fromJointTrajectoryMsg(msg.approach_trajectory, reversed, &path, &error)) << error;
+  ASSERT_EQ(path.size(), 2u);
+  EXPECT_EQ(path[1], Eigen::Vector3d(1.3, -0.2, 0.5));
+
+  const std::vector<std::string> other = {"a1", "a2", "b3"};
+  EXPECT_FALSE(fromMsg(msg, &back, &error, &other));
+  EXPECT_NE(error.find("'b3'"), std::string::npos) << error;
+  gpatlas_msgs::Touch short_point = msg;
+  short_point.approach_trajectory.points[1].positions.pop_back();
+  EXPECT_FALSE(fromMsg(short_point, &back, &error, &names));
+  EXPECT_NE(error.find("positions"), std::string::npos) << error;
+  EXPECT_THROW(toMsg(touch, {"a1"}, 0.5), std::invalid_argument);
+  EXPECT_THROW(toMsg(touch, names, 0.0), std::invalid_argument);
+}
+
 TEST(Conversions, MalformedTouchIsRefused) {
   gpatlas_msgs::Touch msg;
   msg.points.resize(2);

@@ -17,6 +17,12 @@ std::string validate(const ApproachConfig& c) {
   positive(c.probe.tip_radius_m, "tip_radius_m");
   positive(c.probe.shaft_radius_m, "shaft_radius_m");
   positive(c.probe.shaft_length_m, "shaft_length_m");
+  positive(c.arm_link_radius_m, "arm_link_radius_m");
+  positive(c.arm_check_step_rad, "arm_check_step_rad");
+  positive(c.arm_joint_speed_rad_s, "arm_joint_speed_rad_s");
+  if (c.arm_reachability_ik_restarts < 1) problem << "arm_reachability_ik_restarts must be >= 1; ";
+  if (c.use_arm && (c.arm_base_link.empty() || c.arm_tip_link.empty()))
+    problem << "use_arm needs arm_base_link and arm_tip_link; ";
   if (!c.rest_tip_position_m.allFinite()) problem << "rest_tip_position_m must be finite; ";
   if (!(c.clearance_m >= 0.0) || !(c.contact_zone_m >= 0.0) || !(c.workspace_margin_m >= 0.0))
     problem << "clearance_m, contact_zone_m and workspace_margin_m must be >= 0; ";

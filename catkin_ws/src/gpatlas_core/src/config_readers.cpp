@@ -219,6 +219,14 @@ void readApproach(ParamReader& r, ApproachConfig* c) {
   c->probe.tip_radius_m = r.number("approach/tip_radius_m", c->probe.tip_radius_m, 1e-4, 0.5);
   c->probe.shaft_radius_m = r.number("approach/shaft_radius_m", c->probe.shaft_radius_m, 1e-4, 0.5);
   c->probe.shaft_length_m = r.number("approach/shaft_length_m", c->probe.shaft_length_m, 1e-4, 2.0);
+  c->use_arm = r.flag("approach/use_arm", c->use_arm);
+  c->arm_base_link = r.text("approach/arm_base_link", c->arm_base_link);
+  c->arm_tip_link = r.text("approach/arm_tip_link", c->arm_tip_link);
+  c->arm_link_radius_m = r.number("approach/arm_link_radius_m", c->arm_link_radius_m, 1e-3, 0.5);
+  c->arm_check_step_rad = r.number("approach/arm_check_step_rad", c->arm_check_step_rad, 1e-4, 0.5);
+  c->arm_reachability_ik_restarts =
+      r.integer("approach/arm_reachability_ik_restarts", c->arm_reachability_ik_restarts, 1, 1000);
+  c->arm_joint_speed_rad_s = r.number("approach/arm_joint_speed_rad_s", c->arm_joint_speed_rad_s, 1e-3, 10.0);
 }
 
 void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {

@@ -422,6 +422,8 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         if (approach.ok) {
           plan.touch.approach_path = std::move(approach.approach_path);
           plan.touch.retreat_path = std::move(approach.retreat_path);
+          plan.touch.approach_joints = std::move(approach.approach_joints);
+          plan.touch.retreat_joints = std::move(approach.retreat_joints);
           break;
         }
         // No safe way there: the target counts as evidence, as a touch made would, so that the

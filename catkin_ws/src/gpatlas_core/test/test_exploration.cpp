@@ -605,7 +605,12 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
 // max_approach_attempts refusals, and the run stops after max_consecutive_failures such actions.
 TEST(Explorer, AnApproacherThatRefusesEverythingEndsTheRunWithoutATouch) {
   struct Nowhere : TouchApproacher {
-    ApproachResult plan(const Touch&) override { return ApproachResult{false, "walled in", {}, {}, 0.5}; }
+    ApproachResult plan(const Touch&) override {
+      ApproachResult refused;
+      refused.message = "walled in";
+      refused.planning_ms = 0.5;
+      return refused;
+    }
   } nowhere;
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 4);

@@ -143,6 +143,21 @@ bool ProbeApproachPlanner::isFree(const Eigen::Vector3d& tip, const Eigen::Vecto
   return impl_->isFree(tip, direction.normalized());
 }
 
+bool ProbeApproachPlanner::isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const {
+  const Eigen::Vector3d axis = b - a;
+  const double length = axis.norm();
+  fcl::Transform3d pose = fcl::Transform3d::Identity();
+  pose.translation() = 0.5 * (a + b);
+  if (length > 1e-9) pose.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis).toRotationMatrix();
+  const fcl::CollisionObjectd capsule(std::make_shared<fcl::Capsuled>(radius + impl_->config.clearance_m, length), pose);
+  if (impl_->map_object && impl_->collides(capsule, *impl_->map_object)) return false;
+  for (const auto& obstacle : impl_->static_obstacles)
+    if (impl_->collides(capsule, *obstacle)) return false;
+  return true;
+}
+
+const ApproachConfig& ProbeApproachPlanner::config() const { return impl_->config; }
+
 ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const Eigen::Vector3d& touch_point,
                                         const Eigen::Vector3d& touch_normal) const {
   const auto started = std::chrono::steady_clock::now();

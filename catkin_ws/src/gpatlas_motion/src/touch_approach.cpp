@@ -69,15 +69,58 @@ TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_c
   return motion;
 }
 
+TouchMotionPlanner::TouchMotionPlanner(const ApproachConfig& config, std::shared_ptr<const octomap::OcTree> map,
+                                       const std::optional<gpatlas_core::SupportPlane>& table,
+                                       std::shared_ptr<const Arm> arm, std::shared_ptr<ArmReachMemory> reach)
+    : config_(config), probe_(std::make_shared<ProbeApproachPlanner>(config)), reach_(std::move(reach)) {
+  probe_->setCollisionMap(std::move(map));
+  if (table) probe_->addStaticHalfSpace(table->normal, table->offset);
+  if (!config_.use_arm) return;
+  if (!arm) throw std::invalid_argument("approach/use_arm is set but there is no arm");
+  arm_rest_ = armRestConfiguration(*arm, config_.rest_tip_position_m);
+  arm_ = std::make_unique<ArmApproachPlanner>(std::move(arm), probe_);
+}
+
+std::string TouchMotionPlanner::check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const {
+  return arm_ ? arm_->checkApproachPose(point, outward_normal, reach_.get())
+              : probe_->checkApproachPose(point, outward_normal);
+}
+
+TouchMotion TouchMotionPlanner::plan(const gpatlas_core::Touch& touch, const Eigen::Vector3d* probe_start,
+                                     const Eigen::VectorXd* arm_start) const {
+  if (!arm_) return planTouchMotion(*probe_, touch, probe_start ? *probe_start : config_.rest_tip_position_m);
+  ArmMotionPlan arm_plan = planArmTouchMotion(*arm_, touch, arm_start ? *arm_start : arm_rest_);
+  TouchMotion motion;
+  motion.ok = arm_plan.ok;
+  motion.message = std::move(arm_plan.message);
+  motion.planning_ms = arm_plan.planning_ms;
+  if (!motion.ok) return motion;
+  motion.approach = std::move(arm_plan.approach_tips);
+  motion.retreat = std::move(arm_plan.retreat_tips);
+  for (const Eigen::VectorXd& q : arm_plan.probing) motion.probing.push_back(arm_->arm().forwardKinematics(q).translation());
+  motion.direction = arm_->arm().forwardKinematics(arm_plan.approach.back()).linear().col(2);
+  motion.approach_joints = std::move(arm_plan.approach);
+  motion.probing_joints = std::move(arm_plan.probing);
+  motion.retreat_joints = std::move(arm_plan.retreat);
+  return motion;
+}
+
 ModelTouchApproacher::ModelTouchApproacher(const gpatlas_core::SurfaceModel& model, ApproachConfig config,
                                            gpatlas_core::OccupancyGridBuilder::Config grid,
                                            double map_occupied_probability,
-                                           std::optional<gpatlas_core::SupportPlane> table)
+                                           std::optional<gpatlas_core::SupportPlane> table,
+                                           std::shared_ptr<const Arm> arm)
     : model_(model),
       config_(std::move(config)),
       grid_(std::move(grid)),
       map_occupied_probability_(map_occupied_probability),
-      table_(std::move(table)) {}
+      table_(std::move(table)),
+      arm_(std::move(arm)),
+      reach_(std::make_shared<ArmReachMemory>()) {
+  if (config_.use_arm && !arm_) throw std::invalid_argument("approach/use_arm is set but there is no arm");
+  // The arm's rest is checked now rather than at the first plan.
+  if (config_.use_arm) armRestConfiguration(*arm_, config_.rest_tip_position_m);
+}
 
 ModelTouchApproacher::~ModelTouchApproacher() = default;
 
@@ -86,10 +129,8 @@ std::string ModelTouchApproacher::ensureMap() {
   const auto started = std::chrono::steady_clock::now();
   const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_).build(model_);
   if (!grid.ok) return "no collision map: " + grid.message;
-  auto planner = std::make_unique<ProbeApproachPlanner>(config_);
-  planner->setCollisionMap(collisionOctree(grid, map_occupied_probability_));
-  if (table_) planner->addStaticHalfSpace(table_->normal, table_->offset);
-  planner_ = std::move(planner);
+  planner_ =
+      std::make_unique<TouchMotionPlanner>(config_, collisionOctree(grid, map_occupied_probability_), table_, arm_, reach_);
   last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
   return "";
 }
@@ -97,20 +138,22 @@ std::string ModelTouchApproacher::ensureMap() {
 bool ModelTouchApproacher::reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) {
   // Without a map nothing can be told: the full plan will say why.
   if (!ensureMap().empty()) return true;
-  return planner_->checkApproachPose(point, outward_normal).empty();
+  return planner_->check(point, outward_normal).empty();
 }
 
 gpatlas_core::ApproachResult ModelTouchApproacher::plan(const gpatlas_core::Touch& touch) {
   gpatlas_core::ApproachResult result;
   result.message = ensureMap();
   if (!result.message.empty()) return result;
-  const TouchMotion motion = planTouchMotion(*planner_, touch, config_.rest_tip_position_m);
+  TouchMotion motion = planner_->plan(touch);
   result.ok = motion.ok;
-  result.message = motion.message;
+  result.message = std::move(motion.message);
   result.planning_ms = motion.planning_ms;
   if (motion.ok) {
-    result.approach_path = motion.approach;
-    result.retreat_path = motion.retreat;
+    result.approach_path = std::move(motion.approach);
+    result.retreat_path = std::move(motion.retreat);
+    result.approach_joints = std::move(motion.approach_joints);
+    result.retreat_joints = std::move(motion.retreat_joints);
   }
   return result;
 }

@@ -199,9 +199,10 @@ class ExplorationNode {
     return true;
   }
 
-  // A touch for the services: in the world frame, stamped now.
+  // A touch for the services: in the world frame, stamped now, with the arm's trajectories
+  // (named as plan_approach named them) when it has them.
   gpatlas_msgs::Touch touchMsg(const gpatlas_core::Touch& touch) const {
-    gpatlas_msgs::Touch msg = toMsg(touch);
+    gpatlas_msgs::Touch msg = toMsg(touch, arm_joint_names_, approach_config_.arm_joint_speed_rad_s);
     msg.header.frame_id = world_frame_;
     msg.header.stamp = ros::Time::now();
     return msg;
@@ -599,6 +600,14 @@ class ExplorationNode {
       result.planning_ms = 1000.0 * srv.response.planning_time_s;
       for (const auto& p : srv.response.approach) result.approach_path.push_back(fromMsg(p));
       for (const auto& p : srv.response.retreat) result.retreat_path.push_back(fromMsg(p));
+      const auto& approach = srv.response.approach_trajectory;
+      if (result.ok && !approach.points.empty()) {
+        node_.arm_joint_names_ = approach.joint_names;
+        std::string why;
+        if (!fromJointTrajectoryMsg(approach, approach.joint_names, &result.approach_joints, &why) ||
+            !fromJointTrajectoryMsg(srv.response.retreat_trajectory, approach.joint_names, &result.retreat_joints, &why))
+          throw std::runtime_error("plan_approach answered a malformed joint trajectory: " + why);
+      }
       return result;
     }
 
@@ -609,6 +618,7 @@ class ExplorationNode {
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_, strategy_, results_dir_;
   gpatlas_core::ApproachConfig approach_config_;
+  std::vector<std::string> arm_joint_names_;  // of plan_approach's trajectories, when planned for the arm
   gpatlas_core::Explorer::Config loop_;
   std_msgs::Header observations_header_;  // the frame of the last probe's observations
   // The ground truth and the map's saving: optional, at the start and the end; not worth a wait.

@@ -40,6 +40,28 @@ visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector
   return line;
 }
 
+visualization_msgs::Marker armTrailMarker(const std::vector<std::vector<gpatlas_motion::LinkCapsule>>& link_poses,
+                                          const std::string& frame) {
+  auto lines = baseMarker(frame, "approach_arm", 0, visualization_msgs::Marker::LINE_LIST);
+  lines.scale.x = 0.006;
+  lines.color.a = 1.0f;
+  for (std::size_t i = 0; i < link_poses.size(); ++i) {
+    const float t = link_poses.size() > 1 ? static_cast<float>(i) / static_cast<float>(link_poses.size() - 1) : 1.0f;
+    std_msgs::ColorRGBA c;
+    c.r = 0.9f * (1.0f - t) + 0.1f * t;
+    c.g = 0.6f * (1.0f - t) + 0.3f * t;
+    c.b = 0.1f * (1.0f - t) + 0.9f * t;
+    c.a = 0.8f;
+    for (const auto& link : link_poses[i]) {
+      lines.points.push_back(toPointMsg(link.a));
+      lines.points.push_back(toPointMsg(link.b));
+      lines.colors.push_back(c);
+      lines.colors.push_back(c);
+    }
+  }
+  return lines;
+}
+
 visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame) {
   auto m = baseMarker(frame, "predicted_surface", 0, visualization_msgs::Marker::TRIANGLE_LIST);
   const bool has_variance = mesh.vertex_variances.size() == mesh.vertices.size();

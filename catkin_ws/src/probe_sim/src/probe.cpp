@@ -150,6 +150,14 @@ std::vector<ProbeAttempt> interpolateSlide(const std::vector<Eigen::Vector3d>& p
 
 // ================================================================ prober
 
+unsigned armCollisions(const Arm& arm, const Scene& scene, const Eigen::VectorXd& joints) {
+  std::vector<Capsule> capsules;
+  for (const gpatlas_motion::LinkCapsule& link : arm.linkCapsules(joints)) capsules.push_back({link.a, link.b, link.radius});
+  unsigned kinds = 0;
+  for (unsigned k : scene.capsuleOverlaps(capsules, kAllSurfaces, arm.config().collision_tolerance_m)) kinds |= k;
+  return kinds;
+}
+
 int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
                       const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m) {
   const Eigen::Vector3d d = direction.normalized();
@@ -169,6 +177,31 @@ int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& bod
     const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step_m)));
     // The segment's last sample is the next one's first.
     const int last = i + 1 < tip_path.size() ? steps - 1 : steps;
+    for (int s = 0; s <= last; ++s) {
+      const bool hit = collides(from + (to - from) * (static_cast<double>(s) / steps));
+      contacts += hit && !in_contact ? 1 : 0;
+      in_contact = hit;
+    }
+  }
+  return contacts;
+}
+
+int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_core::ProbeGeometry& body,
+                         const std::vector<Eigen::VectorXd>& joint_path, double step_m) {
+  const auto collides = [&](const Eigen::VectorXd& q) {
+    if (armCollisions(arm, scene, q) != 0) return true;
+    const Eigen::Isometry3d tip = arm.forwardKinematics(q);
+    return countPathContacts(scene, body, {tip.translation()}, tip.linear().col(2), step_m) != 0;
+  };
+  // No point of the arm moves farther than chainLength() times the joints' summed motion.
+  const double length = arm.chainLength();
+  int contacts = 0;
+  bool in_contact = false;
+  for (std::size_t i = 0; i < joint_path.size(); ++i) {
+    const Eigen::VectorXd& from = joint_path[i];
+    const Eigen::VectorXd& to = i + 1 < joint_path.size() ? joint_path[i + 1] : joint_path[i];
+    const int steps = std::max(1, static_cast<int>(std::ceil(length * (to - from).lpNorm<1>() / step_m)));
+    const int last = i + 1 < joint_path.size() ? steps - 1 : steps;
     for (int s = 0; s <= last; ++s) {
       const bool hit = collides(from + (to - from) * (static_cast<double>(s) / steps));
       contacts += hit && !in_contact ? 1 : 0;
@@ -204,6 +237,12 @@ std::string SimulatedProber::validate(const gpatlas_core::Touch& touch) const {
   for (const auto* path : {&touch.approach_path, &touch.retreat_path})
     for (const Eigen::Vector3d& p : *path)
       if (!p.allFinite()) return std::string(path == &touch.approach_path ? "approach" : "retreat") + " path is not finite";
+  for (const auto* path : {&touch.approach_joints, &touch.retreat_joints})
+    for (const Eigen::VectorXd& q : *path)
+      if (!q.allFinite() || !arm_ || q.size() != arm_->jointCount())
+        return std::string(path == &touch.approach_joints ? "approach" : "retreat") +
+               " joint path is not finite or not for this arm (" + (arm_ ? std::to_string(arm_->jointCount()) : "no") +
+               " joints)";
   if (touch.kind == gpatlas_core::Touch::Kind::kSlide) {
     double length = 0.0;
     for (std::size_t i = 1; i < touch.points.size(); ++i) {
@@ -217,21 +256,43 @@ std::string SimulatedProber::validate(const gpatlas_core::Touch& touch) const {
   return "";
 }
 
-std::string SimulatedProber::checkArm(const std::vector<ProbeAttempt>& waypoints,
-                                      std::vector<Eigen::VectorXd>* solutions) const {
-  solutions->clear();
-  Eigen::VectorXd previous;
+void SimulatedProber::setArm(std::shared_ptr<const Arm> arm) {
+  arm_rest_ = arm ? gpatlas_motion::armRestConfiguration(*arm, config_.rest_tip_position) : Eigen::VectorXd();
+  arm_ = std::move(arm);
+}
+
+std::string SimulatedProber::moveArm(const gpatlas_core::Touch& touch, const std::vector<ProbeAttempt>& waypoints,
+                                     gpatlas_core::ProbeResult* result) {
+  // The robot knows its own kinematics, not the true scene: no collision check in the solver.
+  std::vector<Eigen::VectorXd> at_waypoints;
+  Eigen::VectorXd previous = touch.approach_joints.empty() ? arm_rest_ : touch.approach_joints.back();
   for (std::size_t i = 0; i < waypoints.size(); ++i) {
     const ProbeAttempt& w = waypoints[i];
-    const Arm::IkResult ik = arm_->solveApproach(w.point + model_->tipStandoff() * w.normal,
-                                                 -w.normal, scene_.get(),
-                                                 previous.size() ? &previous : nullptr);
-    const std::string where = waypoints.size() > 1 ? " at waypoint " + std::to_string(i) : "";
-    if (!ik.reached) return "unreachable" + where;
-    if (!ik.success) return "arm collides with " + kindsToText(ik.collision_kinds) + where;
+    const Arm::IkResult ik = arm_->solveApproach(w.point + model_->tipStandoff() * w.normal, -w.normal, nullptr, &previous);
+    if (!ik.reached) return "unreachable" + (waypoints.size() > 1 ? " at waypoint " + std::to_string(i) : std::string());
     previous = ik.joints;
-    solutions->push_back(ik.joints);
+    at_waypoints.push_back(ik.joints);
   }
+  const auto straight = [&](const ProbeAttempt& w, const Eigen::VectorXd& seed, std::string* problem) {
+    const Arm::IkResult ik = arm_->solveApproach(w.point + model_->startOffset() * w.normal, -w.normal, nullptr, &seed);
+    if (!ik.reached) *problem = "unreachable approach pose";
+    return std::vector<Eigen::VectorXd>{arm_rest_, ik.joints};
+  };
+  std::string problem;
+  const std::vector<Eigen::VectorXd> approach =
+      !touch.approach_joints.empty() ? touch.approach_joints : straight(waypoints.front(), at_waypoints.front(), &problem);
+  std::vector<Eigen::VectorXd> retreat = touch.retreat_joints;
+  if (retreat.empty()) {
+    retreat = straight(waypoints.back(), at_waypoints.back(), &problem);
+    std::reverse(retreat.begin(), retreat.end());
+  }
+  if (!problem.empty()) return problem;
+  result->approach_collisions =
+      countArmPathContacts(*scene_, *arm_, config_.body, approach, config_.motion_check_step_m);
+  result->retreat_collisions = countArmPathContacts(*scene_, *arm_, config_.body, retreat, config_.motion_check_step_m);
+  last_arm_solutions_ = approach;
+  last_arm_solutions_.insert(last_arm_solutions_.end(), at_waypoints.begin(), at_waypoints.end());
+  last_arm_solutions_.insert(last_arm_solutions_.end(), retreat.begin(), retreat.end());
   return "";
 }
 
@@ -246,30 +307,29 @@ gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touc
   for (std::size_t i = slide ? 0 : touch.points.size() - 1; i < touch.points.size(); ++i) {
     waypoints.push_back({touch.points[i], touch.normals[i].normalized()});
   }
-  if (arm_) {
-    std::vector<Eigen::VectorXd> solutions;
-    result.reason = checkArm(waypoints, &solutions);
-    if (!result.reason.empty()) return result;
-    last_arm_solutions_ = std::move(solutions);
-  }
   const std::vector<ProbeAttempt> attempts =
       slide ? interpolateSlide(touch.points, touch.normals, config_.slide_step_m) : waypoints;
 
   // The way there and back: planned, or straight from and to the rest.
   const ProbeAttempt& first = waypoints.front();
   const ProbeAttempt& last = waypoints.back();
-  const std::vector<Eigen::Vector3d> approach =
-      !touch.approach_path.empty() ? touch.approach_path
-                                   : std::vector<Eigen::Vector3d>{config_.rest_tip_position,
-                                                                  first.point + model_->startOffset() * first.normal};
-  const std::vector<Eigen::Vector3d> retreat =
-      !touch.retreat_path.empty() ? touch.retreat_path
-                                  : std::vector<Eigen::Vector3d>{last.point + model_->startOffset() * last.normal,
-                                                                 config_.rest_tip_position};
-  result.approach_collisions = countPathContacts(*scene_, config_.body, approach, -first.normal,
-                                                 config_.motion_check_step_m);
-  result.retreat_collisions = countPathContacts(*scene_, config_.body, retreat, -last.normal,
-                                                config_.motion_check_step_m);
+  if (arm_) {
+    result.reason = moveArm(touch, waypoints, &result);
+    if (!result.reason.empty()) return result;
+  } else {
+    const std::vector<Eigen::Vector3d> approach =
+        !touch.approach_path.empty() ? touch.approach_path
+                                     : std::vector<Eigen::Vector3d>{config_.rest_tip_position,
+                                                                    first.point + model_->startOffset() * first.normal};
+    const std::vector<Eigen::Vector3d> retreat =
+        !touch.retreat_path.empty() ? touch.retreat_path
+                                    : std::vector<Eigen::Vector3d>{last.point + model_->startOffset() * last.normal,
+                                                                   config_.rest_tip_position};
+    result.approach_collisions = countPathContacts(*scene_, config_.body, approach, -first.normal,
+                                                   config_.motion_check_step_m);
+    result.retreat_collisions = countPathContacts(*scene_, config_.body, retreat, -last.normal,
+                                                  config_.motion_check_step_m);
+  }
 
   unsigned other_surfaces = 0;
   std::string stroke_failure;

@@ -2,7 +2,7 @@
 
 #include "probe_sim/probe.h"
 
-#include "probe_sim/arm.h"
+#include "probe_sim/probe.h"
 
 #include <algorithm>
 #include <cmath>
@@ -130,7 +130,7 @@ std::optional<Eigen::Isometry3d> fixedFramePose(const std::string& urdf_xml, con
   }
   KDL::Tree tree;
   try {
-    tree = kinematicTreeFromUrdf(urdf_xml);
+    tree = gpatlas_motion::kinematicTreeFromUrdf(urdf_xml);
   } catch (const std::exception& e) {
     if (error) *error = e.what();
     return std::nullopt;

@@ -520,11 +520,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
       probe_sim::makeSimulatedProber(scene, simulation, pipeline.approach);
   probe_sim::SimulatedProber& prober = *prober_ptr;
   if (simulation.use_arm) {
-    probe_sim::Arm::Config arm_config;
+    gpatlas_motion::Arm::Config arm_config;
     arm_config.base_link = simulation.world_frame;
     arm_config.tip_link = simulation.tip_frame;
     try {
-      prober.setArm(std::make_shared<const probe_sim::Arm>(probe_sim::Arm::fromUrdfString(o.urdf_xml, arm_config)));
+      prober.setArm(std::make_shared<const gpatlas_motion::Arm>(gpatlas_motion::Arm::fromUrdfString(o.urdf_xml, arm_config)));
     } catch (const std::exception& e) {
       return failed(std::string("simulation/use_arm: ") + e.what());
     }
@@ -564,9 +564,23 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     std::cout << line.str() << std::endl;
   };
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
-  if (pipeline.approach.enabled)
-    approacher = std::make_unique<gpatlas_motion::ModelTouchApproacher>(
-        model, pipeline.approach, pipeline.collision_map.grid, pipeline.collision_map.occupied_probability, support);
+  if (pipeline.approach.enabled) {
+    try {
+      std::shared_ptr<const gpatlas_motion::Arm> planned_arm;
+      if (pipeline.approach.use_arm) {
+        gpatlas_motion::Arm::Config arm_config;
+        arm_config.base_link = pipeline.approach.arm_base_link;
+        arm_config.tip_link = pipeline.approach.arm_tip_link;
+        arm_config.link_radius_m = pipeline.approach.arm_link_radius_m;
+        planned_arm = std::make_shared<const gpatlas_motion::Arm>(gpatlas_motion::Arm::fromUrdfString(o.urdf_xml, arm_config));
+      }
+      approacher = std::make_unique<gpatlas_motion::ModelTouchApproacher>(
+          model, pipeline.approach, pipeline.collision_map.grid, pipeline.collision_map.occupied_probability, support,
+          planned_arm);
+    } catch (const std::exception& e) {
+      return failed(std::string("approach/use_arm: ") + e.what());
+    }
+  }
   gpatlas_core::ExplorationResult result =
       explorer.run(model, *strategy, prober, pipeline.touch, evidence, progress, approacher.get());
 

@@ -112,7 +112,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
                   << scene_->objectMesh().triangles.size() << " triangles) at "
                   << describe(settings_.object_position_xy_m) << " in '" << settings_.world_frame
                   << "', " << settings_.probe << " probe, "
-                  << (arm_ ? "left arm (IK and link collisions checked)" : "free-floating probe")
+                  << (arm_ ? "on the left arm (judged on the way to each touch and back)" : "free-floating probe")
                   << ", camera '" << settings_.camera_frame << "' at "
                   << describe(camera_->pose().translation()));
 }
@@ -247,7 +247,18 @@ std::string SimulationServer::setUpCamera() {
 
 std::string SimulationServer::setUpProber() {
   prober_ = makeSimulatedProber(scene_, settings_, approach_);
-  if (arm_) prober_->setArm(arm_);
+  if (arm_) {
+    try {
+      prober_->setArm(arm_);
+    } catch (const std::exception& e) {
+      return std::string("use_arm: ") + e.what() + " (approach/rest_tip_position_m)";
+    }
+    // The arm is shown resting where the prober rests it.
+    std::lock_guard<std::mutex> lock(joint_state_mutex_);
+    for (std::size_t i = 0; i < arm_joint_indices_.size(); ++i)
+      ready_positions_[arm_joint_indices_[i]] = prober_->armRest()[static_cast<Eigen::Index>(i)];
+    displayed_positions_ = ready_positions_;
+  }
 
   // Not an error (the camera may be meant to see only part of the scene), but a blank view is
   // almost always a misplaced object or camera.
@@ -278,7 +289,8 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
     }
     gpatlas_core::Touch touch;
     std::string error;
-    if (!gpatlas_ros::fromMsg(request.touch, &touch, &error)) {
+    // The arm's trajectories, when planned for it, in the order of its joints.
+    if (!gpatlas_ros::fromMsg(request.touch, &touch, &error, arm_ ? &arm_->jointNames() : nullptr)) {
       response.reason = "invalid touch: " + error;
       return true;
     }
@@ -431,9 +443,7 @@ void SimulationServer::animateArm(const std::vector<Eigen::VectorXd>& arm_soluti
     }
     keyframes.push_back(full);
   }
-  // Rest on the last waypoint for a quarter of a second so the touch itself is visible.
-  const int dwell_ticks = static_cast<int>(std::ceil(0.25 * settings_.joint_states_rate_hz));
-  keyframes.insert(keyframes.end(), dwell_ticks, keyframes.back());
+  // The motion ends at the arm's rest (ready_positions_ holds it for the arm's joints).
   keyframes.push_back(ready_positions_);
 
   // A new touch replaces whatever motion is still queued, starting from what is shown now.

@@ -4,7 +4,7 @@
 // probe_sim library (Scene, DepthCamera, SimulatedProber, Arm). See the package README for the
 // parameters, topics and services.
 
-#include "probe_sim/arm.h"
+#include "probe_sim/probe.h"
 #include "probe_sim/depth_camera.h"
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"

@@ -8,9 +8,15 @@ import unittest
 
 import rospy
 import rostest
+from trajectory_msgs.msg import JointTrajectory
 
 
 class SimExplorationTest(unittest.TestCase):
+    def setUp(self):
+        self.trajectories = []
+        if rospy.get_param("~use_arm", False):
+            rospy.Subscriber("/gpatlas/collision_map/approach_trajectory", JointTrajectory, self.trajectories.append)
+
     def test_results_folder(self):
         results = rospy.get_param("~results_dir")
         report_path = os.path.join(results, "report.json")
@@ -39,6 +45,18 @@ class SimExplorationTest(unittest.TestCase):
         self.assertEqual(report["approach_collisions"], 0)
         self.assertEqual(report["retreat_collisions"], 0)
         self.assertIsNotNone(report["approach_plan_ms_median"])
+        if rospy.get_param("~use_arm", False):
+            # The planned approach for the left arm, as a robot driver gets it: its seven joints,
+            # from the rest to the approach pose, in time order.
+            self.assertTrue(self.trajectories, "no approach trajectory was published")
+            trajectory = self.trajectories[-1]
+            self.assertEqual(trajectory.joint_names, ["left_arm_a%d_joint" % j for j in range(1, 8)])
+            self.assertGreaterEqual(len(trajectory.points), 2)
+            times = [p.time_from_start.to_sec() for p in trajectory.points]
+            self.assertEqual(times, sorted(times))
+            self.assertGreater(times[-1], 0.0)
+            for point in trajectory.points:
+                self.assertEqual(len(point.positions), 7)
         # After the simulated actions the largest variance on the predicted surface has dropped.
         initial = report["initial"]["sampled_max_variance"]
         last = report["history"][-1]["sampled_max_variance"]

@@ -17,6 +17,7 @@
 #include <gpatlas_msgs/Touch.h>
 #include <gpatlas_msgs/TrainingSet.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <trajectory_msgs/JointTrajectory.h>
 
 #include <Eigen/Geometry>
 
@@ -38,9 +39,26 @@ bool fromMsg(const gpatlas_msgs::SupportPlane& msg, gpatlas_core::SupportPlane* 
 // The same plane in another frame: `pose` maps its frame's coordinates into the new one.
 gpatlas_core::SupportPlane transformPlane(const gpatlas_core::SupportPlane& plane, const Eigen::Isometry3d& pose);
 
-gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch);
+// The arm's joint paths (approach_joints, retreat_joints) become the trajectories, named by
+// joint_names (the arm's chain order) and timed at joint_speed_rad_s; they need both.
+gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch, const std::vector<std::string>& joint_names = {},
+                          double joint_speed_rad_s = 0.5);
 // Fails (returns false with a reason) on mismatched array lengths or an unknown kind.
-bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::string* error);
+// The trajectories are read into approach_joints and retreat_joints in the order of
+// joint_names (every one must be in them) when given, and ignored otherwise.
+bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::string* error,
+             const std::vector<std::string>* joint_names = nullptr);
+
+// A joint path as a trajectory: one point per configuration, with the time at which the
+// slowest joint, moving at joint_speed_rad_s, gets there. Throws std::invalid_argument when a
+// configuration's size is not the names' count or the speed is not positive.
+trajectory_msgs::JointTrajectory toJointTrajectoryMsg(const std::vector<Eigen::VectorXd>& path,
+                                                      const std::vector<std::string>& joint_names,
+                                                      double joint_speed_rad_s);
+// The trajectory's positions in the order of joint_names; false with why when a name is
+// missing, a point's positions do not match the trajectory's names, or one is not finite.
+bool fromJointTrajectoryMsg(const trajectory_msgs::JointTrajectory& msg, const std::vector<std::string>& joint_names,
+                            std::vector<Eigen::VectorXd>* path, std::string* error);
 
 gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result);
 // Contacts (with normals when given) and free-space points; success/reason are not part of it.

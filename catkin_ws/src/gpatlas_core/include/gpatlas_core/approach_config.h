@@ -4,6 +4,7 @@
 
 #include <string>
 
+
 namespace gpatlas_core {
 
 // The probe as the approach planner (gpatlas_motion) sees it: a spherical tip and a shaft
@@ -22,10 +23,11 @@ struct ApproachConfig {
   // touch's approach pose and back, which the simulation judges all the same.
   bool enabled{true};
   // Where the probe's tip rests between touches (world frame): the start of every approach and
-  // the end of every retreat. The default lies above the table's front, 0.4 m up and 0.3 m
-  // from an object standing at simulation/object_position_xy_m. The robot's own body is not
-  // an obstacle yet.
-  Vector3 rest_tip_position_m{0.5, 0.25, 0.4};
+  // the end of every retreat; with an arm, it rests with the tip here pointing down. The
+  // default lies 0.4 m above the table and 0.3 m to the left of an object standing at
+  // simulation/object_position_xy_m, within the Vito left arm's reach. The robot's own body is
+  // not an obstacle yet.
+  Vector3 rest_tip_position_m{0.7, 0.3, 0.4};
   // A collision-map voxel with P(occupied) above this is an obstacle.
   double occupied_probability{0.5};
   double approach_distance_m{0.1};  // the approach pose's distance from the touch along its normal
@@ -37,6 +39,23 @@ struct ApproachConfig {
   double workspace_margin_m{0.2};   // the planner's box: start and approach pose, grown by this
   double check_resolution_m{0.002};  // motions are checked at least this finely
   ProbeGeometry probe;
+  // Plan for the arm that holds the probe (the URDF's chain from arm_base_link to arm_tip_link)
+  // in joint space: its links and the probe, on the same map and static world. Off: the probe
+  // is planned for on its own, free-floating.
+  bool use_arm{false};
+  std::string arm_base_link{"world"};
+  std::string arm_tip_link{"probe_tip"};
+  // The arm's link capsules, inflated by clearance_m too. The tool (after the last joint) is
+  // the probe's shaft, checked as the probe above.
+  double arm_link_radius_m{0.06};
+  // Joint-space motions are checked at least this finely (Euclidean over the joints): a point
+  // 1 m from the joints' axes moves about 1 cm per step.
+  double arm_check_step_rad{0.01};
+  // The cheap reachability test of a candidate tries this many inverse-kinematics starts; the
+  // full plan of the chosen touch the arm's own number.
+  int arm_reachability_ik_restarts{4};
+  // The joint trajectories' timing: the slowest joint moves at this speed.
+  double arm_joint_speed_rad_s{0.5};
 };
 
 // Empty when the config is usable; otherwise what is wrong with it.

@@ -189,6 +189,8 @@ struct ApproachResult {
   std::string message;  // why not, when !ok
   std::vector<Vector3> approach_path;
   std::vector<Vector3> retreat_path;
+  std::vector<Eigen::VectorXd> approach_joints;  // Touch::approach_joints; empty without an arm
+  std::vector<Eigen::VectorXd> retreat_joints;
   double planning_ms{0.0};
 };
 

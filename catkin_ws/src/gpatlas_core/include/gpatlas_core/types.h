@@ -82,6 +82,11 @@ struct Touch {
   // moves in a straight line.
   std::vector<Vector3> approach_path;
   std::vector<Vector3> retreat_path;
+  // The same motions for the arm that holds the probe, when planned for it: joint positions
+  // (the arm's chain order) from the rest to the approach pose and back. approach_path and
+  // retreat_path then hold the tip at these configurations.
+  std::vector<Eigen::VectorXd> approach_joints;
+  std::vector<Eigen::VectorXd> retreat_joints;
 };
 
 // The waypoint a touch's probe goes to first (a poke's target, a slide's first waypoint) and

@@ -60,6 +60,11 @@ class ProbeApproachPlanner {
   // Whether the probe, pointing along `direction` with its tip at `tip`, is clear of every
   // obstacle by clearance_m.
   bool isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const;
+  // Whether a capsule from a to b of this radius, inflated by clearance_m, is clear of every
+  // obstacle (the arm's links).
+  bool isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const;
+
+  const ApproachConfig& config() const;
 
  private:
   struct Impl;

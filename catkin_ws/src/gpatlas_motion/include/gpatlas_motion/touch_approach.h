@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_motion/arm_approach_planner.h"
 #include "gpatlas_motion/probe_approach_planner.h"
 
 #include <gpatlas_core/explorer.h>
@@ -30,27 +31,68 @@ std::unique_ptr<octomap::OcTree> collisionOctree(const gpatlas_core::OccupancyGr
 struct TouchMotion {
   bool ok{false};
   std::string message;  // why not, when !ok
-  std::vector<Eigen::Vector3d> approach;
+  std::vector<Eigen::Vector3d> approach;  // the tip's positions
   std::vector<Eigen::Vector3d> probing;
   std::vector<Eigen::Vector3d> retreat;
   Eigen::Vector3d direction{Eigen::Vector3d::Zero()};  // the probe's, on the approach
+  // Planned for the arm: its configurations along the same motions (the tip positions above
+  // are theirs); empty for the probe on its own.
+  std::vector<Eigen::VectorXd> approach_joints;
+  std::vector<Eigen::VectorXd> probing_joints;
+  std::vector<Eigen::VectorXd> retreat_joints;
   double planning_ms{0.0};
 };
 TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_core::Touch& touch,
                             const Eigen::Vector3d& rest);
 
+// The approach planning on one collision map, for the probe on its own or for the arm that
+// holds it: what the bench's approacher, the collision map nodelet's plan_approach and the
+// planner nodelet's cheap test share. The table (optional) is a static half-space.
+class TouchMotionPlanner {
+ public:
+  // With an arm (config.use_arm), its rest is armRestConfiguration(config.rest_tip_position_m),
+  // which throws std::runtime_error when the arm does not reach it; use_arm without an arm
+  // throws std::invalid_argument.
+  // `reach` (optional) keeps what the cheap test learns of the arm's reach for the next map.
+  TouchMotionPlanner(const ApproachConfig& config, std::shared_ptr<const octomap::OcTree> map,
+                     const std::optional<gpatlas_core::SupportPlane>& table, std::shared_ptr<const Arm> arm,
+                     std::shared_ptr<ArmReachMemory> reach = nullptr);
+
+  // The cheap test of a candidate (ProbeApproachPlanner's or ArmApproachPlanner's
+  // checkApproachPose): empty when it may be approached, else why not.
+  std::string check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const;
+
+  // The touch's way there and back from the rest (the probe's tip at rest_tip_position_m, or
+  // the arm's rest configuration); a start given for the one planned for replaces its rest.
+  TouchMotion plan(const gpatlas_core::Touch& touch, const Eigen::Vector3d* probe_start = nullptr,
+                   const Eigen::VectorXd* arm_start = nullptr) const;
+
+  const Arm* arm() const { return arm_ ? &arm_->arm() : nullptr; }
+  const Eigen::VectorXd& armRest() const { return arm_rest_; }
+
+ private:
+  ApproachConfig config_;
+  std::shared_ptr<ProbeApproachPlanner> probe_;
+  std::unique_ptr<ArmApproachPlanner> arm_;
+  Eigen::VectorXd arm_rest_;
+  std::shared_ptr<ArmReachMemory> reach_;
+};
+
 // Approach planning in one process (the bench): a collision map built from the model, rebuilt
 // after every touch the model took, with the table as a static half-space, and the probe's
-// rest at ApproachConfig::rest_tip_position_m.
+// rest at ApproachConfig::rest_tip_position_m. With an arm (ApproachConfig::use_arm), the arm's
+// joint path is planned (ArmApproachPlanner) from its rest, armRestConfiguration.
 class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
  public:
+  // Throws std::invalid_argument when use_arm is set without an arm, std::runtime_error when
+  // the arm does not reach its rest.
   ModelTouchApproacher(const gpatlas_core::SurfaceModel& model, ApproachConfig config,
                        gpatlas_core::OccupancyGridBuilder::Config grid, double map_occupied_probability,
-                       std::optional<gpatlas_core::SupportPlane> table);
+                       std::optional<gpatlas_core::SupportPlane> table, std::shared_ptr<const Arm> arm = nullptr);
   ~ModelTouchApproacher() override;
 
   gpatlas_core::ApproachResult plan(const gpatlas_core::Touch& touch) override;
-  // The approach pose and the probing segment (ProbeApproachPlanner::checkApproachPose).
+  // TouchMotionPlanner::check.
   bool reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) override;
   void modelChanged() override { planner_.reset(); }
   // Builds the map of the model as it is now (a failure is reported by plan()).
@@ -65,7 +107,9 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   gpatlas_core::OccupancyGridBuilder::Config grid_;
   double map_occupied_probability_;
   std::optional<gpatlas_core::SupportPlane> table_;
-  std::unique_ptr<ProbeApproachPlanner> planner_;  // null: the map must be (re)built
+  std::shared_ptr<const Arm> arm_;
+  std::shared_ptr<ArmReachMemory> reach_;
+  std::unique_ptr<TouchMotionPlanner> planner_;  // null: the map must be (re)built
   double last_map_ms_{0.0};
 
   // The planner on a map of the model as it is now; empty with why when the map fails.

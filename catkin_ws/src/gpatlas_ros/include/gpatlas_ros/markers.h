@@ -4,6 +4,7 @@
 
 #include <gpatlas_core/atlas.h>
 #include <gpatlas_core/triangle_mesh.h>
+#include <gpatlas_motion/arm.h>
 
 #include <shape_msgs/Mesh.h>
 #include <visualization_msgs/Marker.h>
@@ -19,6 +20,10 @@ visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, do
 shape_msgs::Mesh toShapeMsg(const gpatlas_core::TriangleMesh& mesh);
 // The probe's planned approach: its tip's path as a green line.
 visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector3>& tip_path, const std::string& frame);
+// The arm along a planned joint path: its links' axes at configurations sampled along it (one
+// list of link capsules each), in a colour that goes from the start's to the end's.
+visualization_msgs::Marker armTrailMarker(const std::vector<std::vector<gpatlas_motion::LinkCapsule>>& link_poses,
+                                          const std::string& frame);
 
 // Chart disks (coloured by variance), tree edges, and the chosen path (thick, yellow).
 visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, const std::vector<int>& path,

@@ -11,6 +11,7 @@
 #include <gpatlas_core/occupancy_grid.h>
 #include <gpatlas_core/segmentation.h>
 #include <gpatlas_core/surface_mesher.h>
+#include <gpatlas_motion/arm_approach_planner.h>
 #include <gpatlas_msgs/AddObservations.h>
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/Observations.h>
@@ -193,6 +194,10 @@ class AtlasPlannerServer {
   ros::Time model_stamp_;  // the stamp of the training set model_ is from
   std::uint32_t model_sequence_{0};  // and its sequence number
   gpatlas_core::ApproachConfig approach_config_;  // for GetNextTouch's reachable_only
+  std::shared_ptr<const gpatlas_motion::Arm> approach_arm_;  // with approach/use_arm
+  std::string approach_arm_error_;
+  // What the cheap test learnt of the arm's reach, kept from one model's map to the next.
+  std::shared_ptr<gpatlas_motion::ArmReachMemory> arm_reach_{std::make_shared<gpatlas_motion::ArmReachMemory>()};
   std::string model_error_;
   std::map<std::string, std::unique_ptr<gpatlas_core::ExplorationStrategy>> strategies_;
   std::uint64_t plan_count_{0};
@@ -209,7 +214,9 @@ class AtlasPlannerServer {
 // one (latest wins, intermediate models are skipped), so no callback of the manager waits for
 // a rebuild. ~status says which training set the published map is from. `~plan_approach`
 // plans the probe's way to a touch on the published map and the table (`support_plane`), with
-// gpatlas_motion's ProbeApproachPlanner, and shows it on `~approach_path`.
+// gpatlas_motion's TouchMotionPlanner (for the arm of robot_description with approach/use_arm),
+// and shows it on `~approach_path` (the tip) and `~approach_arm` (the arm's links); with the arm,
+// `~approach_trajectory` (trajectory_msgs/JointTrajectory) is the last planned approach.
 class CollisionMapServer {
  public:
   CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
@@ -234,6 +241,8 @@ class CollisionMapServer {
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::CollisionMapConfig map_config_;
   gpatlas_core::ApproachConfig approach_config_;
+  std::shared_ptr<const gpatlas_motion::Arm> approach_arm_;  // with approach/use_arm
+  std::string approach_arm_error_;                           // why there is none, when asked for
   double tf_timeout_s_{0.5};
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
@@ -251,7 +260,7 @@ class CollisionMapServer {
 
   ros::Subscriber training_sub_, plane_sub_;
   ros::ServiceServer save_srv_, approach_srv_;
-  ros::Publisher octomap_pub_, voxels_pub_, status_pub_, approach_pub_;
+  ros::Publisher octomap_pub_, voxels_pub_, status_pub_, approach_pub_, approach_arm_pub_, approach_trajectory_pub_;
 };
 
 }  // namespace gpatlas_ros

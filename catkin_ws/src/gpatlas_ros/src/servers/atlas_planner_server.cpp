@@ -1,4 +1,5 @@
 #include "gpatlas_conversions/conversions.h"
+#include "gpatlas_ros/approach_arm.h"
 #include "gpatlas_ros/markers.h"
 #include "gpatlas_ros/servers.h"
 #include "gpatlas_ros/shared_models.h"
@@ -7,7 +8,7 @@
 #include <gpatlas_msgs/Touch.h>
 
 #include <gpatlas_core/strategy_library.h>
-#include <gpatlas_motion/probe_approach_planner.h>
+#include <gpatlas_motion/touch_approach.h>
 
 #include <cmath>
 #include <sstream>
@@ -32,6 +33,8 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readSurfaceModel(reader, &model_config_);
   readStrategy(reader, &strategy_config_);
   readApproach(reader, &approach_config_);
+  approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
+  if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("atlas_planner: approach/use_arm: " << approach_arm_error_);
   // Strategies and models of your own, before the default is looked up.
   loadPluginLibraries(choice.libraries, reader, "atlas_planner");
   std::string error;
@@ -144,7 +147,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   if (req.use_start) request.start = fromMsg(req.start);
   for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
   // reachable_only: the approach planner's cheap test on the collision map of this model.
-  std::unique_ptr<gpatlas_motion::ProbeApproachPlanner> approach_check;
+  std::unique_ptr<gpatlas_motion::TouchMotionPlanner> approach_check;
   std::string reachability_note;
   if (req.reachable_only) {
     const std::string& topic = training_sub_.getTopic();
@@ -157,12 +160,16 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
                     " is not built yet (reachable_only)";
       return true;
     }
+    if (approach_config_.use_arm && !approach_arm_) {
+      res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+      res.message = "reachable_only with approach/use_arm, but there is no arm: " + approach_arm_error_;
+      return true;
+    }
     if (map) {
-      approach_check = std::make_unique<gpatlas_motion::ProbeApproachPlanner>(approach_config_);
-      approach_check->setCollisionMap(map);
-      if (support_plane_) approach_check->addStaticHalfSpace(support_plane_->normal, support_plane_->offset);
+      approach_check =
+          std::make_unique<gpatlas_motion::TouchMotionPlanner>(approach_config_, map, support_plane_, approach_arm_, arm_reach_);
       request.reachable = [&approach_check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
-        return approach_check->checkApproachPose(point, normal).empty();
+        return approach_check->check(point, normal).empty();
       };
     } else {
       reachability_note = offered ? "; every candidate taken: the collision map of this model failed"

@@ -1,4 +1,5 @@
 #include "gpatlas_conversions/conversions.h"
+#include "gpatlas_ros/approach_arm.h"
 #include "gpatlas_ros/markers.h"
 #include "gpatlas_ros/servers.h"
 #include "gpatlas_ros/shared_models.h"
@@ -33,6 +34,8 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   world_frame_ = frames.world_frame;
   tf_timeout_s_ = frames.tf_timeout_s;
   readApproach(reader, &approach_config_);
+  approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
+  if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("collision_map: approach/use_arm: " << approach_arm_error_);
   const bool use_support_plane = readUseSupportPlane(reader);
   readSurfaceModel(reader, &model_config_);
   gpatlas_core::StrategyChoice plugins;  // a model of your own, loaded before it is built
@@ -51,6 +54,8 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   }
   builder_ = std::thread(&CollisionMapServer::buildLoop, this);
   approach_pub_ = pnh_.advertise<visualization_msgs::Marker>("approach_path", 1, true);
+  approach_arm_pub_ = pnh_.advertise<visualization_msgs::Marker>("approach_arm", 1, true);
+  if (approach_arm_) approach_trajectory_pub_ = pnh_.advertise<trajectory_msgs::JointTrajectory>("approach_trajectory", 1, true);
   save_srv_ = pnh_.advertiseService("save_map", &CollisionMapServer::onSaveMap, this);
   approach_srv_ = pnh_.advertiseService("plan_approach", &CollisionMapServer::onPlanApproach, this);
   training_sub_ = nh_.subscribe("training_set", 1, &CollisionMapServer::onTrainingSet, this);
@@ -97,10 +102,27 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     }
     res.map_training_sequence = map->training_sequence;
     res.map_stale = map->training_sequence != latest;
-    gpatlas_motion::ProbeApproachPlanner planner(approach_config_);
-    planner.setCollisionMap(map->tree);
-    if (plane) planner.addStaticHalfSpace(plane->normal, plane->offset);
-    const gpatlas_motion::TouchMotion plan = gpatlas_motion::planTouchMotion(planner, touch, fromMsg(req.start));
+    if (approach_config_.use_arm && !approach_arm_) {
+      res.message = "approach/use_arm is set but there is no arm: " + approach_arm_error_;
+      return true;
+    }
+    const gpatlas_motion::TouchMotionPlanner planner(approach_config_, map->tree, plane, approach_arm_);
+    const Eigen::Vector3d start = fromMsg(req.start);
+    Eigen::VectorXd start_joints;
+    if (approach_arm_ && !req.start_joints.name.empty()) {
+      trajectory_msgs::JointTrajectory as_trajectory;
+      as_trajectory.joint_names = req.start_joints.name;
+      as_trajectory.points.resize(1);
+      as_trajectory.points[0].positions = req.start_joints.position;
+      std::vector<Eigen::VectorXd> joints;
+      if (!fromJointTrajectoryMsg(as_trajectory, approach_arm_->jointNames(), &joints, &res.message)) {
+        res.message = "start_joints: " + res.message;
+        return true;
+      }
+      start_joints = joints.front();
+    }
+    const gpatlas_motion::TouchMotion plan =
+        planner.plan(touch, &start, start_joints.size() > 0 ? &start_joints : nullptr);
     res.planning_time_s = plan.planning_ms / 1000.0;
     res.success = plan.ok;
     res.message = plan.message;
@@ -108,6 +130,30 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     for (const auto& p : plan.probing) res.probing.push_back(toPointMsg(p));
     for (const auto& p : plan.retreat) res.retreat.push_back(toPointMsg(p));
     res.direction = toVectorMsg(plan.direction);
+    if (approach_arm_ && plan.ok) {
+      const std::vector<std::string>& names = approach_arm_->jointNames();
+      const double speed = approach_config_.arm_joint_speed_rad_s;
+      res.approach_trajectory = toJointTrajectoryMsg(plan.approach_joints, names, speed);
+      res.probing_trajectory = toJointTrajectoryMsg(plan.probing_joints, names, speed);
+      res.retreat_trajectory = toJointTrajectoryMsg(plan.retreat_joints, names, speed);
+      for (auto* trajectory : {&res.approach_trajectory, &res.probing_trajectory, &res.retreat_trajectory}) {
+        trajectory->header.frame_id = world_frame_;
+        trajectory->header.stamp = ros::Time::now();
+      }
+      approach_trajectory_pub_.publish(res.approach_trajectory);
+      // The arm at a few configurations along each stretch of the approach and the probing.
+      std::vector<std::vector<gpatlas_motion::LinkCapsule>> trail;
+      std::vector<Eigen::VectorXd> path = plan.approach_joints;
+      path.push_back(plan.probing_joints.back());
+      constexpr int kSamplesPerStretch = 6;
+      for (std::size_t i = 0; i + 1 < path.size(); ++i)
+        for (int k = 0; k < kSamplesPerStretch; ++k)
+          trail.push_back(approach_arm_->linkCapsules(path[i] + (path[i + 1] - path[i]) * (double(k) / kSamplesPerStretch)));
+      trail.push_back(approach_arm_->linkCapsules(path.back()));
+      visualization_msgs::Marker arm_marker = armTrailMarker(trail, world_frame_);
+      arm_marker.header.stamp = ros::Time::now();
+      approach_arm_pub_.publish(arm_marker);
+    }
     if (plan.ok) {
       std::vector<Eigen::Vector3d> tip_path = plan.approach;
       tip_path.push_back(plan.probing.back());

@@ -1,7 +1,8 @@
 #pragma once
 
-#include "probe_sim/arm.h"
 #include "probe_sim/scene.h"
+
+#include <gpatlas_motion/arm.h>
 
 #include <gpatlas_core/approach_config.h>
 #include <gpatlas_core/prober.h>
@@ -17,6 +18,13 @@
 #include <vector>
 
 namespace probe_sim {
+
+using gpatlas_motion::Arm;
+using gpatlas_motion::ArmConfig;
+
+// SurfaceKind bits of the scene surfaces that the arm's link capsules penetrate (by more than
+// ArmConfig::collision_tolerance_m) in the configuration `joints`.
+unsigned armCollisions(const Arm& arm, const Scene& scene, const Eigen::VectorXd& joints);
 
 // Outcome of one straight probing motion along -n through a waypoint.
 struct ProbeStroke {
@@ -121,7 +129,7 @@ struct SimulatedProberConfig {
   // line between the rest and the approach pose where the touch has none, pointing along the
   // target's -normal, checked against the true scene every motion_check_step_m.
   gpatlas_core::ProbeGeometry body;
-  Eigen::Vector3d rest_tip_position{0.5, 0.25, 0.4};
+  Eigen::Vector3d rest_tip_position{0.7, 0.3, 0.4};
   double motion_check_step_m = 0.004;  // below the shaft's diameter: no crossing is missed
 };
 
@@ -131,11 +139,21 @@ struct SimulatedProberConfig {
 int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
                       const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m);
 
+// Where the arm (its link capsules, ArmConfig) or the probe's body at its tip frame penetrates
+// the scene along a joint-space polyline, sampled so that no point of the arm moves more than
+// step_m between samples: the number of separate contacts (a run of colliding samples counts
+// once).
+int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_core::ProbeGeometry& body,
+                         const std::vector<Eigen::VectorXd>& joint_path, double step_m);
+
 // gpatlas_core::Prober on the simulated scene: a poke probes the last waypoint of the touch, a
-// slide follows the path with an attempt every slide_step_m. With an arm, every waypoint must
-// have a collision-free inverse kinematics solution or the touch fails before probing. The way
-// there and back is judged (SimulatedProberConfig) and reported as approach and retreat
-// collisions; the touch is made all the same, as a robot that felt a bump would go on.
+// slide follows the path with an attempt every slide_step_m. The way there and back is judged
+// (SimulatedProberConfig) and reported as approach and retreat collisions; the touch is made
+// all the same, as a robot that felt a bump would go on. With an arm, the arm moves: along the
+// touch's approach_joints and retreat_joints where planned, else in a straight joint motion
+// between its rest and an inverse-kinematics solution at the approach pose; every waypoint
+// needs such a solution or the touch is "unreachable". The arm's own collisions with the true
+// scene are what it meets on the way, as on a real robot: they do not steer it.
 class SimulatedProber : public gpatlas_core::Prober {
  public:
   using Config = SimulatedProberConfig;
@@ -143,27 +161,31 @@ class SimulatedProber : public gpatlas_core::Prober {
   SimulatedProber(std::shared_ptr<const Scene> scene, std::unique_ptr<ProbeModel> model,
                   const Config& config = Config());
 
-  void setArm(std::shared_ptr<const Arm> arm) { arm_ = std::move(arm); }
+  // The arm rests with its tip at Config::rest_tip_position, pointing down
+  // (gpatlas_motion::armRestConfiguration). Throws std::runtime_error when it cannot.
+  void setArm(std::shared_ptr<const Arm> arm);
+  const Eigen::VectorXd& armRest() const { return arm_rest_; }
   const ProbeModel& model() const { return *model_; }
 
   gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override;
 
-  // The arm's joint positions at each waypoint of the last touch, in waypoint order (for a poke,
-  // the one probed waypoint), so that a caller can show the motion. Empty when there is no arm
-  // or the last touch failed before every waypoint had a solution.
+  // The arm's joint positions over the last touch, so that a caller can show the motion: the
+  // approach from the rest, each probed waypoint in order, the retreat to the rest. Empty when
+  // there is no arm or the last touch failed before every waypoint had a solution.
   const std::vector<Eigen::VectorXd>& lastArmSolutions() const { return last_arm_solutions_; }
 
  private:
   // Empty when the touch is usable, else the reason it is not.
   std::string validate(const gpatlas_core::Touch& touch) const;
-  // Empty when the arm can reach every waypoint without collision, else the reason. The joint
-  // solutions go to *solutions (one per waypoint when it succeeds).
-  std::string checkArm(const std::vector<ProbeAttempt>& waypoints,
-                       std::vector<Eigen::VectorXd>* solutions) const;
+  // The arm's motion for the touch: its configuration at each waypoint and the way there and
+  // back, judged; empty when every waypoint is reached, else why not.
+  std::string moveArm(const gpatlas_core::Touch& touch, const std::vector<ProbeAttempt>& waypoints,
+                      gpatlas_core::ProbeResult* result);
 
   std::shared_ptr<const Scene> scene_;
   std::unique_ptr<ProbeModel> model_;
   std::shared_ptr<const Arm> arm_;
+  Eigen::VectorXd arm_rest_;
   Config config_;
   std::vector<Eigen::VectorXd> last_arm_solutions_;
 };

@@ -1,5 +1,4 @@
-#include "probe_sim/arm.h"
-#include "probe_sim/probe.h"
+#include "gpatlas_motion/arm.h"
 
 #include <gtest/gtest.h>
 
@@ -8,16 +7,16 @@
 #include <memory>
 #include <random>
 
-using probe_sim::Arm;
+using gpatlas_motion::Arm;
 
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-std::string testUrdf() { return std::string(PROBE_SIM_SOURCE_DIR) + "/test/data/lwr4plus_test.urdf"; }
+std::string testUrdf() { return std::string(GPATLAS_MOTION_SOURCE_DIR) + "/test/data/lwr4plus_test.urdf"; }
 
 std::string vitoUrdf() {
-  return std::string(PROBE_SIM_SOURCE_DIR) + "/../vito_description/urdf/vito.urdf";
+  return std::string(GPATLAS_MOTION_SOURCE_DIR) + "/../vito_description/urdf/vito.urdf";
 }
 
 // Written out from the KUKA LWR 4+ data sheet rather than read from the URDF.
@@ -126,62 +125,6 @@ TEST(Arm, InverseKinematicsRefusesUnreachablePoints) {
   EXPECT_FALSE(nan.success);
 }
 
-TEST(Arm, LinkCapsulesDetectTableAndObjectCollisions) {
-  const Arm arm = Arm::fromUrdfFile(testUrdf());
-  probe_sim::Scene scene(probe_sim::makeProceduralObject("box", 0.1));
-  // Stretched straight up, nothing touches (the base column standing on the table is skipped).
-  EXPECT_EQ(arm.collisions(scene, Eigen::VectorXd::Zero(7)), 0u);
-  // Shoulder bent forward by 115 degrees drives the stretched arm down through the table top.
-  Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
-  q[1] = -115.0 * kPi / 180.0;  // A2 turns about -y: negative swings the arm towards +x
-  const Eigen::Isometry3d tip = arm.forwardKinematics(q);
-  ASSERT_LT(tip.translation().z(), 0.0) << "test configuration does not reach below the table";
-  EXPECT_NE(arm.collisions(scene, q) & static_cast<unsigned>(probe_sim::SurfaceKind::kTable), 0u);
-
-  // Poking the top of the box from above: reachable and collision-free.
-  const Arm::IkResult top =
-      arm.solveApproach(Eigen::Vector3d(0, 0, 0.1), -Eigen::Vector3d::UnitZ(), &scene);
-  EXPECT_TRUE(top.success);
-  EXPECT_EQ(top.collision_kinds, 0u);
-  // Touching the table right next to the box, approaching horizontally towards it, would put
-  // the arm through the table or the box: reached, but never collision-free.
-  const Arm::IkResult low =
-      arm.solveApproach(Eigen::Vector3d(0.0, 0.12, 0.01), -Eigen::Vector3d::UnitY(), &scene);
-  EXPECT_FALSE(low.success);
-}
-
-TEST(SimulatedProberWithArm, ReportsUnreachableAndArmCollisions) {
-  auto scene = std::make_shared<probe_sim::Scene>(probe_sim::makeProceduralObject("box", 0.1));
-  probe_sim::SimulatedProber prober(scene, probe_sim::makeProbeModel("ray"));
-  prober.setArm(std::make_shared<Arm>(Arm::fromUrdfFile(testUrdf())));
-
-  gpatlas_core::Touch touch;
-  touch.points = {Eigen::Vector3d(0.0, 0.0, 0.1)};
-  touch.normals = {Eigen::Vector3d::UnitZ()};
-  const gpatlas_core::ProbeResult top = prober.probe(touch);
-  EXPECT_TRUE(top.success) << top.reason;
-  // The configuration the prober used puts the tip on the poked point, approaching along -z.
-  ASSERT_EQ(prober.lastArmSolutions().size(), 1u);
-  const Arm arm = Arm::fromUrdfFile(testUrdf());
-  const Eigen::Isometry3d tip = arm.forwardKinematics(prober.lastArmSolutions()[0]);
-  EXPECT_LT((tip.translation() - touch.points[0]).norm(), 2e-3);
-  EXPECT_GT(tip.linear().col(2).dot(-Eigen::Vector3d::UnitZ()), 0.999);
-
-  touch.points = {Eigen::Vector3d(2.5, 0.0, 0.1)};
-  const gpatlas_core::ProbeResult far = prober.probe(touch);
-  EXPECT_FALSE(far.success);
-  EXPECT_EQ(far.reason, "unreachable");
-  EXPECT_TRUE(prober.lastArmSolutions().empty());
-
-  // The box's side facing away from the robot at the table height: the arm must reach around
-  // and down to the table top on the far side.
-  touch.points = {Eigen::Vector3d(0.0, 0.12, 0.01)};
-  touch.normals = {Eigen::Vector3d::UnitY()};
-  const gpatlas_core::ProbeResult low = prober.probe(touch);
-  EXPECT_FALSE(low.success);
-  EXPECT_NE(low.reason.find("arm collides with"), std::string::npos) << low.reason;
-}
-
 TEST(Arm, ProjectUrdfHasTheLeftArmChain) {
   if (!std::filesystem::exists(vitoUrdf())) GTEST_SKIP() << "no " << vitoUrdf() << " yet";
   const Arm arm = Arm::fromUrdfFile(vitoUrdf());
@@ -195,4 +138,22 @@ TEST(Arm, ProjectUrdfHasTheLeftArmChain) {
   const Eigen::Isometry3d pose = arm.forwardKinematics(q);
   const Arm::IkResult ik = arm.solveApproach(pose.translation(), pose.linear().col(2));
   EXPECT_TRUE(ik.success);
+}
+
+TEST(Arm, ToolCapsulesAreLeftOutOnRequest) {
+  const Arm arm = Arm::fromUrdfFile(testUrdf());
+  const Eigen::VectorXd q = Eigen::VectorXd::Zero(7);
+  const auto with_tool = arm.linkCapsules(q);
+  const auto links = arm.linkCapsules(q, false);
+  ASSERT_FALSE(links.empty());
+  ASSERT_LT(links.size(), with_tool.size());
+  for (const auto& link : links) EXPECT_EQ(link.radius, arm.config().link_radius_m);
+  // Stretched straight up: the links end at the last joint, below the flange and the probe.
+  const double last_joint_height = kBaseToShoulder + kShoulderToElbow + kElbowToWrist;
+  EXPECT_NEAR(links.back().b.z(), last_joint_height, 1e-9);
+  // The tool stops tip_clearance_m short of the tip.
+  EXPECT_NEAR(with_tool.back().b.z(), last_joint_height + kWristToFlange + kProbeLength - arm.config().tip_clearance_m, 1e-9);
+  // The chain's length after A1 (whose axis sits 0.1105 m above the base) bounds every point's
+  // distance from the joints' axes.
+  EXPECT_NEAR(arm.chainLength(), last_joint_height + kWristToFlange + kProbeLength - 0.1105, 1e-9);
 }

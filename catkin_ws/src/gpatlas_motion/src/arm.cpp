@@ -1,4 +1,4 @@
-#include "probe_sim/arm.h"
+#include "gpatlas_motion/arm.h"
 
 #include <kdl/chainfksolverpos_recursive.hpp>
 #include <kdl/chainjnttojacsolver.hpp>
@@ -16,9 +16,10 @@
 #include <iterator>
 #include <limits>
 #include <random>
+#include <sstream>
 #include <stdexcept>
 
-namespace probe_sim {
+namespace gpatlas_motion {
 
 struct Arm::Solvers {
   explicit Solvers(const KDL::Chain& c) : chain(c), fk(chain), jacobian(chain) {}
@@ -191,7 +192,7 @@ Eigen::Isometry3d Arm::forwardKinematics(const Eigen::VectorXd& joints) const {
   return toEigen(frame);
 }
 
-std::vector<Capsule> Arm::linkCapsules(const Eigen::VectorXd& joints) const {
+std::vector<LinkCapsule> Arm::linkCapsules(const Eigen::VectorXd& joints, bool include_tool) const {
   const KDL::Chain& chain = solvers_->chain;
   const int segment_count = static_cast<int>(chain.getNrOfSegments());
   const KDL::JntArray q = toKdl(joints);
@@ -211,16 +212,17 @@ std::vector<Capsule> Arm::linkCapsules(const Eigen::VectorXd& joints) const {
                              ? movable_segments[1] + 1
                              : 1;
   const int last_movable = movable_segments.back();
-  std::vector<Capsule> capsules;
+  std::vector<LinkCapsule> capsules;
   for (int k = first_kept; k <= segment_count; ++k) {
     const bool is_tool = k - 1 >= last_movable;
+    if (is_tool && !include_tool) break;
     capsules.push_back({frame_origins[k - 1], frame_origins[k],
                         is_tool ? config_.tool_radius_m : config_.link_radius_m});
   }
-  // Trim the tip clearance off the end of the chain, walking back over short segments.
-  double remaining = config_.tip_clearance_m;
+  // Trim the tip clearance off the end of the tool, walking back over short segments.
+  double remaining = include_tool ? config_.tip_clearance_m : 0.0;
   while (remaining > 0.0 && !capsules.empty()) {
-    Capsule& last = capsules.back();
+    LinkCapsule& last = capsules.back();
     const double length = (last.b - last.a).norm();
     if (length <= remaining) {
       remaining -= length;
@@ -233,18 +235,20 @@ std::vector<Capsule> Arm::linkCapsules(const Eigen::VectorXd& joints) const {
   return capsules;
 }
 
-unsigned Arm::collisions(const Scene& scene, const Eigen::VectorXd& joints) const {
-  unsigned kinds = 0;
-  for (unsigned k :
-       scene.capsuleOverlaps(linkCapsules(joints), kAllSurfaces, config_.collision_tolerance_m)) {
-    kinds |= k;
+double Arm::chainLength() const {
+  // From the first joint on: the fixed offsets before it do not turn.
+  double length = 0.0;
+  bool after_first_joint = false;
+  for (const KDL::Segment& segment : solvers_->chain.segments) {
+    if (after_first_joint) length += segment.getFrameToTip().p.Norm();
+    after_first_joint = after_first_joint || segment.getJoint().getType() != KDL::Joint::None;
   }
-  return kinds;
+  return length;
 }
 
 Arm::IkResult Arm::solveApproach(const Eigen::Vector3d& tip_position,
-                                 const Eigen::Vector3d& approach_direction, const Scene* scene,
-                                 const Eigen::VectorXd* seed) const {
+                                 const Eigen::Vector3d& approach_direction, const CollisionCheck& check,
+                                 const Eigen::VectorXd* seed, int restarts) const {
   IkResult best;
   const int n = jointCount();
   if (!tip_position.allFinite() || !approach_direction.allFinite() ||
@@ -257,7 +261,8 @@ Arm::IkResult Arm::solveApproach(const Eigen::Vector3d& tip_position,
   best.position_error_m = std::numeric_limits<double>::infinity();
   best.approach_error_rad = M_PI;
 
-  for (int attempt = 0; attempt < config_.ik_restarts; ++attempt) {
+  const int attempts = restarts > 0 ? restarts : config_.ik_restarts;
+  for (int attempt = 0; attempt < attempts; ++attempt) {
     Eigen::VectorXd q(n);
     if (attempt == 0 && seed && seed->size() == n && seed->allFinite()) {
       q = seed->cwiseMax(lower_).cwiseMin(upper_);
@@ -269,6 +274,10 @@ Arm::IkResult Arm::solveApproach(const Eigen::Vector3d& tip_position,
       }
     }
     double position_error = 0.0, approach_error = 0.0;
+    // A start that stops getting closer is left for the next: where the pose is out of reach,
+    // damped least squares settles at a configuration with an error that no longer shrinks.
+    double best_error = std::numeric_limits<double>::infinity();
+    int since_best = 0;
     for (int iteration = 0; iteration <= config_.ik_max_iterations; ++iteration) {
       const KDL::JntArray kdl_q = toKdl(q);
       KDL::Frame frame;
@@ -280,6 +289,13 @@ Arm::IkResult Arm::solveApproach(const Eigen::Vector3d& tip_position,
       error.tail<3>() = alignmentRotation(z, approach);
       position_error = error.head<3>().norm();
       approach_error = angleBetween(z, approach);
+      const double error_now = position_error + config_.ik_stall_metres_per_rad * approach_error;
+      if (error_now < best_error * (1.0 - 1e-3)) {
+        best_error = error_now;
+        since_best = 0;
+      } else if (++since_best >= config_.ik_stall_iterations) {
+        break;
+      }
       if ((position_error < 1e-6 && approach_error < 1e-6) || iteration == config_.ik_max_iterations) {
         break;
       }
@@ -306,7 +322,7 @@ Arm::IkResult Arm::solveApproach(const Eigen::Vector3d& tip_position,
       }
       continue;
     }
-    const unsigned kinds = scene ? collisions(*scene, q) : 0u;
+    const unsigned kinds = check ? check(q) : 0u;
     if (!best.reached) best.collision_kinds = kinds;
     best.reached = true;
     best.joints = q;
@@ -321,4 +337,14 @@ Arm::IkResult Arm::solveApproach(const Eigen::Vector3d& tip_position,
   return best;
 }
 
-}  // namespace probe_sim
+Eigen::VectorXd armRestConfiguration(const Arm& arm, const Eigen::Vector3d& rest_tip) {
+  const Arm::IkResult ik = arm.solveApproach(rest_tip, -Eigen::Vector3d::UnitZ());
+  if (!ik.reached) {
+    std::ostringstream message;
+    message << "the arm does not reach its rest, the tip at (" << rest_tip.transpose() << ") pointing down";
+    throw std::runtime_error(message.str());
+  }
+  return ik.joints;
+}
+
+}  // namespace gpatlas_motion
