@@ -110,9 +110,11 @@ TEST(Pipeline, BadCloudsLeaveNoModelAndTheManagerAlive) {
   touch.request.v_max = 0.1;
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", touch));
   EXPECT_EQ(touch.response.status, gpatlas_msgs::GetNextTouch::Response::NO_MODEL);
+  // The pipeline's four nodelets and pipeline.test's collision_map_without_urdf.
+  ASSERT_TRUE(ros::service::waitForService("/gpatlas/collision_map_without_urdf/plan_approach", ros::Duration(30.0)));
   nodelet::NodeletList list;
   ASSERT_TRUE(call("/gpatlas/gpatlas_manager/list", list));
-  EXPECT_EQ(list.response.nodelets.size(), 4u);
+  EXPECT_EQ(list.response.nodelets.size(), 5u);
 }
 
 TEST(Pipeline, AnswersBeforeTheModelExists) {
@@ -543,6 +545,11 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", bad_approach));
   EXPECT_FALSE(bad_approach.response.success);
   EXPECT_NE(bad_approach.response.message.find("finite"), std::string::npos) << bad_approach.response.message;
+  // Asked to plan for an arm without a URDF: why, and the manager's other nodelets still answer.
+  bad_approach = approach;
+  ASSERT_TRUE(call("/gpatlas/collision_map_without_urdf/plan_approach", bad_approach));
+  EXPECT_FALSE(bad_approach.response.success);
+  EXPECT_NE(bad_approach.response.message.find("robot_description"), std::string::npos) << bad_approach.response.message;
   gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
@@ -622,7 +629,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // After all of this the manager still runs every nodelet.
   nodelet::NodeletList list;
   ASSERT_TRUE(call("/gpatlas/gpatlas_manager/list", list));
-  EXPECT_EQ(list.response.nodelets.size(), 4u);
+  EXPECT_EQ(list.response.nodelets.size(), 5u);
 }
 
 }  // namespace

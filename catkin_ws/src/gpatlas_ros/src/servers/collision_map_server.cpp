@@ -82,6 +82,10 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
       latest = latest_sequence_;
       plane = support_plane_;
     }
+    if (approach_config_.use_arm && !approach_arm_) {
+      res.message = "approach/use_arm is set but there is no arm: " + approach_arm_error_;
+      return true;
+    }
     if (!map) {
       res.message = "no collision map yet: the GP has not published a model, or its map is not built";
       return true;
@@ -102,10 +106,6 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     }
     res.map_training_sequence = map->training_sequence;
     res.map_stale = map->training_sequence != latest;
-    if (approach_config_.use_arm && !approach_arm_) {
-      res.message = "approach/use_arm is set but there is no arm: " + approach_arm_error_;
-      return true;
-    }
     const gpatlas_motion::TouchMotionPlanner planner(approach_config_, map->tree, plane, approach_arm_);
     const Eigen::Vector3d start = fromMsg(req.start);
     Eigen::VectorXd start_joints;
