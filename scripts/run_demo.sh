@@ -43,7 +43,9 @@ d = sys.argv[1]
 r = json.load(open(f"{d}/report.json"))
 m = r.get("final_metrics") or {}
 print("[demo] ---------------------------------------------------------------")
-print(f"[demo] status: {r['status']}  (the loop's stop reason: {r['stop_reason']})")
+left = r.get("final_unreachable_candidates") or 0
+print(f"[demo] status: {r['status']}  (the loop's stop reason: {r['stop_reason']}"
+      + (f"; {left} candidates were left out of the approach's reach" if left else "") + ")")
 print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['settings']['strategy']}, V_max {r['settings']['v_max']}")
 if m:
     print(f"[demo] shape RMSE predicted->truth {1000*m['rmse_pred_to_gt_m']:.1f} mm, truth->predicted "

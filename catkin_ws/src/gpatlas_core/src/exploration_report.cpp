@@ -86,6 +86,7 @@ std::string toJson(const ExplorationReport& report) {
        << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
        << ",\n  \"contacts\": " << result.contacts << ",\n  \"unreachable_touches\": " << result.unreachable_touches
        << ",\n  \"unreachable_candidates\": " << result.unreachable_candidates
+       << ",\n  \"final_unreachable_candidates\": " << result.final_unreachable_candidates
        << ",\n  \"approach_collisions\": " << result.approach_collisions
        << ",\n  \"retreat_collisions\": " << result.retreat_collisions
        << ",\n  \"approach_plan_ms_median\": " << jsonNumber(approachPlanMsMedian(result))

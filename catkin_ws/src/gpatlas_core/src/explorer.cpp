@@ -395,6 +395,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         record.plan_status = plan.status;
         record.max_evaluated_variance = plan.max_evaluated_variance;
         result.final_max_evaluated_variance = plan.max_evaluated_variance;
+        result.final_unreachable_candidates = plan.unreachable_candidates;
 
         if (plan.status == PlanStatus::kConverged) {
           result.stop_reason = "converged";

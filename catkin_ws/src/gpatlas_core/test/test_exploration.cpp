@@ -601,6 +601,32 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
           << "refused target " << b << " repeats " << a;
 }
 
+// The same approacher with the cheap test: the strategy passes over the bottom's candidates
+// before it chooses, and the run converges within reach, saying how many were left.
+TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
+  struct ReachableAboveTheBottom : EquatorApproacher {
+    using EquatorApproacher::EquatorApproacher;
+    bool reachable(const Vector3& point, const Vector3&) override { return point.z() >= bottom(); }
+  };
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 2);
+  ReachableAboveTheBottom approacher(sphere);
+  RecordingProber prober(sphere);
+  StrategyConfig strategy_config;
+  strategy_config.seed = 2;
+  const auto strategy = makeStrategy("atlas_poke", strategy_config);
+  Explorer::Config config;
+  config.max_actions = 40;
+  config.seed = 2;
+  const ExplorationResult result =
+      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), EvidenceRule(), {}, &approacher);
+  ASSERT_TRUE(result.converged) << result.stop_reason;
+  EXPECT_GT(result.final_unreachable_candidates, 0);
+  EXPECT_GE(result.unreachable_candidates, result.final_unreachable_candidates);
+  for (const Touch& touch : prober.executed) EXPECT_GE(touch.points[approachTarget(touch)].z(), approacher.bottom());
+  EXPECT_TRUE(approacher.refused.empty()) << "the cheap test let a refused touch through";
+}
+
 // An approacher that refuses everything: no touch is made, each action gives up after
 // max_approach_attempts refusals, and the run stops after max_consecutive_failures such actions.
 TEST(Explorer, AnApproacherThatRefusesEverythingEndsTheRunWithoutATouch) {

@@ -157,3 +157,22 @@ TEST(Arm, ToolCapsulesAreLeftOutOnRequest) {
   // distance from the joints' axes.
   EXPECT_NEAR(arm.chainLength(), last_joint_height + kWristToFlange + kProbeLength - 0.1105, 1e-9);
 }
+
+// What the Vito left arm reaches around an object at the simulation's place, (0.7, 0) on the
+// table, with the probe along a horizontal normal: the front and the sides, not the back, where
+// the probe would have to point back at the robot (design.md section 7.1).
+TEST(Arm, ProjectLeftArmReachesTheFrontAndSidesOfTheObjectButNotItsBack) {
+  if (!std::filesystem::exists(vitoUrdf())) GTEST_SKIP() << "no " << vitoUrdf() << " yet";
+  const Arm arm = Arm::fromUrdfFile(vitoUrdf());
+  const auto reaches = [&](double azimuth_deg) {
+    const double a = azimuth_deg * kPi / 180.0;
+    const Eigen::Vector3d normal(std::cos(a), std::sin(a), 0.0);
+    // The approach pose 0.1 m out from a surface 7.5 cm from the object's axis, 7 cm up.
+    return arm.solveApproach(Eigen::Vector3d(0.7, 0.0, 0.07) + 0.175 * normal, -normal, nullptr, nullptr, 40).reached;
+  };
+  EXPECT_TRUE(reaches(180.0));  // the front, facing the robot
+  EXPECT_TRUE(reaches(90.0));   // the left side
+  EXPECT_TRUE(reaches(60.0));
+  EXPECT_FALSE(reaches(30.0));
+  EXPECT_FALSE(reaches(0.0));   // the back
+}

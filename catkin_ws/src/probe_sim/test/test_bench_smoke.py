@@ -11,7 +11,8 @@ import unittest
 COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,"
            "rmse_pred_to_gt_m,rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,"
            "fscore_5mm,calibration_2sd,position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
-           "update_ms_median,unreachable_touches,unreachable_candidates,approach_collisions,retreat_collisions,"
+           "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
+           "approach_collisions,retreat_collisions,"
            "approach_plan_ms_median").split(",")
 
 
@@ -60,7 +61,8 @@ class BenchSmokeTest(unittest.TestCase):
                 self.assertTrue(math.isfinite(float(r[key])) and float(r[key]) >= 0.0, (key, r))
             # Approach planning is on by default: every touch was planned, in a fraction of its
             # 0.2 s budget.
-            for key in ("unreachable_touches", "unreachable_candidates", "approach_collisions", "retreat_collisions"):
+            for key in ("unreachable_touches", "unreachable_candidates", "final_unreachable_candidates",
+                        "approach_collisions", "retreat_collisions"):
                 self.assertGreaterEqual(int(r[key]), 0, (key, r))
             if actions > 0:
                 self.assertTrue(0.0 <= float(r["approach_plan_ms_median"]) < 1000.0, r)

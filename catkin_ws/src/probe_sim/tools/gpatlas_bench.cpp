@@ -362,6 +362,7 @@ struct RunResult {
   // contacts with the true scene on the way to the touches and back, and the planner's time.
   int unreachable_touches{0};
   int unreachable_candidates{0};
+  int final_unreachable_candidates{0};  // in the plan that ended the run
   int approach_collisions{0};
   int retreat_collisions{0};
   double approach_plan_ms_median{std::nan("")};
@@ -599,6 +600,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
   r.unreachable_touches = result.unreachable_touches;
   r.unreachable_candidates = result.unreachable_candidates;
+  r.final_unreachable_candidates = result.final_unreachable_candidates;
   r.approach_collisions = result.approach_collisions;
   r.retreat_collisions = result.retreat_collisions;
   const std::string mesh_file =
@@ -653,7 +655,8 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
        "position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
-       "update_ms_median,unreachable_touches,unreachable_candidates,approach_collisions,retreat_collisions,approach_plan_ms_median\n";
+       "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,approach_collisions,"
+       "retreat_collisions,approach_plan_ms_median\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
@@ -665,8 +668,8 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.position_sd_m) << ','
       << num(r.max_evaluated_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << ','
-      << r.unreachable_touches << ',' << r.unreachable_candidates << ',' << r.approach_collisions << ',' << r.retreat_collisions << ','
-      << num(r.approach_plan_ms_median, 4) << '\n';
+      << r.unreachable_touches << ',' << r.unreachable_candidates << ',' << r.final_unreachable_candidates << ','
+      << r.approach_collisions << ',' << r.retreat_collisions << ',' << num(r.approach_plan_ms_median, 4) << '\n';
   }
 }
 
@@ -963,6 +966,8 @@ int main(int argc, char** argv) {
       const std::size_t finished = ++done;
       std::cout << "[" << finished << "/" << jobs.size() << "] " << r.object << " " << r.strategy << " seed "
                 << r.seed << ": " << r.actions << " actions, " << r.contacts << " contacts, " << r.status;
+      if (r.final_unreachable_candidates > 0)
+        std::cout << " (" << r.final_unreachable_candidates << " candidates left out of reach)";
       if (r.metrics.ok)
         std::cout << ", RMSE " << std::setprecision(3) << r.metrics.rmse_predicted_to_truth * 1000 << " / "
                   << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;

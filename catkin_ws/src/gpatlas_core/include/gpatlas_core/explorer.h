@@ -146,6 +146,9 @@ struct ExplorationResult {
   std::vector<ExplorationRecord> records;
   // PlanResult::max_evaluated_variance of the plan that ended the run.
   double final_max_evaluated_variance{0.0};
+  // The candidates the approacher's cheap test refused in that plan: "converged" with some left
+  // means converged within reach, the rest of the surface out of it.
+  int final_unreachable_candidates{0};
   // Touches the approach planner refused (not executed; those refused before the plan that
   // ended the run are in no record), and the probe's unexpected contacts on the way to the
   // touches and back.
