@@ -4,6 +4,8 @@
 // the octree the planner saw.
 #include "gpatlas_motion/arm_approach_planner.h"
 
+#include "box_octree.h"
+
 #include <octomap/OcTree.h>
 
 #include <gtest/gtest.h>
@@ -24,32 +26,13 @@ using gpatlas_motion::ProbeApproachPlanner;
 using Eigen::Vector3d;
 using Eigen::VectorXd;
 
-constexpr double kVoxel = 0.01;
+using gpatlas_motion_test::Box;
+using gpatlas_motion_test::kVoxel;
+using gpatlas_motion_test::mapOf;
 
 std::string testUrdfXml() {
   std::ifstream in(std::string(GPATLAS_MOTION_SOURCE_DIR) + "/test/data/lwr4plus_test.urdf");
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-}
-
-struct Box {
-  Vector3d lower, upper;
-  double distance(const Vector3d& p) const { return (lower - p).cwiseMax(p - upper).cwiseMax(0.0).norm(); }
-};
-
-// Every voxel of the region known: P(occupied) 0.999 inside the boxes (by voxel centre), 0.001
-// elsewhere, as the CollisionMap nodelet builds it.
-std::shared_ptr<octomap::OcTree> mapOf(const std::vector<Box>& boxes, const Box& region) {
-  auto tree = std::make_shared<octomap::OcTree>(kVoxel);
-  const float occupied = std::log(0.999f / 0.001f), free = -occupied;
-  for (double x = region.lower.x() + 0.5 * kVoxel; x < region.upper.x(); x += kVoxel)
-    for (double y = region.lower.y() + 0.5 * kVoxel; y < region.upper.y(); y += kVoxel)
-      for (double z = region.lower.z() + 0.5 * kVoxel; z < region.upper.z(); z += kVoxel) {
-        bool inside = false;
-        for (const Box& b : boxes) inside = inside || b.distance(Vector3d(x, y, z)) == 0.0;
-        tree->setNodeValue(octomap::point3d(float(x), float(y), float(z)), inside ? occupied : free);
-      }
-  tree->updateInnerOccupancy();
-  return tree;
 }
 
 // The arm's clearance from the boxes and the table over a joint path, sampled every 0.002 rad:

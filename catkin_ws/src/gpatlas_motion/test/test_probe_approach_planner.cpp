@@ -3,6 +3,8 @@
 // against the octree the planner saw.
 #include "gpatlas_motion/probe_approach_planner.h"
 
+#include "box_octree.h"
+
 #include <octomap/OcTree.h>
 
 #include <gtest/gtest.h>
@@ -20,32 +22,9 @@ using gpatlas_motion::ProbeApproachPlanner;
 using gpatlas_motion::ProbeGeometry;
 using Eigen::Vector3d;
 
-constexpr double kVoxel = 0.01;
-
-struct Box {
-  Vector3d lower, upper;
-  double distance(const Vector3d& p) const {
-    const Vector3d outside = (lower - p).cwiseMax(p - upper).cwiseMax(0.0);
-    return outside.norm();  // 0 inside
-  }
-};
-
-// A map as the CollisionMap nodelet builds it: every voxel of the region known, P(occupied) 0.999
-// inside the boxes (by voxel centre) and 0.001 elsewhere.
-std::shared_ptr<octomap::OcTree> mapOf(const std::vector<Box>& boxes, const Box& region) {
-  auto tree = std::make_shared<octomap::OcTree>(kVoxel);
-  const float occupied = std::log(0.999f / 0.001f), free = -occupied;
-  for (double x = region.lower.x() + 0.5 * kVoxel; x < region.upper.x(); x += kVoxel)
-    for (double y = region.lower.y() + 0.5 * kVoxel; y < region.upper.y(); y += kVoxel)
-      for (double z = region.lower.z() + 0.5 * kVoxel; z < region.upper.z(); z += kVoxel) {
-        const Vector3d c(x, y, z);
-        bool inside = false;
-        for (const Box& b : boxes) inside = inside || b.distance(c) == 0.0;
-        tree->setNodeValue(octomap::point3d(float(x), float(y), float(z)), inside ? occupied : free);
-      }
-  tree->updateInnerOccupancy();
-  return tree;
-}
+using gpatlas_motion_test::Box;
+using gpatlas_motion_test::kVoxel;
+using gpatlas_motion_test::mapOf;
 
 // The probe's clearance from the boxes over a path, sampled every millimetre: the tip's and the
 // shaft's distance minus their radii.

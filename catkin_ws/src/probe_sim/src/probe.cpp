@@ -158,6 +158,30 @@ unsigned armCollisions(const Arm& arm, const Scene& scene, const Eigen::VectorXd
   return kinds;
 }
 
+namespace {
+
+// The separate runs of colliding samples along a polyline: each stretch from one point to the
+// next is sampled with steps(from, to) steps, and a stretch's last sample is the next one's first.
+template <typename Point, typename Steps, typename Collides>
+int countContactRuns(const std::vector<Point>& path, const Steps& steps, const Collides& collides) {
+  int contacts = 0;
+  bool in_contact = false;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    const Point& from = path[i];
+    const Point& to = i + 1 < path.size() ? path[i + 1] : path[i];
+    const int n = std::max(1, steps(from, to));
+    const int last = i + 1 < path.size() ? n - 1 : n;
+    for (int s = 0; s <= last; ++s) {
+      const bool hit = collides(Point(from + (to - from) * (static_cast<double>(s) / n)));
+      contacts += hit && !in_contact ? 1 : 0;
+      in_contact = hit;
+    }
+  }
+  return contacts;
+}
+
+}  // namespace
+
 int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
                       const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m) {
   const Eigen::Vector3d d = direction.normalized();
@@ -169,21 +193,10 @@ int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& bod
     shaft.radius = body.shaft_radius_m;
     return scene.capsuleOverlaps({shaft}).front() != 0;
   };
-  int contacts = 0;
-  bool in_contact = false;
-  for (std::size_t i = 0; i < tip_path.size(); ++i) {
-    const Eigen::Vector3d& from = tip_path[i];
-    const Eigen::Vector3d& to = i + 1 < tip_path.size() ? tip_path[i + 1] : tip_path[i];
-    const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step_m)));
-    // The segment's last sample is the next one's first.
-    const int last = i + 1 < tip_path.size() ? steps - 1 : steps;
-    for (int s = 0; s <= last; ++s) {
-      const bool hit = collides(from + (to - from) * (static_cast<double>(s) / steps));
-      contacts += hit && !in_contact ? 1 : 0;
-      in_contact = hit;
-    }
-  }
-  return contacts;
+  const auto steps = [step_m](const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
+    return static_cast<int>(std::ceil((to - from).norm() / step_m));
+  };
+  return countContactRuns(tip_path, steps, collides);
 }
 
 int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_core::ProbeGeometry& body,
@@ -195,20 +208,10 @@ int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_core:
   };
   // No point of the arm moves farther than chainLength() times the joints' summed motion.
   const double length = arm.chainLength();
-  int contacts = 0;
-  bool in_contact = false;
-  for (std::size_t i = 0; i < joint_path.size(); ++i) {
-    const Eigen::VectorXd& from = joint_path[i];
-    const Eigen::VectorXd& to = i + 1 < joint_path.size() ? joint_path[i + 1] : joint_path[i];
-    const int steps = std::max(1, static_cast<int>(std::ceil(length * (to - from).lpNorm<1>() / step_m)));
-    const int last = i + 1 < joint_path.size() ? steps - 1 : steps;
-    for (int s = 0; s <= last; ++s) {
-      const bool hit = collides(from + (to - from) * (static_cast<double>(s) / steps));
-      contacts += hit && !in_contact ? 1 : 0;
-      in_contact = hit;
-    }
-  }
-  return contacts;
+  const auto steps = [length, step_m](const Eigen::VectorXd& from, const Eigen::VectorXd& to) {
+    return static_cast<int>(std::ceil(length * (to - from).lpNorm<1>() / step_m));
+  };
+  return countContactRuns(joint_path, steps, collides);
 }
 
 SimulatedProber::SimulatedProber(std::shared_ptr<const Scene> scene,
