@@ -116,11 +116,6 @@ void ArmReachMemory::remember(const Eigen::Vector3d& position, const Eigen::Vect
   verdicts_[key(position, direction)] = std::move(verdict);
 }
 
-std::size_t ArmReachMemory::size() const {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return verdicts_.size();
-}
-
 std::string ArmApproachPlanner::checkApproachPose(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal,
                                                   ArmReachMemory* memory) const {
   if (std::string problem = world_->checkApproachPose(touch_point, touch_normal); !problem.empty()) return problem;

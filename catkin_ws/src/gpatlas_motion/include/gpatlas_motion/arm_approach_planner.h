@@ -47,7 +47,6 @@ class ArmReachMemory {
   };
   std::optional<Verdict> find(const Eigen::Vector3d& position, const Eigen::Vector3d& direction) const;
   void remember(const Eigen::Vector3d& position, const Eigen::Vector3d& direction, Verdict verdict);
-  std::size_t size() const;
 
  private:
   using Key = std::array<long, 6>;

@@ -67,9 +67,6 @@ class TouchMotionPlanner {
   TouchMotion plan(const gpatlas_core::Touch& touch, const Eigen::Vector3d* probe_start = nullptr,
                    const Eigen::VectorXd* arm_start = nullptr) const;
 
-  const Arm* arm() const { return arm_ ? &arm_->arm() : nullptr; }
-  const Eigen::VectorXd& armRest() const { return arm_rest_; }
-
  private:
   ApproachConfig config_;
   std::shared_ptr<ProbeApproachPlanner> probe_;
