@@ -128,7 +128,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart above
   // V_max right at a measurement or an earlier touch's target needs none
   // (EvidenceRule::retouch_radius_m).
-  const auto needsTouch = [&](const Chart& chart) {
+  const auto needsTouch = [&](Chart& chart) {
     if (!evidence.isUnsupported(chart.centre, chart.normal)) {
       if (!(chart.variance > v_max)) return false;
       if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
@@ -136,9 +136,13 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
         return false;
       }
     }
-    if (reachable && !reachable(chart.centre, chart.normal)) {
-      ++result.unreachable_skipped;
-      return false;
+    if (reachable) {
+      const std::optional<Vector3> direction = reachable(chart.centre, chart.normal);
+      if (!direction) {
+        ++result.unreachable_skipped;
+        return false;
+      }
+      chart.approach_direction = *direction;
     }
     return true;
   };
@@ -223,7 +227,11 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
           ChartCreation extension = expand(last);
           if (!extension.ok) break;
           // A slide ends where the probe can still leave the surface.
-          if (reachable && !reachable(extension.chart.centre, extension.chart.normal)) break;
+          if (reachable) {
+            const std::optional<Vector3> direction = reachable(extension.chart.centre, extension.chart.normal);
+            if (!direction) break;
+            extension.chart.approach_direction = *direction;
+          }
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);

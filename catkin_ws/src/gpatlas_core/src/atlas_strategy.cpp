@@ -29,16 +29,21 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
     // probe starts where the model is certain and slides toward the uncertainty.
     std::size_t first = mode_ == Mode::kPoke ? planned.path.size() - 1 : 0;
     // A slide starts at the first chart of the path the probe can be brought to.
+    std::optional<Vector3> first_direction;
     if (mode_ == Mode::kSlide && request.reachable)
-      while (first + 1 < planned.path.size()) {
+      for (; first + 1 < planned.path.size(); ++first) {
         const Chart& chart = planned.atlas.chart(planned.path[first]);
-        if (request.reachable(chart.centre, chart.normal)) break;
-        ++first;
+        first_direction = request.reachable(chart.centre, chart.normal);
+        if (first_direction) break;
       }
+    // Each waypoint is approached (pressed) along its chart's direction: the one the filter
+    // chose for the ends, the normal in between, where the probe slides on in contact.
     for (std::size_t k = first; k < planned.path.size(); ++k) {
       const Chart& chart = planned.atlas.chart(planned.path[k]);
       touch.points.push_back(chart.centre);
-      touch.normals.push_back(chart.normal);
+      Vector3 direction = chart.approach_direction.norm() > 0.0 ? chart.approach_direction : chart.normal;
+      if (k == first && first_direction) direction = *first_direction;
+      touch.normals.push_back(direction.normalized());
       touch.variances.push_back(chart.variance);
     }
   }

@@ -384,7 +384,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         if (attempt > 0) request.seed = mixSeeds(request.seed, static_cast<std::uint64_t>(attempt));
         if (approacher)
           request.reachable = [approacher](const Vector3& point, const Vector3& normal) {
-            return approacher->reachable(point, normal);
+            return approacher->approachDirection(point, normal);
           };
         const Clock::time_point plan_started = Clock::now();
         plan = planner.plan(request);

@@ -264,7 +264,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
     const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {
       ++asked;
       EXPECT_NEAR(normal.norm(), 1.0, 1e-9);
-      return point.x() > sphere.centre.x();
+      return point.x() > sphere.centre.x() ? std::optional<Vector3>(normal) : std::nullopt;
     };
     const AtlasPlanResult result = AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, east);
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
@@ -287,10 +287,30 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   const auto slide = makeStrategy("atlas_slide", slide_config);
   PlanRequest request;
   request.v_max = kVMax;
-  request.reachable = [&](const Vector3& point, const Vector3&) { return point.x() > sphere.centre.x(); };
+  // The filter's direction: tilted from the normal toward +z (a made-up rule the touch must
+  // carry, whatever it is).
+  const auto tilted = [](const Vector3& normal) { return Vector3((normal + Vector3::UnitZ()).normalized()); };
+  request.reachable = [&](const Vector3& point, const Vector3& normal) {
+    return point.x() > sphere.centre.x() ? std::optional<Vector3>(tilted(normal)) : std::nullopt;
+  };
   const PlanResult slid = slide->plan(model, request);
   ASSERT_EQ(slid.status, PlanStatus::kTouch) << slid.message;
   EXPECT_GT(slid.touch.points.front().x(), sphere.centre.x());
+  // The slide is approached and left along the filter's directions, pressed along the normal
+  // in between.
+  const std::vector<int>& slid_path = slid.atlas->path;
+  const std::size_t slid_first = slid_path.size() - slid.touch.points.size();
+  for (std::size_t k = 0; k < slid.touch.points.size(); ++k) {
+    const Vector3 normal = slid.atlas->atlas.chart(slid_path[slid_first + k]).normal;
+    const bool end = k == 0 || slid.atlas->atlas.chart(slid_path[slid_first + k]).approach_direction.norm() > 0.0;
+    EXPECT_LT((slid.touch.normals[k] - (end ? tilted(normal) : normal)).norm(), 1e-9) << "waypoint " << k;
+  }
+  EXPECT_LT((slid.touch.normals.back() - tilted(slid.atlas->atlas.chart(slid_path.back()).normal)).norm(), 1e-9);
+  // A poke comes in along the direction the filter chose for its target.
+  const PlanResult poked = makeStrategy("atlas_poke", slide_config)->plan(model, request);
+  ASSERT_EQ(poked.status, PlanStatus::kTouch) << poked.message;
+  ASSERT_EQ(poked.touch.normals.size(), 1u);
+  EXPECT_LT((poked.touch.normals.front() - tilted(poked.atlas->atlas.chart(poked.atlas->path.back()).normal)).norm(), 1e-9);
   const std::vector<int>& path = slid.atlas->path;
   std::size_t needy = 0;  // the first chart of the path above V_max: the extension follows it
   while (needy < path.size() && !(slid.atlas->atlas.chart(path[needy]).variance > kVMax)) ++needy;
@@ -300,7 +320,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   AtlasPlanner::Config config;
   config.max_charts = 400;
   const AtlasPlanResult nowhere =
-      AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, [](const Vector3&, const Vector3&) { return false; });
+      AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, [](const Vector3&, const Vector3&) { return std::optional<Vector3>(); });
   EXPECT_NE(nowhere.status, PlanStatus::kTouch);
   EXPECT_GT(nowhere.unreachable_skipped, 0);
   EXPECT_NE(nowhere.message.find("no safe approach"), std::string::npos) << nowhere.message;

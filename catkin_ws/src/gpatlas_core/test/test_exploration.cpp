@@ -606,7 +606,9 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
 TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   struct ReachableAboveTheBottom : EquatorApproacher {
     using EquatorApproacher::EquatorApproacher;
-    bool reachable(const Vector3& point, const Vector3&) override { return point.z() >= bottom(); }
+    std::optional<Vector3> approachDirection(const Vector3& point, const Vector3& normal) override {
+      return point.z() >= bottom() ? std::optional<Vector3>(normal) : std::nullopt;
+    }
   };
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 2);

@@ -74,7 +74,10 @@ TouchMotionPlanner::TouchMotionPlanner(const ApproachConfig& config, std::shared
                                        std::shared_ptr<const Arm> arm, std::shared_ptr<ArmReachMemory> reach)
     : config_(config), probe_(std::make_shared<ProbeApproachPlanner>(config)), reach_(std::move(reach)) {
   probe_->setCollisionMap(std::move(map));
-  if (table) probe_->addStaticHalfSpace(table->normal, table->offset);
+  if (table) {
+    probe_->addStaticHalfSpace(table->normal, table->offset);
+    up_ = table->normal.normalized();
+  }
   if (!config_.use_arm) return;
   if (!arm) throw std::invalid_argument("approach/use_arm is set but there is no arm");
   arm_rest_ = armRestConfiguration(*arm, config_.rest_tip_position_m);
@@ -84,6 +87,22 @@ TouchMotionPlanner::TouchMotionPlanner(const ApproachConfig& config, std::shared
 std::string TouchMotionPlanner::check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const {
   return arm_ ? arm_->checkApproachPose(point, outward_normal, reach_.get())
               : probe_->checkApproachPose(point, outward_normal);
+}
+
+std::optional<Eigen::Vector3d> TouchMotionPlanner::approachDirection(const Eigen::Vector3d& point,
+                                                                    const Eigen::Vector3d& outward_normal,
+                                                                    std::string* why) const {
+  const std::string along_normal = check(point, outward_normal);
+  if (along_normal.empty()) return outward_normal.normalized();
+  if (why) *why = along_normal;
+  if (!point.allFinite() || !outward_normal.allFinite() || !(outward_normal.norm() > 1e-9)) return std::nullopt;
+  const std::vector<Eigen::Vector3d> directions = gpatlas_core::approachDirections(outward_normal, up_, config_);
+  for (std::size_t i = 1; i < directions.size(); ++i)
+    if (check(point, directions[i]).empty()) return directions[i];
+  if (why && directions.size() > 1)
+    *why += " (and along " + std::to_string(directions.size() - 1) + " directions tilted up to " +
+            std::to_string(static_cast<int>(config_.max_tilt_deg)) + " degrees from the normal)";
+  return std::nullopt;
 }
 
 TouchMotion TouchMotionPlanner::plan(const gpatlas_core::Touch& touch, const Eigen::Vector3d* probe_start,
@@ -135,10 +154,11 @@ std::string ModelTouchApproacher::ensureMap() {
   return "";
 }
 
-bool ModelTouchApproacher::reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) {
+std::optional<Eigen::Vector3d> ModelTouchApproacher::approachDirection(const Eigen::Vector3d& point,
+                                                                      const Eigen::Vector3d& outward_normal) {
   // Without a map nothing can be told: the full plan will say why.
-  if (!ensureMap().empty()) return true;
-  return planner_->check(point, outward_normal).empty();
+  if (!ensureMap().empty()) return outward_normal;
+  return planner_->approachDirection(point, outward_normal);
 }
 
 gpatlas_core::ApproachResult ModelTouchApproacher::plan(const gpatlas_core::Touch& touch) {

@@ -166,28 +166,79 @@ TEST(ModelTouchApproacher, ARestInsideTheObjectIsRefused) {
 
 namespace {
 
-// The cheap test the strategies use: a touch whose approach pose lies under the table, or
-// behind another part of the object, is refused; one in the open is not.
-TEST(ModelTouchApproacher, TheCheapTestRefusesApproachPosesInTheTableOrTheObject) {
+// The directions a blocked touch is tried along: the normal first, then rings at the configured
+// tilts, each starting toward up, all distinct unit vectors.
+TEST(ApproachDirections, RingsOfTiltedDirectionsStartTowardUp) {
+  gpatlas_core::ApproachConfig config;
+  config.max_tilt_deg = 45.0;
+  config.tilt_step_deg = 15.0;
+  config.tilt_azimuths = 6;
+  const Vector3d normal = Vector3d(1.0, 0.0, -1.0).normalized();
+  const std::vector<Vector3d> directions = gpatlas_core::approachDirections(normal, Vector3d::UnitZ(), config);
+  ASSERT_EQ(directions.size(), 1u + 3u * 6u);
+  EXPECT_LT((directions.front() - normal).norm(), 1e-12);
+  for (std::size_t i = 1; i < directions.size(); ++i) {
+    const int ring = static_cast<int>((i - 1) / 6) + 1;
+    EXPECT_NEAR(directions[i].norm(), 1.0, 1e-12);
+    EXPECT_NEAR(std::acos(std::clamp(directions[i].dot(normal), -1.0, 1.0)) * 180.0 / M_PI, 15.0 * ring, 1e-9) << i;
+    for (std::size_t j = 0; j < i; ++j) EXPECT_GT((directions[i] - directions[j]).norm(), 1e-6) << i << " " << j;
+  }
+  // Each ring's first direction lies in the plane of the normal and up, turned toward up.
+  for (int ring = 0; ring < 3; ++ring) {
+    const Vector3d& first = directions[1 + 6 * ring];
+    EXPECT_NEAR(first.y(), 0.0, 1e-12);
+    EXPECT_GT(first.z(), normal.z());
+  }
+  // A normal along up has no direction toward it: any tangent will do, and nothing is NaN.
+  for (const Vector3d& d : gpatlas_core::approachDirections(Vector3d::UnitZ(), Vector3d::UnitZ(), config))
+    EXPECT_TRUE(d.allFinite());
+  config.max_tilt_deg = 0.0;
+  EXPECT_EQ(gpatlas_core::approachDirections(normal, Vector3d::UnitZ(), config).size(), 1u);
+  EXPECT_THROW(gpatlas_core::approachDirections(Vector3d::Zero(), Vector3d::UnitZ(), config), std::invalid_argument);
+}
+
+// The cheap test the strategies use: a touch whose approach pose lies under the table is
+// approached along a direction tilted from the normal, one behind another part of the object
+// is refused, one in the open is approached along its normal.
+TEST(ModelTouchApproacher, TheCheapTestTiltsOutOfTheTableAndRefusesApproachesFromInside) {
   const gpatlas_core::GpisModel model = sphereModel();
   gpatlas_core::ApproachConfig config;
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   const double table_height = kCentre.z() - kRadius;
-  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, 0.5,
-                                                  gpatlas_core::SupportPlane{Vector3d::UnitZ(), -table_height});
-  EXPECT_TRUE(approacher.reachable(kCentre + kRadius * Vector3d::UnitZ(), Vector3d::UnitZ()));
-  EXPECT_TRUE(approacher.reachable(kCentre + kRadius * Vector3d::UnitX(), Vector3d::UnitX()));
-  // Low on the side, facing down: the approach pose is under the table.
+  const gpatlas_core::SupportPlane table{Vector3d::UnitZ(), -table_height};
+  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, 0.5, table);
+  for (const Vector3d& open : {Vector3d::UnitZ(), Vector3d::UnitX()}) {
+    const std::optional<Vector3d> direction = approacher.approachDirection(kCentre + kRadius * open, open);
+    ASSERT_TRUE(direction.has_value());
+    EXPECT_LT((*direction - open).norm(), 1e-12);
+  }
+  // Low on the side, facing down: the approach pose along the normal is under the table.
   const Vector3d low = Vector3d(1.0, 0.0, -0.8).normalized();
-  EXPECT_FALSE(approacher.reachable(kCentre + kRadius * low, low));
-  // A point on the far side, probed from inside the sphere: the approach pose is in the object
-  // (the normal is turned inward).
-  EXPECT_FALSE(approacher.reachable(kCentre + kRadius * Vector3d::UnitY(), -Vector3d::UnitY()));
-  // What the cheap test refuses, the full plan refuses too.
+  const Vector3d low_point = kCentre + kRadius * low;
+  ASSERT_LT((low_point + config.approach_distance_m * low).z(), table_height);
+  const std::optional<Vector3d> tilted = approacher.approachDirection(low_point, low);
+  ASSERT_TRUE(tilted.has_value());
+  const double tilt_deg = std::acos(tilted->dot(low)) * 180.0 / M_PI;
+  EXPECT_GT(tilt_deg, 1.0);
+  EXPECT_LE(tilt_deg, config.max_tilt_deg + 1e-9);
+  // The way there along it clears the true sphere and the table.
   Touch touch;
-  touch.points = {kCentre + kRadius * low};
+  touch.points = {low_point};
+  touch.normals = {*tilted};
+  const gpatlas_core::ApproachResult planned = approacher.plan(touch);
+  ASSERT_TRUE(planned.ok) << planned.message;
+  EXPECT_GT(sphereClearance(planned.approach_path, -*tilted, config.probe), 0.0);
+  for (const Vector3d& tip : planned.approach_path) EXPECT_GT(tip.z() - config.probe.tip_radius_m, table_height);
+  // Along the normal only, it is refused, and so is its full plan.
+  gpatlas_core::ApproachConfig normal_only = config;
+  normal_only.max_tilt_deg = 0.0;
+  gpatlas_motion::ModelTouchApproacher strict(model, normal_only, {}, 0.5, table);
+  EXPECT_FALSE(strict.approachDirection(low_point, low).has_value());
   touch.normals = {low};
-  EXPECT_FALSE(approacher.plan(touch).ok);
+  EXPECT_FALSE(strict.plan(touch).ok);
+  // A point on the far side, probed from inside the sphere: every direction within 60 degrees
+  // of the inward normal starts in the object.
+  EXPECT_FALSE(approacher.approachDirection(kCentre + kRadius * Vector3d::UnitY(), -Vector3d::UnitY()).has_value());
 }
 
 }  // namespace

@@ -3,7 +3,7 @@
 #include "gpatlas_core/types.h"
 
 #include <string>
-
+#include <vector>
 
 namespace gpatlas_core {
 
@@ -38,6 +38,14 @@ struct ApproachConfig {
   double max_planning_time_s{0.2};
   double workspace_margin_m{0.2};   // the planner's box: start and approach pose, grown by this
   double check_resolution_m{0.002};  // motions are checked at least this finely
+  // A touch whose approach along its normal is blocked (under a rim, next to the table, behind
+  // a handle) is tried along directions tilted from the normal, in rings of tilt_step_deg up to
+  // max_tilt_deg, tilt_azimuths per ring, the ring's first direction turned toward the world's
+  // up (the table is the usual obstacle). The probe then comes in along the first free one.
+  // 0: along the normal only.
+  double max_tilt_deg{60.0};
+  double tilt_step_deg{15.0};
+  int tilt_azimuths{8};
   ProbeGeometry probe;
   // Plan for the arm that holds the probe (the URDF's chain from arm_base_link to arm_tip_link)
   // in joint space: its links and the probe, on the same map and static world. Off: the probe
@@ -60,5 +68,12 @@ struct ApproachConfig {
 
 // Empty when the config is usable; otherwise what is wrong with it.
 std::string validate(const ApproachConfig& config);
+
+// The directions a touch with this outward normal may be approached from, in the order they
+// are tried: the normal, then ApproachConfig's rings of tilted directions (unit vectors at
+// tilt_step_deg, 2 tilt_step_deg, ... up to max_tilt_deg from the normal), each ring starting
+// with the direction turned toward `up` and alternating to either side of it. The probe moves
+// along minus the direction. Throws std::invalid_argument for a zero or non-finite normal.
+std::vector<Vector3> approachDirections(const Vector3& outward_normal, const Vector3& up, const ApproachConfig& config);
 
 }  // namespace gpatlas_core

@@ -14,9 +14,11 @@
 
 namespace gpatlas_core {
 
-// Whether the probe can be brought to a touch of `point` along -outward_normal: a cheap test of
-// the approach (the full plan is made for the chosen touch only). Empty: every point can.
-using TouchFilter = std::function<bool(const Vector3& point, const Vector3& outward_normal)>;
+// The direction the probe can come from to a touch of `point` (it moves along minus it): the
+// outward normal, or one tilted from it when that approach is blocked; nullopt when there is
+// none. A cheap test of the approach: the full plan is made for the chosen touch only. Empty:
+// every point can be touched along its normal.
+using TouchFilter = std::function<std::optional<Vector3>(const Vector3& point, const Vector3& outward_normal)>;
 
 enum class PlanStatus : std::uint8_t {
   kTouch = 0,       // a touch (path) was found

@@ -45,6 +45,9 @@ struct Chart {
   double variance{0.0};
   double mean{0.0};    // f at the centre, |f| below the projection tolerance
   int parent{-1};      // index in the atlas, -1 for the root
+  // The direction a touch of the centre comes from, when the planner's TouchFilter chose one
+  // (it may be tilted from the normal); zero: along the normal.
+  Vector3 approach_direction{Vector3::Zero()};
   std::vector<ChartCandidate> candidates;
 
   bool expandable() const { return !candidates.empty(); }

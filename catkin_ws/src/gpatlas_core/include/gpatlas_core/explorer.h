@@ -205,9 +205,12 @@ class TouchApproacher {
   virtual ~TouchApproacher() = default;
   virtual ApproachResult plan(const Touch& touch) = 0;
   // A cheap test the strategies apply to their candidates before they choose one
-  // (PlanRequest::reachable): whether a touch of `point` along -outward_normal may have a safe
-  // approach. The default says yes to every one.
-  virtual bool reachable(const Vector3& /*point*/, const Vector3& /*outward_normal*/) { return true; }
+  // (PlanRequest::reachable): the direction a touch of `point` may have a safe approach from
+  // (the outward normal or one tilted from it, TouchFilter), nullopt when none. The default
+  // takes every one along its normal.
+  virtual std::optional<Vector3> approachDirection(const Vector3& /*point*/, const Vector3& outward_normal) {
+    return outward_normal;
+  }
   // The model took a touch: what the next plan sees must come from the updated model.
   virtual void modelChanged() {}
   // Called before each action's first plan: brings the approacher up to date with the model

@@ -66,8 +66,10 @@ struct Contact {
   Vector3 normal{Vector3::Zero()};
 };
 
-// A touch to execute: an ordered path on the predicted surface with the outward normal
-// (approach direction is -normal) and the predicted variance at each waypoint.
+// A touch to execute: an ordered path on the predicted surface with the direction each waypoint
+// is approached from (the probe moves along -normal: the predicted outward normal, or one
+// tilted from it where the approach along the normal is blocked, ApproachConfig::max_tilt_deg)
+// and the predicted variance at each waypoint.
 struct Touch {
   enum class Kind : std::uint8_t { kPoke = 0, kSlide = 1 };
   Kind kind{Kind::kPoke};

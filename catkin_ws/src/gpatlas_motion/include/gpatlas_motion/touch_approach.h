@@ -61,6 +61,11 @@ class TouchMotionPlanner {
   // The cheap test of a candidate (ProbeApproachPlanner's or ArmApproachPlanner's
   // checkApproachPose): empty when it may be approached, else why not.
   std::string check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const;
+  // The first of gpatlas_core::approachDirections (the normal, then the directions tilted from
+  // it, the first of each ring toward the table's normal, or +z without a table) that check()
+  // accepts; nullopt when none does, with the refusal along the normal in `why` (optional).
+  std::optional<Eigen::Vector3d> approachDirection(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal,
+                                                   std::string* why = nullptr) const;
 
   // The touch's way there and back from the rest (the probe's tip at rest_tip_position_m, or
   // the arm's rest configuration); a start given for the one planned for replaces its rest.
@@ -73,6 +78,7 @@ class TouchMotionPlanner {
   std::unique_ptr<ArmApproachPlanner> arm_;
   Eigen::VectorXd arm_rest_;
   std::shared_ptr<ArmReachMemory> reach_;
+  Eigen::Vector3d up_{Eigen::Vector3d::UnitZ()};
 };
 
 // Approach planning in one process (the bench): a collision map built from the model, rebuilt
@@ -89,8 +95,9 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   ~ModelTouchApproacher() override;
 
   gpatlas_core::ApproachResult plan(const gpatlas_core::Touch& touch) override;
-  // TouchMotionPlanner::check.
-  bool reachable(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) override;
+  // TouchMotionPlanner::approachDirection.
+  std::optional<Eigen::Vector3d> approachDirection(const Eigen::Vector3d& point,
+                                                   const Eigen::Vector3d& outward_normal) override;
   void modelChanged() override { planner_.reset(); }
   // Builds the map of the model as it is now (a failure is reported by plan()).
   void prepare() override { ensureMap(); }

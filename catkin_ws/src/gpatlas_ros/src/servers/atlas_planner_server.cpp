@@ -169,7 +169,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
       approach_check =
           std::make_unique<gpatlas_motion::TouchMotionPlanner>(approach_config_, map, support_plane_, approach_arm_, arm_reach_);
       request.reachable = [&approach_check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
-        return approach_check->check(point, normal).empty();
+        return approach_check->approachDirection(point, normal);
       };
     } else {
       reachability_note = offered ? "; every candidate taken: the collision map of this model failed"
