@@ -40,8 +40,9 @@ struct ApproachConfig {
   double check_resolution_m{0.002};  // motions are checked at least this finely
   // A touch whose approach along its normal is blocked (under a rim, next to the table, behind
   // a handle) is tried along directions tilted from the normal, in rings of tilt_step_deg up to
-  // max_tilt_deg, tilt_azimuths per ring, the ring's first direction turned toward the world's
-  // up (the table is the usual obstacle). The probe then comes in along the first free one.
+  // max_tilt_deg, tilt_azimuths per ring, the ring's first direction turned toward the table's
+  // normal (the usual obstacle is the table; +z without one). The probe then comes in along the
+  // first free one.
   // 0: along the normal only.
   double max_tilt_deg{60.0};
   double tilt_step_deg{15.0};
