@@ -19,7 +19,11 @@ import rospy
 SAME_FIRST_ACTIONS = 5
 VARIANCE_TOLERANCE = 1e-3
 ACTIONS_RELATIVE_TOLERANCE = 0.35
-RMSE_TOLERANCE_M = 0.001
+# Past the divergence they are two explorations of one object, which differ as runs with
+# different seeds do: the bench's atlas_poke runs of the mug over seeds 0-2 end between 5.9 and
+# 7.0 mm predicted->truth. Wider than that spread, a difference means that one pipeline's shape
+# is off.
+RMSE_TOLERANCE_M = 0.002
 
 
 class BenchMatchesDemoTest(unittest.TestCase):
