@@ -251,7 +251,8 @@ class ExplorationNode {
       ROS_ERROR_STREAM("exploration: capture failed: " << capture.response.message);
       return false;
     }
-    cloud_pub_.publish(capture.response.cloud);
+    captured_cloud_ = capture.response.cloud;
+    cloud_pub_.publish(*captured_cloud_);
     ROS_INFO_STREAM("exploration: captured " << capture.response.cloud.width * capture.response.cloud.height
                                              << " points in " << capture.response.cloud.header.frame_id);
     return true;
@@ -259,10 +260,17 @@ class ExplorationNode {
 
   bool waitForModel() {
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(node_config_.service_timeout_s);
+    ros::WallTime last_published = ros::WallTime::now();
     while (ros::ok() && ros::WallTime::now() < deadline) {
       if (latestTraining()) {
         ROS_INFO_STREAM("exploration: model ready with " << latestTraining()->points.size() << " observations");
         return true;
+      }
+      const double silent_s = (ros::WallTime::now() - last_published).toSec();
+      if (captured_cloud_ && node_config_.republish_view_after_s > 0.0 && silent_s > node_config_.republish_view_after_s) {
+        ROS_WARN_STREAM("exploration: no model " << silent_s << " s after the view was published; publishing it again");
+        cloud_pub_.publish(*captured_cloud_);
+        last_published = ros::WallTime::now();
       }
       ros::WallDuration(0.1).sleep();
     }
@@ -646,6 +654,7 @@ class ExplorationNode {
   gpatlas_msgs::CollisionMapStatus::ConstPtr map_status_;
   ros::Subscriber map_status_sub_;
   ros::Publisher cloud_pub_;
+  std::optional<sensor_msgs::PointCloud2> captured_cloud_;  // the view captured, published again if no model comes
   ros::Subscriber training_sub_;
 };
 
