@@ -128,6 +128,13 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart above
   // V_max right at a measurement or an earlier touch's target needs none
   // (EvidenceRule::retouch_radius_m).
+  // The touch filter's direction for the chart, kept in it; false when it has none.
+  const auto takeApproach = [&](Chart& chart) {
+    if (!reachable) return true;
+    const std::optional<Vector3> direction = reachable(chart.centre, chart.normal);
+    if (direction) chart.approach_direction = *direction;
+    return direction.has_value();
+  };
   const auto needsTouch = [&](Chart& chart) {
     if (!evidence.isUnsupported(chart.centre, chart.normal)) {
       if (!(chart.variance > v_max)) return false;
@@ -136,13 +143,9 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
         return false;
       }
     }
-    if (reachable) {
-      const std::optional<Vector3> direction = reachable(chart.centre, chart.normal);
-      if (!direction) {
-        ++result.unreachable_skipped;
-        return false;
-      }
-      chart.approach_direction = *direction;
+    if (!takeApproach(chart)) {
+      ++result.unreachable_skipped;
+      return false;
     }
     return true;
   };
@@ -227,11 +230,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
           ChartCreation extension = expand(last);
           if (!extension.ok) break;
           // A slide ends where the probe can still leave the surface.
-          if (reachable) {
-            const std::optional<Vector3> direction = reachable(extension.chart.centre, extension.chart.normal);
-            if (!direction) break;
-            extension.chart.approach_direction = *direction;
-          }
+          if (!takeApproach(extension.chart)) break;
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);

@@ -90,18 +90,10 @@ std::string TouchMotionPlanner::check(const Eigen::Vector3d& point, const Eigen:
 }
 
 std::optional<Eigen::Vector3d> TouchMotionPlanner::approachDirection(const Eigen::Vector3d& point,
-                                                                    const Eigen::Vector3d& outward_normal,
-                                                                    std::string* why) const {
-  const std::string along_normal = check(point, outward_normal);
-  if (along_normal.empty()) return outward_normal.normalized();
-  if (why) *why = along_normal;
+                                                                    const Eigen::Vector3d& outward_normal) const {
   if (!point.allFinite() || !outward_normal.allFinite() || !(outward_normal.norm() > 1e-9)) return std::nullopt;
-  const std::vector<Eigen::Vector3d> directions = gpatlas_core::approachDirections(outward_normal, up_, config_);
-  for (std::size_t i = 1; i < directions.size(); ++i)
-    if (check(point, directions[i]).empty()) return directions[i];
-  if (why && directions.size() > 1)
-    *why += " (and along " + std::to_string(directions.size() - 1) + " directions tilted up to " +
-            std::to_string(static_cast<int>(config_.max_tilt_deg)) + " degrees from the normal)";
+  for (const Eigen::Vector3d& direction : gpatlas_core::approachDirections(outward_normal, up_, config_))
+    if (check(point, direction).empty()) return direction;
   return std::nullopt;
 }
 

@@ -63,9 +63,9 @@ class TouchMotionPlanner {
   std::string check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const;
   // The first of gpatlas_core::approachDirections (the normal, then the directions tilted from
   // it, the first of each ring toward the table's normal, or +z without a table) that check()
-  // accepts; nullopt when none does, with the refusal along the normal in `why` (optional).
-  std::optional<Eigen::Vector3d> approachDirection(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal,
-                                                   std::string* why = nullptr) const;
+  // accepts; nullopt when none does.
+  std::optional<Eigen::Vector3d> approachDirection(const Eigen::Vector3d& point,
+                                                   const Eigen::Vector3d& outward_normal) const;
 
   // The touch's way there and back from the rest (the probe's tip at rest_tip_position_m, or
   // the arm's rest configuration); a start given for the one planned for replaces its rest.
