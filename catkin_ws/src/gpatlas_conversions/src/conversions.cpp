@@ -235,7 +235,7 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelSta
   out.centroid = fromMsg(msg.centroid);
   out.scale = msg.scale;
   for (std::size_t i = 0; i < n; ++i) {
-    if (msg.labels[i] < -1 || msg.labels[i] > 1 || msg.sources[i] > 3) {
+    if (msg.labels[i] < -1 || msg.labels[i] > 1 || msg.sources[i] > static_cast<uint8_t>(gpatlas_core::PointSource::kViewSupport)) {
       *error = "training point " + std::to_string(i) + " has an invalid label or source";
       return false;
     }

@@ -166,6 +166,10 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   outside.noise_sigma = 0.2;
   outside.surface_distance_m = 0.04;  // its target follows the frame: must survive the trip
   pts.push_back(outside);
+  gpatlas_core::TrainingPoint table = outside;  // the table seen beside the object
+  table.position = {0.12, 0.0, -0.09};
+  table.source = gpatlas_core::PointSource::kViewSupport;
+  pts.push_back(table);
   // A contact's tangent slope (f does not change across the normal): direction and target.
   gpatlas_core::TrainingPoint tangent = pts.front();
   tangent.slope_direction = Eigen::Vector3d(0.3, -0.2, 0.1).cross(tangent.position).normalized();
@@ -204,6 +208,10 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   EXPECT_NEAR(rebuilt.mean(q), model.mean(q), 1e-12);
   EXPECT_NEAR(rebuilt.variance(q), model.variance(q), 1e-12);
   EXPECT_LT((rebuilt.predict(q).gradient - model.predict(q).gradient).norm(), 1e-9);
+  // A source this build does not know is refused.
+  gpatlas_msgs::TrainingSet unknown = toMsg(model);
+  unknown.sources.back() = 5;
+  EXPECT_FALSE(fromMsg(unknown, &contents, &error));
   // Without the slope the replica would differ: the check above can fail.
   pts.pop_back();
   gpatlas_core::GpisModel without_slope;

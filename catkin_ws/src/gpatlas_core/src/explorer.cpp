@@ -214,7 +214,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
   }
   if (config.max_touch_observations > 0) {
     std::size_t held = 0;
-    for (const TrainingPoint& p : model.observations()) held += p.source != PointSource::kVision ? 1 : 0;
+    for (const TrainingPoint& p : model.observations()) held += fromView(p.source) ? 0 : 1;
     const std::size_t room = held < config.max_touch_observations ? config.max_touch_observations - held : 0;
     const std::size_t wanted = new_points.size();
     if (wanted > room) {

@@ -54,12 +54,13 @@ double bumpDerivative(double t) {
 
 // Deterministic voxel thinning: the indices (into `points`, ascending) of at most `cap` of the
 // `candidates` (ascending), one per voxel and label, the one nearest the voxel's centre (the
-// lower index on a tie). The voxel starts at the candidates' extent / 20 and grows x1.25 until
+// lower index on a tie); none for a cap of 0. The voxel starts at the candidates' extent / 20 and grows x1.25 until
 // the count fits; the grid is anchored at the candidates' bounding box, so the choice depends on
 // the data only.
 std::vector<std::size_t> thinByVoxels(const std::vector<TrainingPoint>& points, const std::vector<std::size_t>& candidates,
                                       std::size_t cap) {
   if (candidates.size() <= cap) return candidates;
+  if (cap == 0) return {};
   Vector3 lo = Vector3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
   for (std::size_t i : candidates) {
     lo = lo.cwiseMin(points[i].position);
@@ -255,14 +256,16 @@ struct MultiscaleGpisModel::Impl {
   // changes which earlier points are kept, so an exploration step extends the coarse factor
   // instead of refitting it.
   std::vector<std::size_t> coarseSelection(const std::vector<TrainingPoint>& obs) const {
-    std::vector<std::size_t> always, view_surface, view_other;
+    std::vector<std::size_t> always, view_surface, view_other, view_support;
     std::unordered_set<CellKey> probe_voxels;
     const double voxel = config.coarse_probe_voxel_m;
     for (std::size_t i = 0; i < obs.size(); ++i) {
       const TrainingPoint& p = obs[i];
-      if (observesSlope(p) || (p.source != PointSource::kVision && p.label == PointLabel::kSurface)) {
+      if (p.source == PointSource::kViewSupport) {
+        view_support.push_back(i);
+      } else if (observesSlope(p) || (!fromView(p.source) && p.label == PointLabel::kSurface)) {
         always.push_back(i);
-      } else if (p.source != PointSource::kVision) {
+      } else if (!fromView(p.source)) {
         if (probe_voxels.size() >= config.coarse_max_probe_other_points) continue;
         const Eigen::Vector3i v((p.position / voxel).array().floor().cast<int>());
         if (probe_voxels.insert(packKey(v)).second) always.push_back(i);
@@ -276,7 +279,8 @@ struct MultiscaleGpisModel::Impl {
       }
     }
     std::vector<std::size_t> selected = mergeSorted(always, thinByVoxels(obs, view_surface, config.coarse_max_surface_points));
-    return mergeSorted(selected, thinByVoxels(obs, view_other, config.coarse_max_other_points));
+    selected = mergeSorted(selected, thinByVoxels(obs, view_other, config.coarse_max_other_points));
+    return mergeSorted(selected, thinByVoxels(obs, view_support, config.coarse_max_support_points));
   }
 
   // Keys of the cells whose extended region holds the point (at most 2 per axis).
@@ -663,7 +667,7 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
 
   for (const TrainingPoint& p : accepted) {
     if (!isSurfaceValue(p)) continue;
-    if (p.source == PointSource::kVision) return fullRefit("new surface data from a view, refitted");
+    if (fromView(p.source)) return fullRefit("new surface data from a view, refitted");
     if (((p.position - m.coarse.centroid()) / m.coarse.scale()).norm() > m.coarse_config.renormalise_radius)
       return fullRefit("a contact beyond the frame's radius, renormalised and refitted");
   }

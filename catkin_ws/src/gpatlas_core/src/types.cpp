@@ -11,6 +11,7 @@ const char* toString(PointSource source) {
     case PointSource::kTouch: return "touch";
     case PointSource::kFreeSpace: return "free_space";
     case PointSource::kPseudo: return "pseudo";
+    case PointSource::kViewSupport: return "view_support";
   }
   return "unknown";
 }

@@ -30,6 +30,9 @@ std::string validate(const ViewTrainingConfig& config) {
     problem << "free_space offsets must satisfy 0 < min_offset_fraction <= max_offset_fraction; ";
   if (!(config.near_surface_free_space.offset_m > 0.0) || config.near_surface_free_space.max_points < 0)
     problem << "near_surface_free_space needs offset_m > 0 and max_points >= 0; ";
+  if (config.support_free_space.max_points < 0 ||
+      !(config.support_free_space.max_distance_m > config.support_free_space.min_distance_m))
+    problem << "support_free_space needs max_points >= 0 and max_distance_m > min_distance_m; ";
   if (config.occluded_interior.max_points < 0) problem << "occluded_interior max_points must be >= 0; ";
   if (!(config.support_clearance_m >= 0.0)) problem << "support_clearance_m must be >= 0; ";
   return problem.str();
@@ -114,12 +117,22 @@ ViewTraining buildViewTraining(const std::vector<Vector3>& view_points, const st
     } else {
       result.warnings.push_back("support plane not used: " + below.message);
     }
+    if (sensor_origin && config.support_free_space.max_points > 0) {
+      const ViewFreeSpace beside = sampleSupportFreeSpace(points, *sensor_origin, *support, config.support_free_space);
+      if (beside.ok) {
+        result.points.insert(result.points.end(), beside.points.begin(), beside.points.end());
+        result.support_free_space = beside.points.size();
+      } else {
+        result.warnings.push_back("no free space beside the object on the support: " + beside.message);
+      }
+    }
   }
   result.ok = true;
   std::ostringstream message;
   message << result.surface << " of " << points.size() << " view points, " << result.free_space << " free space, "
           << result.near_surface_free_space << " near-surface free space, "
-          << result.occluded_interior << " occluded interior, " << result.below_support << " below the support";
+          << result.occluded_interior << " occluded interior, " << result.below_support << " below the support, "
+          << result.support_free_space << " on the support beside the object";
   result.message = message.str();
   return result;
 }

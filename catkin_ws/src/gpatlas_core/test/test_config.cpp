@@ -115,8 +115,14 @@ TEST(ViewTraining, OneSeedGivesOneTrainingSetWithEveryPart) {
   EXPECT_GT(a.free_space, 0u);
   EXPECT_EQ(a.near_surface_free_space, 500u);
   EXPECT_GT(a.below_support, 0u);
-  EXPECT_EQ(a.points.size(),
-            a.surface + a.free_space + a.near_surface_free_space + a.occluded_interior + a.below_support);
+  EXPECT_GT(a.support_free_space, 0u);
+  EXPECT_EQ(a.points.size(), a.surface + a.free_space + a.near_surface_free_space + a.occluded_interior +
+                                 a.below_support + a.support_free_space);
+  for (std::size_t i = a.points.size() - a.support_free_space; i < a.points.size(); ++i) {
+    EXPECT_EQ(a.points[i].source, gpatlas_core::PointSource::kViewSupport);
+    EXPECT_NEAR(a.points[i].position.z(), config.support_free_space.height_m, 1e-12);  // on the table
+    EXPECT_GT((a.points[i].position - Vector3(0.7, 0.0, 0.05)).norm(), 0.05);            // beside the sphere
+  }
   for (std::size_t i = 0; i < a.surface; ++i) {
     EXPECT_EQ(a.points[i].label, gpatlas_core::PointLabel::kSurface);
     EXPECT_NEAR((a.points[i].position - Vector3(0.7, 0.0, 0.05)).norm(), 0.05, 1e-12);  // a view point

@@ -1,4 +1,6 @@
 #include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/multiscale_gpis_model.h"
+#include "gpatlas_core/view_training.h"
 #include "gpatlas_core/view_free_space.h"
 
 #include <gtest/gtest.h>
@@ -450,6 +452,159 @@ TEST(OccludedInterior, TouchEvidenceShrinksOrDropsExactlyTheGuessesItContradicts
 // without the table the model leaves the unseen bottom to the GP's smoothness (here it cuts the
 // ball off above its lowest point); the plane's outside points, labelled with their small depth,
 // say the surface is right there, and nothing of the prediction may go below the table top.
+// A 6 x 4 x 1 cm box standing on the table z = 0, seen from above one side. Segmentation removes
+// everything within 4 mm of the table with it, so the view starts 4 mm up.
+constexpr double kBoxHalfX = 0.03, kBoxHalfY = 0.02, kBoxHeight = 0.01, kCutHeight = 0.004;
+const Vector3 kBoxEye(0.35, 0.12, 0.3);
+
+// Signed distance to the box (negative inside).
+double boxDistance(const Vector3& x) {
+  const Vector3 q = (x - Vector3(0.0, 0.0, kBoxHeight / 2)).cwiseAbs() - Vector3(kBoxHalfX, kBoxHalfY, kBoxHeight / 2);
+  return q.cwiseMax(0.0).norm() + std::min(q.maxCoeff(), 0.0);
+}
+
+// True when the segment from the eye to x passes through the box (slab test), x excluded.
+bool boxBlocks(const Vector3& eye, const Vector3& x) {
+  const Vector3 lo(-kBoxHalfX, -kBoxHalfY, 0.0), hi(kBoxHalfX, kBoxHalfY, kBoxHeight);
+  const Vector3 d = x - eye;
+  double t0 = 0.0, t1 = 1.0 - 1e-9;
+  for (int a = 0; a < 3; ++a) {
+    if (std::abs(d[a]) < 1e-15) {
+      if (eye[a] < lo[a] || eye[a] > hi[a]) return false;
+      continue;
+    }
+    double ta = (lo[a] - eye[a]) / d[a], tb = (hi[a] - eye[a]) / d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+// The box's faces the eye sees (their outward normal faces it), on a 2 mm grid, above the cut.
+std::vector<Vector3> visibleBoxView() {
+  std::vector<Vector3> view;
+  const double step = 0.002;
+  for (double x = -kBoxHalfX; x <= kBoxHalfX + 1e-9; x += step)
+    for (double y = -kBoxHalfY; y <= kBoxHalfY + 1e-9; y += step) view.emplace_back(x, y, kBoxHeight);  // top
+  for (double z = kCutHeight; z <= kBoxHeight + 1e-9; z += step) {
+    for (double y = -kBoxHalfY; y <= kBoxHalfY + 1e-9; y += step) view.emplace_back(kBoxHalfX, y, z);  // +x side
+    for (double x = -kBoxHalfX; x <= kBoxHalfX + 1e-9; x += step) view.emplace_back(x, kBoxHalfY, z);  // +y side
+  }
+  return view;
+}
+
+TEST(SupportFreeSpace, SamplesOnlyTheTableTheCameraSawBesideTheObject) {
+  const std::vector<Vector3> view = visibleBoxView();
+  const SupportPlane table;
+  SupportFreeSpaceConfig config;
+  const ViewFreeSpace beside = sampleSupportFreeSpace(view, kBoxEye, table, config);
+  ASSERT_TRUE(beside.ok) << beside.message;
+  std::size_t in_front = 0, on_the_side = 0;
+  for (const TrainingPoint& t : beside.points) {
+    EXPECT_EQ(t.label, PointLabel::kOutside);
+    EXPECT_EQ(t.source, PointSource::kViewSupport);
+    EXPECT_NEAR(t.position.z(), config.height_m, 1e-12);
+    // The camera's ray to it misses the box (recomputed analytically): the table was seen there.
+    EXPECT_FALSE(boxBlocks(kBoxEye, t.position)) << t.position.transpose();
+    // Outside the true box by the planar margin.
+    const double truth = boxDistance(t.position);
+    EXPECT_GE(truth, config.min_distance_m - 1e-9) << t.position.transpose();
+    double planar = std::numeric_limits<double>::infinity();
+    for (const Vector3& p : view) planar = std::min(planar, (p - t.position).head<2>().norm());
+    EXPECT_NEAR(t.surface_distance_m, planar, 1e-12);
+    // Beside a wall, seen or not, the planar distance to the top's outline is the true distance
+    // (up to the 1 mm height).
+    EXPECT_NEAR(t.surface_distance_m, truth, 0.0011);
+    EXPECT_GE(planar, config.min_distance_m);
+    EXPECT_LT(planar, config.max_distance_m);
+    in_front += t.position.x() > kBoxHalfX ? 1 : 0;
+    on_the_side += t.position.y() > kBoxHalfY ? 1 : 0;
+  }
+  // Both sides the camera sees get samples; most of the seen table within the band is taken
+  // (the silhouette test is conservative by a pixel or two).
+  EXPECT_GT(in_front, 20u);
+  EXPECT_GT(on_the_side, 20u);
+  std::size_t seen_in_band = 0;
+  for (double x = -0.06; x <= 0.06; x += config.spacing_m)
+    for (double y = -0.05; y <= 0.05; y += config.spacing_m) {
+      const Vector3 q(x, y, config.height_m);
+      double planar = std::numeric_limits<double>::infinity();
+      for (const Vector3& p : view) planar = std::min(planar, (p - q).head<2>().norm());
+      if (planar >= config.min_distance_m + 0.004 && planar < config.max_distance_m && !boxBlocks(kBoxEye, q))
+        ++seen_in_band;
+    }
+  EXPECT_GT(beside.points.size(), seen_in_band * 3 / 4);
+
+  // max_points: an even subset; 0 gives none.
+  config.max_points = 10;
+  EXPECT_EQ(sampleSupportFreeSpace(view, kBoxEye, table, config).points.size(), 10u);
+  config.max_points = 0;
+  const ViewFreeSpace none = sampleSupportFreeSpace(view, kBoxEye, table, config);
+  EXPECT_TRUE(none.ok && none.points.empty());
+}
+
+// Where f first turns positive along the table (at height z) from the box's centre outwards in
+// direction `d`: the predicted extent of the box there.
+double predictedExtent(const SurfaceModel& model, const Vector3& d, double z) {
+  for (double r = 0.0; r < 0.08; r += 0.0005)
+    if (model.mean(Vector3(0.0, 0.0, z) + r * d) > 0.0) return r;
+  return std::numeric_limits<double>::infinity();
+}
+
+TEST(SupportFreeSpace, KeepsALowObjectFromSpreadingOverTheTable) {
+  const std::vector<Vector3> view = visibleBoxView();
+  const SupportPlane table;
+  ViewTrainingConfig with_config;
+  ViewTrainingConfig without_config = with_config;
+  without_config.support_free_space.max_points = 0;
+  const ViewTraining with = buildViewTraining(view, kBoxEye, table, with_config, 1);
+  const ViewTraining without = buildViewTraining(view, kBoxEye, table, without_config, 1);
+  ASSERT_TRUE(with.ok && without.ok);
+  ASSERT_GT(with.support_free_space, 50u);
+  MultiscaleGpisModel aware, unaware;
+  ASSERT_TRUE(aware.fit(with.points).ok);
+  ASSERT_TRUE(unaware.fit(without.points).ok);
+  // At 2 mm, in the band segmentation removed, in 16 directions from the box's centre. The -y
+  // side (directions 10-14) is hidden from the camera, but the table beyond it is not; behind the
+  // -x side the box hides the table too (nothing to learn there); +x and +y are seen.
+  double hidden_aware = 0.0, hidden_unaware = 0.0;
+  for (int k = 0; k < 16; ++k) {
+    const double a = 2.0 * M_PI * k / 16;
+    const Vector3 d(std::cos(a), std::sin(a), 0.0);
+    const double truth = std::min(kBoxHalfX / std::max(std::abs(d.x()), 1e-12), kBoxHalfY / std::max(std::abs(d.y()), 1e-12));
+    const double aware_error = std::abs(predictedExtent(aware, d, 0.002) - truth);
+    const double unaware_error = std::abs(predictedExtent(unaware, d, 0.002) - truth);
+    EXPECT_LE(aware_error, unaware_error + 0.0005) << "direction " << k;  // nowhere worse
+    if (k <= 6) EXPECT_LE(aware_error, 0.001) << "direction " << k;         // the seen sides
+    if (k >= 10 && k <= 14) {
+      hidden_aware += aware_error / 5;
+      hidden_unaware += unaware_error / 5;
+    }
+  }
+  EXPECT_LT(hidden_aware, 0.004);
+  EXPECT_LT(hidden_aware, 0.7 * hidden_unaware) << hidden_aware << " against " << hidden_unaware;
+}
+
+TEST(SupportFreeSpace, BadInputIsRefusedWithAReason) {
+  const std::vector<Vector3> view = visibleBoxView();
+  const SupportPlane table;
+  SupportFreeSpaceConfig config;
+  const ViewFreeSpace below = sampleSupportFreeSpace(view, Vector3(0.3, 0.0, -0.1), table, config);
+  EXPECT_FALSE(below.ok);
+  EXPECT_NE(below.message.find("not above"), std::string::npos);
+  EXPECT_FALSE(sampleSupportFreeSpace(view, Vector3::Constant(std::nan("")), table, config).ok);
+  EXPECT_FALSE(sampleSupportFreeSpace({Vector3::Zero(), Vector3::UnitX()}, kBoxEye, table, config).ok);
+  std::vector<Vector3> with_nan = view;
+  with_nan.push_back(Vector3::Constant(std::nan("")));
+  EXPECT_TRUE(sampleSupportFreeSpace(with_nan, kBoxEye, table, config).ok);
+  config.min_distance_m = config.max_distance_m;
+  const ViewFreeSpace bad = sampleSupportFreeSpace(view, kBoxEye, table, config);
+  EXPECT_FALSE(bad.ok);
+  EXPECT_NE(bad.message.find("invalid"), std::string::npos);
+}
+
 TEST(SupportPlane, PutsTheUnseenBottomOfABallOnTheTable) {
   const Vector3 lift(0.0, 0.0, kRadius);  // the ball rests on z = 0
   std::vector<Vector3> view;

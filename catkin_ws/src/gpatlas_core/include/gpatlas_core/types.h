@@ -14,7 +14,12 @@ using Points3 = Eigen::Matrix3Xd;  // one point per column, metres
 
 // Where a training point came from; kept so that displays and reports can tell vision from
 // touch, and so that free-space points can be treated differently from surface points.
-enum class PointSource : std::uint8_t { kVision = 0, kTouch = 1, kFreeSpace = 2, kPseudo = 3 };
+// kViewSupport: the table the camera saw beside the object (sampleSupportFreeSpace); like
+// kVision it belongs to the view, and a new view replaces it.
+enum class PointSource : std::uint8_t { kVision = 0, kTouch = 1, kFreeSpace = 2, kPseudo = 3, kViewSupport = 4 };
+
+// True for the data a camera view gave (vision and the table beside the object).
+inline bool fromView(PointSource source) { return source == PointSource::kVision || source == PointSource::kViewSupport; }
 
 const char* toString(PointSource source);
 

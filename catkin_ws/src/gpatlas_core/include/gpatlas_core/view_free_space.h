@@ -151,6 +151,47 @@ struct BelowSupportConfig {
 ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, const SupportPlane& plane,
                                  const BelowSupportConfig& config = BelowSupportConfig());
 
+// The table the camera saw beside the object: free space at the support's surface where the
+// object's silhouette does not cover it. Why: the side of a low object (a spoon, a pan, the foot
+// of a bowl) is seen edge-on or not at all, so the object's own view says nothing about where it
+// ends along the table, and the smooth coarse level lets the prediction bleed out over the
+// table. The camera's ray to a table point beside the object crossed only air, so that point is
+// outside the object.
+//
+// Candidates lie on a square lattice at height_m above the plane. One is kept when
+// - no view point in its pixel of a range image of the view (or the 8 around it) is nearer to the
+//   sensor than it: the camera saw past the object there;
+// - it lies outside the convex hull of the view's projection on the plane, and between
+//   min_distance_m and max_distance_m from every projected view point.
+// Segmentation removes the object's lowest millimetres with the table
+// (segmentation/plane_distance_m), so the range image misses them. Within the hull, the table the
+// camera saw may be the object's own floor (a pan's or a tray's), or a table point under an
+// overhang that touches the table (a torus, a ball, a curved foot) a hair from the cut-away
+// surface; the margin keeps the samples off a wall's foot. Label: the planar distance to the
+// projected view. Beside a wall, seen or not (the top's outline is its footprint), that is the
+// distance to it; beside a side that curves in toward the table, it understates it. The distance
+// to the nearest view point would not do: beside a wall the camera did not see, the nearest view
+// point is on the top edge, far above, and so large a label pushes the predicted wall in.
+struct SupportFreeSpaceConfig {
+  double spacing_m{0.003};
+  double height_m{0.001};
+  double min_distance_m{0.006};
+  double max_distance_m{0.02};
+  // The range image's pixel: its footprint at the range of the view's centroid (about twice the
+  // view's point spacing, so that the silhouette has no holes).
+  double pixel_m{0.004};
+  // At most this many (an even subset); 0 disables them.
+  int max_points{5000};
+  // Noise sigma (reference units), as the camera's free space along its rays: the label is a
+  // bound, close to the distance beside a wall and short of it beside a side that curves in.
+  double noise_sigma{0.3162};
+};
+
+// Label kOutside, source kViewSupport, surface_distance_m set. Fails when the sensor is not
+// above the plane or the view is not in front of the sensor.
+ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
+                                     const SupportPlane& plane, const SupportFreeSpaceConfig& config);
+
 // Removes the points less than `clearance_m` above the plane (inside points guessed into the
 // table); returns how many.
 std::size_t dropNearOrBelowPlane(std::vector<TrainingPoint>* points, const SupportPlane& plane, double clearance_m);

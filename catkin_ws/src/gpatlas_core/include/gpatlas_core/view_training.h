@@ -29,6 +29,9 @@ struct ViewTrainingConfig {
   // The table under the object, when segmentation found one: outside points below it, and no
   // guessed inside points closer than support_clearance_m to it.
   BelowSupportConfig below_support;
+  // Free space on the table beside the object where the camera saw the table; needs the
+  // sensor's origin; max_points 0 disables it.
+  SupportFreeSpaceConfig support_free_space;
   double support_clearance_m{0.005};
 };
 
@@ -38,12 +41,13 @@ std::string validate(const ViewTrainingConfig& config);
 struct ViewTraining {
   bool ok{false};
   std::string message;
-  std::vector<TrainingPoint> points;  // surface subset, then free space, near-surface free space, interior, below support
+  std::vector<TrainingPoint> points;  // surface subset, then free space, near-surface free space, interior, below support, beside the support
   std::size_t surface{0};
   std::size_t free_space{0};
   std::size_t near_surface_free_space{0};
   std::size_t occluded_interior{0};
   std::size_t below_support{0};
+  std::size_t support_free_space{0};
   std::vector<std::string> warnings;  // parts that could not be built (the rest is still used)
 };
 

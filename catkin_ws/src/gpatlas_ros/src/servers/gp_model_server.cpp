@@ -142,7 +142,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   std::vector<gpatlas_core::TrainingPoint> data = view.points;
   std::vector<Eigen::Vector3d> touch_evidence;
   for (const auto& t : model_->observations()) {
-    if (t.source == gpatlas_core::PointSource::kVision) continue;
+    if (gpatlas_core::fromView(t.source)) continue;
     data.push_back(t);
     if (t.source == gpatlas_core::PointSource::kFreeSpace || gpatlas_core::isSurfaceValue(t))
       touch_evidence.push_back(t.position);
