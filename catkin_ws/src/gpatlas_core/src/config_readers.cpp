@@ -67,8 +67,6 @@ void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c) {
       "multiscale/coarse_max_surface_points", static_cast<int>(c->coarse_max_surface_points), 4, 100000));
   c->coarse_max_other_points = static_cast<std::size_t>(
       r.integer("multiscale/coarse_max_other_points", static_cast<int>(c->coarse_max_other_points), 0, 100000));
-  c->coarse_max_support_points = static_cast<std::size_t>(
-      r.integer("multiscale/coarse_max_support_points", static_cast<int>(c->coarse_max_support_points), 0, 100000));
   c->coarse_probe_voxel_m = r.number("multiscale/coarse_probe_voxel_m", c->coarse_probe_voxel_m, 1e-4, 1.0);
   c->coarse_max_probe_other_points = static_cast<std::size_t>(r.integer(
       "multiscale/coarse_max_probe_other_points", static_cast<int>(c->coarse_max_probe_other_points), 0, 100000));
@@ -133,6 +131,7 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   beside.height_m = r.number("view/support_free_space/height_m", beside.height_m, 0.0, 0.05);
   beside.min_distance_m = r.number("view/support_free_space/min_distance_m", beside.min_distance_m, 0.0, 0.1);
   beside.max_distance_m = r.number("view/support_free_space/max_distance_m", beside.max_distance_m, 1e-4, 0.5);
+  beside.max_bound_gap_m = r.number("view/support_free_space/max_bound_gap_m", beside.max_bound_gap_m, 0.0, 0.1);
   beside.pixel_m = r.number("view/support_free_space/pixel_m", beside.pixel_m, 1e-4, 0.1);
   beside.max_points = r.integer("view/support_free_space/max_points", beside.max_points, 0, 1000000);
   beside.noise_sigma = r.number("view/support_free_space/noise_sigma", beside.noise_sigma, 1e-6, 10.0);

@@ -250,19 +250,22 @@ struct MultiscaleGpisModel::Impl {
   }
 
   // The observations the coarse model is given: the view's surface values and its free space
-  // and interior (source vision), each thinned to its cap; every contact and slope on top; the
+  // and interior (source vision, not the table beside the object), each thinned to its cap; every contact and slope on top; the
   // probe's other values (approach free space, interior behind contacts) greedily in the order
   // they came, one per voxel of a fixed world grid, up to their cap. None of the probe's data
   // changes which earlier points are kept, so an exploration step extends the coarse factor
   // instead of refitting it.
   std::vector<std::size_t> coarseSelection(const std::vector<TrainingPoint>& obs) const {
-    std::vector<std::size_t> always, view_surface, view_other, view_support;
+    std::vector<std::size_t> always, view_surface, view_other;
     std::unordered_set<CellKey> probe_voxels;
     const double voxel = config.coarse_probe_voxel_m;
     for (std::size_t i = 0; i < obs.size(); ++i) {
       const TrainingPoint& p = obs[i];
       if (p.source == PointSource::kViewSupport) {
-        view_support.push_back(i);
+        // The table seen beside the object says where the object ends next to its data, which
+        // is the cells' business. In the coarse level it would also shape the unseen side, whose
+        // distance from the table the view does not give.
+        continue;
       } else if (observesSlope(p) || (!fromView(p.source) && p.label == PointLabel::kSurface)) {
         always.push_back(i);
       } else if (!fromView(p.source)) {
@@ -279,8 +282,7 @@ struct MultiscaleGpisModel::Impl {
       }
     }
     std::vector<std::size_t> selected = mergeSorted(always, thinByVoxels(obs, view_surface, config.coarse_max_surface_points));
-    selected = mergeSorted(selected, thinByVoxels(obs, view_other, config.coarse_max_other_points));
-    return mergeSorted(selected, thinByVoxels(obs, view_support, config.coarse_max_support_points));
+    return mergeSorted(selected, thinByVoxels(obs, view_other, config.coarse_max_other_points));
   }
 
   // Keys of the cells whose extended region holds the point (at most 2 per axis).

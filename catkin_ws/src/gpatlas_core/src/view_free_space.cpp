@@ -360,11 +360,12 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
   const auto positive = [](double x) { return std::isfinite(x) && x > 0.0; };
   if (!positive(config.spacing_m) || !(config.height_m >= 0.0) || !std::isfinite(config.height_m) ||
       !(config.min_distance_m >= 0.0) || !(config.max_distance_m > config.min_distance_m) ||
+      !(config.max_bound_gap_m >= 0.0) || !std::isfinite(config.max_bound_gap_m) ||
       !std::isfinite(config.max_distance_m) || !positive(config.pixel_m) || config.max_points < 0 ||
       !positive(config.noise_sigma)) {
     out.message =
         "invalid support free-space settings (spacing_m, pixel_m, noise_sigma > 0; height_m >= 0; "
-        "0 <= min_distance_m < max_distance_m; max_points >= 0)";
+        "0 <= min_distance_m < max_distance_m; max_bound_gap_m >= 0; max_points >= 0)";
     return out;
   }
   if (!sensor_origin.allFinite() || !(plane.height(sensor_origin) > 0.0)) {
@@ -406,13 +407,15 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
     if (!found.second) found.first->second = std::min(found.first->second, range);
   }
 
-  // The view projected on the plane, hashed on a grid of max_distance_m: a candidate's view
-  // points within that distance (in the plane) lie in its 9 neighbouring cells.
+  // The view projected on the plane, hashed on a grid of max_distance_m + max_bound_gap_m: a
+  // candidate's view points within that distance (in the plane, so also in 3-D) lie in its 9
+  // neighbouring cells.
   const Vector3 u = plane.normal.unitOrthogonal();
   const Vector3 v = plane.normal.cross(u);
   const double grow = config.max_distance_m;
+  const double cell = config.max_distance_m + config.max_bound_gap_m;
   const auto cellOf = [&](double pu, double pv) -> Eigen::Vector2i {
-    return Eigen::Vector2i(static_cast<int>(std::floor(pu / grow)), static_cast<int>(std::floor(pv / grow)));
+    return Eigen::Vector2i(static_cast<int>(std::floor(pu / cell)), static_cast<int>(std::floor(pv / cell)));
   };
   const auto cellKey = [](const Eigen::Vector2i& c) {
     return (static_cast<std::uint64_t>(c.x() + (1 << 30)) << 32) | static_cast<std::uint64_t>(c.y() + (1 << 30));
@@ -437,7 +440,7 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
     return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
   };
   std::vector<Eigen::Vector2d> hull(2 * projected.size());
-  std::size_t k = 0;
+  std::size_t k = 0;  // the hull's size so far
   for (std::size_t i = 0; i < projected.size(); ++i) {
     while (k >= 2 && turn(hull[k - 2], hull[k - 1], projected[i]) <= 0.0) --k;
     hull[k++] = projected[i];
@@ -465,7 +468,7 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
     for (int b = 0; b <= nv; ++b) {
       const double cu = u_min - grow + a * config.spacing_m, cv = v_min - grow + b * config.spacing_m;
       const Vector3 x = base + cu * u + cv * v;
-      double planar2 = std::numeric_limits<double>::infinity();
+      double planar2 = std::numeric_limits<double>::infinity(), nearest2 = planar2;
       const Eigen::Vector2i c = cellOf(cu, cv);
       for (int du = -1; du <= 1; ++du)
         for (int dv = -1; dv <= 1; ++dv) {
@@ -474,10 +477,14 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
           for (std::uint32_t i : found->second) {
             const double eu = u.dot(points[i]) - cu, ev = v.dot(points[i]) - cv;
             planar2 = std::min(planar2, eu * eu + ev * ev);
+            nearest2 = std::min(nearest2, (points[i] - x).squaredNorm());
           }
         }
       const double planar = std::sqrt(planar2);
-      if (planar < config.min_distance_m || planar >= grow || insideHull(Eigen::Vector2d(cu, cv))) continue;
+      const double nearest = std::sqrt(nearest2);
+      if (planar < config.min_distance_m || planar >= grow || nearest > planar + config.max_bound_gap_m ||
+          insideHull(Eigen::Vector2d(cu, cv)))
+        continue;
       const double range = (x - sensor_origin).norm();
       bool seen = true;
       for (int di = -1; di <= 1 && seen; ++di)
@@ -496,13 +503,13 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
       t.label = PointLabel::kOutside;
       t.source = PointSource::kViewSupport;
       t.noise_sigma = config.noise_sigma;
-      t.surface_distance_m = planar;
+      t.surface_distance_m = 0.5 * (planar + nearest);
       out.points.push_back(t);
     }
   if (out.points.size() > static_cast<std::size_t>(config.max_points)) {
     std::vector<TrainingPoint> even;
     const double step = static_cast<double>(out.points.size()) / static_cast<double>(std::max(config.max_points, 1));
-    for (int k = 0; k < config.max_points; ++k) even.push_back(out.points[static_cast<std::size_t>(k * step)]);
+    for (int j = 0; j < config.max_points; ++j) even.push_back(out.points[static_cast<std::size_t>(j * step)]);
     out.points.swap(even);
   }
   out.ok = true;

@@ -23,10 +23,6 @@ struct MultiscaleGpisConfig {
   std::size_t coarse_max_surface_points{600};
   // View free space (outside) and interior (inside) values.
   std::size_t coarse_max_other_points{600};
-  // The table seen beside the object (source kViewSupport), thinned apart: a table around the
-  // object has more area than the object's view, and in one budget with the rest it would take
-  // the coverage of the free space and interior that shape the unseen side.
-  std::size_t coarse_max_support_points{150};
   // Every contact and slope (one per touch waypoint: hundreds, not thousands) is kept; the
   // probe's free space and interior points are kept in the order they came, at most one per
   // voxel of this side on a fixed world grid, up to the count below.

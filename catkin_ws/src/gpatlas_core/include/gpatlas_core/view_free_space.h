@@ -161,29 +161,33 @@ ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, con
 // Candidates lie on a square lattice at height_m above the plane. One is kept when
 // - no view point in its pixel of a range image of the view (or the 8 around it) is nearer to the
 //   sensor than it: the camera saw past the object there;
-// - it lies outside the convex hull of the view's projection on the plane, and between
-//   min_distance_m and max_distance_m from every projected view point.
+// - it lies outside the convex hull of the view's projection on the plane, between
+//   min_distance_m and max_distance_m from every projected view point;
+// - its distance to the surface is known to within max_bound_gap_m (below).
 // Segmentation removes the object's lowest millimetres with the table
 // (segmentation/plane_distance_m), so the range image misses them. Within the hull, the table the
 // camera saw may be the object's own floor (a pan's or a tray's), or a table point under an
-// overhang that touches the table (a torus, a ball, a curved foot) a hair from the cut-away
-// surface; the margin keeps the samples off a wall's foot. Label: the planar distance to the
-// projected view. Beside a wall, seen or not (the top's outline is its footprint), that is the
-// distance to it; beside a side that curves in toward the table, it understates it. The distance
-// to the nearest view point would not do: beside a wall the camera did not see, the nearest view
-// point is on the top edge, far above, and so large a label pushes the predicted wall in.
+// overhang that touches the table (a torus, a ball), a hair from the cut-away surface; the margin
+// keeps the samples off a wall's foot.
+// The distance to the surface lies between two bounds: the planar distance to the projected view
+// (below it, unless the object flares out under its outline) and the distance to the nearest view
+// point (above it). They agree beside a side the camera saw down to the table. Beside a side it
+// did not see, the view does not say how far the side is: a box's wall is at the planar distance,
+// a ball's lower half curves in far from it, and both have their nearest view point high above.
+// Label: the middle of the two bounds.
 struct SupportFreeSpaceConfig {
   double spacing_m{0.003};
   double height_m{0.001};
   double min_distance_m{0.006};
   double max_distance_m{0.02};
+  double max_bound_gap_m{0.005};
   // The range image's pixel: its footprint at the range of the view's centroid (about twice the
   // view's point spacing, so that the silhouette has no holes).
   double pixel_m{0.004};
   // At most this many (an even subset); 0 disables them.
   int max_points{5000};
-  // Noise sigma (reference units), as the camera's free space along its rays: the label is a
-  // bound, close to the distance beside a wall and short of it beside a side that curves in.
+  // Noise sigma (reference units), as the camera's free space along its rays, whose labels are
+  // not exact either.
   double noise_sigma{0.3162};
 };
 
