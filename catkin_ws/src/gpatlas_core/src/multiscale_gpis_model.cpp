@@ -54,9 +54,9 @@ double bumpDerivative(double t) {
 
 // Deterministic voxel thinning: the indices (into `points`, ascending) of at most `cap` of the
 // `candidates` (ascending), one per voxel and label, the one nearest the voxel's centre (the
-// lower index on a tie); none for a cap of 0. The voxel starts at the candidates' extent / 20 and grows x1.25 until
-// the count fits; the grid is anchored at the candidates' bounding box, so the choice depends on
-// the data only.
+// lower index on a tie); none for a cap of 0. The voxel starts at the candidates' extent / 20
+// and grows x1.25 until the count fits; the grid is anchored at the candidates' bounding box, so
+// the choice depends on the data only.
 std::vector<std::size_t> thinByVoxels(const std::vector<TrainingPoint>& points, const std::vector<std::size_t>& candidates,
                                       std::size_t cap) {
   if (candidates.size() <= cap) return candidates;
@@ -250,11 +250,11 @@ struct MultiscaleGpisModel::Impl {
   }
 
   // The observations the coarse model is given: the view's surface values and its free space
-  // and interior (source vision, not the table beside the object), each thinned to its cap; every contact and slope on top; the
-  // probe's other values (approach free space, interior behind contacts) greedily in the order
-  // they came, one per voxel of a fixed world grid, up to their cap. None of the probe's data
-  // changes which earlier points are kept, so an exploration step extends the coarse factor
-  // instead of refitting it.
+  // and interior (source vision, not the table beside the object), each thinned to its cap;
+  // every contact and slope on top; the probe's other values (approach free space, interior
+  // behind contacts) greedily in the order they came, one per voxel of a fixed world grid, up to
+  // their cap. None of the probe's data changes which earlier points are kept, so an exploration
+  // step extends the coarse factor instead of refitting it.
   std::vector<std::size_t> coarseSelection(const std::vector<TrainingPoint>& obs) const {
     std::vector<std::size_t> always, view_surface, view_other;
     std::unordered_set<CellKey> probe_voxels;

@@ -156,7 +156,8 @@ ViewFreeSpace sampleBelowSupport(const std::vector<Vector3>& surface_points, con
 // of a bowl) is seen edge-on or not at all, so the object's own view says nothing about where it
 // ends along the table, and the smooth coarse level lets the prediction bleed out over the
 // table. The camera's ray to a table point beside the object crossed only air, so that point is
-// outside the object.
+// outside the object. (MultiscaleGpisModel gives them to its cells only, which correct that
+// bleed next to the data.)
 //
 // Candidates lie on a square lattice at height_m above the plane. One is kept when
 // - no view point in its pixel of a range image of the view (or the 8 around it) is nearer to the
