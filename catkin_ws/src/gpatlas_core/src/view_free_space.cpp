@@ -420,34 +420,33 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
   const auto cellKey = [](const Eigen::Vector2i& c) {
     return (static_cast<std::uint64_t>(c.x() + (1 << 30)) << 32) | static_cast<std::uint64_t>(c.y() + (1 << 30));
   };
-  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
-  double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min, v_min = u_min, v_max = -u_min;
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const double pu = u.dot(points[i]), pv = v.dot(points[i]);
-    grid[cellKey(cellOf(pu, pv))].push_back(static_cast<std::uint32_t>(i));
-    u_min = std::min(u_min, pu);
-    u_max = std::max(u_max, pu);
-    v_min = std::min(v_min, pv);
-    v_max = std::max(v_max, pv);
-  }
-  // The projected view's convex hull (counter-clockwise, Andrew's monotone chain).
-  std::vector<Eigen::Vector2d> projected;
+  std::vector<Eigen::Vector2d> projected;  // (u, v) of points[i]
   projected.reserve(points.size());
   for (const auto& p : points) projected.emplace_back(u.dot(p), v.dot(p));
-  std::sort(projected.begin(), projected.end(),
+  std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> grid;
+  Eigen::Vector2d lo = projected.front(), hi = lo;
+  for (std::size_t i = 0; i < projected.size(); ++i) {
+    grid[cellKey(cellOf(projected[i].x(), projected[i].y()))].push_back(static_cast<std::uint32_t>(i));
+    lo = lo.cwiseMin(projected[i]);
+    hi = hi.cwiseMax(projected[i]);
+  }
+  const double u_min = lo.x(), u_max = hi.x(), v_min = lo.y(), v_max = hi.y();
+  // The projected view's convex hull (counter-clockwise, Andrew's monotone chain).
+  std::vector<Eigen::Vector2d> sorted = projected;
+  std::sort(sorted.begin(), sorted.end(),
             [](const Eigen::Vector2d& a, const Eigen::Vector2d& b) { return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y()); });
   const auto turn = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
     return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
   };
-  std::vector<Eigen::Vector2d> hull(2 * projected.size());
+  std::vector<Eigen::Vector2d> hull(2 * sorted.size());
   std::size_t k = 0;  // the hull's size so far
-  for (std::size_t i = 0; i < projected.size(); ++i) {
-    while (k >= 2 && turn(hull[k - 2], hull[k - 1], projected[i]) <= 0.0) --k;
-    hull[k++] = projected[i];
+  for (std::size_t i = 0; i < sorted.size(); ++i) {
+    while (k >= 2 && turn(hull[k - 2], hull[k - 1], sorted[i]) <= 0.0) --k;
+    hull[k++] = sorted[i];
   }
-  for (std::size_t i = projected.size() - 1, lower = k + 1; i-- > 0;) {
-    while (k >= lower && turn(hull[k - 2], hull[k - 1], projected[i]) <= 0.0) --k;
-    hull[k++] = projected[i];
+  for (std::size_t i = sorted.size() - 1, lower = k + 1; i-- > 0;) {
+    while (k >= lower && turn(hull[k - 2], hull[k - 1], sorted[i]) <= 0.0) --k;
+    hull[k++] = sorted[i];
   }
   hull.resize(k > 0 ? k - 1 : 0);
   const auto insideHull = [&](const Eigen::Vector2d& q) {
@@ -475,8 +474,7 @@ ViewFreeSpace sampleSupportFreeSpace(const std::vector<Vector3>& surface_points,
           const auto found = grid.find(cellKey(c + Eigen::Vector2i(du, dv)));
           if (found == grid.end()) continue;
           for (std::uint32_t i : found->second) {
-            const double eu = u.dot(points[i]) - cu, ev = v.dot(points[i]) - cv;
-            planar2 = std::min(planar2, eu * eu + ev * ev);
+            planar2 = std::min(planar2, (projected[i] - Eigen::Vector2d(cu, cv)).squaredNorm());
             nearest2 = std::min(nearest2, (points[i] - x).squaredNorm());
           }
         }
