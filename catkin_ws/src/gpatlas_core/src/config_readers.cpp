@@ -169,6 +169,7 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
 
 void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->max_distance = r.number("evidence/max_distance", c->max_distance, 0.0, 100.0);
+  c->view_max_distance = r.number("evidence/view_max_distance", c->view_max_distance, 0.0, 100.0);
   c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
   c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
 }

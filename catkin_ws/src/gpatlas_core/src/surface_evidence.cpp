@@ -16,21 +16,24 @@ std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
 
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                                  const std::optional<SupportPlane>& support, double approach_m,
-                                 const std::vector<Vector3>& attempted)
+                                 const std::vector<Vector3>& attempted, double view_max_distance_m)
     : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0),
       cell_m_(enabled() ? max_distance_m_ : kRetouchCellM) {
+  const double view_radius_m = std::isnan(view_max_distance_m) ? max_distance_m_
+                                                                : std::clamp(view_max_distance_m, 0.0, max_distance_m_);
   // Without the distance test the points are still kept for measuredNear, on a grid of its own.
-  const auto add = [&](const Vector3& p) {
+  const auto add = [&](const Vector3& p, double radius_m) {
     if (!p.allFinite()) return;
     cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
     points_.push_back(p);
+    support_radius_m_.push_back(radius_m);
   };
   for (const TrainingPoint& point : model.observations()) {
     if (!isSurfaceValue(point)) continue;  // a contact's slopes add nothing to the contact
-    if (point.source != PointSource::kVision && point.source != PointSource::kTouch) continue;
-    add(point.position);
+    if (point.source == PointSource::kVision) add(point.position, view_radius_m);
+    if (point.source == PointSource::kTouch) add(point.position, max_distance_m_);
   }
-  for (const Vector3& p : attempted) add(p);
+  for (const Vector3& p : attempted) add(p, max_distance_m_);
   if (support && support->normal.allFinite() && support->normal.norm() > 0.5 && std::isfinite(support->offset)) {
     support_ = SupportPlane{support->normal.normalized(), support->offset / support->normal.norm()};
     approach_m_ = std::isfinite(approach_m) ? std::max(0.0, approach_m) : 0.0;
@@ -39,7 +42,7 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
 
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule)
     : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
-                      rule.attempted_targets) {}
+                      rule.attempted_targets, rule.view_max_distance * model.scale()) {}
 
 bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
   if (!x.allFinite() || !(radius_m > 0.0)) return false;
@@ -47,8 +50,8 @@ bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
   const auto near = [&](const Vector3& p) { return (p - x).squaredNorm() <= squared; };
   if (radius_m > cell_m_) return std::any_of(points_.begin(), points_.end(), near);
   bool found = false;
-  forEachCandidate(x, [&](const Vector3& p) {
-    found = near(p);
+  forEachCandidate(x, [&](std::uint32_t index) {
+    found = near(points_[index]);
     return !found;
   });
   return found;
@@ -62,7 +65,7 @@ void SurfaceEvidence::forEachCandidate(const Vector3& x, Visit visit) const {
         const auto it = cells_.find(key(x, di, dj, dk));
         if (it == cells_.end()) continue;
         for (const std::uint32_t index : it->second)
-          if (!visit(points_[index])) return;
+          if (!visit(index)) return;
       }
 }
 
@@ -73,6 +76,8 @@ std::string validate(const EvidenceRule& rule) {
     return "approach_distance_m must be finite and >= 0";
   if (!(rule.max_distance >= 0.0) || !std::isfinite(rule.max_distance))
     return "max_evidence_distance must be finite and >= 0";
+  if (!(rule.view_max_distance >= 0.0) && !std::isnan(rule.view_max_distance))
+    return "view_max_distance must be >= 0 (NaN: max_distance)";
   return "";
 }
 
@@ -94,8 +99,8 @@ double SurfaceEvidence::distance(const Vector3& x) const {
   if (!enabled() || !x.allFinite()) return infinity;
   double best_squared = max_distance_m_ * max_distance_m_;
   bool found = false;
-  forEachCandidate(x, [&](const Vector3& p) {
-    const double squared = (p - x).squaredNorm();
+  forEachCandidate(x, [&](std::uint32_t index) {
+    const double squared = (points_[index] - x).squaredNorm();
     if (squared <= best_squared) {
       best_squared = squared;
       found = true;
@@ -105,10 +110,21 @@ double SurfaceEvidence::distance(const Vector3& x) const {
   return found ? std::sqrt(best_squared) : infinity;
 }
 
+double SurfaceEvidence::supportSlack(const Vector3& x) const {
+  double best = -std::numeric_limits<double>::infinity();
+  if (!enabled() || !x.allFinite()) return best;
+  // Every support radius is at most max_distance_m_ = cell_m_: the 27 cells hold every point
+  // whose support can reach x.
+  forEachCandidate(x, [&](std::uint32_t index) {
+    best = std::max(best, support_radius_m_[index] - (points_[index] - x).norm());
+    return true;
+  });
+  return best;
+}
+
 double SurfaceEvidence::radiusCap(const Vector3& x, double floor_m) const {
   if (!enabled()) return std::numeric_limits<double>::infinity();
-  const double d = distance(x);
-  return std::max(floor_m, std::isfinite(d) ? max_distance_m_ - d : 0.0);
+  return std::max(floor_m, std::max(0.0, supportSlack(x)));
 }
 
 }  // namespace gpatlas_core

@@ -1,5 +1,6 @@
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/atlas_planner.h"
+#include "gpatlas_core/surface_evidence.h"
 #include "gpatlas_core/exploration_strategy.h"
 #include "gpatlas_core/surface_projection.h"
 
@@ -159,6 +160,9 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   ASSERT_TRUE(model.fit(sphere.view(400, -1.0, kNoiseSigma, 2)).ok);
   AtlasPlanner::Config config;
   config.seed = 5;
+  // 400 points over the whole sphere are farther apart than a camera's: here view points
+  // vouch as far as contacts.
+  config.evidence.view_max_distance = config.evidence.max_distance;
   const AtlasPlanResult result = AtlasPlanner(config).plan(model, kVMax);
   EXPECT_EQ(result.status, PlanStatus::kConverged) << result.message;
   EXPECT_TRUE(result.path.empty());
@@ -171,8 +175,10 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   }
   EXPECT_GT(highest.z() - lowest.z(), 1.5 * sphere.radius);
   // The strategies agree, and a converged plan carries no touch.
+  PlanRequest request;
+  request.evidence = config.evidence;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
-    const PlanResult plan = makeStrategy(name)->plan(model, PlanRequest{});
+    const PlanResult plan = makeStrategy(name)->plan(model, request);
     EXPECT_EQ(plan.status, PlanStatus::kConverged) << name << ": " << plan.message;
     EXPECT_TRUE(plan.touch.points.empty());
   }
@@ -272,13 +278,17 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
     EXPECT_GT(target.centre.x(), sphere.centre.x());
     EXPECT_GT(target.variance, kVMax);
     EXPECT_EQ(asked, result.unreachable_skipped + 1);
-    // Every chart above V_max in the western half was passed over, not returned.
-    int western_above = 0;
+    // Every chart in the western half that needs a touch (above V_max and not at a
+    // measurement, or unsupported by the evidence) was passed over, not returned.
+    const SurfaceEvidence evidence(model, config.evidence);
+    int western_needy = 0;
     for (std::size_t i = 0; i < result.atlas.size(); ++i) {
       const Chart& chart = result.atlas.chart(static_cast<int>(i));
-      western_above += chart.variance > kVMax && chart.centre.x() <= sphere.centre.x() ? 1 : 0;
+      const bool needy = evidence.isUnsupported(chart.centre, chart.normal) ||
+                         (chart.variance > kVMax && !evidence.measuredNear(chart.centre, config.evidence.retouch_radius_m));
+      western_needy += needy && chart.centre.x() <= sphere.centre.x() ? 1 : 0;
     }
-    EXPECT_EQ(result.unreachable_skipped, western_above);
+    EXPECT_EQ(result.unreachable_skipped, western_needy);
   }
   // A slide: its extension stops before the first refused chart, and it starts at the first
   // chart of the path the filter accepts.

@@ -102,6 +102,65 @@ TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOn
   EXPECT_FALSE(SurfaceEvidence(model, std::nan("")).enabled());
 }
 
+// A view point vouches for the surface within view_max_distance, a contact (or an attempted
+// target) within max_distance: the support slack, the test and the chart radius cap against a
+// full search over both kinds of points.
+TEST(SurfaceEvidence, AViewPointVouchesForLessThanAContact) {
+  const AnalyticSphere sphere;
+  std::vector<TrainingPoint> points = sphere.view(300, 0.2, kNoiseSigma, 1);
+  for (const TrainingPoint& p : sphere.view(30, -1.0, kNoiseSigma, 2)) {
+    TrainingPoint touch = p;
+    touch.source = PointSource::kTouch;
+    if ((p.position - sphere.centre).z() < 0.0) points.push_back(touch);
+  }
+  GpisModel model;
+  ASSERT_TRUE(model.fit(points).ok);
+  const std::vector<Vector3> attempted{sphere.centre + Vector3(0.0, 0.0, -sphere.radius)};
+  const double max_distance = 0.03, view_max_distance = 0.01;
+  const SurfaceEvidence evidence(model, max_distance, std::nullopt, 0.0, attempted, view_max_distance);
+  const auto bruteSlack = [&](const Vector3& x) {
+    double best = max_distance - (attempted[0] - x).norm();
+    for (const TrainingPoint& p : model.observations()) {
+      if (p.label != PointLabel::kSurface) continue;
+      if (p.source == PointSource::kVision) best = std::max(best, view_max_distance - (p.position - x).norm());
+      if (p.source == PointSource::kTouch) best = std::max(best, max_distance - (p.position - x).norm());
+    }
+    return best;
+  };
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1.3, 1.3);
+  int by_view_alone = 0, unsupported_near_view = 0;
+  for (int i = 0; i < 3000; ++i) {
+    const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
+    const double slack = bruteSlack(x);
+    if (slack >= 0.0) {
+      EXPECT_NEAR(evidence.supportSlack(x), slack, 1e-12);
+      EXPECT_FALSE(evidence.isUnsupported(x));
+      EXPECT_NEAR(evidence.radiusCap(x, 0.002), std::max(0.002, slack), 1e-12);
+    } else {
+      EXPECT_TRUE(evidence.isUnsupported(x));
+      EXPECT_EQ(evidence.radiusCap(x, 0.002), 0.002);
+    }
+    // Within max_distance of a view point, yet too far for it to vouch: a touch is needed.
+    const double distance = evidence.distance(x);
+    if (slack < 0.0 && distance <= max_distance) ++unsupported_near_view;
+    if (slack >= 0.0 && distance > view_max_distance - 1e-12) ++by_view_alone;
+  }
+  EXPECT_GT(unsupported_near_view, 50);
+  EXPECT_GT(by_view_alone, 0);  // supported by a contact or the aim beyond a view point's reach
+  // NaN: view points vouch as far as contacts (the distance test alone).
+  const SurfaceEvidence as_far(model, max_distance, std::nullopt, 0.0, attempted, std::nan(""));
+  for (int i = 0; i < 500; ++i) {
+    const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
+    EXPECT_EQ(as_far.isUnsupported(x), !(as_far.distance(x) <= max_distance));
+  }
+  EvidenceRule rule;
+  rule.view_max_distance = -0.1;
+  EXPECT_FALSE(validate(rule).empty());
+  rule.view_max_distance = std::nan("");
+  EXPECT_TRUE(validate(rule).empty());
+}
+
 // A hole in the data that the variance does not flag (V_max is out of reach): the planners
 // converge on variance alone, and with an evidence distance they poke into the hole.
 // measuredNear (the retouch rule) against a full search over the measured surface points and
@@ -135,6 +194,7 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
   config.evidence.max_distance = 0.3;
+  config.evidence.view_max_distance = 0.3;  // view points vouch as far as contacts here
   const double max_distance_m = config.evidence.max_distance * model.scale();
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
@@ -167,6 +227,7 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
 
     request.evidence.max_distance = 0.3;
+    request.evidence.view_max_distance = 0.3;
     const PlanResult touch = makeStrategy(name)->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     ASSERT_FALSE(touch.touch.points.empty());
@@ -203,6 +264,7 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
   config.max_actions = 40;
   EvidenceRule evidence;
   evidence.max_distance = 0.3;
+  evidence.view_max_distance = 0.3;
   // The loop passes where earlier touches aimed; a planner that drops them shows what they buy.
   struct ForgetfulPlanner : TouchPlanner {
     ModelTouchPlanner* inner{nullptr};
@@ -273,6 +335,7 @@ TEST(SurfaceEvidence, TheTableIsEvidenceForTheUnderside) {
   PlanRequest request;
   request.v_max = kHugeVMax;
   request.evidence.max_distance = 0.3;
+  request.evidence.view_max_distance = 0.3;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
     request.evidence.support_plane.reset();
     const PlanResult touch = makeStrategy(name)->plan(model, request);

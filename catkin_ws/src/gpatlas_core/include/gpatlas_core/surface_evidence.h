@@ -20,6 +20,11 @@ struct EvidenceRule {
   // is 1) from every measured surface point needs a touch whatever its variance. 0: V_max alone
   // (the paper).
   double max_distance{0.35};
+  // A view point supports the predicted surface only this close (normalised units, at most
+  // max_distance; NaN: max_distance). A dense view covers what the camera saw within a few of
+  // its point spacings; what lies farther from it (the unseen back beyond the silhouette, a
+  // cavity the rim hid) was not seen, however near a view point it is, and needs a touch.
+  double view_max_distance{0.2};
   // The table the object rests on, if known, and how far along the normal a probe approaches
   // a touch: surface whose approach would start under the table needs no evidence.
   std::optional<SupportPlane> support_plane;
@@ -42,7 +47,9 @@ std::string validate(const EvidenceRule& rule);
 // the filled hole of a handle) has a low variance and is never touched. The distance from a
 // predicted surface point to the nearest measured surface point (a view point or a contact;
 // not the guessed inside points, the free space or the pseudo-points) says whether anything
-// was ever seen or felt there, or tried (a touch aimed there).
+// was ever seen or felt there, or tried (a touch aimed there). A view point vouches for less
+// than a contact (EvidenceRule::view_max_distance): the camera samples what it saw densely, so
+// surface farther from its points was not seen.
 class SurfaceEvidence {
  public:
   // `max_distance_m` > 0: the distance beyond which a surface point is unsupported; 0 turns
@@ -53,9 +60,12 @@ class SurfaceEvidence {
   // `attempted`: surface points that touches already aimed at (EvidenceRule::attempted_targets)
   // count as evidence too, whatever the touch found: a point the probe cannot reach (its
   // approach blocked by another part of the object) is not asked for again and again.
+  // `view_max_distance_m`: how far a view point (source vision) supports the surface, at most
+  // max_distance_m (contacts and attempted targets support within max_distance_m).
   SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                   const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0,
-                  const std::vector<Vector3>& attempted = {});
+                  const std::vector<Vector3>& attempted = {},
+                  double view_max_distance_m = std::numeric_limits<double>::infinity());
   // The same from a rule, its distance converted with the model's scale.
   SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule);
 
@@ -64,7 +74,10 @@ class SurfaceEvidence {
   // Distance (metres) to the nearest measured surface point, or infinity when none lies
   // within max_distance_m (only that range is searched).
   double distance(const Vector3& x) const;
-  bool isUnsupported(const Vector3& x) const { return enabled() && distance(x) > max_distance_m_; }
+  // How far x lies inside the support of its best measured point: max over them of (its
+  // support radius - its distance to x); negative (or -infinity) when x is unsupported.
+  double supportSlack(const Vector3& x) const;
+  bool isUnsupported(const Vector3& x) const { return enabled() && supportSlack(x) < 0.0; }
   // The same for a surface point with its outward normal, with the support plane's exemption.
   bool isUnsupported(const Vector3& x, const Vector3& normal) const;
   // The largest chart radius around x whose whole ball stays supported: a chart that reaches
@@ -76,8 +89,8 @@ class SurfaceEvidence {
   bool measuredNear(const Vector3& x, double radius_m) const;
 
  private:
-  // Calls visit(point) for the points in the 27 cells around x (every point within cell_m_ of
-  // it), until visit returns false.
+  // Calls visit(index into points_) for the points in the 27 cells around x (every point within
+  // cell_m_ of it), until visit returns false.
   template <typename Visit>
   void forEachCandidate(const Vector3& x, Visit visit) const;
   // The cell of x (side cell_m_), moved by (di, dj, dk) cells, packed into one key.
@@ -87,6 +100,7 @@ class SurfaceEvidence {
   std::optional<SupportPlane> support_;
   double approach_m_{0.0};
   std::vector<Vector3> points_;  // measured surface points and attempted targets
+  std::vector<double> support_radius_m_;  // per point: how far it supports the surface
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side cell_m_
 };
 
