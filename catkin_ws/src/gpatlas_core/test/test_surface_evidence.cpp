@@ -43,16 +43,22 @@ GpisModel modelWithAHoleOnTop(const AnalyticSphere& sphere, double hole_side = 1
   return model;
 }
 
-TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOnly) {
-  const AnalyticSphere sphere;
-  std::vector<TrainingPoint> points = sphere.view(150, 0.2, kNoiseSigma, 1);
-  // Touches on the other side; free space, guessed inside points and a far surface guess that
-  // is not a measurement must all be ignored.
-  for (const TrainingPoint& p : sphere.view(20, -1.0, kNoiseSigma, 2)) {
+// A view of the sphere's top, and touches among `touch_samples` points all over it on its lower half.
+std::vector<TrainingPoint> viewAndTouchesBelow(const AnalyticSphere& sphere, int view_points, int touch_samples) {
+  std::vector<TrainingPoint> points = sphere.view(view_points, 0.2, kNoiseSigma, 1);
+  for (const TrainingPoint& p : sphere.view(touch_samples, -1.0, kNoiseSigma, 2)) {
     TrainingPoint touch = p;
     touch.source = PointSource::kTouch;
     if ((p.position - sphere.centre).z() < 0.0) points.push_back(touch);
   }
+  return points;
+}
+
+TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOnly) {
+  const AnalyticSphere sphere;
+  // Touches on the other side; free space, guessed inside points and a far surface guess that
+  // is not a measurement must all be ignored.
+  std::vector<TrainingPoint> points = viewAndTouchesBelow(sphere, 150, 20);
   TrainingPoint free;
   free.position = sphere.centre + Vector3(0.0, 0.0, -1.5 * sphere.radius);
   free.label = PointLabel::kOutside;
@@ -107,12 +113,7 @@ TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOn
 // full search over both kinds of points.
 TEST(SurfaceEvidence, AViewPointVouchesForLessThanAContact) {
   const AnalyticSphere sphere;
-  std::vector<TrainingPoint> points = sphere.view(300, 0.2, kNoiseSigma, 1);
-  for (const TrainingPoint& p : sphere.view(30, -1.0, kNoiseSigma, 2)) {
-    TrainingPoint touch = p;
-    touch.source = PointSource::kTouch;
-    if ((p.position - sphere.centre).z() < 0.0) points.push_back(touch);
-  }
+  const std::vector<TrainingPoint> points = viewAndTouchesBelow(sphere, 300, 30);
   GpisModel model;
   ASSERT_TRUE(model.fit(points).ok);
   const std::vector<Vector3> attempted{sphere.centre + Vector3(0.0, 0.0, -sphere.radius)};
