@@ -34,7 +34,9 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     grid.message = message.str();
     return grid;
   }
-  grid.origin = lower;
+  // Nodes at the centres of OctoMap's voxels (which sit at multiples of the resolution), so that
+  // each voxel of the collision octree holds its node's probability.
+  grid.origin = ((lower / config_.resolution_m).array().floor() + 0.5).matrix() * config_.resolution_m;
   grid.resolution = config_.resolution_m;
   grid.size = cells.cast<int>().matrix();
   grid.probabilities.assign(static_cast<std::size_t>(num_nodes), 0.0f);
@@ -42,9 +44,10 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
   // Reported variance -> raw posterior variance, the one that is commensurate with f.
   const double unit = model.varianceUnitFactor();
   const int stride = config_.variance_stride;
+  const double half = 0.5 * config_.resolution_m;
   const std::size_t num = static_cast<std::size_t>(num_nodes);
   const std::size_t nx = static_cast<std::size_t>(grid.size.x()), ny = static_cast<std::size_t>(grid.size.y());
-  std::vector<double> mean(num, 0.0), variance(num, std::nan(""));
+  std::vector<double> mean(num, 0.0), variance(num, std::nan("")), gradient_norm(num, 0.0);
   const auto coordinates = [&](std::size_t n) {
     return Eigen::Vector3i(static_cast<int>(n % nx), static_cast<int>(n / nx % ny), static_cast<int>(n / (nx * ny)));
   };
@@ -59,10 +62,13 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
         batch.col(static_cast<Eigen::Index>(q)) = grid.position(c.x(), c.y(), c.z());
       }
       const BatchPrediction prediction =
-          model.predictBatch(batch.leftCols(static_cast<Eigen::Index>(count)), false, false, with_variance);
+          model.predictBatch(batch.leftCols(static_cast<Eigen::Index>(count)), with_mean, false, with_variance);
       for (std::size_t q = 0; q < count; ++q) {
         const Eigen::Index e = static_cast<Eigen::Index>(q);
-        if (with_mean) mean[nodes[first + q]] = prediction.mean(e);
+        if (with_mean) {
+          mean[nodes[first + q]] = prediction.mean(e);
+          gradient_norm[nodes[first + q]] = prediction.gradient.col(e).norm();
+        }
         if (with_variance) variance[nodes[first + q]] = prediction.variance(e);
       }
     }
@@ -106,6 +112,12 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     std::vector<std::size_t> exact;
     for (const std::size_t n : domain) {
       if (std::isfinite(variance[n])) continue;  // a lattice node
+      // Where the surface passes within half a voxel the variance has its sharp dip at the data,
+      // which the lattice would smooth over, and P depends on it most.
+      if (std::abs(mean[n]) <= half * gradient_norm[n]) {
+        exact.push_back(n);
+        continue;
+      }
       const Eigen::Vector3i at = coordinates(n);
       const Bracket& x = bx[static_cast<std::size_t>(at.x())];
       const Bracket& y = by[static_cast<std::size_t>(at.y())];
@@ -127,12 +139,17 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     evaluate(exact, false, true);
     grid.exact_variance_nodes = lattice.size() + exact.size();
   }
+  // A voxel is occupied when the object comes within half a voxel of its centre (into the ball
+  // inscribed in it), not only when its centre is inside: a wall thinner than a voxel between two
+  // nodes would vanish from the map. The smallest mean over that ball, linearised about the
+  // centre, is mean - (resolution / 2) |grad mean|.
   for (const std::size_t n : domain) {
     const double sd = std::sqrt(std::max(variance[n] / unit, 0.0));
+    const double lowest = mean[n] - half * gradient_norm[n];
     double p = 0.0;
-    if (!std::isfinite(mean[n]) || !std::isfinite(sd)) p = 0.5;  // unknown
-    else if (sd > 0.0) p = standardNormalCdf(-mean[n] / sd);
-    else p = mean[n] < 0.0 ? 1.0 : 0.0;
+    if (!std::isfinite(lowest) || !std::isfinite(sd)) p = 0.5;  // unknown
+    else if (sd > 0.0) p = standardNormalCdf(-lowest / sd);
+    else p = lowest < 0.0 ? 1.0 : 0.0;
     grid.probabilities[n] = static_cast<float>(p);
   }
   grid.ok = true;

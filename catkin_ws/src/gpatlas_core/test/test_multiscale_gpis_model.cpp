@@ -633,6 +633,41 @@ TEST(MultiscaleGpisModel, FitsTenThousandViewPoints) {
 // The collision map's variance lattice against the variance at every node: the same occupied
 // nodes (that depends on the mean alone) and nearly the same probabilities, on a sphere whose
 // lower half was never seen, so that the variance runs from the data's to the prior's.
+// A wall thinner than the map's voxels stays in the map: the 5 mm plate lies across the boundary
+// between two layers of 1 cm voxels, and neither layer's centre is inside it (2.5 mm out on each
+// side), yet both layers are occupied where the plate passes through them, and the layers beyond
+// are free.
+TEST(MultiscaleGpisModel, CollisionMapKeepsAPlateThinnerThanAVoxel) {
+  const MultiscaleGpisModel model = fitted(plateData());
+  gpatlas_core::OccupancyGridBuilder::Config config;
+  config.resolution_m = 0.01;
+  config.min_corner = kPlateCentre - Vector3d(0.05, 0.05, 0.05);
+  config.max_corner = kPlateCentre + Vector3d(0.05, 0.05, 0.05);
+  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(config).build(model);
+  ASSERT_TRUE(grid.ok) << grid.message;
+  // The nodes are the centres of voxels on the resolution's lattice (OctoMap's).
+  const Vector3d lattice = grid.origin / config.resolution_m - Vector3d::Constant(0.5);
+  EXPECT_LT((lattice - lattice.array().round().matrix()).norm(), 1e-9);
+  const auto node = [&](const Vector3d& x) {
+    const Eigen::Vector3i c = ((x - grid.origin) / grid.resolution).array().round().cast<int>();
+    return grid.probabilities[grid.index(c.x(), c.y(), c.z())];
+  };
+  int checked = 0;
+  // Voxel columns over the plate away from its edges (it spans 4 cm each way).
+  for (double dx = -0.025; dx <= 0.0251; dx += 0.01)
+    for (double dy = -0.025; dy <= 0.0251; dy += 0.01) {
+      const Vector3d column = kPlateCentre + Vector3d(dx, dy, 0.0);
+      for (double z : {-0.005, 0.005}) {  // the two layers the plate passes through
+        EXPECT_GT(node(column + Vector3d(0, 0, z)), 0.5f) << "voxel at " << (column + Vector3d(0, 0, z)).transpose();
+        EXPECT_GT(model.mean(column + Vector3d(0, 0, z)), 0.0);  // its centre is outside the plate
+      }
+      for (double z : {-0.025, 0.025})  // 1.75 cm from the plate's faces
+        EXPECT_LT(node(column + Vector3d(0, 0, z)), 0.5f) << "voxel at " << (column + Vector3d(0, 0, z)).transpose();
+      ++checked;
+    }
+  EXPECT_EQ(checked, 36);
+}
+
 TEST(MultiscaleGpisModel, CollisionMapOnAVarianceLatticeMatchesTheFullEvaluation) {
   const MultiscaleGpisModel& model = sphereModel();
   gpatlas_core::OccupancyGridBuilder::Config config;
@@ -665,7 +700,7 @@ TEST(MultiscaleGpisModel, CollisionMapOnAVarianceLatticeMatchesTheFullEvaluation
     EXPECT_LT(lattice.exact_variance_nodes, full.domain_nodes / 2);
     if (stride == 2) {  // the default
       EXPECT_LT(sum / full.domain_nodes, 0.01);
-      EXPECT_LT(worst, 0.2);
+      EXPECT_LT(worst, 0.25);  // near the domain's edge, where the outside pseudo-points pin the variance
     }
   }
 }

@@ -12,7 +12,8 @@
 namespace gpatlas_core {
 
 // A regular grid of P(occupied) for the collision map used while approaching a touch.
-// Node (i, j, k) sits at origin + resolution * (i, j, k); i runs fastest in `probabilities`.
+// Node (i, j, k) sits at origin + resolution * (i, j, k), the centre of a voxel of the lattice of
+// cubes whose corners are multiples of the resolution (OctoMap's); i runs fastest in `probabilities`.
 struct OccupancyGrid {
   bool ok{false};
   std::string message;
@@ -30,10 +31,12 @@ struct OccupancyGrid {
   std::size_t exact_variance_nodes{0};  // of which the variance was evaluated, not interpolated
 };
 
-// Builds the grid from the GP: P(occupied) = Phi(-mean / sqrt(variance)), the probability
-// that f < 0 (inside) under the posterior, with the variance in the GP's own (raw) units.
-// Nodes outside the model's domain get 0: there the model is pinned to +1 by its outside
-// pseudo-points, i.e. it regards them as free.
+// Builds the grid from the GP: P(occupied) = Phi(-lowest / sqrt(variance)), the probability that
+// the object comes within half a voxel of the node (into the ball inscribed in its voxel), where
+// lowest = mean - (resolution / 2) |grad mean| is the smallest mean over that ball, linearised
+// about the node, and the variance is in the GP's own (raw) units. A voxel is occupied (P > 0.5)
+// when lowest < 0: a wall thinner than a voxel stays in the map although no node lies inside it. Nodes outside the model's domain get 0: there
+// the model is pinned to +1 by its outside pseudo-points, i.e. it regards them as free.
 class OccupancyGridBuilder {
  public:
   struct Config {
@@ -45,10 +48,10 @@ class OccupancyGridBuilder {
     std::size_t max_nodes{2'000'000};
     // GP queries per batch: bounds the n x batch cross-covariance matrix in memory.
     int batch_size{2048};
-    // The mean is evaluated at every node, the variance, which costs far more (a triangular
-    // solve per node), on every variance_stride-th node of each axis and interpolated
-    // trilinearly in between (1: at every node). Which nodes are occupied (P > 0.5: mean < 0)
-    // does not depend on it.
+    // The mean and its gradient are evaluated at every node, the variance, which costs far more
+    // (a triangular solve per node), on every variance_stride-th node of each axis and
+    // interpolated trilinearly in between (1: at every node), except where the surface passes
+    // within half a voxel of the node. Which nodes are occupied (P > 0.5: lowest < 0) does not depend on it.
     int variance_stride{2};
   };
 

@@ -207,8 +207,8 @@ class AtlasPlannerServer {
   ros::Publisher atlas_marker_pub_, atlas_pub_, touch_pub_;
 };
 
-// Probabilistic collision map (paper section 4.1): P(occupied) = Phi(-mean / sqrt(variance))
-// from the GP on a coarse grid, stored in an OctoMap octree. Publishes `~octomap_binary`
+// Probabilistic collision map (paper section 4.1): P(the object reaches into a voxel) from the GP
+// (gpatlas_core::OccupancyGridBuilder) on a coarse grid, stored in an OctoMap octree. Publishes `~octomap_binary`
 // (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
 // Builds the collision map in a thread of its own: a training set only replaces the pending
 // one (latest wins, intermediate models are skipped), so no callback of the manager waits for
