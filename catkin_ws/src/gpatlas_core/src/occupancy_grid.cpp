@@ -48,6 +48,10 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
   const std::size_t num = static_cast<std::size_t>(num_nodes);
   const std::size_t nx = static_cast<std::size_t>(grid.size.x()), ny = static_cast<std::size_t>(grid.size.y());
   std::vector<double> mean(num, 0.0), variance(num, std::nan("")), gradient_norm(num, 0.0);
+  // The neighbour one step down the mean's steepest axis (+-(axis + 1), 0 for none): across the
+  // surface when the surface is near.
+  std::vector<signed char> downhill(num, 0);
+  std::vector<bool> inside(num, false);
   const auto coordinates = [&](std::size_t n) {
     return Eigen::Vector3i(static_cast<int>(n % nx), static_cast<int>(n / nx % ny), static_cast<int>(n / (nx * ny)));
   };
@@ -66,8 +70,14 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
       for (std::size_t q = 0; q < count; ++q) {
         const Eigen::Index e = static_cast<Eigen::Index>(q);
         if (with_mean) {
-          mean[nodes[first + q]] = prediction.mean(e);
-          gradient_norm[nodes[first + q]] = prediction.gradient.col(e).norm();
+          const std::size_t node = nodes[first + q];
+          const Vector3 gradient = prediction.gradient.col(e);
+          mean[node] = prediction.mean(e);
+          inside[node] = mean[node] < 0.0;
+          gradient_norm[node] = gradient.norm();
+          Eigen::Index axis = 0;
+          if (gradient.allFinite() && gradient.cwiseAbs().maxCoeff(&axis) > 0.0)
+            downhill[node] = static_cast<signed char>(gradient[axis] > 0.0 ? -(axis + 1) : axis + 1);
         }
         if (with_variance) variance[nodes[first + q]] = prediction.variance(e);
       }
@@ -139,13 +149,25 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     evaluate(exact, false, true);
     grid.exact_variance_nodes = lattice.size() + exact.size();
   }
-  // A voxel is occupied when the object comes within half a voxel of its centre (into the ball
-  // inscribed in it), not only when its centre is inside: a wall thinner than a voxel between two
-  // nodes would vanish from the map. The smallest mean over that ball, linearised about the
-  // centre, is mean - (resolution / 2) |grad mean|.
+  // Whether the neighbour down the steepest axis is inside the object.
+  const auto downhillInside = [&](std::size_t n) {
+    if (downhill[n] == 0) return false;
+    Eigen::Vector3i at = coordinates(n);
+    const int axis = std::abs(downhill[n]) - 1;
+    at[axis] += downhill[n] > 0 ? 1 : -1;
+    if (at[axis] < 0 || at[axis] >= grid.size[axis]) return false;
+    return static_cast<bool>(inside[grid.index(at.x(), at.y(), at.z())]);
+  };
+  // A voxel whose centre is inside is occupied. So is one whose centre is outside with the surface
+  // within half a voxel of it (the smallest mean over the ball inscribed in the voxel, linearised
+  // about its centre, mean - (resolution / 2) |grad mean|, is below 0) when the neighbour across
+  // that surface, one step down the steepest axis, is not inside either: the object between them
+  // is thinner than a voxel (a wall, a rim, a handle) and would otherwise vanish from the map.
+  // Where that neighbour is inside, it stands for the object, and the map is not grown.
   for (const std::size_t n : domain) {
     const double sd = std::sqrt(std::max(variance[n] / unit, 0.0));
-    const double lowest = mean[n] - half * gradient_norm[n];
+    const bool thin = mean[n] >= 0.0 && mean[n] < half * gradient_norm[n] && !downhillInside(n);
+    const double lowest = thin ? mean[n] - half * gradient_norm[n] : mean[n];
     double p = 0.0;
     if (!std::isfinite(lowest) || !std::isfinite(sd)) p = 0.5;  // unknown
     else if (sd > 0.0) p = standardNormalCdf(-lowest / sd);

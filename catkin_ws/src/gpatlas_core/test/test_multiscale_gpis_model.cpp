@@ -666,6 +666,28 @@ TEST(MultiscaleGpisModel, CollisionMapKeepsAPlateThinnerThanAVoxel) {
       ++checked;
     }
   EXPECT_EQ(checked, 36);
+
+  // A solid is not grown: on the sphere's observed upper half, no voxel whose centre is outside
+  // the true sphere (beyond the model's millimetre of error) is occupied, though the surface
+  // passes within half a voxel of many.
+  config.min_corner.reset();
+  config.max_corner.reset();
+  const gpatlas_core::OccupancyGrid sphere = gpatlas_core::OccupancyGridBuilder(config).build(sphereModel());
+  ASSERT_TRUE(sphere.ok) << sphere.message;
+  int near_surface_outside = 0, occupied_upper = 0;
+  for (int k = 0; k < sphere.size.z(); ++k)
+    for (int j = 0; j < sphere.size.y(); ++j)
+      for (int i = 0; i < sphere.size.x(); ++i) {
+        const Vector3d x = sphere.position(i, j, k);
+        if (x.z() < kSphereCentre.z() + 0.01) continue;
+        const double outside_by = (x - kSphereCentre).norm() - kSphereRadius;
+        const bool occupied = sphere.probabilities[sphere.index(i, j, k)] > 0.5f;
+        occupied_upper += occupied ? 1 : 0;
+        near_surface_outside += outside_by > 0.0015 && outside_by < 0.005 ? 1 : 0;
+        if (outside_by > 0.0015) EXPECT_FALSE(occupied) << "voxel " << outside_by * 1e3 << " mm outside the sphere";
+      }
+  EXPECT_GT(occupied_upper, 50);
+  EXPECT_GT(near_surface_outside, 20);
 }
 
 TEST(MultiscaleGpisModel, CollisionMapOnAVarianceLatticeMatchesTheFullEvaluation) {

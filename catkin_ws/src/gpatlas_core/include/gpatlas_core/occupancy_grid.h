@@ -31,12 +31,14 @@ struct OccupancyGrid {
   std::size_t exact_variance_nodes{0};  // of which the variance was evaluated, not interpolated
 };
 
-// Builds the grid from the GP: P(occupied) = Phi(-lowest / sqrt(variance)), the probability that
-// the object comes within half a voxel of the node (into the ball inscribed in its voxel), where
-// lowest = mean - (resolution / 2) |grad mean| is the smallest mean over that ball, linearised
-// about the node, and the variance is in the GP's own (raw) units. A voxel is occupied (P > 0.5)
-// when lowest < 0: a wall thinner than a voxel stays in the map although no node lies inside it. Nodes outside the model's domain get 0: there
-// the model is pinned to +1 by its outside pseudo-points, i.e. it regards them as free.
+// Builds the grid from the GP. A node (a voxel's centre) inside the object (mean < 0) has
+// P(occupied) = Phi(-mean / sqrt(variance)), the probability that f < 0 there. A node outside
+// with the surface within half a voxel (lowest = mean - (resolution / 2) |grad mean| < 0, the
+// smallest mean over the ball inscribed in its voxel, linearised) whose neighbour one step down
+// the mean's steepest axis is not inside either has the object between them thinner than a voxel:
+// it gets Phi(-lowest / sqrt(variance)), and a wall thinner than a voxel stays in the map. The
+// variance is in the GP's own (raw) units. Nodes outside the model's domain get 0: there the model
+// is pinned to +1 by its outside pseudo-points, i.e. it regards them as free.
 class OccupancyGridBuilder {
  public:
   struct Config {
@@ -51,7 +53,7 @@ class OccupancyGridBuilder {
     // The mean and its gradient are evaluated at every node, the variance, which costs far more
     // (a triangular solve per node), on every variance_stride-th node of each axis and
     // interpolated trilinearly in between (1: at every node), except where the surface passes
-    // within half a voxel of the node. Which nodes are occupied (P > 0.5: lowest < 0) does not depend on it.
+    // within half a voxel of the node. Which nodes are occupied (P > 0.5) does not depend on it.
     int variance_stride{2};
   };
 
