@@ -149,24 +149,30 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     evaluate(exact, false, true);
     grid.exact_variance_nodes = lattice.size() + exact.size();
   }
-  // Whether the neighbour down the steepest axis is inside the object.
-  const auto downhillInside = [&](std::size_t n) {
+  // The surface's distance from the node, linearised.
+  const auto distance = [&](std::size_t n) { return gradient_norm[n] > 0.0 ? mean[n] / gradient_norm[n] : HUGE_VAL; };
+  // Whether the node stands for an object thinner than a voxel beside it: its neighbour one step
+  // down the steepest axis is not inside either, and not nearer to the surface (one voxel of the
+  // two on either side of a wall is enough).
+  const auto standsForThinObject = [&](std::size_t n) {
     if (downhill[n] == 0) return false;
     Eigen::Vector3i at = coordinates(n);
     const int axis = std::abs(downhill[n]) - 1;
     at[axis] += downhill[n] > 0 ? 1 : -1;
-    if (at[axis] < 0 || at[axis] >= grid.size[axis]) return false;
-    return static_cast<bool>(inside[grid.index(at.x(), at.y(), at.z())]);
+    if (at[axis] < 0 || at[axis] >= grid.size[axis]) return true;
+    const std::size_t m = grid.index(at.x(), at.y(), at.z());
+    return !inside[m] && distance(n) <= distance(m);
   };
   // A voxel whose centre is inside is occupied. So is one whose centre is outside with the surface
   // within half a voxel of it (the smallest mean over the ball inscribed in the voxel, linearised
   // about its centre, mean - (resolution / 2) |grad mean|, is below 0) when the neighbour across
   // that surface, one step down the steepest axis, is not inside either: the object between them
   // is thinner than a voxel (a wall, a rim, a handle) and would otherwise vanish from the map.
-  // Where that neighbour is inside, it stands for the object, and the map is not grown.
+  // The nearer of the two stands for it. Where that neighbour is inside, it stands for the
+  // object, and the map is not grown.
   for (const std::size_t n : domain) {
     const double sd = std::sqrt(std::max(variance[n] / unit, 0.0));
-    const bool thin = mean[n] >= 0.0 && mean[n] < half * gradient_norm[n] && !downhillInside(n);
+    const bool thin = mean[n] >= 0.0 && mean[n] < half * gradient_norm[n] && standsForThinObject(n);
     const double lowest = thin ? mean[n] - half * gradient_norm[n] : mean[n];
     double p = 0.0;
     if (!std::isfinite(lowest) || !std::isfinite(sd)) p = 0.5;  // unknown
