@@ -37,9 +37,9 @@ struct OccupancyGrid {
 // smallest mean over the ball inscribed in its voxel, linearised) whose neighbour one step down
 // the mean's steepest axis is not inside either has the object between them thinner than a voxel:
 // the nearer of the two to the surface gets Phi(-lowest / sqrt(variance)), and a wall thinner
-// than a voxel stays in the map. The
-// variance is in the GP's own (raw) units. Nodes outside the model's domain get 0: there the model
-// is pinned to +1 by its outside pseudo-points, i.e. it regards them as free.
+// than a voxel stays in the map. The variance is in the GP's own (raw) units. Nodes outside the
+// model's domain get 0: there the model is pinned to +1 by its outside pseudo-points, i.e. it
+// regards them as free.
 class OccupancyGridBuilder {
  public:
   struct Config {
