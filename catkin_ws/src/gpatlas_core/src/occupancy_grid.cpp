@@ -51,7 +51,6 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
   // The neighbour one step down the mean's steepest axis (+-(axis + 1), 0 for none): across the
   // surface when the surface is near.
   std::vector<signed char> downhill(num, 0);
-  std::vector<bool> inside(num, false);
   const auto coordinates = [&](std::size_t n) {
     return Eigen::Vector3i(static_cast<int>(n % nx), static_cast<int>(n / nx % ny), static_cast<int>(n / (nx * ny)));
   };
@@ -73,7 +72,6 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
           const std::size_t node = nodes[first + q];
           const Vector3 gradient = prediction.gradient.col(e);
           mean[node] = prediction.mean(e);
-          inside[node] = mean[node] < 0.0;
           gradient_norm[node] = gradient.norm();
           Eigen::Index axis = 0;
           if (gradient.allFinite() && gradient.cwiseAbs().maxCoeff(&axis) > 0.0)
@@ -161,7 +159,7 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     at[axis] += downhill[n] > 0 ? 1 : -1;
     if (at[axis] < 0 || at[axis] >= grid.size[axis]) return true;
     const std::size_t m = grid.index(at.x(), at.y(), at.z());
-    return !inside[m] && distance(n) <= distance(m);
+    return !(mean[m] < 0.0) && distance(n) <= distance(m);
   };
   // A voxel whose centre is inside is occupied. So is one whose centre is outside with the surface
   // within half a voxel of it (the smallest mean over the ball inscribed in the voxel, linearised
