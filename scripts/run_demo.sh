@@ -50,6 +50,9 @@ print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['
 if m:
     print(f"[demo] shape RMSE predicted->truth {1000*m['rmse_pred_to_gt_m']:.1f} mm, truth->predicted "
           f"{1000*m['rmse_gt_to_pred_m']:.1f} mm, F-score@5mm {m['fscore_5mm']:.2f}")
+e = r.get("recent_target_error_m")
+if e is not None:
+    print(f"[demo] the last touches found the surface {1000*e:.1f} mm (median) from where the model predicted it")
 print(f"[demo] approach: {r.get('approach_collisions')} collision(s) on the way to the touches, "
       f"{r.get('retreat_collisions')} on the way back, {r.get('unreachable_touches')} touch(es) refused as unreachable")
 print(f"[demo] results: {d}/ (report.json, surface.ply, collision_map.bt, exploration.png)")

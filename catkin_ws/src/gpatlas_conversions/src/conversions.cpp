@@ -216,6 +216,9 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::SurfaceModel& model) {
       msg.target_overrides.push_back(p.target_override);
     }
   }
+  if (std::any_of(observations.begin(), observations.end(),
+                  [](const gpatlas_core::TrainingPoint& p) { return std::isfinite(p.prediction_error_m); }))
+    for (const auto& p : observations) msg.prediction_errors_m.push_back(p.prediction_error_m);
   return msg;
 }
 
@@ -225,6 +228,7 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelSta
       (!msg.surface_distances_m.empty() && msg.surface_distances_m.size() != n) ||
       (!msg.slope_directions.empty() && msg.slope_directions.size() != n) ||
       (!msg.target_overrides.empty() && msg.target_overrides.size() != n) ||
+      (!msg.prediction_errors_m.empty() && msg.prediction_errors_m.size() != n) ||
       (!msg.hyperparameter_names.empty() && msg.hyperparameter_names.size() != msg.hyperparameters.size())) {
     *error = "training set arrays differ in length";
     return false;
@@ -248,6 +252,7 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelSta
     if (!msg.slope_directions.empty())
       p.slope_direction = {msg.slope_directions[i].x, msg.slope_directions[i].y, msg.slope_directions[i].z};
     if (!msg.target_overrides.empty()) p.target_override = msg.target_overrides[i];
+    if (!msg.prediction_errors_m.empty()) p.prediction_error_m = msg.prediction_errors_m[i];
     out.observations.push_back(p);
   }
   *state = std::move(out);

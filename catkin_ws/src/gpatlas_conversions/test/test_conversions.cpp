@@ -157,6 +157,8 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
     p.position = 0.1 * d.normalized();
     p.noise_sigma = 0.05;
     p.source = i % 2 ? gpatlas_core::PointSource::kTouch : gpatlas_core::PointSource::kVision;
+    // How far the contacts lay from the prediction (the evidence rule reads it): must survive the trip.
+    if (i % 2) p.prediction_error_m = 0.001 * i;
     pts.push_back(p);
   }
   gpatlas_core::TrainingPoint outside;
@@ -197,6 +199,10 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
     EXPECT_EQ(contents.observations[i].slope_direction, model.observations()[i].slope_direction);
     const double c = contents.observations[i].target_override, d = model.observations()[i].target_override;
     EXPECT_TRUE(c == d || (std::isnan(c) && std::isnan(d)));
+    const double e = contents.observations[i].prediction_error_m, f = model.observations()[i].prediction_error_m;
+    EXPECT_TRUE(e == f || (std::isnan(e) && std::isnan(f)));
+    EXPECT_EQ(std::isfinite(f), model.observations()[i].source == gpatlas_core::PointSource::kTouch &&
+                                    !gpatlas_core::observesSlope(model.observations()[i]));
   }
   EXPECT_EQ(contents.centroid, model.centroid());
   EXPECT_EQ(contents.scale, model.scale());

@@ -107,7 +107,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
       result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
     if (result.retouch_skipped > 0)
       result.message += "; " + std::to_string(result.retouch_skipped) +
-                        " chart(s) above V_max need no touch: measured or aimed at already";
+                        " chart(s) that would need a touch lie right at a measurement or an earlier target";
     if (result.unreachable_skipped > 0)
       result.message += "; " + std::to_string(result.unreachable_skipped) +
                         " chart(s) that need a touch passed over: no safe approach";
@@ -125,9 +125,9 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
   const SurfaceEvidence evidence(model, config_.evidence);
-  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart above
-  // V_max right at a measurement or an earlier touch's target needs none
-  // (EvidenceRule::retouch_radius_m).
+  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart right at
+  // a measurement or an earlier touch's target needs none (EvidenceRule::retouch_radius_m): a
+  // touch there would find what was found.
   // The touch filter's direction for the chart, kept in it; false when it has none.
   const auto takeApproach = [&](Chart& chart) {
     if (!reachable) return true;
@@ -136,12 +136,10 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
     return direction.has_value();
   };
   const auto needsTouch = [&](Chart& chart) {
-    if (!evidence.isUnsupported(chart.centre, chart.normal)) {
-      if (!(chart.variance > v_max)) return false;
-      if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
-        ++result.retouch_skipped;
-        return false;
-      }
+    if (!(chart.variance > v_max) && !evidence.isUnsupported(chart.centre, chart.normal)) return false;
+    if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
+      ++result.retouch_skipped;
+      return false;
     }
     if (!takeApproach(chart)) {
       ++result.unreachable_skipped;

@@ -12,15 +12,14 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // A sampled surface and, per point, whether it needs a touch: variance above V_max or no
-// measured surface point within the request's evidence distance.
-// A point above V_max at a measurement or an earlier touch's target
-// (EvidenceRule::retouch_radius_m) needs no touch.
+// measured surface point within the request's evidence distance, and no measurement or earlier
+// touch's target right there (EvidenceRule::retouch_radius_m): a touch would find what was found.
 struct NeedySample {
   SurfaceSample sample;
   std::vector<char> unsupported;
   std::vector<char> retouched;
   bool needsTouch(std::size_t i, double v_max) const {
-    return unsupported[i] || (sample.variances[i] > v_max && !retouched[i]);
+    return (unsupported[i] || sample.variances[i] > v_max) && !retouched[i];
   }
   bool anyNeedsTouch(double v_max) const {
     for (std::size_t i = 0; i < sample.points.size(); ++i)

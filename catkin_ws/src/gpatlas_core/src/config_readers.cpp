@@ -172,6 +172,8 @@ void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->view_max_distance = r.number("evidence/view_max_distance", c->view_max_distance, 0.0, 100.0);
   c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
   c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
+  c->surprise_distance_m = r.number("evidence/surprise_distance_m", c->surprise_distance_m, 0.0, 1.0);
+  c->min_surprise_fraction = r.number("evidence/min_surprise_fraction", c->min_surprise_fraction, 1e-3, 1.0);
 }
 
 void readExplorer(ParamReader& r, Explorer::Config* c) {

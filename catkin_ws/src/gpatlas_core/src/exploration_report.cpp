@@ -44,8 +44,10 @@ std::string describeAction(const ExplorationRecord& record) {
   if (std::isfinite(record.rmse_pred_to_gt_m))
     line << std::setprecision(1) << ", RMSE " << 1000 * record.rmse_pred_to_gt_m << "/" << 1000 * record.rmse_gt_to_pred_m
          << " mm";
+  if (std::isfinite(record.target_error_m))
+    line << std::setprecision(1) << ", surface found " << 1000 * record.target_error_m << " mm from the target";
   if (record.approach_ms > 0.0) {
-    line << ", approach " << record.approach_ms << " ms";
+    line << std::setprecision(0) << ", approach " << record.approach_ms << " ms";
     if (record.approach_refusals > 0)
       line << " (" << record.approach_refusals << " touch(es) refused: " << record.approach_message << ")";
   }
@@ -64,6 +66,13 @@ double approachPlanMsMedian(const ExplorationResult& result) {
   std::sort(times.begin(), times.end());
   const std::size_t m = times.size() / 2;
   return times.size() % 2 ? times[m] : 0.5 * (times[m - 1] + times[m]);
+}
+
+double recentTargetError(const ExplorationResult& result, std::size_t touches) {
+  std::vector<double> recent;
+  for (auto r = result.records.rbegin(); r != result.records.rend() && recent.size() < touches; ++r)
+    if (std::isfinite(r->target_error_m)) recent.push_back(r->target_error_m);
+  return finiteMedian(recent);
 }
 
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message) {
@@ -90,6 +99,7 @@ std::string toJson(const ExplorationReport& report) {
        << ",\n  \"approach_collisions\": " << result.approach_collisions
        << ",\n  \"retreat_collisions\": " << result.retreat_collisions
        << ",\n  \"approach_plan_ms_median\": " << jsonNumber(approachPlanMsMedian(result))
+       << ",\n  \"recent_target_error_m\": " << jsonNumber(recentTargetError(result))
        << ",\n  \"final_max_evaluated_variance\": " << jsonNumber(result.final_max_evaluated_variance) << ",\n";
   json << "  \"final_metrics\": ";
   const FinalShape& shape = report.final_shape;
@@ -120,6 +130,7 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"approach_refusals\": " << r.approach_refusals
          << ", \"unreachable_candidates\": " << r.unreachable_candidates
          << ", \"approach_message\": " << jsonString(r.approach_message)
+         << ", \"target_error_m\": " << jsonNumber(r.target_error_m)
          << ", \"approach_collisions\": " << r.approach_collisions
          << ", \"retreat_collisions\": " << r.retreat_collisions << ", \"n_train\": " << r.n_train
          << ", \"update_message\": " << jsonString(r.update_message)

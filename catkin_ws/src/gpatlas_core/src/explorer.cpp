@@ -39,6 +39,48 @@ std::vector<Vector3> thinToCap(Thin thin, double spacing, std::size_t cap, std::
 
 }  // namespace
 
+std::vector<double> targetErrors(const std::vector<Vector3>& targets, const std::vector<Contact>& contacts) {
+  std::vector<double> errors;
+  errors.reserve(targets.size());
+  for (const Vector3& target : targets) {
+    double nearest = std::numeric_limits<double>::quiet_NaN();
+    for (const Contact& contact : contacts)
+      if (contact.position.allFinite()) {
+        const double d = (contact.position - target).norm();
+        if (!(d >= nearest)) nearest = d;
+      }
+    errors.push_back(nearest);
+  }
+  return errors;
+}
+
+std::vector<double> passedTargetErrors(const Touch& touch, const std::vector<Contact>& contacts) {
+  const std::vector<Vector3> aimed = aimedPoints(touch);
+  const std::size_t first = touch.points.size() - aimed.size();  // a poke aims at its last waypoint
+  std::vector<double> errors(aimed.size(), std::numeric_limits<double>::quiet_NaN());
+  for (std::size_t i = 0; i < aimed.size() && first + i < touch.normals.size(); ++i) {
+    const Contact* nearest = nullptr;
+    for (const Contact& contact : contacts)
+      if (contact.position.allFinite() &&
+          (!nearest || (contact.position - aimed[i]).norm() < (nearest->position - aimed[i]).norm()))
+        nearest = &contact;
+    // The probe moves along -normal: a contact beyond the target means it went through there.
+    if (nearest && (nearest->position - aimed[i]).dot(-touch.normals[first + i]) > 0.0)
+      errors[i] = (nearest->position - aimed[i]).norm();
+  }
+  return errors;
+}
+
+double finiteMedian(std::vector<double> values) {
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); }), values.end());
+  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const std::size_t middle = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(middle), values.end());
+  const double upper = values[middle];
+  if (values.size() % 2 == 1) return upper;
+  return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(middle)));
+}
+
 std::vector<Vector3> thinToSpacing(const std::vector<Vector3>& points, double spacing_m) {
   const double spacing2 = spacing_m > 0.0 ? spacing_m * spacing_m : 0.0;
   std::vector<Vector3> kept;
@@ -93,6 +135,18 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
     points.push_back(point);
   }
   counted.contacts = points.size();
+  // How far each contact lay from the surface the model predicted (first order: |f| / |grad f|).
+  if (model.isFitted() && !points.empty()) {
+    Points3 x(3, static_cast<Eigen::Index>(points.size()));
+    for (std::size_t i = 0; i < points.size(); ++i) x.col(static_cast<Eigen::Index>(i)) = points[i].position;
+    const BatchPrediction predicted = model.predictBatch(x, /*with_gradient=*/true, false, /*with_variance=*/false);
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Index k = static_cast<Eigen::Index>(i);
+      const double slope = predicted.gradient.col(k).norm();
+      if (predicted.in_domain[k] && std::isfinite(predicted.mean[k]) && slope > 1e-9)
+        points[i].prediction_error_m = std::abs(predicted.mean[k]) / slope;
+    }
+  }
   const bool tangents = config.contact_tangent_noise_sigma >= 0.0;
   std::vector<TrainingPoint> slope_points;  // after the inside points, as TouchPointCounts says
   if (config.contact_inside_depth_m > 0.0 || tangents) {
@@ -321,10 +375,25 @@ std::string validate(const Explorer::Config& config) {
 }
 
 PlanResult ModelTouchPlanner::plan(const PlanRequest& request) {
+  // The rule is this planner's; the targets and their errors are the request's, after the rule's own.
   PlanRequest full = request;
-  std::vector<Vector3> attempted = std::move(full.evidence.attempted_targets);
   full.evidence = evidence_;
-  full.evidence.attempted_targets.insert(full.evidence.attempted_targets.end(), attempted.begin(), attempted.end());
+  EvidenceRule& rule = full.evidence;
+  const std::vector<Vector3>& attempted = request.evidence.attempted_targets;
+  const std::vector<double>& errors = request.evidence.attempted_target_errors_m;
+  if (!errors.empty() && errors.size() != attempted.size()) {
+    PlanResult error;
+    error.status = PlanStatus::kError;
+    error.message = "attempted_target_errors_m must be empty or hold one value per attempted target";
+    return error;
+  }
+  if (!errors.empty() || !rule.attempted_target_errors_m.empty()) {
+    rule.attempted_target_errors_m.resize(rule.attempted_targets.size(), std::numeric_limits<double>::quiet_NaN());
+    rule.attempted_target_errors_m.insert(rule.attempted_target_errors_m.end(), errors.begin(), errors.end());
+    rule.attempted_target_errors_m.resize(rule.attempted_targets.size() + attempted.size(),
+                                          std::numeric_limits<double>::quiet_NaN());
+  }
+  rule.attempted_targets.insert(rule.attempted_targets.end(), attempted.begin(), attempted.end());
   return strategy_.plan(model_, full);
 }
 
@@ -361,6 +430,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
   // Where touches aimed counts as evidence, whatever they found: otherwise a point whose
   // approach another part of the object blocks is asked for again after every touch.
   std::vector<Vector3> attempted_targets;
+  std::vector<double> attempted_errors;  // per target: how far from it its touch found the surface
   try {
     for (int action = 0;; ++action) {
       const Clock::time_point action_started = Clock::now();
@@ -380,6 +450,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         PlanRequest request;
         request.v_max = config_.v_max;
         request.evidence.attempted_targets = attempted_targets;
+        request.evidence.attempted_target_errors_m = attempted_errors;
         request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
         if (attempt > 0) request.seed = mixSeeds(request.seed, static_cast<std::uint64_t>(attempt));
         if (approacher)
@@ -434,6 +505,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         record.approach_message = approach.message;
         const std::vector<Vector3> aimed = aimedPoints(plan.touch);
         attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
+        attempted_errors.insert(attempted_errors.end(), aimed.size(), std::numeric_limits<double>::quiet_NaN());
         if (record.approach_refusals >= config_.max_approach_attempts) {
           approach_refused = true;
           break;
@@ -461,7 +533,10 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       const ProbeResult probed = prober.probe(plan.touch);
       record.probe_ms = millisecondsSince(probe_started);
       const std::vector<Vector3> aimed = aimedPoints(plan.touch);
+      const std::vector<double> passed = passedTargetErrors(plan.touch, probed.contacts);
       attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
+      attempted_errors.insert(attempted_errors.end(), passed.begin(), passed.end());
+      record.target_error_m = finiteMedian(targetErrors(aimed, probed.contacts));
       ++result.actions;
       record.probe_success = probed.success;
       record.probe_reason = probed.reason;

@@ -16,9 +16,13 @@ std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
 
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                                  const std::optional<SupportPlane>& support, double approach_m,
-                                 const std::vector<Vector3>& attempted, double view_max_distance_m)
+                                 const std::vector<Vector3>& attempted, double view_max_distance_m,
+                                 const std::vector<double>& attempted_errors_m, double surprise_distance_m,
+                                 double min_surprise_fraction)
     : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0),
-      cell_m_(enabled() ? max_distance_m_ : kRetouchCellM) {
+      cell_m_(enabled() ? max_distance_m_ : kRetouchCellM),
+      surprise_distance_m_(std::isfinite(surprise_distance_m) && surprise_distance_m > 0.0 ? surprise_distance_m : 0.0),
+      min_surprise_fraction_(std::isfinite(min_surprise_fraction) ? std::clamp(min_surprise_fraction, 0.0, 1.0) : 1.0) {
   const double view_radius_m = std::isnan(view_max_distance_m) ? max_distance_m_
                                                                 : std::clamp(view_max_distance_m, 0.0, max_distance_m_);
   // Without the distance test the points are still kept for measuredNear, on a grid of its own.
@@ -31,9 +35,13 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
   for (const TrainingPoint& point : model.observations()) {
     if (!isSurfaceValue(point)) continue;  // a contact's slopes add nothing to the contact
     if (point.source == PointSource::kVision) add(point.position, view_radius_m);
-    if (point.source == PointSource::kTouch) add(point.position, max_distance_m_);
+    if (point.source == PointSource::kTouch)
+      add(point.position, max_distance_m_ * surpriseFraction(point.prediction_error_m));
   }
-  for (const Vector3& p : attempted) add(p, max_distance_m_);
+  for (std::size_t i = 0; i < attempted.size(); ++i)
+    add(attempted[i], max_distance_m_ * surpriseFraction(i < attempted_errors_m.size()
+                                                              ? attempted_errors_m[i]
+                                                              : std::numeric_limits<double>::quiet_NaN()));
   if (support && support->normal.allFinite() && support->normal.norm() > 0.5 && std::isfinite(support->offset)) {
     support_ = SupportPlane{support->normal.normalized(), support->offset / support->normal.norm()};
     approach_m_ = std::isfinite(approach_m) ? std::max(0.0, approach_m) : 0.0;
@@ -42,7 +50,13 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
 
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule)
     : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
-                      rule.attempted_targets, rule.view_max_distance * model.scale()) {}
+                      rule.attempted_targets, rule.view_max_distance * model.scale(), rule.attempted_target_errors_m,
+                      rule.surprise_distance_m, rule.min_surprise_fraction) {}
+
+double SurfaceEvidence::surpriseFraction(double error_m) const {
+  if (!(surprise_distance_m_ > 0.0) || !std::isfinite(error_m) || error_m <= surprise_distance_m_) return 1.0;
+  return std::max(min_surprise_fraction_, surprise_distance_m_ / error_m);
+}
 
 bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
   if (!x.allFinite() || !(radius_m > 0.0)) return false;
@@ -78,6 +92,12 @@ std::string validate(const EvidenceRule& rule) {
     return "max_evidence_distance must be finite and >= 0";
   if (!(rule.view_max_distance >= 0.0) && !std::isnan(rule.view_max_distance))
     return "view_max_distance must be >= 0 (NaN: max_distance)";
+  if (!(rule.surprise_distance_m >= 0.0) || !std::isfinite(rule.surprise_distance_m))
+    return "surprise_distance_m must be finite and >= 0";
+  if (!(rule.min_surprise_fraction > 0.0 && rule.min_surprise_fraction <= 1.0))
+    return "min_surprise_fraction must be in (0, 1]";
+  if (!rule.attempted_target_errors_m.empty() && rule.attempted_target_errors_m.size() != rule.attempted_targets.size())
+    return "attempted_target_errors_m must be empty or hold one value per attempted target";
   return "";
 }
 

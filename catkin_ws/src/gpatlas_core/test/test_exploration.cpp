@@ -1,5 +1,6 @@
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/exploration_strategy.h"
+#include "gpatlas_core/exploration_report.h"
 #include "gpatlas_core/explorer.h"
 #include "gpatlas_core/shape_metrics.h"
 #include "gpatlas_core/surface_mesher.h"
@@ -103,6 +104,113 @@ TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
   std::printf("\n");
 }
 
+// A contact's prediction_error_m is how far it lay from the surface the model predicted before
+// the touch, to first order: against the root of the model's mean along its gradient, found by
+// bisection, where the surface is within a centimetre (the first order's domain); farther, it
+// says so. On the seen top of the sphere the model is right; its unseen bottom is extrapolated
+// centimetres off.
+TEST(Explorer, AContactRecordsHowFarItLayFromThePredictedSurface) {
+  const AnalyticSphere sphere;
+  const GpisModel model = initialModel(sphere, 1);
+  std::vector<Contact> contacts;
+  for (const Vector3& direction : {Vector3(0.0, 0.0, 1.0), Vector3(0.6, 0.0, 0.8), Vector3(1.0, 0.0, 0.0),
+                                   Vector3(0.0, 0.6, -0.8), Vector3(0.0, 0.0, -1.0)})
+    contacts.push_back({sphere.centre + sphere.radius * direction.normalized(), direction.normalized()});
+  TouchObservationConfig config;
+  config.contact_inside_depth_m = 0.0;
+  config.contact_tangent_noise_sigma = -1.0;  // the contacts alone
+  const std::vector<TrainingPoint> points = touchTrainingPoints(model, contacts, {}, config);
+  ASSERT_EQ(points.size(), contacts.size());
+  int near = 0, far = 0;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vector3& c = points[i].position;
+    const Prediction at = model.predict(c);
+    const Vector3 step = (at.mean > 0.0 ? -1.0 : 1.0) * at.gradient.normalized();
+    ASSERT_TRUE(std::isfinite(points[i].prediction_error_m)) << "contact " << i;
+    double root = std::numeric_limits<double>::infinity();
+    if (at.mean * model.mean(c + 0.05 * step) <= 0.0) {
+      double lo = 0.0, hi = 0.05;
+      for (int k = 0; k < 60; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (model.mean(c + mid * step) * at.mean > 0.0 ? lo : hi) = mid;
+      }
+      root = 0.5 * (lo + hi);
+    }
+    if (root < 0.01) {
+      EXPECT_NEAR(points[i].prediction_error_m, root, 0.25 * root + 0.0005) << "contact " << i;
+      ++near;
+    } else {
+      EXPECT_GT(points[i].prediction_error_m, 0.01) << "contact " << i;
+      ++far;
+    }
+  }
+  EXPECT_LT(points.front().prediction_error_m, 0.003);  // the top, seen
+  EXPECT_GE(near, 2);
+  EXPECT_GE(far, 1);  // the bottom
+  // Free space and the points behind contacts carry none.
+  config.contact_inside_depth_m = 0.003;
+  for (const TrainingPoint& p : touchTrainingPoints(model, contacts, {sphere.centre + Vector3(0.0, 0.0, 0.2)}, config))
+    EXPECT_EQ(std::isfinite(p.prediction_error_m), p.label == PointLabel::kSurface);
+}
+
+// Each touch records how far from its target it found the surface: for the analytic prober's
+// pokes, the distance from the target to the ray's entry into the sphere, computed here anew.
+TEST(Explorer, EachTouchRecordsHowFarFromItsTargetItFoundTheSurface) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 2);
+  int checked = 0;
+  const ExplorationResult result = explore("atlas_poke", 2, model, [&](ExplorationRecord& record) {
+    ASSERT_FALSE(record.touch.points.empty());
+    const Vector3 target = record.touch.points.back();
+    const Vector3 n = record.touch.normals.back().normalized();
+    // The ray from target + 0.1 n along -n against the sphere: the first root of |o - t n - c| = r.
+    const Vector3 o = target + 0.1 * n - sphere.centre;
+    const double b = o.dot(n), c = o.squaredNorm() - sphere.radius * sphere.radius, disc = b * b - c;
+    if (record.contacts_added == 0 || disc < 0.0) {
+      EXPECT_TRUE(std::isnan(record.target_error_m) || record.contacts_added == 0);
+      return;
+    }
+    const double t = b - std::sqrt(disc);
+    EXPECT_NEAR(record.target_error_m, std::abs(t - 0.1), 1e-9);
+    ++checked;
+  });
+  EXPECT_GT(checked, 0);
+  EXPECT_EQ(recentTargetError(result, 1000), finiteMedian([&] {
+              std::vector<double> e;
+              for (const ExplorationRecord& r : result.records) e.push_back(r.target_error_m);
+              return e;
+            }()));
+  EXPECT_TRUE(std::isnan(finiteMedian({std::nan(""), std::nan("")})));
+  EXPECT_DOUBLE_EQ(finiteMedian({3.0, std::nan(""), 1.0, 2.0, 10.0}), 2.5);
+}
+
+// A target the probe went through (its contact lies beyond it along the approach) was wrong by
+// the distance to that contact; one the probe stopped before (something in the way) or found
+// nothing at has no error: it is still unreached.
+TEST(Explorer, OnlyATargetTheProbeWentThroughHasAnError) {
+  Touch poke;
+  poke.points = {Vector3(0.0, 0.0, 0.1)};
+  poke.normals = {Vector3(0.0, 0.0, 2.0)};  // not unit: the direction alone counts
+  const Contact through{Vector3(0.0, 0.003, 0.08), Vector3::UnitZ()};   // 20.2 mm beyond
+  const Contact blocked{Vector3(0.0, 0.0, 0.13), Vector3::UnitZ()};     // 30 mm before
+  EXPECT_NEAR(passedTargetErrors(poke, {through}).at(0), std::hypot(0.003, 0.02), 1e-12);
+  EXPECT_TRUE(std::isnan(passedTargetErrors(poke, {blocked}).at(0)));
+  EXPECT_TRUE(std::isnan(passedTargetErrors(poke, {}).at(0)));
+  // The nearest contact decides.
+  EXPECT_TRUE(std::isnan(passedTargetErrors(poke, {through, Contact{Vector3(0.0, 0.0, 0.11), Vector3::UnitZ()}}).at(0)));
+  EXPECT_NEAR(targetErrors({poke.points[0]}, {blocked}).at(0), 0.03, 1e-12);
+  // A slide: every waypoint is aimed at, each with its own normal.
+  Touch slide;
+  slide.kind = Touch::Kind::kSlide;
+  slide.points = {Vector3(0.0, 0.0, 0.0), Vector3(0.01, 0.0, 0.0)};
+  slide.normals = {Vector3::UnitZ(), Vector3::UnitX()};
+  const std::vector<double> errors =
+      passedTargetErrors(slide, {Contact{Vector3(0.0, 0.0, -0.004), Vector3::UnitZ()}, Contact{Vector3(0.016, 0.0, 0.0), Vector3::UnitX()}});
+  ASSERT_EQ(errors.size(), 2u);
+  EXPECT_NEAR(errors[0], 0.004, 1e-12);
+  EXPECT_TRUE(std::isnan(errors[1]));  // its nearest contact is 6 mm before it along -x
+}
+
 TEST(Explorer, RandomNeedsMoreActionsThanAtlasPoke) {
   int atlas_actions = 0, random_actions = 0;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
@@ -155,6 +263,7 @@ TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
   TouchObservationConfig config;
   config.min_point_spacing_m = 0.004;
   config.min_free_space_spacing_m = 0.015;
+  config.contact_tangent_noise_sigma = -1.0;  // values alone: contacts, the points behind them, free space
   const auto strategy = makeStrategy("atlas_poke");
   const ExplorationResult result = Explorer(loop).run(model, *strategy, prober, config);
   ASSERT_EQ(result.actions, 1) << result.stop_reason;
@@ -209,6 +318,7 @@ TEST(Explorer, ContactNormalsAsTangentSlopesFixTheModelsNormal) {
     contacts.push_back({sphere.centre + sphere.radius * normal, normal});
   }
   TouchObservationConfig without;
+  without.contact_tangent_noise_sigma = -1.0;
   TouchObservationConfig with = without;
   with.contact_tangent_noise_sigma = 0.05;
   TouchPointCounts counts;
@@ -385,7 +495,10 @@ TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
     config.v_max = 1e-4;
     config.max_actions = 10;
     config.seed = 3;
-    const EvidenceRule evidence = sparseViewEvidence();
+    EvidenceRule evidence = sparseViewEvidence();
+    // The rule under test is the retouch radius. With the surprise rule a slide's extension past
+    // its target (the touch's last point checked below) can run back over the view.
+    evidence.surprise_distance_m = 0.0;
     const ExplorationResult result = Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), evidence);
     EXPECT_EQ(result.stop_reason, "max_actions") << strategy_name;
     ASSERT_EQ(result.records.size(), 10u) << strategy_name;
@@ -580,6 +693,9 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   config.max_actions = 25;
   config.seed = 2;
   EvidenceRule evidence;
+  // Without the surprise rule the atlas reaches under the sphere within these actions; with it,
+  // it first goes back to where the touches surprised it.
+  evidence.surprise_distance_m = 0.0;
   const ExplorationResult result =
       Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), evidence, {}, &approacher);
   ASSERT_FALSE(prober.executed.empty()) << result.stop_reason;

@@ -162,6 +162,70 @@ TEST(SurfaceEvidence, AViewPointVouchesForLessThanAContact) {
   EXPECT_TRUE(validate(rule).empty());
 }
 
+// A contact found far from the predicted surface (prediction_error_m), and an attempted target
+// its touch found the surface far from, support max_distance * clamp(surprise / error, min, 1):
+// the support slack against a full search with those radii.
+TEST(SurfaceEvidence, ASurprisingTouchSupportsLessAroundIt) {
+  const AnalyticSphere sphere;
+  std::vector<TrainingPoint> points = viewAndTouchesBelow(sphere, 300, 30);
+  // Errors from none to ten surprise distances, in turn over the contacts.
+  const double surprise = 0.005, min_fraction = 0.2, max_distance = 0.03;
+  const std::vector<double> errors{std::nan(""), 0.002, 0.005, 0.01, 0.02, 0.05};
+  std::size_t k = 0;
+  for (TrainingPoint& p : points)
+    if (p.source == PointSource::kTouch) p.prediction_error_m = errors[k++ % errors.size()];
+  GpisModel model;
+  ASSERT_TRUE(model.fit(points).ok);
+  const std::vector<Vector3> attempted{sphere.centre + Vector3(0.0, 0.0, -sphere.radius),
+                                       sphere.centre + Vector3(sphere.radius, 0.0, 0.0)};
+  const std::vector<double> attempted_errors{0.04, std::nan("")};
+  const SurfaceEvidence evidence(model, max_distance, std::nullopt, 0.0, attempted, 0.01, attempted_errors, surprise,
+                                 min_fraction);
+  const auto radius = [&](double error) {
+    if (!std::isfinite(error) || error <= surprise) return max_distance;
+    return max_distance * std::max(min_fraction, surprise / error);
+  };
+  EXPECT_DOUBLE_EQ(evidence.surpriseFraction(0.02), 0.25);
+  EXPECT_DOUBLE_EQ(evidence.surpriseFraction(0.05), 0.2);
+  EXPECT_DOUBLE_EQ(evidence.surpriseFraction(0.004), 1.0);
+  const auto bruteSlack = [&](const Vector3& x) {
+    double best = -std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < attempted.size(); ++i)
+      best = std::max(best, radius(attempted_errors[i]) - (attempted[i] - x).norm());
+    for (const TrainingPoint& p : model.observations()) {
+      if (p.label != PointLabel::kSurface) continue;
+      if (p.source == PointSource::kVision) best = std::max(best, 0.01 - (p.position - x).norm());
+      if (p.source == PointSource::kTouch) best = std::max(best, radius(p.prediction_error_m) - (p.position - x).norm());
+    }
+    return best;
+  };
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> u(-1.3, 1.3);
+  int shrunk = 0;
+  const SurfaceEvidence unsurprised(model, max_distance, std::nullopt, 0.0, attempted, 0.01);
+  for (int i = 0; i < 3000; ++i) {
+    const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
+    const double slack = bruteSlack(x);
+    if (slack >= 0.0) EXPECT_NEAR(evidence.supportSlack(x), slack, 1e-12);
+    EXPECT_EQ(evidence.isUnsupported(x), slack < 0.0);
+    if (evidence.isUnsupported(x) && !unsurprised.isUnsupported(x)) ++shrunk;
+    EXPECT_FALSE(!evidence.isUnsupported(x) && unsurprised.isUnsupported(x));  // only ever less support
+  }
+  EXPECT_GT(shrunk, 20);
+  EvidenceRule rule;
+  rule.min_surprise_fraction = 0.0;
+  EXPECT_FALSE(validate(rule).empty());
+  rule.min_surprise_fraction = 0.2;
+  rule.surprise_distance_m = -1.0;
+  EXPECT_FALSE(validate(rule).empty());
+  rule.surprise_distance_m = 0.005;
+  rule.attempted_targets = attempted;
+  rule.attempted_target_errors_m = {0.01};
+  EXPECT_FALSE(validate(rule).empty());
+  rule.attempted_target_errors_m = attempted_errors;
+  EXPECT_TRUE(validate(rule).empty());
+}
+
 // A hole in the data that the variance does not flag (V_max is out of reach): the planners
 // converge on variance alone, and with an evidence distance they poke into the hole.
 // measuredNear (the retouch rule) against a full search over the measured surface points and
@@ -266,12 +330,16 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
   EvidenceRule evidence;
   evidence.max_distance = 0.3;
   evidence.view_max_distance = 0.3;
+  // The prober's contacts lie beyond the targets: a surprise the rule would answer with more
+  // touches (ATouchThatWentThroughTheTargetSupportsLess); this test is about the aim alone.
+  evidence.surprise_distance_m = 0.0;
   // The loop passes where earlier touches aimed; a planner that drops them shows what they buy.
   struct ForgetfulPlanner : TouchPlanner {
     ModelTouchPlanner* inner{nullptr};
     PlanResult plan(const PlanRequest& request) override {
       PlanRequest forgetful = request;
       forgetful.evidence.attempted_targets.clear();
+      forgetful.evidence.attempted_target_errors_m.clear();
       return inner->plan(forgetful);
     }
     std::size_t modelSize() const override { return inner->modelSize(); }

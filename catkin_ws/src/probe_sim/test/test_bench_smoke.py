@@ -13,7 +13,7 @@ COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,st
            "fscore_5mm,calibration_2sd,position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
            "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
            "approach_collisions,retreat_collisions,"
-           "approach_plan_ms_median").split(",")
+           "approach_plan_ms_median,recent_target_error_m").split(",")
 
 
 CURVE_EVERY = 2
@@ -66,6 +66,13 @@ class BenchSmokeTest(unittest.TestCase):
                 self.assertGreaterEqual(int(r[key]), 0, (key, r))
             if actions > 0:
                 self.assertTrue(0.0 <= float(r["approach_plan_ms_median"]) < 1000.0, r)
+            # Where the last touches found the surface, measured from their targets: on this
+            # sphere the model predicts it within its radius, and a run without a contact has none.
+            error = float(r["recent_target_error_m"])
+            if int(r["contacts"]) > 0:
+                self.assertTrue(0.0 <= error < 0.06, r)
+            else:
+                self.assertTrue(math.isnan(error), r)
             self.assertEqual(float(r["vmax"]), 0.1)
             self.assertLessEqual(int(r["contacts"]), int(r["n_train"]))
             fscore = float(r["fscore_5mm"])

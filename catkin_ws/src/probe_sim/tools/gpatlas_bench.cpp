@@ -366,6 +366,8 @@ struct RunResult {
   int approach_collisions{0};
   int retreat_collisions{0};
   double approach_plan_ms_median{std::nan("")};
+  // How far from their targets the last touches found the surface (recentTargetError).
+  double recent_target_error_m{std::nan("")};
   // The initial model (action 0) and every action, as the ROS exploration node records them.
   std::vector<gpatlas_core::ExplorationRecord> history;
   std::string error;
@@ -598,6 +600,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.plan_ms_median = median(plan_ms);
   r.update_ms_median = median(update_ms);
   r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
+  r.recent_target_error_m = gpatlas_core::recentTargetError(result);
   r.unreachable_touches = result.unreachable_touches;
   r.unreachable_candidates = result.unreachable_candidates;
   r.final_unreachable_candidates = result.final_unreachable_candidates;
@@ -656,7 +659,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
        "position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
        "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,approach_collisions,"
-       "retreat_collisions,approach_plan_ms_median\n";
+       "retreat_collisions,approach_plan_ms_median,recent_target_error_m\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
@@ -669,7 +672,8 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << num(r.max_evaluated_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << ','
       << r.unreachable_touches << ',' << r.unreachable_candidates << ',' << r.final_unreachable_candidates << ','
-      << r.approach_collisions << ',' << r.retreat_collisions << ',' << num(r.approach_plan_ms_median, 4) << '\n';
+      << r.approach_collisions << ',' << r.retreat_collisions << ',' << num(r.approach_plan_ms_median, 4) << ','
+      << num(r.recent_target_error_m) << '\n';
   }
 }
 
@@ -677,7 +681,7 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,seed,action,contacts_total,max_evaluated_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
        "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,unreachable_candidates,approach_collisions,"
-       "retreat_collisions,approach_ms,approach_plan_ms\n";
+       "retreat_collisions,approach_ms,approach_plan_ms,target_error_m\n";
   for (const auto& r : runs)
     for (const auto& h : r.history) {
       const bool initial = h.index < 0;
@@ -686,7 +690,7 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
         << num(h.rmse_gt_to_pred_m) << ',' << num(h.plan_ms, 4) << ',' << num(h.probe_ms, 4) << ','
         << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << ','
         << h.approach_refusals << ',' << h.unreachable_candidates << ',' << h.approach_collisions << ',' << h.retreat_collisions << ','
-        << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << '\n';
+        << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << ',' << num(h.target_error_m) << '\n';
     }
 }
 

@@ -45,6 +45,11 @@ class SimExplorationTest(unittest.TestCase):
         self.assertEqual(report["approach_collisions"], 0)
         self.assertEqual(report["retreat_collisions"], 0)
         self.assertIsNotNone(report["approach_plan_ms_median"])
+        # Each touch that found the surface says how far from its target (the model's measured
+        # error there), and the run the median of the last ones: within the 12 cm sphere's size.
+        errors = [h["target_error_m"] for h in probed if h["contacts"] > 0]
+        self.assertTrue(errors and all(e is not None and 0.0 <= e < 0.12 for e in errors), errors)
+        self.assertIsNotNone(report["recent_target_error_m"])
         if rospy.get_param("~use_arm", False):
             # The planned approach for the left arm, as a robot driver gets it: its seven joints,
             # from the rest to the approach pose, in time order.

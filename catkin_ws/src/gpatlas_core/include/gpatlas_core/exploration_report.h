@@ -35,6 +35,10 @@ struct ExplorationReport {
 // The median over the actions that planned an approach of the motion planner's own time
 // (ExplorationRecord::approach_compute_ms); NaN when none did.
 double approachPlanMsMedian(const ExplorationResult& result);
+// The median of ExplorationRecord::target_error_m over the last `touches` touches that found the
+// surface (NaN when none did): how far from the model's prediction the surface was where the run
+// touched last, the model's error measured without a truth.
+double recentTargetError(const ExplorationResult& result, std::size_t touches = 5);
 
 // The status of a finished run: "converged", "stopped: <reason>" or "error: <reason>", and
 // "error: no predicted surface: ..." whenever there is no surface, whatever the loop said.

@@ -46,8 +46,9 @@ struct TouchObservationConfig {
   // Each kept contact with a normal also observes that f does not change across that normal:
   // two slope observations (TrainingPoint::slope_direction) along tangents, target 0, with
   // this noise sigma (reference units). They give the GP the measured normal's direction
-  // without assuming f's slope along it. Negative: none (the paper).
-  double contact_tangent_noise_sigma{-1.0};
+  // without assuming f's slope along it: between sparse contacts the surface follows the
+  // measured normals. A probe that reports no normal gives none. Negative: none (the paper).
+  double contact_tangent_noise_sigma{0.1};
   // A touch's contacts and free space retract the occluded-interior guesses they contradict
   // (retractContradictedInterior), dropping those left shallower than this fraction of the
   // model's scale (the view's radius; the occluded interior's own margin_fraction).
@@ -126,6 +127,11 @@ struct ExplorationRecord {
   int retreat_collisions{0};
   InteriorRetraction retraction; // occluded-interior guesses this touch contradicted
   Touch touch;
+  // How far from where it aimed the touch found the surface: the median over its aimed points
+  // (aimedPoints) of the distance to the nearest contact; NaN without a contact. Where the
+  // model's prediction was right it is a few millimetres: on a robot, without a truth, it is
+  // the measured error of the model where it was last touched.
+  double target_error_m{std::nan("")};
   // Filled by the caller's progress callback where it measures the model (NaN otherwise): the
   // largest variance of a fixed surface sample, and the shape error against a known truth.
   double sampled_max_variance{std::nan("")};
@@ -157,6 +163,17 @@ struct ExplorationResult {
   int approach_collisions{0};
   int retreat_collisions{0};
 };
+
+// Per target, the distance to the nearest of a touch's contacts: how far from where it aimed the
+// touch found the surface (NaN when it found none).
+std::vector<double> targetErrors(const std::vector<Vector3>& targets, const std::vector<Contact>& contacts);
+// Per aimed point of a touch (aimedPoints), the same where the nearest contact lies beyond it along
+// the approach (-normal): the probe went through where the model put the surface, which was
+// wrong. NaN where the probe stopped before it (something unpredicted was in the way, the target
+// is still unreached) or found nothing: EvidenceRule::attempted_target_errors_m.
+std::vector<double> passedTargetErrors(const Touch& touch, const std::vector<Contact>& contacts);
+// The median of the finite values (NaN when there is none).
+double finiteMedian(std::vector<double> values);
 
 // Greedy thinning of one touch's contacts or free space: the finite points, in order, that lie at
 // least `spacing_m` from every point kept before them (spacing_m <= 0 keeps them all).

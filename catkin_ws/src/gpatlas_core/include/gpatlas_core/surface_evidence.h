@@ -29,8 +29,21 @@ struct EvidenceRule {
   // a touch: surface whose approach would start under the table needs no evidence.
   std::optional<SupportPlane> support_plane;
   double approach_distance_m{0.1};
+  // A touch that found the surface far from where the model predicted it shows that the model
+  // is wrong around there, however low its variance: such a contact supports the surface only
+  // within max_distance * clamp(surprise_distance_m / error, min_surprise_fraction, 1), where
+  // error is how far from the predicted surface it lay (TrainingPoint::prediction_error_m), so
+  // that touches go on where the model's guesses fail and not where they hold. The same for an
+  // attempted target the touch found the surface away from (attempted_target_errors_m).
+  // 0: every contact and target supports max_distance.
+  double surprise_distance_m{0.005};
+  double min_surprise_fraction{0.2};
   // Surface points earlier touches aimed at (world frame): evidence whatever the touch found.
   std::vector<Vector3> attempted_targets;
+  // Per attempted target (empty, or one each): how far from it its touch found the surface,
+  // the nearest contact (metres); NaN when the touch found none (refused, or nothing in the way),
+  // which supports max_distance.
+  std::vector<double> attempted_target_errors_m;
   // A place whose variance is above V_max needs no touch when a measured surface point (a view
   // point or a contact) or an earlier touch's target lies within this distance: a touch there
   // would find what was found already. Otherwise a V_max below what the noise allows would
@@ -62,14 +75,23 @@ class SurfaceEvidence {
   // approach blocked by another part of the object) is not asked for again and again.
   // `view_max_distance_m`: how far a view point (source vision) supports the surface, at most
   // max_distance_m (contacts and attempted targets support within max_distance_m).
+  // `surprise_distance_m` > 0 (with `min_surprise_fraction` in (0, 1]): a contact, or an
+  // attempted target with a finite `attempted_errors_m`, supports the surface within
+  // max_distance_m * surpriseFraction(its error) (EvidenceRule::surprise_distance_m).
   SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
                   const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0,
                   const std::vector<Vector3>& attempted = {},
-                  double view_max_distance_m = std::numeric_limits<double>::infinity());
+                  double view_max_distance_m = std::numeric_limits<double>::infinity(),
+                  const std::vector<double>& attempted_errors_m = {}, double surprise_distance_m = 0.0,
+                  double min_surprise_fraction = 1.0);
   // The same from a rule, its distance converted with the model's scale.
   SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule);
 
   bool enabled() const { return max_distance_m_ > 0.0; }
+  // The share of max_distance a measurement that lay `error_m` from the predicted surface
+  // supports: 1 up to the surprise distance (or without one, or for an unknown error), then
+  // surprise distance / error, never below the minimum fraction.
+  double surpriseFraction(double error_m) const;
   double maxDistance() const { return max_distance_m_; }
   // Distance (metres) to the nearest measured surface point, or infinity when none lies
   // within max_distance_m (only that range is searched).
@@ -99,6 +121,8 @@ class SurfaceEvidence {
   double cell_m_{0.0};  // max_distance_m_, or a fixed side when the distance test is off
   std::optional<SupportPlane> support_;
   double approach_m_{0.0};
+  double surprise_distance_m_{0.0};
+  double min_surprise_fraction_{1.0};
   std::vector<Vector3> points_;  // measured surface points and attempted targets
   std::vector<double> support_radius_m_;  // per point: how far it supports the surface
   std::unordered_map<std::int64_t, std::vector<std::uint32_t>> cells_;  // cell side cell_m_

@@ -50,6 +50,10 @@ struct TrainingPoint {
   // free space assumes; target_override replaces it). Such a point does not count as surface
   // data (centroid, scale, evidence): the contact it comes with does.
   Vector3 slope_direction{Vector3::Zero()};
+  // For a probe's contact: how far (metres) it lay from the surface the model predicted before
+  // the touch (|mean| / |gradient| there); NaN when unknown. The evidence rule trusts the
+  // surroundings of a contact the model did not predict less (EvidenceRule::surprise_distance_m).
+  double prediction_error_m{std::numeric_limits<double>::quiet_NaN()};
 };
 
 // True for a point that observes f's slope (TrainingPoint::slope_direction), not its value.
