@@ -431,8 +431,9 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/remove_observations", nothing));
   EXPECT_FALSE(nothing.response.success);
 
-  // A contact with its normal, in the camera's frame: the model adds it and an inside point
-  // 3 mm behind it (contact_inside/depth_m), both moved to the world frame.
+  // A contact with its normal, in the camera's frame: the model adds it, an inside point 3 mm
+  // behind it (touch/contact_inside_depth_m) and two slopes across the normal
+  // (touch/contact_tangent_noise_sigma), all moved to the world frame.
   const Eigen::Vector3d side_normal = Eigen::Vector3d(0.0, 1.0, 1.0).normalized();
   const Eigen::Vector3d side_contact = kCentre + kRadius * side_normal;
   const Eigen::Isometry3d world_to_camera = cameraPose().inverse();
@@ -444,7 +445,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const ros::Time before_add = ros::Time::now();
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", with_normal));
   EXPECT_TRUE(with_normal.response.success) << with_normal.response.message;
-  EXPECT_EQ(with_normal.response.num_added, 2u);
+  EXPECT_EQ(with_normal.response.num_added, 4u);
   const gpatlas_msgs::TrainingSet::ConstPtr updated = trainingSince(before_add);
   ASSERT_TRUE(updated) << "no training set after add_observations";
   for (std::size_t i = 0; i < updated->points.size(); ++i)
@@ -457,6 +458,15 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
       EXPECT_NEAR(updated->surface_distances_m[i], 0.003, 1e-9);
     }
   EXPECT_TRUE(found_inside) << "no inside point 3 mm behind the contact";
+  int tangents = 0;
+  for (std::size_t i = 0; i < updated->slope_directions.size(); ++i) {
+    const Eigen::Vector3d direction(updated->slope_directions[i].x, updated->slope_directions[i].y,
+                                    updated->slope_directions[i].z);
+    if (direction.norm() == 0.0 || (gpatlas_ros::fromMsg(updated->points[i]) - side_contact).norm() > 1e-6) continue;
+    EXPECT_NEAR(direction.dot(side_normal), 0.0, 1e-9) << "a slope not across the world-frame normal";
+    ++tangents;
+  }
+  EXPECT_EQ(tangents, 2);
 
   // Free space 1 mm from the deepest occluded-interior guess contradicts its claim (a solid
   // ball of its depth around it): the model drops it (occluded_interior/retract_on_touch).
