@@ -251,14 +251,18 @@ struct MultiscaleGpisModel::Impl {
 
   // The observations the coarse model is given: the view's surface values and its free space
   // and interior (source vision, not the table beside the object), each thinned to its cap;
-  // every contact and slope on top; the probe's other values (approach free space, interior
-  // behind contacts) greedily in the order they came, one per voxel of a fixed world grid, up to
-  // their cap. None of the probe's data changes which earlier points are kept, so an exploration
-  // step extends the coarse factor instead of refitting it.
+  // the probe's contacts (with their slopes) and its other values (approach free space, interior
+  // behind contacts) greedily in the order they came, one per voxel of a fixed world grid, the
+  // latter up to their cap. None of the probe's data changes which earlier points are kept, so
+  // an exploration step extends the coarse factor instead of refitting it.
   std::vector<std::size_t> coarseSelection(const std::vector<TrainingPoint>& obs) const {
     std::vector<std::size_t> always, view_surface, view_other;
     std::unordered_set<CellKey> probe_voxels;
+    std::unordered_map<CellKey, Vector3> contact_voxels;  // the kept contact of each voxel
     const double voxel = config.coarse_probe_voxel_m;
+    const auto voxelOf = [voxel](const Vector3& x) {
+      return packKey(Eigen::Vector3i((x / voxel).array().floor().cast<int>()));
+    };
     for (std::size_t i = 0; i < obs.size(); ++i) {
       const TrainingPoint& p = obs[i];
       if (p.source == PointSource::kViewSupport) {
@@ -266,12 +270,17 @@ struct MultiscaleGpisModel::Impl {
         // is the cells' business. In the coarse level it would also shape the unseen side, whose
         // distance from the table the view does not give.
         continue;
-      } else if (observesSlope(p) || (!fromView(p.source) && p.label == PointLabel::kSurface)) {
-        always.push_back(i);
+      } else if (observesSlope(p)) {
+        // A contact's slopes go where it goes.
+        const auto kept = contact_voxels.find(voxelOf(p.position));
+        if (fromView(p.source) || (kept != contact_voxels.end() && kept->second == p.position)) always.push_back(i);
+      } else if (!fromView(p.source) && p.label == PointLabel::kSurface) {
+        // A slide's contacts a few millimetres apart are detail for the cells, which take them
+        // all; the coarse level, whose kernel spans the object, takes one per voxel.
+        if (contact_voxels.emplace(voxelOf(p.position), p.position).second) always.push_back(i);
       } else if (!fromView(p.source)) {
         if (probe_voxels.size() >= config.coarse_max_probe_other_points) continue;
-        const Eigen::Vector3i v((p.position / voxel).array().floor().cast<int>());
-        if (probe_voxels.insert(packKey(v)).second) always.push_back(i);
+        if (probe_voxels.insert(voxelOf(p.position)).second) always.push_back(i);
       } else if (p.label == PointLabel::kSurface) {
         view_surface.push_back(i);
       } else if (!(p.surface_distance_m < config.overlap_m)) {

@@ -3,14 +3,18 @@
 #include "gpatlas_core/occupancy_grid.h"
 #include "gpatlas_core/surface_model_factory.h"
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <cmath>
+#include <algorithm>
 #include <functional>
 #include <iostream>
 #include <random>
+#include <set>
 #include <thread>
+#include <tuple>
 
 using gpatlas_core::BatchPrediction;
 using gpatlas_core::FitReport;
@@ -381,6 +385,64 @@ TEST(MultiscaleGpisModel, GradientsMatchFiniteDifferencesInOverlaps) {
   EXPECT_TRUE(mean_only.variance.array().isNaN().all());
   EXPECT_LT((full.mean - mean_only.mean).cwiseAbs().maxCoeff(), 1e-12);
   EXPECT_LT((full.variance - model.predictBatch(q, false, false, true).variance).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// A slide's contacts 2.5 mm apart, each with two slopes across its normal: the cells take them
+// all, the coarse level one contact per 1 cm voxel (coarse_probe_voxel_m) with its slopes, the
+// voxels counted here anew; an update gives what a fit from scratch gives.
+TEST(MultiscaleGpisModel, ASlidesDenseContactsReachTheCoarseLevelOnePerVoxel) {
+  MultiscaleGpisConfig config;
+  MultiscaleGpisModel model = fitted(sphereView(), config);
+  std::vector<TrainingPoint> slide;
+  std::vector<Vector3d> contacts;
+  for (int k = 0; k < 30; ++k) {
+    const double angle = 0.3 + 0.05 * k;  // 2.5 mm steps along a meridian of the 5 cm sphere
+    const Vector3d d(std::sin(angle), 0.0, -std::cos(angle));
+    contacts.push_back(kSphereCentre + kSphereRadius * d);
+    slide.push_back(surfacePoint(contacts.back(), PointSource::kTouch));
+  }
+  for (std::size_t k = 0; k < contacts.size(); ++k) {
+    const Vector3d n = (contacts[k] - kSphereCentre).normalized();
+    for (const Vector3d& t : {Vector3d(n.unitOrthogonal()), Vector3d(n.cross(n.unitOrthogonal()))}) {
+      TrainingPoint slope = surfacePoint(contacts[k], PointSource::kTouch);
+      slope.slope_direction = t;
+      slope.target_override = 0.0;
+      slide.push_back(slope);
+    }
+  }
+  const FitReport report = model.addPoints(slide);
+  ASSERT_TRUE(report.ok) << report.message;
+  EXPECT_FALSE(report.full_refit);
+  std::set<std::tuple<int, int, int>> voxels;
+  for (const Vector3d& c : contacts) {
+    const Eigen::Vector3i v = (c / config.coarse_probe_voxel_m).array().floor().cast<int>();
+    voxels.insert({v.x(), v.y(), v.z()});
+  }
+  int all = 0, coarse_contacts = 0, coarse_slopes = 0;
+  for (const TrainingPoint& p : model.observations()) all += p.source == PointSource::kTouch && !observesSlope(p);
+  std::vector<Vector3d> kept;
+  for (const TrainingPoint& p : model.coarseModel().observations())
+    if (p.source == PointSource::kTouch && !observesSlope(p)) {
+      ++coarse_contacts;
+      kept.push_back(p.position);
+    }
+  for (const TrainingPoint& p : model.coarseModel().observations())
+    if (observesSlope(p)) {
+      ++coarse_slopes;
+      EXPECT_TRUE(std::any_of(kept.begin(), kept.end(), [&](const Vector3d& c) { return c == p.position; }))
+          << "a slope whose contact the coarse level does not hold";
+    }
+  EXPECT_EQ(all, 30);
+  EXPECT_EQ(coarse_contacts, static_cast<int>(voxels.size()));
+  EXPECT_LT(coarse_contacts, 15);
+  EXPECT_EQ(coarse_slopes, 2 * coarse_contacts);
+  MultiscaleGpisModel scratch(config);
+  ASSERT_TRUE(scratch.restore(model.state()).ok);
+  for (const Vector3d& c : contacts) {
+    const Vector3d x = c + 0.004 * (c - kSphereCentre).normalized();
+    EXPECT_NEAR(scratch.mean(x), model.mean(x), 1e-9);
+    EXPECT_NEAR(scratch.variance(x), model.variance(x), 1e-9);
+  }
 }
 
 TEST(MultiscaleGpisModel, IncrementalContactsAndFreeSpaceEqualAFitFromScratch) {

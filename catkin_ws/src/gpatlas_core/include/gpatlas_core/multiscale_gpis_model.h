@@ -23,9 +23,9 @@ struct MultiscaleGpisConfig {
   std::size_t coarse_max_surface_points{600};
   // View free space (outside) and interior (inside) values.
   std::size_t coarse_max_other_points{600};
-  // Every contact and slope (one per touch waypoint: hundreds, not thousands) is kept; the
-  // probe's free space and interior points are kept in the order they came, at most one per
-  // voxel of this side on a fixed world grid, up to the count below.
+  // The probe's data are kept in the order they came, at most one per voxel of this side on a
+  // fixed world grid: its contacts (each with its slopes), and its free space and interior points
+  // up to the count below.
   double coarse_probe_voxel_m{0.01};
   std::size_t coarse_max_probe_other_points{600};
 
