@@ -8,7 +8,18 @@ namespace gpatlas_core {
 
 double standardNormalCdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
 
-OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
+OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const { return buildGrid(model, std::nullopt); }
+
+OccupancyGrid OccupancyGridBuilder::buildOccupancy(const SurfaceModel& model, double occupied_probability) const {
+  if (!(occupied_probability > 0.0 && occupied_probability < 1.0)) {
+    OccupancyGrid grid;
+    grid.message = "occupied_probability must be in (0, 1)";
+    return grid;
+  }
+  return buildGrid(model, occupied_probability);
+}
+
+OccupancyGrid OccupancyGridBuilder::buildGrid(const SurfaceModel& model, std::optional<double> occupied_probability) const {
   OccupancyGrid grid;
   if (!model.isFitted()) {
     grid.message = "no model: the GP is not fitted";
@@ -111,8 +122,12 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
           lattice.push_back(n);
       }
   grid.domain_nodes = domain.size();
-  evaluate(domain, true, stride <= 1);
-  if (stride <= 1) {
+  // P > 0.5 exactly where the lowest mean is below 0, whatever the variance.
+  const bool without_variance = occupied_probability && *occupied_probability == 0.5;
+  evaluate(domain, true, stride <= 1 && !without_variance);
+  if (without_variance) {
+    grid.exact_variance_nodes = 0;
+  } else if (stride <= 1) {
     grid.exact_variance_nodes = domain.size();
   } else {
     evaluate(lattice, false, true);
@@ -173,9 +188,11 @@ OccupancyGrid OccupancyGridBuilder::build(const SurfaceModel& model) const {
     const bool thin = mean[n] >= 0.0 && mean[n] < half * gradient_norm[n] && standsForThinObject(n);
     const double lowest = thin ? mean[n] - half * gradient_norm[n] : mean[n];
     double p = 0.0;
-    if (!std::isfinite(lowest) || !std::isfinite(sd)) p = 0.5;  // unknown
+    if (without_variance) p = lowest < 0.0 ? 1.0 : (std::isfinite(lowest) ? 0.0 : 0.5);
+    else if (!std::isfinite(lowest) || !std::isfinite(sd)) p = 0.5;  // unknown
     else if (sd > 0.0) p = standardNormalCdf(-lowest / sd);
     else p = lowest < 0.0 ? 1.0 : 0.0;
+    if (occupied_probability) p = p > *occupied_probability ? 1.0 : 0.0;
     grid.probabilities[n] = static_cast<float>(p);
   }
   grid.ok = true;

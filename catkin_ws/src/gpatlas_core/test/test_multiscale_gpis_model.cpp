@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <functional>
 #include <iostream>
+#include <map>
 #include <random>
 #include <set>
 #include <thread>
@@ -789,6 +790,46 @@ TEST(MultiscaleGpisModel, CollisionMapOnAVarianceLatticeMatchesTheFullEvaluation
       EXPECT_LT(worst, 0.25);  // near the domain's edge, where the outside pseudo-points pin the variance
     }
   }
+}
+
+// The approach planner's map, occupied or not at a threshold, against the probabilities of the
+// full map: the same nodes above the threshold, on the sphere whose unseen half carries the
+// prior's variance (so that the thresholds 0.2 and 0.8 draw different maps) and on the thin plate.
+// At 0.5 no variance is evaluated.
+TEST(MultiscaleGpisModel, CollisionMapAtAThresholdHasTheNodesWhoseProbabilityExceedsIt) {
+  gpatlas_core::OccupancyGridBuilder::Config config;
+  config.resolution_m = 0.01;
+  const MultiscaleGpisModel plate = fitted(plateData());
+  for (const MultiscaleGpisModel* model : {&sphereModel(), &plate}) {
+    const gpatlas_core::OccupancyGrid full = gpatlas_core::OccupancyGridBuilder(config).build(*model);
+    ASSERT_TRUE(full.ok) << full.message;
+    std::map<double, std::size_t> occupied_at;
+    for (double threshold : {0.2, 0.5, 0.8}) {
+      const gpatlas_core::OccupancyGrid occupancy =
+          gpatlas_core::OccupancyGridBuilder(config).buildOccupancy(*model, threshold);
+      ASSERT_TRUE(occupancy.ok) << occupancy.message;
+      ASSERT_EQ(occupancy.probabilities.size(), full.probabilities.size());
+      EXPECT_EQ((occupancy.origin - full.origin).norm(), 0.0);
+      if (threshold == 0.5) EXPECT_EQ(occupancy.exact_variance_nodes, 0u);
+      std::size_t occupied = 0, disagree = 0;
+      for (std::size_t n = 0; n < full.probabilities.size(); ++n) {
+        const float q = occupancy.probabilities[n];
+        EXPECT_TRUE(q == 0.0f || q == 1.0f);
+        occupied += q == 1.0f ? 1 : 0;
+        // The full map stores P as a float: a node within its rounding of the threshold may go either way.
+        if (std::abs(full.probabilities[n] - threshold) > 1e-6) disagree += (full.probabilities[n] > threshold) != (q == 1.0f) ? 1 : 0;
+      }
+      EXPECT_EQ(disagree, 0u) << "threshold " << threshold;
+      occupied_at[threshold] = occupied;
+    }
+    EXPECT_GT(occupied_at[0.5], 50u);
+    if (model != &plate) {
+      EXPECT_GT(occupied_at[0.2], occupied_at[0.5]);
+      EXPECT_LT(occupied_at[0.8], occupied_at[0.5]);
+    }
+  }
+  for (double bad : {0.0, 1.0, std::nan("")})
+    EXPECT_FALSE(gpatlas_core::OccupancyGridBuilder(config).buildOccupancy(sphereModel(), bad).ok);
 }
 
 }  // namespace

@@ -118,13 +118,11 @@ TouchMotion TouchMotionPlanner::plan(const gpatlas_core::Touch& touch, const Eig
 
 ModelTouchApproacher::ModelTouchApproacher(const gpatlas_core::SurfaceModel& model, ApproachConfig config,
                                            gpatlas_core::OccupancyGridBuilder::Config grid,
-                                           double map_occupied_probability,
                                            std::optional<gpatlas_core::SupportPlane> table,
                                            std::shared_ptr<const Arm> arm)
     : model_(model),
       config_(std::move(config)),
       grid_(std::move(grid)),
-      map_occupied_probability_(map_occupied_probability),
       table_(std::move(table)),
       arm_(std::move(arm)),
       reach_(std::make_shared<ArmReachMemory>()) {
@@ -138,10 +136,13 @@ ModelTouchApproacher::~ModelTouchApproacher() = default;
 std::string ModelTouchApproacher::ensureMap() {
   if (planner_) return "";
   const auto started = std::chrono::steady_clock::now();
-  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(grid_).build(model_);
+  // The planner asks only whether a voxel is above approach/occupied_probability: at 0.5 that
+  // needs no variance.
+  const gpatlas_core::OccupancyGrid grid =
+      gpatlas_core::OccupancyGridBuilder(grid_).buildOccupancy(model_, config_.occupied_probability);
   if (!grid.ok) return "no collision map: " + grid.message;
-  planner_ =
-      std::make_unique<TouchMotionPlanner>(config_, collisionOctree(grid, map_occupied_probability_), table_, arm_, reach_);
+  planner_ = std::make_unique<TouchMotionPlanner>(config_, collisionOctree(grid, config_.occupied_probability), table_,
+                                                  arm_, reach_);
   last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
   return "";
 }

@@ -101,7 +101,7 @@ TEST(ModelTouchApproacher, GoesAroundTheModelledObjectToATouchBeneathIt) {
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   gpatlas_core::OccupancyGridBuilder::Config grid;
   grid.resolution_m = 0.01;
-  gpatlas_motion::ModelTouchApproacher approacher(model, config, grid, 0.5, std::nullopt);
+  gpatlas_motion::ModelTouchApproacher approacher(model, config, grid, std::nullopt);
   Touch touch;
   touch.points = {kCentre - Vector3d(0.0, 0.0, kRadius)};
   touch.normals = {-Vector3d::UnitZ()};
@@ -128,7 +128,7 @@ TEST(ModelTouchApproacher, ASlideRetreatsFromItsLastWaypoint) {
   gpatlas_core::ApproachConfig config;
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   gpatlas_core::OccupancyGridBuilder::Config grid;
-  gpatlas_motion::ModelTouchApproacher approacher(model, config, grid, 0.5, std::nullopt);
+  gpatlas_motion::ModelTouchApproacher approacher(model, config, grid, std::nullopt);
   Touch slide;
   slide.kind = Touch::Kind::kSlide;
   for (double angle : {0.2, 0.5, 0.8}) {
@@ -153,7 +153,7 @@ TEST(ModelTouchApproacher, ARestInsideTheObjectIsRefused) {
   const gpatlas_core::GpisModel model = sphereModel();
   gpatlas_core::ApproachConfig config;
   config.rest_tip_position_m = kCentre;
-  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, 0.5, std::nullopt);
+  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, std::nullopt);
   Touch touch;
   touch.points = {kCentre + Vector3d(kRadius, 0.0, 0.0)};
   touch.normals = {Vector3d::UnitX()};
@@ -206,7 +206,7 @@ TEST(ModelTouchApproacher, TheCheapTestTiltsOutOfTheTableAndRefusesApproachesFro
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   const double table_height = kCentre.z() - kRadius;
   const gpatlas_core::SupportPlane table{Vector3d::UnitZ(), -table_height};
-  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, 0.5, table);
+  gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, table);
   for (const Vector3d& open : {Vector3d::UnitZ(), Vector3d::UnitX()}) {
     const std::optional<Vector3d> direction = approacher.approachDirection(kCentre + kRadius * open, open);
     ASSERT_TRUE(direction.has_value());
@@ -232,7 +232,7 @@ TEST(ModelTouchApproacher, TheCheapTestTiltsOutOfTheTableAndRefusesApproachesFro
   // Along the normal only, it is refused, and so is its full plan.
   gpatlas_core::ApproachConfig normal_only = config;
   normal_only.max_tilt_deg = 0.0;
-  gpatlas_motion::ModelTouchApproacher strict(model, normal_only, {}, 0.5, table);
+  gpatlas_motion::ModelTouchApproacher strict(model, normal_only, {}, table);
   EXPECT_FALSE(strict.approachDirection(low_point, low).has_value());
   touch.normals = {low};
   EXPECT_FALSE(strict.plan(touch).ok);

@@ -578,8 +578,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
         planned_arm = std::make_shared<const gpatlas_motion::Arm>(gpatlas_motion::Arm::fromUrdfString(o.urdf_xml, arm_config));
       }
       approacher = std::make_unique<gpatlas_motion::ModelTouchApproacher>(
-          model, pipeline.approach, pipeline.collision_map.grid, pipeline.collision_map.occupied_probability, support,
-          planned_arm);
+          model, pipeline.approach, pipeline.collision_map.grid, support, planned_arm);
     } catch (const std::exception& e) {
       return failed(std::string("approach/use_arm: ") + e.what());
     }

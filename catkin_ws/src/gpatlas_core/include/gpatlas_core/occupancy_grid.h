@@ -61,8 +61,15 @@ class OccupancyGridBuilder {
   OccupancyGridBuilder() = default;
   explicit OccupancyGridBuilder(Config config) : config_(std::move(config)) {}
   OccupancyGrid build(const SurfaceModel& model) const;
+  // The grid as a planner that only asks "P > occupied_probability?" sees it: 1 where build()'s P
+  // exceeds occupied_probability, 0 elsewhere. At 0.5 no variance is evaluated (P > 0.5 exactly
+  // where the lowest mean is below 0), which is most of build()'s cost; at any other threshold
+  // the variance is evaluated as in build(). occupied_probability must be in (0, 1).
+  OccupancyGrid buildOccupancy(const SurfaceModel& model, double occupied_probability) const;
 
  private:
+  OccupancyGrid buildGrid(const SurfaceModel& model, std::optional<double> occupied_probability) const;
+
   Config config_;
 };
 

@@ -81,16 +81,17 @@ class TouchMotionPlanner {
   Eigen::Vector3d up_{Eigen::Vector3d::UnitZ()};
 };
 
-// Approach planning in one process (the bench): a collision map built from the model, rebuilt
-// after every touch the model took, with the table as a static half-space, and the probe's
-// rest at ApproachConfig::rest_tip_position_m. With an arm (ApproachConfig::use_arm), the arm's
+// Approach planning in one process (the bench): a collision map built from the model, occupied
+// where P(occupied) exceeds ApproachConfig::occupied_probability, rebuilt after every touch the
+// model took, with the table as a static half-space, and the probe's rest at
+// ApproachConfig::rest_tip_position_m. With an arm (ApproachConfig::use_arm), the arm's
 // joint path is planned (ArmApproachPlanner) from its rest, armRestConfiguration.
 class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
  public:
   // Throws std::invalid_argument when use_arm is set without an arm, std::runtime_error when
   // the arm does not reach its rest.
   ModelTouchApproacher(const gpatlas_core::SurfaceModel& model, ApproachConfig config,
-                       gpatlas_core::OccupancyGridBuilder::Config grid, double map_occupied_probability,
+                       gpatlas_core::OccupancyGridBuilder::Config grid,
                        std::optional<gpatlas_core::SupportPlane> table, std::shared_ptr<const Arm> arm = nullptr);
   ~ModelTouchApproacher() override;
 
@@ -109,7 +110,6 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   const gpatlas_core::SurfaceModel& model_;
   ApproachConfig config_;
   gpatlas_core::OccupancyGridBuilder::Config grid_;
-  double map_occupied_probability_;
   std::optional<gpatlas_core::SupportPlane> table_;
   std::shared_ptr<const Arm> arm_;
   std::shared_ptr<ArmReachMemory> reach_;
