@@ -215,6 +215,7 @@ void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
   c->grid.resolution_m = r.number("collision_map/resolution_m", c->grid.resolution_m, 1e-3, 1.0);
   c->grid.variance_stride = r.integer("collision_map/variance_stride", c->grid.variance_stride, 1, 16);
+  c->grid.mean_stride = r.integer("collision_map/mean_stride", c->grid.mean_stride, 1, 16);
   c->occupied_probability = r.number("collision_map/occupied_probability", c->occupied_probability, 0.0, 1.0);
 }
 

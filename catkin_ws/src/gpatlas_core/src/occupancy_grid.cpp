@@ -26,8 +26,8 @@ OccupancyGrid OccupancyGridBuilder::buildGrid(const SurfaceModel& model, std::op
     return grid;
   }
   if (!(config_.resolution_m > 0.0) || !std::isfinite(config_.resolution_m) || config_.batch_size < 1 ||
-      config_.variance_stride < 1) {
-    grid.message = "resolution_m must be positive and finite, batch_size >= 1, variance_stride >= 1";
+      config_.variance_stride < 1 || config_.mean_stride < 1) {
+    grid.message = "resolution_m must be positive and finite, batch_size, variance_stride and mean_stride >= 1";
     return grid;
   }
   const Vector3 half_extent = Vector3::Constant(model.domainRadiusWorld());
@@ -98,7 +98,7 @@ OccupancyGrid OccupancyGridBuilder::buildGrid(const SurfaceModel& model, std::op
     int lower, upper;
     double weight;
   };
-  const auto brackets = [stride](int size) {
+  const auto brackets = [](int size, int stride) {
     std::vector<Bracket> out(static_cast<std::size_t>(size));
     const int last = size - 1;
     for (int i = 0; i < size; ++i) {
@@ -108,23 +108,65 @@ OccupancyGrid OccupancyGridBuilder::buildGrid(const SurfaceModel& model, std::op
     }
     return out;
   };
-  const std::vector<Bracket> bx = brackets(grid.size.x()), by = brackets(grid.size.y()), bz = brackets(grid.size.z());
+  const std::vector<Bracket> bx = brackets(grid.size.x(), stride), by = brackets(grid.size.y(), stride),
+                             bz = brackets(grid.size.z(), stride);
+  // P > 0.5 exactly where the lowest mean is below 0, whatever the variance.
+  const bool without_variance = occupied_probability && *occupied_probability == 0.5;
+  const int mean_stride = without_variance ? config_.mean_stride : 1;
+  const std::vector<Bracket> mx = brackets(grid.size.x(), mean_stride), my = brackets(grid.size.y(), mean_stride),
+                             mz = brackets(grid.size.z(), mean_stride);
 
-  std::vector<std::size_t> domain, lattice;
+  std::vector<std::size_t> domain, lattice, mean_lattice;
+  std::vector<char> in_domain(num, 0);
   for (int k = 0; k < grid.size.z(); ++k)
     for (int j = 0; j < grid.size.y(); ++j)
       for (int i = 0; i < grid.size.x(); ++i) {
         const std::size_t n = grid.index(i, j, k);
         if (!model.inDomain(grid.position(i, j, k))) continue;
         domain.push_back(n);
-        if (bx[static_cast<std::size_t>(i)].lower == i && by[static_cast<std::size_t>(j)].lower == j &&
-            bz[static_cast<std::size_t>(k)].lower == k)
-          lattice.push_back(n);
+        in_domain[n] = 1;
+        const std::size_t si = static_cast<std::size_t>(i), sj = static_cast<std::size_t>(j), sk = static_cast<std::size_t>(k);
+        if (bx[si].lower == i && by[sj].lower == j && bz[sk].lower == k) lattice.push_back(n);
+        if (mx[si].lower == i && my[sj].lower == j && mz[sk].lower == k) mean_lattice.push_back(n);
       }
   grid.domain_nodes = domain.size();
-  // P > 0.5 exactly where the lowest mean is below 0, whatever the variance.
-  const bool without_variance = occupied_probability && *occupied_probability == 0.5;
-  evaluate(domain, true, stride <= 1 && !without_variance);
+  if (mean_stride <= 1) {
+    evaluate(domain, true, stride <= 1 && !without_variance);
+    grid.exact_mean_nodes = domain.size();
+  } else {
+    // The mean on the coarse lattice first, then node by node only in the blocks the surface can
+    // come within two voxels of: their corners differ in sign, or one lies closer to the zero
+    // level than a block diagonal and two voxels (in f, which near the data grows like the
+    // distance over the model's scale; the mesher's rule). Elsewhere the block's nodes are at
+    // least two voxels from the surface, further than any voxel the thin-object rule looks at:
+    // they take the corner nearest the zero level, whose sign decides them.
+    std::vector<char> evaluated(num, 0);
+    evaluate(mean_lattice, true, false);
+    for (const std::size_t n : mean_lattice) evaluated[n] = 1;
+    const double band = (std::sqrt(3.0) * mean_stride + 2.0) * config_.resolution_m / model.scale();
+    std::vector<std::size_t> exact;
+    for (const std::size_t n : domain) {
+      if (evaluated[n]) continue;
+      const Eigen::Vector3i at = coordinates(n);
+      const Bracket& x = mx[static_cast<std::size_t>(at.x())];
+      const Bracket& y = my[static_cast<std::size_t>(at.y())];
+      const Bracket& z = mz[static_cast<std::size_t>(at.z())];
+      double low = HUGE_VAL, high = -HUGE_VAL;
+      bool complete = true;
+      for (int c = 0; c < 8 && complete; ++c) {
+        const std::size_t corner =
+            grid.index((c & 1) ? x.upper : x.lower, (c & 2) ? y.upper : y.lower, (c & 4) ? z.upper : z.lower);
+        complete = in_domain[corner] && std::isfinite(mean[corner]);
+        low = std::min(low, mean[corner]);
+        high = std::max(high, mean[corner]);
+      }
+      if (complete && low > band) mean[n] = low;
+      else if (complete && high < -band) mean[n] = high;
+      else exact.push_back(n);
+    }
+    evaluate(exact, true, false);
+    grid.exact_mean_nodes = mean_lattice.size() + exact.size();
+  }
   if (without_variance) {
     grid.exact_variance_nodes = 0;
   } else if (stride <= 1) {

@@ -28,6 +28,7 @@ struct OccupancyGrid {
   }
   Vector3 position(int i, int j, int k) const { return origin + resolution * Vector3(i, j, k); }
   std::size_t domain_nodes{0};          // nodes inside the model's domain
+  std::size_t exact_mean_nodes{0};      // of which the mean was evaluated
   std::size_t exact_variance_nodes{0};  // of which the variance was evaluated, not interpolated
 };
 
@@ -56,6 +57,10 @@ class OccupancyGridBuilder {
     // interpolated trilinearly in between (1: at every node), except where the surface passes
     // within half a voxel of the node. Which nodes are occupied (P > 0.5) does not depend on it.
     int variance_stride{2};
+    // For buildOccupancy at 0.5 (the approach planner's map), the mean too is evaluated on every
+    // mean_stride-th node first, then node by node only in the blocks the surface can come within
+    // two voxels of (1: every node).
+    int mean_stride{2};
   };
 
   OccupancyGridBuilder() = default;
@@ -63,8 +68,9 @@ class OccupancyGridBuilder {
   OccupancyGrid build(const SurfaceModel& model) const;
   // The grid as a planner that only asks "P > occupied_probability?" sees it: 1 where build()'s P
   // exceeds occupied_probability, 0 elsewhere. At 0.5 no variance is evaluated (P > 0.5 exactly
-  // where the lowest mean is below 0), which is most of build()'s cost; at any other threshold
-  // the variance is evaluated as in build(). occupied_probability must be in (0, 1).
+  // where the lowest mean is below 0), which is most of build()'s cost, and the mean only near the
+  // surface (mean_stride); at any other threshold the grid is build()'s, thresholded.
+  // occupied_probability must be in (0, 1).
   OccupancyGrid buildOccupancy(const SurfaceModel& model, double occupied_probability) const;
 
  private:
