@@ -294,6 +294,10 @@ FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const 
 FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale) {
   FitReport report;
   std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  if (centroid && report.num_rejected == 0) {
+    FitReport updated;
+    if (updateInFrame(accepted, *centroid, scale, &updated)) return updated;
+  }
   // A full fit starts from an empty set: the existing observations are replaced.
   Impl trial;
   trial.config = impl_->config;
@@ -316,6 +320,64 @@ FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vec
     return fit_report;
   }
   return fit_report;
+}
+
+bool GpisModel::updateInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale,
+                              FitReport* report) {
+  Impl& m = *impl_;
+  const std::size_t held = m.observations.size();
+  if (!m.fitted || m.centroid != centroid || m.scale != scale || points.size() < held) return false;
+  // The refit's factor of the points held depends on their positions, slopes, noise and labels
+  // (the inside pseudo-point's clearance), and on which of them are duplicates, which compares
+  // their targets.
+  std::vector<std::size_t> changed;
+  for (std::size_t j = 0; j < held; ++j) {
+    const TrainingPoint& p = points[j];
+    const TrainingPoint& o = m.observations[j];
+    if (p.position != o.position || p.label != o.label || p.noise_sigma != o.noise_sigma ||
+        p.slope_direction != o.slope_direction)
+      return false;
+    if (gpisTarget(p, m.scale) != gpisTarget(o, m.scale)) changed.push_back(j);
+  }
+  const double dup2 = m.config.duplicate_distance * m.config.duplicate_distance * m.scale * m.scale;
+  std::vector<double> residuals;
+  for (const std::size_t j : changed) {
+    const double residual = m.residualOf(points[j]);
+    if (!std::isfinite(residual)) return false;
+    residuals.push_back(residual);
+    const double value = gpisTarget(points[j], m.scale);
+    for (std::size_t i = 0; i < held; ++i)
+      if (i != j && gpisTarget(points[i], m.scale) == value && sameSlopeDirection(points[i], points[j]) &&
+          (points[i].position - points[j].position).squaredNorm() <= dup2)
+        return false;
+  }
+  const std::vector<TrainingPoint> previous = m.observations;
+  std::vector<double> previous_residuals;
+  for (std::size_t k = 0; k < changed.size(); ++k) {
+    double& y = m.y[m.num_pseudo + static_cast<Eigen::Index>(changed[k])];
+    previous_residuals.push_back(y);
+    y = residuals[k];
+  }
+  m.observations.assign(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(held));
+  m.solveAlpha();
+  const std::vector<TrainingPoint> appended(points.begin() + static_cast<std::ptrdiff_t>(held), points.end());
+  *report = appended.empty() ? FitReport() : addPoints(appended);
+  if (appended.empty()) {
+    report->ok = true;
+    report->jitter = m.jitter;
+  }
+  if (!report->ok) {
+    for (std::size_t k = 0; k < changed.size(); ++k)
+      m.y[m.num_pseudo + static_cast<Eigen::Index>(changed[k])] = previous_residuals[k];
+    m.observations = previous;
+    m.solveAlpha();
+    return false;
+  }
+  report->num_added = m.observations.size();
+  report->message = "refitted by update: " + std::to_string(changed.size()) + " target(s) changed, " +
+                    std::to_string(appended.size()) + " point(s) appended" +
+                    (report->message.empty() ? "" : " (" + report->message + ")");
+  return true;
 }
 
 FitReport GpisModel::refit(bool renormalise) {

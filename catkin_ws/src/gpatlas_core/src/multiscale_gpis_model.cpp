@@ -632,7 +632,10 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
     return screen;
   }
   Impl trial(impl_->config, impl_->coarse_config);
-  trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
+  // From the current coarse level, which keeps its factor when the refit changes only targets
+  // (GpisModel::retargetInFrame: a touch retracting interior guesses).
+  if (impl_->fitted) trial.coarse = impl_->coarse;
+  else trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
   trial.observations = screenPoints(points, &screen);
   trial.fine_tune = impl_->fine_tune;

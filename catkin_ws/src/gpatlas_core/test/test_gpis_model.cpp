@@ -422,6 +422,73 @@ TEST(GpisModel, FitInFrameReplicatesAnIncrementallyUpdatedModel) {
   EXPECT_FALSE(replica.fitInFrame(original.observations(), original.centroid(), -1.0).ok);
 }
 
+// A touch that retracts interior guesses refits the model in its frame with those guesses'
+// depths changed and its own points appended: done as an update of the factor, it must give the
+// model a fresh fit of the same points in the same frame gives. A moved point is a refit.
+TEST(GpisModel, FitInFrameWithChangedTargetsAndNewPointsEqualsAFreshFit) {
+  GpisModel model;
+  auto points = sphereCap(150, 0.0, 31);
+  for (int g = 0; g < 6; ++g) {  // interior guesses at a depth
+    TrainingPoint guess;
+    guess.position = kCentre + Vector3d(0.01 * g - 0.025, 0.0, -0.3 * kRadius);
+    guess.label = PointLabel::kInside;
+    guess.noise_sigma = 0.3;
+    guess.surface_distance_m = 0.5 * kRadius;
+    points.push_back(guess);
+  }
+  ASSERT_TRUE(model.fit(points).ok);
+  std::vector<TrainingPoint> next = model.observations();
+  ASSERT_EQ(next.size(), points.size());
+  next[next.size() - 2].surface_distance_m = 0.2 * kRadius;  // retracted
+  next[next.size() - 5].surface_distance_m = 0.1 * kRadius;
+  auto touches = surfacePoints(capDirections(10, -0.6, 32), Vector3d::Constant(kRadius));
+  for (auto& t : touches) {
+    t.source = PointSource::kTouch;
+    t.noise_sigma = 0.01;
+  }
+  next.insert(next.end(), touches.begin(), touches.end());
+
+  GpisModel updated(model);
+  const FitReport report = updated.fitInFrame(next, model.centroid(), model.scale());
+  ASSERT_TRUE(report.ok) << report.message;
+  EXPECT_NE(report.message.find("by update: 2 target(s) changed, 10 point(s) appended"), std::string::npos)
+      << report.message;
+  GpisModel fresh;
+  ASSERT_TRUE(fresh.fitInFrame(next, model.centroid(), model.scale()).ok);
+  ASSERT_EQ(updated.observations().size(), fresh.observations().size());
+  std::mt19937 rng(33);
+  std::uniform_real_distribution<double> u(-1.2, 1.2);
+  double largest_change = 0.0;
+  for (int t = 0; t < 30; ++t) {
+    const Vector3d x = kCentre + kRadius * Vector3d(u(rng), u(rng), u(rng));
+    const auto a = updated.predict(x);
+    const auto b = fresh.predict(x);
+    EXPECT_NEAR(a.mean, b.mean, 1e-8 * std::max(1.0, std::abs(b.mean)));
+    EXPECT_NEAR(a.variance, b.variance, 1e-8 * std::max(1.0, b.variance));
+    EXPECT_LT((a.gradient - b.gradient).norm(), 1e-8 * std::max(1.0, b.gradient.norm()));
+    largest_change = std::max(largest_change, std::abs(a.mean - model.mean(x)));
+  }
+  EXPECT_GT(largest_change, 1e-3);  // the update did change the model
+
+  // Only targets changed, nothing appended.
+  std::vector<TrainingPoint> retargeted = model.observations();
+  retargeted.back().surface_distance_m = 0.05 * kRadius;
+  GpisModel only_targets(model), only_targets_fresh;
+  EXPECT_NE(only_targets.fitInFrame(retargeted, model.centroid(), model.scale()).message.find("by update"), std::string::npos);
+  ASSERT_TRUE(only_targets_fresh.fitInFrame(retargeted, model.centroid(), model.scale()).ok);
+  const Vector3d q = retargeted.back().position;
+  EXPECT_NEAR(only_targets.mean(q), only_targets_fresh.mean(q), 1e-9);
+  EXPECT_GT(only_targets.mean(q), model.mean(q) + 0.01);  // a shallower guess: less deep inside
+
+  // A moved point: a refit, as before.
+  std::vector<TrainingPoint> moved = next;
+  moved[3].position += Vector3d(0.001, 0.0, 0.0);
+  GpisModel refitted(model);
+  const FitReport refit = refitted.fitInFrame(moved, model.centroid(), model.scale());
+  ASSERT_TRUE(refit.ok) << refit.message;
+  EXPECT_EQ(refit.message.find("by update"), std::string::npos) << refit.message;
+}
+
 TEST(GpisModel, FreeSpaceDistanceTargetsFollowTheFrame) {
   GpisModel model;
   const auto cap = sphereCap(150, 0.0, 23);
