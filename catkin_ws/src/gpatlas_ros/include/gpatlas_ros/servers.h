@@ -38,6 +38,10 @@
 #include <thread>
 #include <vector>
 
+namespace octomap {
+class OcTree;
+}
+
 namespace gpatlas_ros {
 
 // A cloud that waits this long for its transform is reported (it is still processed when the
@@ -212,8 +216,11 @@ class AtlasPlannerServer {
 // (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
 // Builds the collision map in a thread of its own: a training set only replaces the pending
 // one (latest wins, intermediate models are skipped), so no callback of the manager waits for
-// a rebuild. ~status says which training set the published map is from. `~plan_approach`
-// plans the probe's way to a touch on the published map and the table (`support_plane`), with
+// a rebuild. What approaches are planned on is built first: the voxels above
+// approach/occupied_probability (OccupancyGridBuilder::buildOccupancy, no variance at 0.5);
+// ~status says which training set it is from. The probabilities are built after it, in a
+// second thread, only while someone subscribes to the map's topics (as octomap_server does),
+// and for `~save_map`. `~plan_approach` plans the probe's way to a touch on that map and the table (`support_plane`), with
 // gpatlas_motion's TouchMotionPlanner (for the arm of robot_description with approach/use_arm),
 // and shows it on `~approach_path` (the tip) and `~approach_arm` (the arm's links); with the arm,
 // `~approach_trajectory` (trajectory_msgs/JointTrajectory) is the last planned approach.
@@ -233,7 +240,13 @@ class CollisionMapServer {
   void buildLoop();
   // The map of one training set and what it holds, or null with the reason.
   std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::string* error, std::string* summary);
-  void publishMap(const Map& map);  // with mutex_ held
+  // Builds the probabilities of the newest map for its subscribers, latest wins.
+  void publishLoop();
+  bool hasMapSubscribers() const;
+  void requestProbabilities();  // with mutex_ held: for map_, when someone subscribes
+  // The map's probabilities, built now if they are not yet (null with the reason on failure).
+  std::shared_ptr<const octomap::OcTree> probabilitiesOf(const std::shared_ptr<Map>& map, std::string* error);
+  void publishMap(const Map& map);  // with mutex_ held, the map's probabilities built
   void publishStatus();  // with mutex_ held
 
   ros::NodeHandle nh_, pnh_;
@@ -252,11 +265,13 @@ class CollisionMapServer {
   std::optional<gpatlas_core::SupportPlane> support_plane_;  // the table, world frame
   bool stopping_{false};
   gpatlas_msgs::TrainingSet::ConstPtr pending_;  // the newest training set not built yet
-  std::shared_ptr<Map> map_;                     // the published map
+  std::shared_ptr<Map> map_;                     // the newest map approaches are planned on
+  std::shared_ptr<Map> publish_pending_;         // the map whose probabilities subscribers wait for
   std::uint32_t latest_sequence_{0};
   std::uint8_t state_{0};
   std::string status_message_;
-  std::thread builder_;
+  std::condition_variable publish_wake_;
+  std::thread builder_, publisher_;
 
   ros::Subscriber training_sub_, plane_sub_;
   ros::ServiceServer save_srv_, approach_srv_;

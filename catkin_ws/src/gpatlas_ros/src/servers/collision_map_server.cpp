@@ -21,7 +21,11 @@
 namespace gpatlas_ros {
 
 struct CollisionMapServer::Map {
+  // Occupied or not at approach/occupied_probability: what approaches are planned on.
   std::shared_ptr<const octomap::OcTree> tree;
+  // P(occupied) per voxel, for the map's topics and save_map; null until asked for (mutex_).
+  std::shared_ptr<const octomap::OcTree> probabilities;
+  std::shared_ptr<const gpatlas_core::SurfaceModel> model;
   std::uint32_t training_sequence{0};
   ros::Time training_stamp;
 };
@@ -43,8 +47,15 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   loadPluginLibraries(plugins.libraries, reader, "collision_map");
   readCollisionMap(reader, &map_config_);
   reader.report("collision_map");
-  octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, true);
-  voxels_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_voxels", 1, true);
+  // A new subscriber gets the newest map's probabilities, built then if no one asked before.
+  const ros::SubscriberStatusCallback connected = [this](const ros::SingleSubscriberPublisher&) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    requestProbabilities();
+  };
+  octomap_pub_ = pnh_.advertise<gpatlas_msgs::OctomapBinary>("octomap_binary", 1, connected, ros::SubscriberStatusCallback(),
+                                                             ros::VoidConstPtr(), true);
+  voxels_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("occupied_voxels", 1, connected,
+                                                                ros::SubscriberStatusCallback(), ros::VoidConstPtr(), true);
   status_pub_ = pnh_.advertise<gpatlas_msgs::CollisionMapStatus>("status", 1, true);
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -53,6 +64,7 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     publishStatus();
   }
   builder_ = std::thread(&CollisionMapServer::buildLoop, this);
+  publisher_ = std::thread(&CollisionMapServer::publishLoop, this);
   approach_pub_ = pnh_.advertise<visualization_msgs::Marker>("approach_path", 1, true);
   approach_arm_pub_ = pnh_.advertise<visualization_msgs::Marker>("approach_arm", 1, true);
   if (approach_arm_) approach_trajectory_pub_ = pnh_.advertise<trajectory_msgs::JointTrajectory>("approach_trajectory", 1, true);
@@ -176,7 +188,9 @@ CollisionMapServer::~CollisionMapServer() {
     stopping_ = true;
   }
   wake_.notify_all();
+  publish_wake_.notify_all();
   if (builder_.joinable()) builder_.join();
+  if (publisher_.joinable()) publisher_.join();
 }
 
 void CollisionMapServer::publishStatus() {
@@ -241,7 +255,7 @@ void CollisionMapServer::buildLoop() {
     if (!pending_ && latest_sequence_ != msg->sequence) continue;
     if (map) {
       map_ = map;
-      publishMap(*map);
+      if (hasMapSubscribers()) requestProbabilities();
       status_message_ = summary;
       ROS_INFO_STREAM("collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec() << " s");
     } else {
@@ -263,33 +277,94 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(const gpatlas
                                                                    std::string* error, std::string* summary) {
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
   if (!modelForTrainingSet(training_sub_.getTopic(), msg, model_config_, &model, error)) return nullptr;
-  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*model);
+  const double threshold = approach_config_.occupied_probability;
+  const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).buildOccupancy(*model, threshold);
   if (!grid.ok) {
     *error = grid.message;
     return nullptr;
   }
   auto map = std::make_shared<Map>();
+  map->model = model;
   map->training_sequence = msg.sequence;
   map->training_stamp = msg.header.stamp;
   std::size_t occupied = 0;
-  map->tree = gpatlas_motion::collisionOctree(grid, map_config_.occupied_probability, &occupied);
+  map->tree = gpatlas_motion::collisionOctree(grid, threshold, &occupied);
   std::ostringstream message;
   message << "training set " << msg.sequence << ": " << occupied << " of " << grid.probabilities.size()
-          << " cells occupied (P > " << map_config_.occupied_probability << ") at " << grid.resolution << " m";
+          << " cells occupied (P > " << threshold << ") at " << grid.resolution << " m";
   *summary = message.str();
   return map;
 }
 
+bool CollisionMapServer::hasMapSubscribers() const {
+  return octomap_pub_.getNumSubscribers() + voxels_pub_.getNumSubscribers() > 0;
+}
+
+void CollisionMapServer::requestProbabilities() {
+  if (!map_ || map_->probabilities) return;
+  publish_pending_ = map_;
+  publish_wake_.notify_one();
+}
+
+void CollisionMapServer::publishLoop() {
+  for (;;) {
+    std::shared_ptr<Map> map;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      publish_wake_.wait(lock, [this] { return stopping_ || publish_pending_; });
+      if (stopping_) return;
+      map = std::move(publish_pending_);
+      publish_pending_.reset();
+    }
+    std::string error;
+    const ros::WallTime started = ros::WallTime::now();
+    if (!probabilitiesOf(map, &error)) {
+      ROS_ERROR_STREAM("collision_map: no probabilities for training set " << map->training_sequence << ": " << error);
+      continue;
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (map != map_) continue;  // a newer map came meanwhile: its own request follows
+    publishMap(*map);
+    ROS_DEBUG_STREAM("collision_map: probabilities of training set " << map->training_sequence << " in "
+                                                                     << (ros::WallTime::now() - started).toSec() << " s");
+  }
+}
+
+std::shared_ptr<const octomap::OcTree> CollisionMapServer::probabilitiesOf(const std::shared_ptr<Map>& map,
+                                                                          std::string* error) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (map->probabilities) return map->probabilities;
+  }
+  std::shared_ptr<const octomap::OcTree> tree;
+  // Nothing may escape: this runs in the publisher thread and in save_map's callback.
+  try {
+    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*map->model);
+    if (!grid.ok) {
+      *error = grid.message;
+      return nullptr;
+    }
+    tree = gpatlas_motion::collisionOctree(grid, map_config_.occupied_probability);
+  } catch (const std::exception& e) {
+    *error = e.what();
+    return nullptr;
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (!map->probabilities) map->probabilities = tree;
+  return map->probabilities;
+}
+
 void CollisionMapServer::publishMap(const Map& map) {
+  const octomap::OcTree& tree = *map.probabilities;
   gpatlas_msgs::OctomapBinary out;
   out.header.frame_id = world_frame_;
   out.header.stamp = map.training_stamp;
   out.training_sequence = map.training_sequence;
-  out.id = map.tree->getTreeType();
-  out.resolution = map.tree->getResolution();
+  out.id = tree.getTreeType();
+  out.resolution = tree.getResolution();
   out.binary = true;
   std::stringstream stream;
-  map.tree->writeBinaryData(stream);
+  tree.writeBinaryData(stream);
   const std::string bytes = stream.str();
   out.data.assign(bytes.begin(), bytes.end());
   octomap_pub_.publish(out);
@@ -301,9 +376,9 @@ void CollisionMapServer::publishMap(const Map& map) {
   cubes.type = visualization_msgs::Marker::CUBE_LIST;
   cubes.action = visualization_msgs::Marker::ADD;
   cubes.pose.orientation.w = 1.0;
-  cubes.scale.x = cubes.scale.y = cubes.scale.z = map.tree->getResolution();
-  for (auto it = map.tree->begin_leafs(); it != map.tree->end_leafs(); ++it) {
-    if (!map.tree->isNodeOccupied(*it)) continue;
+  cubes.scale.x = cubes.scale.y = cubes.scale.z = tree.getResolution();
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
     geometry_msgs::Point p;
     p.x = it.getX();
     p.y = it.getY();
@@ -339,6 +414,13 @@ bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_
     res.message = "path is empty";
     return true;
   }
+  std::string error;
+  const std::shared_ptr<const octomap::OcTree> probabilities = probabilitiesOf(map, &error);
+  if (!probabilities) {
+    res.success = false;
+    res.message = "no probabilities for the map of training set " + std::to_string(map->training_sequence) + ": " + error;
+    return true;
+  }
   // The answer names the absolute path: a relative one is resolved against the node's working
   // directory, which roslaunch sets to ~/.ros.
   std::error_code ignored;
@@ -353,7 +435,7 @@ bool CollisionMapServer::onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_
   }
   res.training_sequence = map->training_sequence;
   res.stale = latest != map->training_sequence;
-  res.success = map->tree->writeBinaryConst(file) && static_cast<bool>(file.flush());
+  res.success = probabilities->writeBinaryConst(file) && static_cast<bool>(file.flush());
   res.message = res.success ? "wrote " + shown : "cannot write " + shown + ": the write failed (disk full?)";
   res.message += " (the map of training set " + std::to_string(map->training_sequence) +
                  (res.stale ? "; STALE: the newest is " + std::to_string(latest) + ", see ~status)" : ", the newest)");
