@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -158,6 +159,31 @@ struct GpisModel::Impl {
     slope_rows.clear();
     for (Eigen::Index i = 0; i < n; ++i)
       if (isSlopeRow(i)) slope_rows.push_back(i);
+  }
+
+  // Removes training row r: the factor of K without row and column r is L11 and L31 as they
+  // are, and below them the factor of L33 L33^T + l l^T (l: column r below the diagonal), a
+  // rank-one update in O((n - r)^2). slope_rows must be collected again after it.
+  void removeRow(Eigen::Index r) {
+    const Eigen::Index tail = n - r - 1;
+    Eigen::VectorXd l = chol.block(r + 1, r, tail, 1);
+    auto lower = chol.block(r + 1, r + 1, tail, tail);
+    for (Eigen::Index k = 0; k < tail; ++k) {
+      const double diagonal = std::hypot(lower(k, k), l[k]);
+      const double c = diagonal / lower(k, k), s = l[k] / lower(k, k);
+      lower(k, k) = diagonal;
+      const Eigen::Index below = tail - k - 1;
+      if (below == 0) continue;
+      lower.col(k).tail(below) = (lower.col(k).tail(below) + s * l.tail(below)) / c;
+      l.tail(below) = c * l.tail(below) - s * lower.col(k).tail(below);
+    }
+    chol.block(r, 0, tail, r) = chol.block(r + 1, 0, tail, r).eval();
+    chol.block(r, r, tail, tail) = chol.block(r + 1, r + 1, tail, tail).eval();
+    x.middleCols(r, tail) = x.middleCols(r + 1, tail).eval();
+    slope_dir.middleCols(r, tail) = slope_dir.middleCols(r + 1, tail).eval();
+    y.segment(r, tail) = y.segment(r + 1, tail).eval();
+    noise_var.segment(r, tail) = noise_var.segment(r + 1, tail).eval();
+    --n;
   }
   // Prior covariance of training rows i != j.
   double covariance(Eigen::Index i, Eigen::Index j) const {
@@ -325,58 +351,82 @@ FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vec
 bool GpisModel::updateInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale,
                               FitReport* report) {
   Impl& m = *impl_;
+  if (!m.fitted || m.centroid != centroid || m.scale != scale) return false;
+  // The points held, in order, some missing (removed) or with another target, then new ones. A
+  // refit's factor of what is held depends on the points' positions, slopes, noise and labels,
+  // and on which of them are duplicates, which compares their targets.
+  const auto samePoint = [](const TrainingPoint& p, const TrainingPoint& o) {
+    return p.position == o.position && p.label == o.label && p.noise_sigma == o.noise_sigma &&
+           p.slope_direction == o.slope_direction;
+  };
   const std::size_t held = m.observations.size();
-  if (!m.fitted || m.centroid != centroid || m.scale != scale || points.size() < held) return false;
-  // The refit's factor of the points held depends on their positions, slopes, noise and labels
-  // (the inside pseudo-point's clearance), and on which of them are duplicates, which compares
-  // their targets.
-  std::vector<std::size_t> changed;
+  std::vector<std::size_t> removed;
+  std::size_t kept = 0;  // points[0, kept) are the held points that stay
   for (std::size_t j = 0; j < held; ++j) {
-    const TrainingPoint& p = points[j];
-    const TrainingPoint& o = m.observations[j];
-    if (p.position != o.position || p.label != o.label || p.noise_sigma != o.noise_sigma ||
-        p.slope_direction != o.slope_direction)
-      return false;
-    if (gpisTarget(p, m.scale) != gpisTarget(o, m.scale)) changed.push_back(j);
+    if (kept < points.size() && samePoint(points[kept], m.observations[j])) ++kept;
+    else removed.push_back(j);
   }
+  // Each removal is a rank-one update of up to n^2: beyond a third of the points a refit is cheaper
+  // (a moved point early in the list removes everything after it here).
+  if (3 * removed.size() > held) return false;
+  // Without the inside pseudo-point, the refit might place it once a point near the centroid is
+  // gone (inside points do not count).
+  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(m.config.num_outside_points);
+  for (const std::size_t j : removed)
+    if (!has_inside_point && m.config.inside_point_at_centroid && m.observations[j].label != PointLabel::kInside)
+      return false;
   const double dup2 = m.config.duplicate_distance * m.config.duplicate_distance * m.scale * m.scale;
-  std::vector<double> residuals;
-  for (const std::size_t j : changed) {
-    const double residual = m.residualOf(points[j]);
-    if (!std::isfinite(residual)) return false;
-    residuals.push_back(residual);
-    const double value = gpisTarget(points[j], m.scale);
-    for (std::size_t i = 0; i < held; ++i)
-      if (i != j && gpisTarget(points[i], m.scale) == value && sameSlopeDirection(points[i], points[j]) &&
-          (points[i].position - points[j].position).squaredNorm() <= dup2)
+  std::vector<std::size_t> changed;  // in points
+  {
+    std::size_t j = 0;
+    for (std::size_t i = 0; i < kept; ++i, ++j) {
+      while (!samePoint(points[i], m.observations[j])) ++j;
+      if (gpisTarget(points[i], m.scale) == gpisTarget(m.observations[j], m.scale)) continue;
+      if (!std::isfinite(m.residualOf(points[i]))) return false;
+      changed.push_back(i);
+    }
+  }
+  for (const std::size_t i : changed) {
+    const double value = gpisTarget(points[i], m.scale);
+    for (std::size_t k = 0; k < kept; ++k)
+      if (k != i && gpisTarget(points[k], m.scale) == value && sameSlopeDirection(points[k], points[i]) &&
+          (points[k].position - points[i].position).squaredNorm() <= dup2)
         return false;
   }
+  // Removing rows cannot be undone in place: keep the state until the update has succeeded.
+  std::optional<Impl> backup;
+  if (!removed.empty()) backup.emplace(m);
   const std::vector<TrainingPoint> previous = m.observations;
-  std::vector<double> previous_residuals;
-  for (std::size_t k = 0; k < changed.size(); ++k) {
-    double& y = m.y[m.num_pseudo + static_cast<Eigen::Index>(changed[k])];
-    previous_residuals.push_back(y);
-    y = residuals[k];
+  std::vector<std::pair<Eigen::Index, double>> previous_residuals;
+  for (auto j = removed.rbegin(); j != removed.rend(); ++j) m.removeRow(m.num_pseudo + static_cast<Eigen::Index>(*j));
+  if (!removed.empty()) m.collectSlopeRows();
+  for (const std::size_t i : changed) {
+    double& y = m.y[m.num_pseudo + static_cast<Eigen::Index>(i)];
+    previous_residuals.emplace_back(m.num_pseudo + static_cast<Eigen::Index>(i), y);
+    y = m.residualOf(points[i]);
   }
-  m.observations.assign(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(held));
+  m.observations.assign(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(kept));
   m.solveAlpha();
-  const std::vector<TrainingPoint> appended(points.begin() + static_cast<std::ptrdiff_t>(held), points.end());
+  const std::vector<TrainingPoint> appended(points.begin() + static_cast<std::ptrdiff_t>(kept), points.end());
   *report = appended.empty() ? FitReport() : addPoints(appended);
   if (appended.empty()) {
     report->ok = true;
     report->jitter = m.jitter;
   }
   if (!report->ok) {
-    for (std::size_t k = 0; k < changed.size(); ++k)
-      m.y[m.num_pseudo + static_cast<Eigen::Index>(changed[k])] = previous_residuals[k];
-    m.observations = previous;
-    m.solveAlpha();
+    if (backup) {
+      m = std::move(*backup);
+    } else {
+      for (const auto& [row, y] : previous_residuals) m.y[row] = y;
+      m.observations = previous;
+      m.solveAlpha();
+    }
     return false;
   }
   report->num_added = m.observations.size();
-  report->message = "refitted by update: " + std::to_string(changed.size()) + " target(s) changed, " +
-                    std::to_string(appended.size()) + " point(s) appended" +
-                    (report->message.empty() ? "" : " (" + report->message + ")");
+  report->message = "refitted by update: " + std::to_string(removed.size()) + " point(s) removed, " +
+                    std::to_string(changed.size()) + " target(s) changed, " + std::to_string(appended.size()) +
+                    " point(s) appended" + (report->message.empty() ? "" : " (" + report->message + ")");
   return true;
 }
 

@@ -456,7 +456,8 @@ TEST(GpisModel, FitInFrameWithChangedTargetsAndNewPointsEqualsAFreshFit) {
   GpisModel updated(model);
   const FitReport report = updated.fitInFrame(next, model.centroid(), model.scale());
   ASSERT_TRUE(report.ok) << report.message;
-  EXPECT_NE(report.message.find("by update: 2 target(s) changed, 10 point(s) appended"), std::string::npos)
+  EXPECT_NE(report.message.find("by update: 0 point(s) removed, 2 target(s) changed, 10 point(s) appended"),
+            std::string::npos)
       << report.message;
   GpisModel fresh;
   ASSERT_TRUE(fresh.fitInFrame(next, model.centroid(), model.scale()).ok);
@@ -473,6 +474,22 @@ TEST(GpisModel, FitInFrameWithChangedTargetsAndNewPointsEqualsAFreshFit) {
   const Vector3d q = retargeted.back().position;
   EXPECT_NEAR(only_targets.mean(q), only_targets_fresh.mean(q), 1e-9);
   EXPECT_GT(only_targets.mean(q), model.mean(q) + 0.01);  // a shallower guess: less deep inside
+
+  // Guesses dropped as well: the last one held, and one whose target had changed.
+  std::vector<TrainingPoint> dropped = next;
+  dropped.erase(dropped.begin() + static_cast<std::ptrdiff_t>(model.observations().size()) - 1);
+  dropped.erase(dropped.begin() + static_cast<std::ptrdiff_t>(model.observations().size()) - 2);
+  GpisModel without(model), without_fresh;
+  const FitReport removal = without.fitInFrame(dropped, model.centroid(), model.scale());
+  ASSERT_TRUE(removal.ok) << removal.message;
+  EXPECT_NE(removal.message.find("by update: 2 point(s) removed, 1 target(s) changed, 10 point(s) appended"),
+            std::string::npos)
+      << removal.message;
+  ASSERT_TRUE(without_fresh.fitInFrame(dropped, model.centroid(), model.scale()).ok);
+  ASSERT_EQ(without.observations().size(), without_fresh.observations().size());
+  expectSamePredictions(without, without_fresh, 34);
+  EXPECT_NEAR(without.logMarginalLikelihood(), without_fresh.logMarginalLikelihood(),
+              1e-8 * std::abs(without_fresh.logMarginalLikelihood()));
 
   // A moved point: a refit, as before.
   std::vector<TrainingPoint> moved = next;

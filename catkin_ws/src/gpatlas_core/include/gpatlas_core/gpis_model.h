@@ -181,11 +181,11 @@ class GpisModel : public SurfaceModel {
 
  private:
   FitReport fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale);
-  // fitInFrame, when the points begin with those the model holds, in its frame, some with other
-  // targets (interior guesses whose depth a touch retracted), and the rest are new: their K and
-  // its factor are those the model has, so K^-1 y is solved again and the new points extend the
-  // factor (addPoints), O(n^2 k) instead of a refit's O(n^3). False, with the model as it was,
-  // when that does not hold or the extension fails.
+  // fitInFrame, when the points begin with those the model holds, in its frame, some missing or
+  // with other targets (interior guesses a touch retracted or dropped), and the rest are new:
+  // the factor of K loses the missing rows (a rank-one update each), K^-1 y is solved again, and
+  // the new points extend it (addPoints), instead of a refit's O(n^3). False, with the model as
+  // it was, when that does not hold, when more than a third would go, or when the extension fails.
   bool updateInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale, FitReport* report);
 
   struct Impl;
