@@ -360,11 +360,16 @@ bool GpisModel::updateInFrame(const std::vector<TrainingPoint>& points, const Ve
            p.slope_direction == o.slope_direction;
   };
   const std::size_t held = m.observations.size();
-  std::vector<std::size_t> removed;
-  std::size_t kept = 0;  // points[0, kept) are the held points that stay
+  std::vector<std::size_t> removed;  // in what is held
+  std::vector<std::size_t> changed;  // in points
+  std::size_t kept = 0;              // points[0, kept) are the held points that stay
   for (std::size_t j = 0; j < held; ++j) {
-    if (kept < points.size() && samePoint(points[kept], m.observations[j])) ++kept;
-    else removed.push_back(j);
+    if (kept < points.size() && samePoint(points[kept], m.observations[j])) {
+      if (gpisTarget(points[kept], m.scale) != gpisTarget(m.observations[j], m.scale)) changed.push_back(kept);
+      ++kept;
+    } else {
+      removed.push_back(j);
+    }
   }
   // Each removal is a rank-one update of up to n^2: beyond a third of the points a refit is cheaper
   // (a moved point early in the list removes everything after it here).
@@ -376,17 +381,8 @@ bool GpisModel::updateInFrame(const std::vector<TrainingPoint>& points, const Ve
     if (!has_inside_point && m.config.inside_point_at_centroid && m.observations[j].label != PointLabel::kInside)
       return false;
   const double dup2 = m.config.duplicate_distance * m.config.duplicate_distance * m.scale * m.scale;
-  std::vector<std::size_t> changed;  // in points
-  {
-    std::size_t j = 0;
-    for (std::size_t i = 0; i < kept; ++i, ++j) {
-      while (!samePoint(points[i], m.observations[j])) ++j;
-      if (gpisTarget(points[i], m.scale) == gpisTarget(m.observations[j], m.scale)) continue;
-      if (!std::isfinite(m.residualOf(points[i]))) return false;
-      changed.push_back(i);
-    }
-  }
   for (const std::size_t i : changed) {
+    if (!std::isfinite(m.residualOf(points[i]))) return false;
     const double value = gpisTarget(points[i], m.scale);
     for (std::size_t k = 0; k < kept; ++k)
       if (k != i && gpisTarget(points[k], m.scale) == value && sameSlopeDirection(points[k], points[i]) &&

@@ -632,8 +632,8 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
     return screen;
   }
   Impl trial(impl_->config, impl_->coarse_config);
-  // From the current coarse level, which keeps its factor when the refit changes only targets
-  // (GpisModel::retargetInFrame: a touch retracting interior guesses).
+  // From the current coarse level, whose factor a refit that only drops or retargets some of its
+  // points and appends others updates (GpisModel::updateInFrame: a touch retracting guesses).
   if (impl_->fitted) trial.coarse = impl_->coarse;
   else trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;

@@ -127,7 +127,7 @@ OccupancyGrid OccupancyGridBuilder::buildGrid(const SurfaceModel& model, std::op
         in_domain[n] = 1;
         const std::size_t si = static_cast<std::size_t>(i), sj = static_cast<std::size_t>(j), sk = static_cast<std::size_t>(k);
         if (bx[si].lower == i && by[sj].lower == j && bz[sk].lower == k) lattice.push_back(n);
-        if (mx[si].lower == i && my[sj].lower == j && mz[sk].lower == k) mean_lattice.push_back(n);
+        if (mean_stride > 1 && mx[si].lower == i && my[sj].lower == j && mz[sk].lower == k) mean_lattice.push_back(n);
       }
   grid.domain_nodes = domain.size();
   if (mean_stride <= 1) {

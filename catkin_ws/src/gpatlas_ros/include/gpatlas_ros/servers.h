@@ -220,10 +220,11 @@ class AtlasPlannerServer {
 // approach/occupied_probability (OccupancyGridBuilder::buildOccupancy, no variance at 0.5);
 // ~status says which training set it is from. The probabilities are built after it, in a
 // second thread, only while someone subscribes to the map's topics (as octomap_server does),
-// and for `~save_map`. `~plan_approach` plans the probe's way to a touch on that map and the table (`support_plane`), with
-// gpatlas_motion's TouchMotionPlanner (for the arm of robot_description with approach/use_arm),
-// and shows it on `~approach_path` (the tip) and `~approach_arm` (the arm's links); with the arm,
-// `~approach_trajectory` (trajectory_msgs/JointTrajectory) is the last planned approach.
+// and for `~save_map`. `~plan_approach` plans the probe's way to a touch on that map and the
+// table (`support_plane`), with gpatlas_motion's TouchMotionPlanner (for the arm of
+// robot_description with approach/use_arm), and shows it on `~approach_path` (the tip) and
+// `~approach_arm` (the arm's links); with the arm, `~approach_trajectory`
+// (trajectory_msgs/JointTrajectory) is the last planned approach.
 class CollisionMapServer {
  public:
   CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
