@@ -13,7 +13,7 @@ PACKAGES=(
   libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev libclass-loader-dev
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev python3-tf2-ros
   # algorithms
-  libyaml-cpp-dev libpcl-dev libpcl-conversions-dev liboctomap-dev libbullet-dev libceres-dev libeigen3-dev libtbb-dev
+  libyaml-cpp-dev libpcl-dev libpcl-conversions-dev liboctomap-dev libbullet-dev libceres-dev libeigen3-dev libtbb-dev libopenblas-dev
   liborocos-kdl-dev libkdl-parser-dev liburdf-dev liburdfdom-dev liburdfdom-tools libompl-dev libfcl-dev
   ros-robot-state-publisher joint-state-publisher joint-state-publisher-gui
   # tests and benchmarks

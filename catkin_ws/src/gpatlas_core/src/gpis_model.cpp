@@ -1,5 +1,6 @@
 #include "gpatlas_core/gpis_model.h"
 
+#include "gpatlas_core/dense_solve.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
 
 #include <Eigen/Cholesky>
@@ -211,9 +212,8 @@ struct GpisModel::Impl {
 
   void solveAlpha() {
     alpha = y.head(n);
-    const auto lower = chol.topLeftCorner(n, n).triangularView<Eigen::Lower>();
-    lower.solveInPlace(alpha);
-    lower.transpose().solveInPlace(alpha);
+    solveLowerInPlace(chol, n, alpha);
+    solveLowerInPlace(chol, n, alpha, /*transposed=*/true);
   }
 
   // Factorises K for the first n points, escalating jitter. Returns false when even the largest
@@ -229,8 +229,7 @@ struct GpisModel::Impl {
         for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = covariance(i, j);
         block(j, j) = diagonal(j);
       }
-      Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>> llt(block);
-      if (llt.info() == Eigen::Success && wellConditioned(block.diagonal())) return true;
+      if (choleskyLowerInPlace(block) && wellConditioned(block.diagonal())) return true;
     }
     std::ostringstream msg;
     msg << "covariance matrix of " << n << " points is not positive definite even with jitter "
@@ -696,7 +695,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   Eigen::MatrixXd cross(n, k);
   for (Eigen::Index j = 0; j < k; ++j)
     for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.covariance(i, n + j);
-  m.chol.topLeftCorner(n, n).triangularView<Eigen::Lower>().solveInPlace(cross);
+  solveLowerInPlace(m.chol, n, cross);
   Eigen::MatrixXd schur(k, k);
   for (Eigen::Index j = 0; j < k; ++j) {
     for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = m.covariance(n + i, n + j);
@@ -894,13 +893,12 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
 
   // v = L^-1 k*, var = k(0) - |v|^2; K^-1 k* = L^-T v is needed only for the variance gradient.
   Eigen::MatrixXd solved = cross;
-  const auto lower = m.chol.topLeftCorner(n, n).triangularView<Eigen::Lower>();
-  lower.solveInPlace(solved);
+  solveLowerInPlace(m.chol, n, solved);
   const double prior = m.kernel->value(0.0);
   const double unit = m.varianceUnitFactor();
   out.variance = ((prior - solved.colwise().squaredNorm().array()).max(0.0) * unit).matrix();
   if (with_variance_gradient) {
-    lower.transpose().solveInPlace(solved);
+    solveLowerInPlace(m.chol, n, solved, /*transposed=*/true);
     // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*; the slopes are recomputed rather than
     // kept for every query (an n x q matrix) from the loop above.
     for (Eigen::Index j = 0; j < q; ++j) {

@@ -1,0 +1,53 @@
+#include "gpatlas_core/dense_solve.h"
+
+#include <cblas.h>
+
+#include <limits>
+#include <mutex>
+#include <stdexcept>
+
+extern "C" {
+// LAPACK's Cholesky factorisation (OpenBLAS ships LAPACK).
+void dpotrf_(const char* uplo, const int* n, double* a, const int* lda, int* info);
+}
+
+namespace gpatlas_core {
+namespace {
+
+// OpenBLAS would otherwise start a thread per core inside calls that TBB already runs on every
+// core.
+void useOneBlasThread() {
+  static std::once_flag once;
+  std::call_once(once, [] { openblas_set_num_threads(1); });
+}
+
+int checkedInt(Eigen::Index value) {
+  if (value > static_cast<Eigen::Index>(std::numeric_limits<int>::max()))
+    throw std::length_error("dense solve: a dimension exceeds BLAS's int range");
+  return static_cast<int>(value);
+}
+
+}  // namespace
+
+void solveLowerInPlace(const Eigen::MatrixXd& factor, Eigen::Index n, Eigen::Ref<Eigen::MatrixXd> rhs, bool transposed) {
+  if (n < 0 || n > factor.rows() || n > factor.cols() || rhs.rows() != n)
+    throw std::invalid_argument("solveLowerInPlace: the right-hand side must have n rows, n within the factor");
+  if (n == 0 || rhs.cols() == 0) return;
+  useOneBlasThread();
+  cblas_dtrsm(CblasColMajor, CblasLeft, CblasLower, transposed ? CblasTrans : CblasNoTrans, CblasNonUnit, checkedInt(n),
+              checkedInt(rhs.cols()), 1.0, factor.data(), checkedInt(factor.rows()), rhs.data(),
+              checkedInt(rhs.outerStride()));
+}
+
+bool choleskyLowerInPlace(Eigen::Ref<Eigen::MatrixXd> block) {
+  if (block.rows() != block.cols()) throw std::invalid_argument("choleskyLowerInPlace: the block must be square");
+  if (block.rows() == 0) return true;
+  useOneBlasThread();
+  const char lower = 'L';
+  const int n = checkedInt(block.rows()), lda = checkedInt(block.outerStride());
+  int info = 0;
+  dpotrf_(&lower, &n, block.data(), &lda, &info);
+  return info == 0;
+}
+
+}  // namespace gpatlas_core
