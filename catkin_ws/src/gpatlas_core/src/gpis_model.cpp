@@ -68,9 +68,11 @@ struct GpisModel::Impl {
   Impl& operator=(Impl&&) = default;
   // Deep copy (the kernel is cloned); the one place that lists the members. The copy holds
   // the n training rows without the original's spare capacity: copies are mostly snapshots
-  // that never grow (reserve() makes room again if one does), and the factor's capacity
-  // grows with the square of the size.
-  Impl(const Impl& o)
+  // that never grow, and the factor's capacity grows with the square of the size. A copy that
+  // is made to be extended asks for its room up front (capacity, in rows), so that the factor
+  // is copied once.
+  Impl(const Impl& o) : Impl(o, 0) {}
+  Impl(const Impl& o, Eigen::Index capacity)
       : config(o.config),
         kernel(o.kernel ? o.kernel->clone() : nullptr),
         noise_scale(o.noise_scale),
@@ -82,14 +84,21 @@ struct GpisModel::Impl {
         scale(o.scale),
         n(o.n),
         num_pseudo(o.num_pseudo),
-        x(o.x.leftCols(o.n)),
-        slope_dir(o.slope_dir.leftCols(o.n)),
         slope_rows(o.slope_rows),
-        y(o.y.head(o.n)),
-        noise_var(o.noise_var.head(o.n)),
-        chol(o.chol.topLeftCorner(o.n, o.n)),
         alpha(o.alpha),
-        jitter(o.jitter) {}
+        jitter(o.jitter) {
+    const Eigen::Index cap = std::max(n, capacity);
+    x.resize(3, cap);
+    slope_dir.resize(3, cap);
+    y.resize(cap);
+    noise_var.resize(cap);
+    chol.resize(cap, cap);
+    x.leftCols(n) = o.x.leftCols(n);
+    slope_dir.leftCols(n) = o.slope_dir.leftCols(n);
+    y.head(n) = o.y.head(n);
+    noise_var.head(n) = o.noise_var.head(n);
+    chol.topLeftCorner(n, n) = o.chol.topLeftCorner(n, n);
+  }
 
   Config config;
   std::unique_ptr<Kernel> kernel;
@@ -258,6 +267,10 @@ GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
 }
 
 GpisModel::GpisModel(const GpisModel& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
+
+GpisModel::GpisModel(const GpisModel& other, std::size_t room_for_observations)
+    : impl_(std::make_unique<Impl>(*other.impl_,
+                                   other.impl_->num_pseudo + static_cast<Eigen::Index>(room_for_observations))) {}
 
 GpisModel& GpisModel::operator=(const GpisModel& other) {
   if (this != &other) impl_ = std::make_unique<Impl>(*other.impl_);

@@ -408,8 +408,10 @@ struct MultiscaleGpisModel::Impl {
   TuneReport tuneFine();
 
   // Fits everything from `observations` (in the given frame when `frame_centroid` is set), with
-  // the current coarse and fine hyperparameters (fine ones tuned first when `tune`).
-  FitReport build(const Vector3* frame_centroid, double frame_scale, bool tune);
+  // the current coarse and fine hyperparameters (fine ones tuned first when `tune`). With
+  // `coarse_from`, the coarse level starts as a copy of it, whose factor a refit that only drops
+  // or retargets some of its points and appends others updates (GpisModel::updateInFrame).
+  FitReport build(const Vector3* frame_centroid, double frame_scale, bool tune, const GpisModel* coarse_from = nullptr);
   // `trial` (a fresh Impl of the same configs) with these log-hyperparameters (the coarse GPIS's,
   // then the fine level's) and this model's last fine tuning; false with the reason in `report`.
   bool withHyperparameters(const Eigen::VectorXd& log_params, Impl* trial, FitReport* report) const;
@@ -524,11 +526,13 @@ bool MultiscaleGpisModel::Impl::withHyperparameters(const Eigen::VectorXd& log_p
   return true;
 }
 
-FitReport MultiscaleGpisModel::Impl::build(const Vector3* frame_centroid, double frame_scale, bool tune) {
+FitReport MultiscaleGpisModel::Impl::build(const Vector3* frame_centroid, double frame_scale, bool tune,
+                                           const GpisModel* coarse_from) {
   coarse_members = coarseSelection(observations);
   std::vector<TrainingPoint> coarse_points;
   coarse_points.reserve(coarse_members.size());
   for (std::size_t i : coarse_members) coarse_points.push_back(observations[i]);
+  if (coarse_from) coarse = GpisModel(*coarse_from, coarse_points.size());
   FitReport report = frame_centroid ? coarse.fitInFrame(coarse_points, *frame_centroid, frame_scale)
                                     : coarse.fit(coarse_points);
   report.full_refit = true;
@@ -632,14 +636,14 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
     return screen;
   }
   Impl trial(impl_->config, impl_->coarse_config);
-  // From the current coarse level, whose factor a refit that only drops or retargets some of its
-  // points and appends others updates (GpisModel::updateInFrame: a touch retracting guesses).
-  if (impl_->fitted) trial.coarse = impl_->coarse;
-  else trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
+  trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
   trial.observations = screenPoints(points, &screen);
   trial.fine_tune = impl_->fine_tune;
-  FitReport report = trial.build(&centroid, scale, trial.config.tune_on_fit);
+  const bool same_frame = impl_->fitted && centroid == impl_->coarse.centroid() && scale == impl_->coarse.scale();
+  // From the current coarse level (a touch retracting guesses).
+  FitReport report = trial.build(&centroid, scale, trial.config.tune_on_fit && !same_frame,
+                                 impl_->fitted ? &impl_->coarse : nullptr);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
   report.num_rejected += screen.num_rejected;
   if (report.ok) *impl_ = std::move(trial);
@@ -692,7 +696,7 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
   // Coarse level: extended when the thinned selection only grows by new points, refitted in its
   // frame when the new free space changes which old points the thinning keeps.
   const std::vector<std::size_t> selection = m.coarseSelection(all);
-  GpisModel coarse(m.coarse);
+  GpisModel coarse(m.coarse, selection.size());
   std::vector<std::size_t> extra;
   const bool grows = std::includes(selection.begin(), selection.end(), m.coarse_members.begin(), m.coarse_members.end());
   std::set_difference(selection.begin(), selection.end(), m.coarse_members.begin(), m.coarse_members.end(),

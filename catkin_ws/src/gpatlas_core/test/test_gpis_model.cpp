@@ -427,6 +427,23 @@ TEST(GpisModel, FitInFrameReplicatesAnIncrementallyUpdatedModel) {
   EXPECT_FALSE(replica.fitInFrame(original.observations(), original.centroid(), -1.0).ok);
 }
 
+// A copy made to be extended (room for more observations) is the same model, and grows like it.
+TEST(GpisModel, ACopyWithRoomPredictsAndGrowsLikeTheOriginal) {
+  GpisModel original;
+  ASSERT_TRUE(original.fit(sphereCap(120, 0.0, 41)).ok);
+  auto touches = surfacePoints(capDirections(12, -0.5, 42), Vector3d::Constant(kRadius));
+  for (auto& t : touches) t.source = PointSource::kTouch;
+  for (const std::size_t room : {std::size_t{0}, original.observations().size() + 4, original.observations().size() + 60}) {
+    GpisModel copy(original, room);
+    expectSamePredictions(copy, original, 43);
+    GpisModel grown(original);
+    ASSERT_TRUE(grown.addPoints(touches).ok);
+    ASSERT_TRUE(copy.addPoints(touches).ok);
+    EXPECT_EQ(copy.observations().size(), grown.observations().size());
+    expectSamePredictions(copy, grown, 44);
+  }
+}
+
 // A touch that retracts interior guesses refits the model in its frame with those guesses'
 // depths changed and its own points appended: done as an update of the factor, it must give the
 // model a fresh fit of the same points in the same frame gives. A moved point is a refit.

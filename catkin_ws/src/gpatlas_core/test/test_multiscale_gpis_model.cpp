@@ -530,6 +530,41 @@ TEST(MultiscaleGpisModel, IncrementalContactsAndFreeSpaceEqualAFitFromScratch) {
       EXPECT_LT(std::abs(incremental.mean(p.position)) * incremental.scale(), 0.001);
 }
 
+// The Explorer refits in the model's own frame when a touch retracts guessed interior: that is
+// an update, like addPoints, and keeps the hyperparameters the fit from scratch tuned.
+TEST(MultiscaleGpisModel, ARefitInItsOwnFrameKeepsTheTunedHyperparameters) {
+  MultiscaleGpisModel model = sphereModel();
+  ASSERT_TRUE(model.fineTuneReport().ok) << model.fineTuneReport().message;
+  const Eigen::VectorXd tuned = model.hyperparameters();
+  // Some of the view's free space dropped, contacts on the unseen lower half appended.
+  std::vector<TrainingPoint> data;
+  std::size_t dropped = 0;
+  for (const TrainingPoint& p : model.observations()) {
+    if (p.label == PointLabel::kOutside && dropped < 40 && ++dropped) continue;
+    data.push_back(p);
+  }
+  for (const Vector3d& d : randomDirections(40, -1.0, 31))
+    if (d.z() < -0.3) data.push_back(surfacePoint(kSphereCentre + kSphereRadius * d, PointSource::kTouch));
+  const FitReport report = model.fitInFrame(data, model.centroid(), model.scale());
+  ASSERT_TRUE(report.ok) << report.message;
+  EXPECT_EQ(model.hyperparameters(), tuned);
+
+  // The same as a fit of these data in this frame with these hyperparameters, without tuning.
+  MultiscaleGpisConfig untuned_config;
+  untuned_config.tune_on_fit = false;
+  MultiscaleGpisModel reference(untuned_config);
+  ASSERT_TRUE(reference.setHyperparameters(tuned).ok);
+  ASSERT_TRUE(reference.fitInFrame(data, model.centroid(), model.scale()).ok);
+  Points3 q(3, 40);
+  const auto query_dirs = randomDirections(40, -1.0, 32);
+  for (int j = 0; j < 40; ++j) q.col(j) = kSphereCentre + 1.02 * kSphereRadius * query_dirs[static_cast<std::size_t>(j)];
+  const BatchPrediction a = model.predictBatch(q), b = reference.predictBatch(q);
+  for (int j = 0; j < 40; ++j) {
+    EXPECT_NEAR(a.mean[j], b.mean[j], 1e-8);
+    EXPECT_NEAR(a.variance[j], b.variance[j], 1e-8);
+  }
+}
+
 TEST(MultiscaleGpisModel, TheTableBesideTheObjectIsLeftToTheCells) {
   // A ring of the table seen beside the sphere's equator, 8 mm out (sampleSupportFreeSpace's
   // source): the coarse level does not see it, the cells there do.

@@ -104,6 +104,9 @@ class GpisModel : public SurfaceModel {
 
   explicit GpisModel(Config config = Config());
   GpisModel(const GpisModel& other);
+  // A copy with room for this many observations, so that adding points up to that count (by
+  // addPoints, or by fitInFrame's update of what the model holds) does not copy the factor again.
+  GpisModel(const GpisModel& other, std::size_t room_for_observations);
   GpisModel& operator=(const GpisModel& other);
   GpisModel(GpisModel&&) noexcept;
   GpisModel& operator=(GpisModel&&) noexcept;

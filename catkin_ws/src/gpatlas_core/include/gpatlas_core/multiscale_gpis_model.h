@@ -54,7 +54,9 @@ struct MultiscaleGpisConfig {
   double noise_m{0.0005};
 
   // Tuning of (sigma, length_m, noise_m) by maximising the summed log marginal likelihood of
-  // the most populated cells after every full fit (later incremental updates keep the result).
+  // the most populated cells at every fit from scratch: fit(), and fitInFrame() of an unfitted
+  // model or in another frame. Updates keep the result: addPoints(), and fitInFrame() in the
+  // model's own frame (the exploration's refit when a touch retracts guessed interior).
   bool tune_on_fit{true};
   int tune_max_cells{8};
   int tune_max_iterations{30};
@@ -99,7 +101,8 @@ class MultiscaleGpisModel : public SurfaceModel {
   std::string name() const override { return kName; }
   std::unique_ptr<SurfaceModel> clone() const override;
 
-  // Full fits tune the fine level when config().tune_on_fit.
+  // Fits from scratch tune the fine level when config().tune_on_fit (see there); fitInFrame() in
+  // the model's own frame starts from the current coarse level and keeps the hyperparameters.
   FitReport fit(const std::vector<TrainingPoint>& points) override;
   FitReport fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) override;
   // New vision surface data (or a surface point that moves the frame): full refit in the current
