@@ -34,9 +34,15 @@ void solveLowerInPlace(const Eigen::MatrixXd& factor, Eigen::Index n, Eigen::Ref
     throw std::invalid_argument("solveLowerInPlace: the right-hand side must have n rows, n within the factor");
   if (n == 0 || rhs.cols() == 0) return;
   useOneBlasThread();
-  cblas_dtrsm(CblasColMajor, CblasLeft, CblasLower, transposed ? CblasTrans : CblasNoTrans, CblasNonUnit, checkedInt(n),
-              checkedInt(rhs.cols()), 1.0, factor.data(), checkedInt(factor.rows()), rhs.data(),
-              checkedInt(rhs.outerStride()));
+  const CBLAS_TRANSPOSE op = transposed ? CblasTrans : CblasNoTrans;
+  if (rhs.cols() == 1) {
+    // One right-hand side: the matrix-vector solve reads the factor once without packing it.
+    cblas_dtrsv(CblasColMajor, CblasLower, op, CblasNonUnit, checkedInt(n), factor.data(), checkedInt(factor.rows()),
+                rhs.data(), 1);
+    return;
+  }
+  cblas_dtrsm(CblasColMajor, CblasLeft, CblasLower, op, CblasNonUnit, checkedInt(n), checkedInt(rhs.cols()), 1.0,
+              factor.data(), checkedInt(factor.rows()), rhs.data(), checkedInt(rhs.outerStride()));
 }
 
 bool choleskyLowerInPlace(Eigen::Ref<Eigen::MatrixXd> block) {
