@@ -2,11 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace probe_sim {
 
 namespace {
+
+constexpr double kPi = 3.14159265358979323846;
 
 // Points start + k * spacing * direction for k = 0, 1, ... up to length (inclusive).
 void appendSamples(const Eigen::Vector3d& start, const Eigen::Vector3d& direction, double length,
@@ -104,15 +107,177 @@ ProbeStroke SphereProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypo
   return result;
 }
 
+// ================================================================ patch
+
+PatchProbe::PatchProbe(const Config& config) : config_(config), rng_(config.seed) {
+  checkStrokeConfig(config_.start_offset_m, config_.free_space_spacing_m, config_.free_space_margin_m,
+                    config_.depth_noise_m, "patch");
+  const Config& c = config_;
+  if (!(c.pad_size_m > 0.0) || !(c.resolution_m > 0.0) || !(c.resolution_m <= c.pad_size_m) ||
+      !(c.indentation_m >= 0.0) || !(c.point_spacing_m >= 0.0) || !(c.normal_noise_deg >= 0.0) ||
+      !(c.pad_curvature_radius_m >= 0.0))
+    throw std::runtime_error(
+        "patch probe: need pad_size_m > 0, 0 < resolution_m <= pad_size_m, and indentation_m, point_spacing_m, "
+        "normal_noise_deg, pad_curvature_radius_m >= 0");
+  if (c.pad_size_m / c.resolution_m > 2000.0)
+    throw std::runtime_error("patch probe: more than 2000 x 2000 pixels over the pad (pad_size_m / resolution_m)");
+  if (c.pad_curvature_radius_m > 0.0 && !(c.pad_curvature_radius_m > padHalfDiagonal()))
+    throw std::runtime_error("patch probe: pad_curvature_radius_m must exceed half the pad's diagonal (" +
+                             std::to_string(padHalfDiagonal()) + " m)");
+  if (!(c.start_offset_m > c.indentation_m))
+    throw std::runtime_error("patch probe: start_offset_m must exceed indentation_m");
+}
+
+double PatchProbe::padHalfDiagonal() const { return config_.pad_size_m / std::sqrt(2.0); }
+
+ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                               const Eigen::Vector3d& outward_normal) {
+  ProbeStroke result;
+  const Config& c = config_;
+  const Eigen::Vector3d n = outward_normal.normalized();
+  const Eigen::Vector3d u = n.unitOrthogonal();
+  const Eigen::Vector3d v = n.cross(u);
+  const double d = c.start_offset_m;
+  const int m = std::max(1, static_cast<int>(std::lround(c.pad_size_m / c.resolution_m)));
+  const double pitch = c.pad_size_m / m;
+  const auto coordinate = [&](int i) { return (i + 0.5) * pitch - 0.5 * c.pad_size_m; };
+  // How far a pixel of a curved pad lies behind its centre.
+  const auto recess = [&](double a, double b) {
+    const double r = c.pad_curvature_radius_m;
+    return r > 0.0 ? r - std::sqrt(r * r - a * a - b * b) : 0.0;
+  };
+
+  // One ray per pixel along -n from the pad's start: its length is the pad's travel when that
+  // pixel meets the scene.
+  Eigen::Matrix3Xd from(3, m * m), to(3, m * m);
+  for (int i = 0; i < m; ++i)
+    for (int j = 0; j < m; ++j) {
+      const double a = coordinate(i), b = coordinate(j);
+      const Eigen::Vector3d origin = waypoint + (d + recess(a, b)) * n + a * u + b * v;
+      from.col(i * m + j) = origin;
+      to.col(i * m + j) = origin - 2.0 * d * n;
+    }
+  const std::vector<RayHit> hits = scene.castRays(from, to);
+  double first = std::numeric_limits<double>::infinity();
+  int first_pixel = -1;
+  for (int k = 0; k < m * m; ++k)
+    if (hits[static_cast<std::size_t>(k)].hit && hits[static_cast<std::size_t>(k)].distance < first) {
+      first = hits[static_cast<std::size_t>(k)].distance;
+      first_pixel = k;
+    }
+  const Eigen::Vector3d start = waypoint + d * n;
+  if (first_pixel < 0) {
+    appendSamples(start, -n, 2.0 * d, c.free_space_spacing_m, result.free_space);
+    return result;
+  }
+  appendSamples(start, -n, first - c.free_space_margin_m, c.free_space_spacing_m, result.free_space);
+
+  // Pressed: the pixels the pad reaches at its final travel are in contact. Their height along n
+  // (with the sensor's depth noise) is the depth image.
+  const double pressed = first + c.indentation_m;
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  std::vector<char> on_object(static_cast<std::size_t>(m * m), 0);
+  std::vector<double> height(static_cast<std::size_t>(m * m), 0.0);
+  unsigned other_kinds = 0;
+  for (int k = 0; k < m * m; ++k) {
+    const RayHit& hit = hits[static_cast<std::size_t>(k)];
+    if (!hit.hit || hit.distance > pressed) continue;
+    if (hit.kind != SurfaceKind::kObject) {
+      other_kinds |= static_cast<unsigned>(hit.kind);
+      continue;
+    }
+    on_object[static_cast<std::size_t>(k)] = 1;
+    height[static_cast<std::size_t>(k)] =
+        (hit.point - waypoint).dot(n) + (c.depth_noise_m > 0.0 ? c.depth_noise_m * gauss(rng_) : 0.0);
+  }
+  const auto contactAt = [&](int i, int j) { return on_object[static_cast<std::size_t>(i * m + j)] != 0; };
+  // The surface's slope across the pad: central differences of the height where both neighbours
+  // are in contact, one-sided where one is; a pixel with no neighbour in contact along an axis
+  // has no measurable normal (reported as zero: the model then takes the point alone).
+  const auto slope = [&](int i, int j, bool along_a, double* out) {
+    const auto h = [&](int ii, int jj) { return height[static_cast<std::size_t>(ii * m + jj)]; };
+    const int pi = along_a ? i - 1 : i, pj = along_a ? j : j - 1, ni = along_a ? i + 1 : i, nj = along_a ? j : j + 1;
+    const bool has_prev = pi >= 0 && pj >= 0 && contactAt(pi, pj);
+    const bool has_next = ni < m && nj < m && contactAt(ni, nj);
+    if (has_prev && has_next) *out = (h(ni, nj) - h(pi, pj)) / (2.0 * pitch);
+    else if (has_next) *out = (h(ni, nj) - h(i, j)) / pitch;
+    else if (has_prev) *out = (h(i, j) - h(pi, pj)) / pitch;
+    else return false;
+    return true;
+  };
+  const double tilt_sigma = c.normal_noise_deg * kPi / 180.0;
+  const auto contactOf = [&](int i, int j) {
+    gpatlas_core::Contact contact;
+    const double a = coordinate(i), b = coordinate(j);
+    contact.position = waypoint + a * u + b * v + height[static_cast<std::size_t>(i * m + j)] * n;
+    double h_a = 0.0, h_b = 0.0;
+    if (slope(i, j, true, &h_a) && slope(i, j, false, &h_b)) {
+      // The height field's normal, (u + h_a n) x (v + h_b n).
+      Eigen::Vector3d normal = (n - h_a * u - h_b * v).normalized();
+      if (tilt_sigma > 0.0) {
+        const Eigen::Vector3d t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
+        normal = (normal + tilt_sigma * (gauss(rng_) * t1 + gauss(rng_) * t2)).normalized();
+      }
+      contact.normal = normal;
+    } else {
+      contact.normal = Eigen::Vector3d::Zero();
+    }
+    return contact;
+  };
+
+  // The reported points: in each block of the output grid, its contact pixel nearest the block's
+  // centre (a grazing contact of a few pixels still gives its points).
+  const int block = c.point_spacing_m > 0.0 ? std::max(1, static_cast<int>(std::lround(c.point_spacing_m / pitch))) : 1;
+  for (int bi = 0; bi < m; bi += block)
+    for (int bj = 0; bj < m; bj += block) {
+      const double ci = bi + 0.5 * (std::min(m, bi + block) - bi) - 0.5, cj = bj + 0.5 * (std::min(m, bj + block) - bj) - 0.5;
+      int best_i = -1, best_j = -1;
+      double best = std::numeric_limits<double>::infinity();
+      for (int i = bi; i < std::min(m, bi + block); ++i)
+        for (int j = bj; j < std::min(m, bj + block); ++j) {
+          const double dist = (i - ci) * (i - ci) + (j - cj) * (j - cj);
+          if (contactAt(i, j) && dist < best) {
+            best = dist;
+            best_i = i;
+            best_j = j;
+          }
+        }
+      if (best_i >= 0) result.patch.push_back(contactOf(best_i, best_j));
+    }
+
+  const int first_i = first_pixel / m, first_j = first_pixel % m;
+  if (!result.patch.empty()) {
+    result.touched = SurfaceKind::kObject;
+    // The first pixel to touch, if it touched the object; else the patch's first point.
+    result.contact = contactAt(first_i, first_j) ? contactOf(first_i, first_j) : result.patch.front();
+  } else {
+    result.touched = hits[static_cast<std::size_t>(first_pixel)].kind;
+  }
+  if (other_kinds != 0)
+    result.note = "the pressed pad also reached the " + kindsToText(other_kinds) +
+                  (result.patch.empty() ? "" : " (indentation_m deeper than the object stands above it there)");
+
+  // Free space over the pressed pad, where nothing lies within the margin in front of it.
+  const int free_block = std::max(1, static_cast<int>(std::lround(c.free_space_spacing_m / pitch)));
+  for (int i = free_block / 2; i < m; i += free_block)
+    for (int j = free_block / 2; j < m; j += free_block) {
+      const RayHit& hit = hits[static_cast<std::size_t>(i * m + j)];
+      if (hit.hit && hit.distance < pressed + c.free_space_margin_m) continue;
+      result.free_space.push_back(from.col(i * m + j) - pressed * n);
+    }
+  return result;
+}
+
 // ================================================================ factory
 
-std::vector<std::string> probeModelNames() { return {"ray", "sphere"}; }
+std::vector<std::string> probeModelNames() { return {"ray", "sphere", "patch"}; }
 
 std::unique_ptr<ProbeModel> makeProbeModel(const std::string& name,
                                            const ProbeModelConfig& config) {
   if (name == "ray") return std::make_unique<RayProbe>(config.ray);
   if (name == "sphere") return std::make_unique<SphereProbe>(config.sphere);
-  throw std::runtime_error("unknown probe model '" + name + "' (known: ray, sphere)");
+  if (name == "patch") return std::make_unique<PatchProbe>(config.patch);
+  throw std::runtime_error("unknown probe model '" + name + "' (known: ray, sphere, patch)");
 }
 
 // ================================================================ slides
@@ -342,7 +507,8 @@ gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touc
     result.free_space.insert(result.free_space.end(), stroke.free_space.begin(),
                              stroke.free_space.end());
     if (stroke.touched == SurfaceKind::kObject) {
-      result.contacts.push_back(stroke.contact);
+      if (stroke.patch.empty()) result.contacts.push_back(stroke.contact);
+      else result.contacts.insert(result.contacts.end(), stroke.patch.begin(), stroke.patch.end());
     } else if (stroke.touched != SurfaceKind::kNone) {
       other_surfaces |= static_cast<unsigned>(stroke.touched);
     }

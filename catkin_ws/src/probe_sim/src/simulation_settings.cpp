@@ -2,8 +2,6 @@
 
 #include "probe_sim/probe.h"
 
-#include "probe_sim/probe.h"
-
 #include <algorithm>
 #include <cmath>
 #include <sstream>
@@ -52,6 +50,14 @@ void readSimulation(gpatlas_core::ParamReader& r, SimulationSettings* s) {
   s->table_thickness_m = r.number("simulation/table_thickness_m", s->table_thickness_m, 1e-4, 10.0);
   s->probe = r.text("simulation/probe", s->probe);
   s->probe_radius_m = r.number("simulation/probe_radius_m", s->probe_radius_m, 1e-4, 1.0);
+  PatchProbeConfig& patch = s->patch;
+  patch.pad_size_m = r.number("simulation/patch/pad_size_m", patch.pad_size_m, 1e-4, 1.0);
+  patch.pad_curvature_radius_m = r.number("simulation/patch/pad_curvature_radius_m", patch.pad_curvature_radius_m, 0.0, 100.0);
+  patch.indentation_m = r.number("simulation/patch/indentation_m", patch.indentation_m, 0.0, 0.05);
+  patch.resolution_m = r.number("simulation/patch/resolution_m", patch.resolution_m, 1e-5, 1.0);
+  patch.point_spacing_m = r.number("simulation/patch/point_spacing_m", patch.point_spacing_m, 0.0, 1.0);
+  patch.depth_noise_m = r.number("simulation/patch/depth_noise_m", patch.depth_noise_m, 0.0, 0.01);
+  patch.normal_noise_deg = r.number("simulation/patch/normal_noise_deg", patch.normal_noise_deg, 0.0, 45.0);
   s->slide_step_m = r.number("simulation/slide_step_m", s->slide_step_m, 1e-4, 1.0);
   s->use_arm = r.flag("simulation/use_arm", s->use_arm);
   s->tip_frame = r.text("simulation/tip_frame", s->tip_frame);
@@ -81,7 +87,11 @@ std::string validate(const SimulationSettings& s) {
   require((s.table_size_xy_m.array() > 0.0).all(), "simulation/table_size_xy_m must be > 0");
   const std::vector<std::string> probes = probeModelNames();
   require(std::find(probes.begin(), probes.end(), s.probe) != probes.end(),
-          "simulation/probe must be 'ray' or 'sphere', got '" + s.probe + "'");
+          "simulation/probe must be 'ray', 'sphere' or 'patch', got '" + s.probe + "'");
+  require(s.patch.resolution_m <= s.patch.pad_size_m && s.patch.pad_size_m / s.patch.resolution_m <= 2000.0,
+          "simulation/patch/resolution_m must be at most pad_size_m and give at most 2000 pixels across the pad");
+  require(s.patch.pad_curvature_radius_m == 0.0 || s.patch.pad_curvature_radius_m > s.patch.pad_size_m / std::sqrt(2.0),
+          "simulation/patch/pad_curvature_radius_m must be 0 (flat) or exceed half the pad's diagonal");
   require(!s.tip_frame.empty(), "simulation/tip_frame must not be empty");
   require(!s.camera_frame.empty(), "simulation/camera_frame must not be empty");
   require(s.camera_eye_m.has_value() == s.camera_target_m.has_value(),
@@ -171,8 +181,15 @@ std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene
   ProbeModelConfig model_config;
   model_config.sphere.radius_m = settings.probe_radius_m;
   // Strokes start at the approach planner's approach pose.
+  model_config.patch = settings.patch;
   model_config.ray.start_offset_m = approach.approach_distance_m;
   model_config.sphere.start_offset_m = approach.approach_distance_m;
+  model_config.patch.start_offset_m = approach.approach_distance_m;
+  // The judge (and the approach planner) move the probe's body: its tip sphere stands for the pad.
+  if (settings.probe == "patch" && approach.probe.tip_radius_m < settings.patch.pad_size_m / std::sqrt(2.0))
+    throw std::runtime_error("the patch probe's pad (" + std::to_string(settings.patch.pad_size_m) +
+                             " m square) does not fit in the probe body's tip sphere (approach/tip_radius_m " +
+                             std::to_string(approach.probe.tip_radius_m) + "): raise tip_radius_m to half the pad's diagonal");
   SimulatedProber::Config config;
   config.slide_step_m = settings.slide_step_m;
   config.body = approach.probe;

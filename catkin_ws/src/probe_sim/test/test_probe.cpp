@@ -214,7 +214,7 @@ TEST_F(SphereObject, SlideCollectsContactsEverySlideStep) {
   for (std::size_t i = 1; i < slide.points.size(); ++i) {
     path_length += (slide.points[i] - slide.points[i - 1]).norm();
   }
-  for (const std::string& model : probe_sim::probeModelNames()) {
+  for (const std::string model : {"ray", "sphere"}) {  // the point probes: one contact per attempt
     SCOPED_TRACE(model);
     SimulatedProber prober(scene_, probe_sim::makeProbeModel(model), config);
     const ProbeResult result = prober.probe(slide);
@@ -431,4 +431,131 @@ TEST_F(SphereObject, TheWayToATouchAndBackIsJudgedAgainstTheTrueScene) {
 
   config.motion_check_step_m = 0.0;
   EXPECT_THROW(SimulatedProber(scene_, probe_sim::makeProbeModel("ray"), config), std::runtime_error);
+}
+
+// ---------------------------------------------------------------- the tactile pad (patch)
+
+namespace {
+
+probe_sim::PatchProbe::Config patchConfig(double indentation = 0.001, double curvature = 0.0) {
+  probe_sim::PatchProbe::Config config;
+  config.indentation_m = indentation;
+  config.pad_curvature_radius_m = curvature;
+  return config;
+}
+
+// Largest lateral distance (across the pad's normal n) of the patch's points from `centre`.
+double patchExtent(const probe_sim::ProbeStroke& stroke, const Eigen::Vector3d& n, const Eigen::Vector3d& centre) {
+  double extent = 0.0;
+  for (const gpatlas_core::Contact& c : stroke.patch) {
+    const Eigen::Vector3d offset = c.position - centre;
+    extent = std::max(extent, (offset - offset.dot(n) * n).norm());
+  }
+  return extent;
+}
+
+}  // namespace
+
+TEST_F(SphereObject, APatchOnTheSphereLiesOnItWithItsNormalsOverTheDiscThePadOverlaps) {
+  for (const double curvature : {0.0, 0.03}) {
+    probe_sim::PatchProbe pad(patchConfig(0.001, curvature));
+    // The overlap of pad and sphere pressed 1 mm together: the gap at lateral distance r is
+    // r^2 / 2 (1 / R + 1 / R_pad), so the contact is a disc of radius sqrt(2 delta / (1/R + 1/R_pad)).
+    const double inverse = 1.0 / kRadius + (curvature > 0.0 ? 1.0 / curvature : 0.0);
+    const double disc = std::sqrt(2.0 * 0.001 / inverse);
+    for (const Eigen::Vector3d& n : testDirections()) {
+      if (n.z() < 0.3) continue;  // the pad is 2 cm wide: clear of the table
+      SCOPED_TRACE(n.transpose());
+      const probe_sim::ProbeStroke stroke = pad.stroke(*scene_, kCentre + (kRadius + 0.01) * n, n);
+      ASSERT_EQ(stroke.touched, probe_sim::SurfaceKind::kObject) << stroke.failure;
+      ASSERT_GT(stroke.patch.size(), 50u);
+      std::size_t with_normal = 0;
+      for (const gpatlas_core::Contact& c : stroke.patch) {
+        const Eigen::Vector3d radial = (c.position - kCentre).normalized();
+        EXPECT_LE(std::abs((c.position - kCentre).norm() - kRadius), sagitta_ + 1e-6);
+        if (c.normal.norm() == 0.0) continue;
+        ++with_normal;
+        EXPECT_LT(angleBetween(c.normal, radial), 2.0 * kDegree);
+      }
+      EXPECT_GT(with_normal, stroke.patch.size() * 9 / 10);
+      // The disc, to the output grid's spacing (1 mm: the outermost points lie within a block).
+      // The disc is centred where the pad's axis meets the sphere.
+      const Eigen::Vector3d axis_point = kCentre + kRadius * n;
+      EXPECT_LT(patchExtent(stroke, n, axis_point), disc + 0.0003);
+      EXPECT_GT(patchExtent(stroke, n, axis_point), disc - 0.0015);
+      EXPECT_LT(angleBetween(stroke.contact.position - kCentre, n), 2.0 * kDegree);
+      // Free space in front of the pad, not in the sphere.
+      ASSERT_FALSE(stroke.free_space.empty());
+      for (const Eigen::Vector3d& f : stroke.free_space) EXPECT_GT((f - kCentre).norm(), kRadius);
+    }
+  }
+}
+
+TEST(PatchProbe, ABoxEdgeGivesBothFacesWithTheirNormals) {
+  constexpr double kBox = 0.1;
+  Scene scene(probe_sim::makeProceduralObject("box", kBox));
+  probe_sim::PatchProbe pad(patchConfig(0.002));
+  const Eigen::Vector3d n = Eigen::Vector3d(1.0, 0.0, 1.0).normalized();
+  const Eigen::Vector3d edge(kBox / 2, 0.003, kBox);
+  const probe_sim::ProbeStroke stroke = pad.stroke(scene, edge, n);
+  ASSERT_EQ(stroke.touched, probe_sim::SurfaceKind::kObject);
+  std::size_t top = 0, side = 0;
+  for (const gpatlas_core::Contact& c : stroke.patch) {
+    const double distance = *probe_sim::proceduralSignedDistance("box", kBox, c.position);
+    EXPECT_LT(std::abs(distance), 1e-6);
+    // Away from the crease the normal is its face's (at the crease the depth's gradient blends them).
+    const double to_top = kBox - c.position.z(), to_side = kBox / 2 - c.position.x();
+    if (c.normal.norm() == 0.0 || std::max(to_top, to_side) < 0.0006) continue;
+    const Eigen::Vector3d face = to_top < to_side ? Eigen::Vector3d::UnitZ() : Eigen::Vector3d::UnitX();
+    (to_top < to_side ? top : side) += 1;
+    EXPECT_LT(angleBetween(c.normal, face), 1.0 * kDegree) << c.position.transpose();
+  }
+  // Pressed 2 mm along the diagonal, each face is in contact up to 2 * sqrt(2) mm from the edge.
+  EXPECT_GT(top, 10u);
+  EXPECT_GT(side, 10u);
+}
+
+TEST(PatchProbe, GrazingAndTooDeepPressesGiveAClearResult) {
+  // A 4 cm square plate, 2 mm thick, on the table.
+  probe_sim::TriangleMesh plate = probe_sim::makeProceduralObject("box", 0.04);
+  for (Eigen::Vector3d& v : plate.vertices) v.z() *= 0.05;
+  Scene scene(plate);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  // Pressed 3 mm over the plate's edge: the pad passes the plate's thickness and meets the table.
+  probe_sim::PatchProbe deep(patchConfig(0.003));
+  const probe_sim::ProbeStroke through = deep.stroke(scene, Eigen::Vector3d(0.02, 0.0, 0.002), up);
+  ASSERT_EQ(through.touched, probe_sim::SurfaceKind::kObject);
+  EXPECT_NE(through.note.find("table"), std::string::npos) << through.note;
+  for (const gpatlas_core::Contact& c : through.patch) {
+    EXPECT_NEAR(c.position.z(), 0.002, 1e-6);
+    EXPECT_LE(c.position.x(), 0.02 + 1e-9);
+  }
+  // No indentation on the sphere's top: only the pixels at the first contact touch.
+  const probe_sim::TriangleMesh sphere = probe_sim::makeProceduralObject("sphere", kSize);
+  const probe_sim::ProbeStroke graze =
+      probe_sim::PatchProbe(patchConfig(0.0)).stroke(Scene(sphere), kCentre + kRadius * up, up);
+  ASSERT_EQ(graze.touched, probe_sim::SurfaceKind::kObject);
+  EXPECT_GE(graze.patch.size(), 1u);
+  EXPECT_LE(graze.patch.size(), 4u);
+  EXPECT_LT(patchExtent(graze, up, graze.contact.position), 0.001);
+  // Missing everything: free space along the way, no contact.
+  const probe_sim::ProbeStroke miss =
+      probe_sim::PatchProbe().stroke(Scene(sphere), kCentre + Eigen::Vector3d(0.2, 0.0, 0.0), up);
+  EXPECT_EQ(miss.touched, probe_sim::SurfaceKind::kTable);
+  // Bad pads are refused.
+  EXPECT_THROW(probe_sim::PatchProbe(patchConfig(-0.001)), std::runtime_error);
+  EXPECT_THROW(probe_sim::PatchProbe(patchConfig(0.001, 0.01)), std::runtime_error);  // below the half diagonal
+  probe_sim::PatchProbe::Config too_fine;
+  too_fine.resolution_m = 1e-6;
+  EXPECT_THROW(probe_sim::PatchProbe{too_fine}, std::runtime_error);
+}
+
+TEST_F(SphereObject, TheProberReportsThePatchAsTheTouchsContacts) {
+  SimulatedProber prober(scene_, probe_sim::makeProbeModel("patch"));
+  const Eigen::Vector3d n = Eigen::Vector3d(0.3, 0.2, 1.0).normalized();
+  const ProbeResult result = prober.probe(poke(kCentre + kRadius * n, n));
+  ASSERT_TRUE(result.success) << result.reason;
+  EXPECT_GT(result.contacts.size(), 100u);
+  for (const gpatlas_core::Contact& c : result.contacts)
+    EXPECT_LE(std::abs((c.position - kCentre).norm() - kRadius), sagitta_ + 1e-6);
 }

@@ -30,8 +30,12 @@ unsigned armCollisions(const Arm& arm, const Scene& scene, const Eigen::VectorXd
 struct ProbeStroke {
   SurfaceKind touched = SurfaceKind::kNone;  // what stopped the probe, if anything
   gpatlas_core::Contact contact;             // valid when touched != kNone
+  // A pad's contact with the object: its points and normals (`contact` is the first of them to
+  // touch). Empty for the single-point probes.
+  std::vector<gpatlas_core::Contact> patch;
   std::vector<Eigen::Vector3d> free_space;   // positions the probe passed freely
   std::string failure;                       // why the stroke could not be made at all
+  std::string note;                          // what a usable stroke met besides the object
 };
 
 // A probe geometry. A stroke starts at waypoint + d * n and moves towards waypoint - d * n,
@@ -99,12 +103,57 @@ class SphereProbe : public ProbeModel {
   std::mt19937 rng_;
 };
 
+struct PatchProbeConfig {
+  // The pad: a square elastomer of this side, flat, or a spherical cap of this radius of
+  // curvature (0: flat) whose centre touches first.
+  double pad_size_m = 0.02;
+  double pad_curvature_radius_m = 0.0;
+  // Pressed along the touch's normal this far past its first contact with anything.
+  double indentation_m = 0.001;
+  // The contact is rendered as a depth image over the pad, one ray per pixel of this side...
+  double resolution_m = 0.00025;
+  // ... and reported as contact points on a grid of this spacing (a multiple of the pixel;
+  // 0: every pixel), each with its normal from the depth image's gradient at full resolution.
+  double point_spacing_m = 0.001;
+  double depth_noise_m = 0.0;     // Gaussian, along the pad's normal, per pixel
+  double normal_noise_deg = 0.0;  // Gaussian tilt of each reported normal
+  double start_offset_m = 0.10;
+  // Free space: along the pad centre's path up to free_space_margin_m before the first contact,
+  // every free_space_spacing_m; and over the pressed pad, on a grid of that spacing, where
+  // nothing lies within free_space_margin_m in front of it.
+  double free_space_spacing_m = 0.01;
+  double free_space_margin_m = 0.005;
+  std::uint32_t seed = 1;
+};
+
+// A vision-based tactile sensor (GelSight, DIGIT and the like): a pad pressed along the touch's
+// normal until `indentation_m` past its first contact. The pixels where the pressed pad reaches
+// the object are the contact patch; their depth gives the points and its gradient the normals.
+// The pad's tip frame is the pad's centre (no standoff).
+class PatchProbe : public ProbeModel {
+ public:
+  using Config = PatchProbeConfig;
+  explicit PatchProbe(const Config& config = Config());
+  std::string name() const override { return "patch"; }
+  ProbeStroke stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
+                     const Eigen::Vector3d& outward_normal) override;
+  double tipStandoff() const override { return 0.0; }
+  double startOffset() const override { return config_.start_offset_m; }
+  // Half the pad's diagonal: the probe's body (its tip sphere) must enclose the pad.
+  double padHalfDiagonal() const;
+
+ private:
+  Config config_;
+  std::mt19937 rng_;
+};
+
 struct ProbeModelConfig {
   RayProbe::Config ray;
   SphereProbe::Config sphere;
+  PatchProbe::Config patch;
 };
 std::vector<std::string> probeModelNames();
-// "ray" or "sphere"; throws std::runtime_error for anything else.
+// "ray", "sphere" or "patch"; throws std::runtime_error for anything else.
 std::unique_ptr<ProbeModel> makeProbeModel(const std::string& name,
                                            const ProbeModelConfig& config = ProbeModelConfig());
 

@@ -34,8 +34,10 @@ struct SimulationSettings {
   Eigen::Vector2d table_centre_xy_m{0.75, 0.0};
   double table_thickness_m = 0.04;
 
-  std::string probe = "ray";  // "ray" (the paper's validation protocol) | "sphere"
+  std::string probe = "ray";  // "ray" (the paper's validation protocol) | "sphere" | "patch"
   double probe_radius_m = 0.02;  // vito.urdf's probe tip sphere
+  // probe "patch": the tactile pad (its start offset is the approach's, as for the others).
+  PatchProbeConfig patch;
   double slide_step_m = 0.005;
 
   bool use_arm = false;
