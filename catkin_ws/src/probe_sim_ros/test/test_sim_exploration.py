@@ -38,6 +38,11 @@ class SimExplorationTest(unittest.TestCase):
         probed = [h for h in report["history"] if not h["probe_reason"].startswith("no safe approach")]
         self.assertEqual(len(probed), report["actions"])
         self.assertEqual(report["contacts"], sum(h["contacts"] for h in report["history"]))
+        if rospy.get_param("~probe", "") == "patch":
+            # A pad's press reports a patch: several contacts for a touch that found the surface.
+            touched = [h for h in probed if h["contacts"] > 0]
+            self.assertTrue(touched)
+            self.assertGreater(max(h["contacts"] for h in touched), 1, [h["contacts"] for h in touched])
         # Every touch went along a path planned on the collision map, and the probe met nothing
         # of the true scene on its way there or back.
         for h in probed:
