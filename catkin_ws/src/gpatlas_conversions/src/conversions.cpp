@@ -166,6 +166,16 @@ gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result) {
     msg.contact_normals.push_back(toVectorMsg(c.normal));
   }
   for (const auto& p : result.free_space) msg.free_space.push_back(toPointMsg(p));
+  for (const gpatlas_core::PadPress& pad : result.pads) {
+    geometry_msgs::Pose pose;
+    pose.position = toPointMsg(pad.centre);
+    pose.orientation.x = pad.orientation.x();
+    pose.orientation.y = pad.orientation.y();
+    pose.orientation.z = pad.orientation.z();
+    pose.orientation.w = pad.orientation.w();
+    msg.pad_poses.push_back(pose);
+    msg.pad_sizes_m.push_back(pad.size_m);
+  }
   return msg;
 }
 
@@ -175,6 +185,27 @@ bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* r
              std::to_string(msg.contact_normals.size()) + " normals (must be 0 or equal)";
     return false;
   }
+  if (msg.pad_sizes_m.size() != msg.pad_poses.size()) {
+    *error = "observations have " + std::to_string(msg.pad_poses.size()) + " pad poses but " +
+             std::to_string(msg.pad_sizes_m.size()) + " pad sizes (must be equal)";
+    return false;
+  }
+  std::vector<gpatlas_core::PadPress> pads;
+  for (std::size_t i = 0; i < msg.pad_poses.size(); ++i) {
+    const geometry_msgs::Pose& pose = msg.pad_poses[i];
+    gpatlas_core::PadPress pad;
+    pad.centre = fromMsg(pose.position);
+    const Eigen::Quaterniond q(pose.orientation.w, pose.orientation.x, pose.orientation.y, pose.orientation.z);
+    if (!pad.centre.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3 ||
+        !(msg.pad_sizes_m[i] > 0.0) || !std::isfinite(msg.pad_sizes_m[i])) {
+      *error = "pad " + std::to_string(i) + ": the pose must be finite with a unit quaternion, the size > 0";
+      return false;
+    }
+    pad.orientation = q.normalized();
+    pad.size_m = msg.pad_sizes_m[i];
+    pads.push_back(pad);
+  }
+  result->pads = std::move(pads);
   result->contacts.clear();
   result->free_space.clear();
   for (std::size_t i = 0; i < msg.contacts.size(); ++i) {

@@ -145,6 +145,34 @@ TEST(Conversions, ObservationsRoundTrip) {
   EXPECT_EQ(back.contacts[1].normal, result.contacts[1].normal);
   ASSERT_EQ(back.free_space.size(), 1u);
   EXPECT_EQ(back.free_space[0], result.free_space[0]);
+  EXPECT_TRUE(back.pads.empty());
+
+  // A tactile pad's press.
+  gpatlas_core::PadPress pad;
+  pad.centre = {0.7, -0.02, 0.11};
+  pad.orientation = Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d(1.0, 2.0, -1.0).normalized()));
+  pad.size_m = 0.02;
+  result.pads = {pad, pad};
+  result.pads[1].size_m = 0.015;
+  ASSERT_TRUE(fromMsg(toMsg(result), &back, &error)) << error;
+  ASSERT_EQ(back.pads.size(), 2u);
+  EXPECT_EQ(back.pads[0].centre, pad.centre);
+  EXPECT_LT(back.pads[0].orientation.angularDistance(pad.orientation), 1e-12);
+  EXPECT_EQ(back.pads[1].size_m, 0.015);
+  // Mismatched or invalid pads are refused with a reason.
+  gpatlas_msgs::Observations bad = toMsg(result);
+  bad.pad_sizes_m.pop_back();
+  EXPECT_FALSE(fromMsg(bad, &back, &error));
+  EXPECT_NE(error.find("pad"), std::string::npos) << error;
+  bad = toMsg(result);
+  bad.pad_poses[0].orientation.w = 0.0;
+  bad.pad_poses[0].orientation.x = 0.0;
+  bad.pad_poses[0].orientation.y = 0.0;
+  bad.pad_poses[0].orientation.z = 0.0;
+  EXPECT_FALSE(fromMsg(bad, &back, &error));
+  bad = toMsg(result);
+  bad.pad_sizes_m[1] = -1.0;
+  EXPECT_FALSE(fromMsg(bad, &back, &error));
 }
 
 TEST(Conversions, TrainingSetRebuildsTheSameModel) {

@@ -257,6 +257,14 @@ ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoi
     result.note = "the pressed pad also reached the " + kindsToText(other_kinds) +
                   (result.patch.empty() ? "" : " (indentation_m deeper than the object stands above it there)");
 
+  gpatlas_core::PadPress pad;
+  pad.centre = waypoint + (d - pressed) * n;
+  Eigen::Matrix3d axes;
+  axes << u, v, n;
+  pad.orientation = Eigen::Quaterniond(axes);
+  pad.size_m = c.pad_size_m;
+  result.pad.push_back(pad);
+
   // Free space over the pressed pad, where nothing lies within the margin in front of it.
   const int free_block = std::max(1, static_cast<int>(std::lround(c.free_space_spacing_m / pitch)));
   for (int i = free_block / 2; i < m; i += free_block)
@@ -509,6 +517,7 @@ gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touc
     if (stroke.touched == SurfaceKind::kObject) {
       if (stroke.patch.empty()) result.contacts.push_back(stroke.contact);
       else result.contacts.insert(result.contacts.end(), stroke.patch.begin(), stroke.patch.end());
+      result.pads.insert(result.pads.end(), stroke.pad.begin(), stroke.pad.end());
     } else if (stroke.touched != SurfaceKind::kNone) {
       other_surfaces |= static_cast<unsigned>(stroke.touched);
     }

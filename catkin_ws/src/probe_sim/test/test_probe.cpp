@@ -484,6 +484,11 @@ TEST_F(SphereObject, APatchOnTheSphereLiesOnItWithItsNormalsOverTheDiscThePadOve
       EXPECT_LT(patchExtent(stroke, n, axis_point), disc + 0.0003);
       EXPECT_GT(patchExtent(stroke, n, axis_point), disc - 0.0015);
       EXPECT_LT(angleBetween(stroke.contact.position - kCentre, n), 2.0 * kDegree);
+      // The pad at its deepest press: its centre 1 mm into the sphere along the axis, facing out.
+      ASSERT_EQ(stroke.pad.size(), 1u);
+      EXPECT_LT((stroke.pad[0].centre - (kCentre + (kRadius - 0.001) * n)).norm(), sagitta_ + 1e-6);
+      EXPECT_LT((stroke.pad[0].orientation * Eigen::Vector3d::UnitZ() - n).norm(), 1e-12);
+      EXPECT_EQ(stroke.pad[0].size_m, 0.02);
       // Free space in front of the pad, not in the sphere.
       ASSERT_FALSE(stroke.free_space.empty());
       for (const Eigen::Vector3d& f : stroke.free_space) EXPECT_GT((f - kCentre).norm(), kRadius);
@@ -556,6 +561,7 @@ TEST_F(SphereObject, TheProberReportsThePatchAsTheTouchsContacts) {
   const ProbeResult result = prober.probe(poke(kCentre + kRadius * n, n));
   ASSERT_TRUE(result.success) << result.reason;
   EXPECT_GT(result.contacts.size(), 100u);
+  EXPECT_EQ(result.pads.size(), 1u);
   for (const gpatlas_core::Contact& c : result.contacts)
     EXPECT_LE(std::abs((c.position - kCentre).norm() - kRadius), sagitta_ + 1e-6);
 }

@@ -89,6 +89,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   ground_truth_service_ = pnh_.advertiseService("ground_truth", &SimulationServer::onGroundTruth, this);
   cloud_publisher_ = pnh_.advertise<sensor_msgs::PointCloud2>("points", 1);
   marker_publisher_ = pnh_.advertise<visualization_msgs::Marker>("object_marker", 1, true);
+  patch_publisher_ = pnh_.advertise<visualization_msgs::MarkerArray>("patch", 1, true);
 
   // The robot is shown (joint_states) even when the object failed to load, so that rviz still
   // displays something while the user fixes the object parameter.
@@ -319,6 +320,40 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
     response.observations.header.frame_id = settings_.world_frame;
     response.observations.header.stamp = ros::Time::now();
     if (!arm_solutions.empty()) animateArm(arm_solutions);
+    if (!result.pads.empty()) {
+      // The pad's squares and the patch's points, replacing the last touch's.
+      visualization_msgs::MarkerArray markers;
+      visualization_msgs::Marker clear;
+      clear.action = visualization_msgs::Marker::DELETEALL;
+      markers.markers.push_back(clear);
+      visualization_msgs::Marker points;
+      points.header = response.observations.header;
+      points.ns = "patch";
+      points.type = visualization_msgs::Marker::POINTS;
+      points.scale.x = points.scale.y = 0.001;
+      points.color.g = 0.8f;
+      points.color.b = 0.2f;
+      points.color.a = 1.0f;
+      points.pose.orientation.w = 1.0;
+      points.points = response.observations.contacts;
+      markers.markers.push_back(points);
+      for (std::size_t i = 0; i < result.pads.size(); ++i) {
+        visualization_msgs::Marker pad;
+        pad.header = response.observations.header;
+        pad.ns = "pad";
+        pad.id = static_cast<int>(i);
+        pad.type = visualization_msgs::Marker::CUBE;
+        pad.pose = response.observations.pad_poses[i];
+        pad.scale.x = pad.scale.y = result.pads[i].size_m;
+        pad.scale.z = 0.001;
+        pad.color.r = 0.2f;
+        pad.color.g = 0.4f;
+        pad.color.b = 1.0f;
+        pad.color.a = 0.4f;
+        markers.markers.push_back(pad);
+      }
+      patch_publisher_.publish(markers);
+    }
     ROS_DEBUG_STREAM("probe_sim: touch with " << touch.points.size() << " waypoint(s): "
                      << (result.success ? "success" : "failed: " + result.reason) << ", "
                      << result.contacts.size() << " contacts");

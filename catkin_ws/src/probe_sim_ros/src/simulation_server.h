@@ -4,7 +4,6 @@
 // probe_sim library (Scene, DepthCamera, SimulatedProber, Arm). See the package README for the
 // parameters, topics and services.
 
-#include "probe_sim/probe.h"
 #include "probe_sim/depth_camera.h"
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
@@ -16,6 +15,7 @@
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/static_transform_broadcaster.h>
+#include <visualization_msgs/MarkerArray.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -92,6 +92,8 @@ class SimulationServer {
   ros::ServiceServer ground_truth_service_;
   ros::Publisher cloud_publisher_;
   ros::Publisher marker_publisher_;
+  // The tactile pad's last press (probe: patch): its square and its patch's points.
+  ros::Publisher patch_publisher_;
   ros::Publisher joint_state_publisher_;
   ros::Timer cloud_timer_;
   ros::Timer joint_state_timer_;

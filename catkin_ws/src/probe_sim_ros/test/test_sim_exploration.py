@@ -9,6 +9,7 @@ import unittest
 import rospy
 import rostest
 from trajectory_msgs.msg import JointTrajectory
+from visualization_msgs.msg import Marker, MarkerArray
 
 
 class SimExplorationTest(unittest.TestCase):
@@ -16,6 +17,9 @@ class SimExplorationTest(unittest.TestCase):
         self.trajectories = []
         if rospy.get_param("~use_arm", False):
             rospy.Subscriber("/gpatlas/collision_map/approach_trajectory", JointTrajectory, self.trajectories.append)
+        self.patches = []
+        if rospy.get_param("~probe", "") == "patch":
+            rospy.Subscriber("/probe_sim/patch", MarkerArray, self.patches.append)
 
     def test_results_folder(self):
         results = rospy.get_param("~results_dir")
@@ -43,6 +47,12 @@ class SimExplorationTest(unittest.TestCase):
             touched = [h for h in probed if h["contacts"] > 0]
             self.assertTrue(touched)
             self.assertGreater(max(h["contacts"] for h in touched), 1, [h["contacts"] for h in touched])
+            # rviz gets the pad's square at its press and the patch's points.
+            self.assertTrue(self.patches, "no /probe_sim/patch markers")
+            kinds = [m.type for m in self.patches[-1].markers]
+            self.assertIn(Marker.CUBE, kinds)
+            points = [m for m in self.patches[-1].markers if m.type == Marker.POINTS]
+            self.assertTrue(points and len(points[0].points) > 1)
         # Every touch went along a path planned on the collision map, and the probe met nothing
         # of the true scene on its way there or back.
         for h in probed:

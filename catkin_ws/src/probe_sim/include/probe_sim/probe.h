@@ -33,6 +33,7 @@ struct ProbeStroke {
   // A pad's contact with the object: its points and normals (`contact` is the first of them to
   // touch). Empty for the single-point probes.
   std::vector<gpatlas_core::Contact> patch;
+  std::vector<gpatlas_core::PadPress> pad;  // the pad at its deepest press, when it touched anything
   std::vector<Eigen::Vector3d> free_space;   // positions the probe passed freely
   std::string failure;                       // why the stroke could not be made at all
   std::string note;                          // what a usable stroke met besides the object
