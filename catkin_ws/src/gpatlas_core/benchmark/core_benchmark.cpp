@@ -1,4 +1,5 @@
 // Micro-benchmarks of the GPIS core. Run: make bench-core (or the binary in the devel space).
+#include "gpatlas_core/explorer.h"
 #include "gpatlas_core/gpis_model.h"
 #include "gpatlas_core/hyperparameter_tuner.h"
 #include "gpatlas_core/multiscale_gpis_model.h"
@@ -140,6 +141,41 @@ void BM_MultiscaleAddContacts(benchmark::State& state) {
   }
 }
 
+// A tactile pad's press on the unseen underside of a model of N view points: a patch of P contacts
+// with their normals over a 1 cm disc, through the loop's update (applyTouch: the gate, the
+// thinning, the normals' slopes, the model's update). Third argument: 1 the default thinning
+// (touch/min_point_spacing_m, 4 mm), 0 every point (no spacing, no per-touch cap).
+void BM_MultiscaleApplyPatch(benchmark::State& state) {
+  MultiscaleGpisModel base;
+  base.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
+  const Eigen::Vector3d centre(0.7, 0.0, 0.1), axis = Eigen::Vector3d(0.6, 0.0, -0.8).normalized();
+  const Eigen::Vector3d a = axis.unitOrthogonal(), b = axis.cross(a);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-0.1, 0.1);
+  std::vector<gpatlas_core::Contact> patch;
+  while (static_cast<int>(patch.size()) < state.range(1)) {
+    const double s = u(rng), t = u(rng);
+    if (s * s + t * t > 0.01) continue;
+    const Eigen::Vector3d d = (axis + s * a + t * b).normalized();
+    patch.push_back({centre + 0.1 * d, d});
+  }
+  gpatlas_core::TouchObservationConfig config;
+  if (state.range(2) == 0) {
+    config.min_point_spacing_m = 0.0;
+    config.max_contacts_per_touch = 0;
+  }
+  int added = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    MultiscaleGpisModel model(base);
+    state.ResumeTiming();
+    const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(model, patch, {}, config);
+    added = update.points_added;
+    benchmark::DoNotOptimize(update.ok);
+  }
+  state.counters["training_points_added"] = added;
+}
+
 // Queries within 5 mm of the surface (where the planner and the mesher ask, and where the cells
 // are): the expensive case, unlike queryPoints' box.
 gpatlas_core::Points3 nearSurfaceQueries(int count, unsigned seed) {
@@ -185,6 +221,7 @@ void BM_MultiscalePredictLoop(benchmark::State& state) {
 BENCHMARK(BM_MultiscalePredictLoop)->Arg(10000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MultiscaleFit)->Arg(2000)->Arg(10000)->Arg(40000)->Unit(benchmark::kMillisecond)->Iterations(2);
 BENCHMARK(BM_MultiscaleAddContacts)->Args({10000, 300})->Args({40000, 300})->Unit(benchmark::kMillisecond)->Iterations(2);
+BENCHMARK(BM_MultiscaleApplyPatch)->Args({10000, 2000, 1})->Args({10000, 2000, 0})->Unit(benchmark::kMillisecond)->Iterations(3);
 // Second argument: 0 queries in the object's bounding box, 1 within 5 mm of the surface.
 BENCHMARK(BM_MultiscalePredictMeanVariance)->ArgsProduct({{10000, 40000}, {0, 1}})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_MultiscalePredictMean)->ArgsProduct({{10000, 40000}, {0, 1}})->Unit(benchmark::kMillisecond);
