@@ -7,8 +7,9 @@
 #include <stdexcept>
 
 extern "C" {
-// LAPACK's Cholesky factorisation (OpenBLAS ships LAPACK).
-void dpotrf_(const char* uplo, const int* n, double* a, const int* lda, int* info);
+// LAPACK's Cholesky factorisation (OpenBLAS ships LAPACK), with OpenBLAS's integer type so that a
+// 64-bit-index build links the matching symbol.
+void dpotrf_(const char* uplo, const blasint* n, double* a, const blasint* lda, blasint* info);
 }
 
 namespace gpatlas_core {
@@ -21,10 +22,10 @@ void useOneBlasThread() {
   std::call_once(once, [] { openblas_set_num_threads(1); });
 }
 
-int checkedInt(Eigen::Index value) {
-  if (value > static_cast<Eigen::Index>(std::numeric_limits<int>::max()))
-    throw std::length_error("dense solve: a dimension exceeds BLAS's int range");
-  return static_cast<int>(value);
+blasint checkedInt(Eigen::Index value) {
+  if (value > static_cast<Eigen::Index>(std::numeric_limits<blasint>::max()))
+    throw std::length_error("dense solve: a dimension exceeds BLAS's integer range");
+  return static_cast<blasint>(value);
 }
 
 }  // namespace
@@ -50,8 +51,8 @@ bool choleskyLowerInPlace(Eigen::Ref<Eigen::MatrixXd> block) {
   if (block.rows() == 0) return true;
   useOneBlasThread();
   const char lower = 'L';
-  const int n = checkedInt(block.rows()), lda = checkedInt(block.outerStride());
-  int info = 0;
+  const blasint n = checkedInt(block.rows()), lda = checkedInt(block.outerStride());
+  blasint info = 0;
   dpotrf_(&lower, &n, block.data(), &lda, &info);
   return info == 0;
 }

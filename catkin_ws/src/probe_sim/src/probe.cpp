@@ -147,27 +147,37 @@ ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoi
     return r > 0.0 ? r - std::sqrt(r * r - a * a - b * b) : 0.0;
   };
 
+  const Eigen::Vector3d start = waypoint + d * n;
+  // A pad that starts in contact has no meaningful first contact, and a real sensor could not
+  // have got there; the sphere is the one the body check uses for the pad.
+  if (const unsigned start_overlap = scene.sphereOverlaps(padHalfDiagonal(), start)) {
+    result.failure = "pad start position overlaps the " + kindsToText(start_overlap);
+    return result;
+  }
   // One ray per pixel along -n from the pad's start: its length is the pad's travel when that
-  // pixel meets the scene.
+  // pixel meets the scene. The pad seeks its first contact over 2 d, as the other probes do; the
+  // rays reach further, to the pressed pad and the free-space margin in front of it.
+  const double search = 2.0 * d;
+  const double reach = search + c.indentation_m + c.free_space_margin_m;
   Eigen::Matrix3Xd from(3, m * m), to(3, m * m);
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < m; ++j) {
       const double a = coordinate(i), b = coordinate(j);
       const Eigen::Vector3d origin = waypoint + (d + recess(a, b)) * n + a * u + b * v;
       from.col(i * m + j) = origin;
-      to.col(i * m + j) = origin - 2.0 * d * n;
+      to.col(i * m + j) = origin - reach * n;
     }
   const std::vector<RayHit> hits = scene.castRays(from, to);
   double first = std::numeric_limits<double>::infinity();
   int first_pixel = -1;
   for (int k = 0; k < m * m; ++k)
-    if (hits[static_cast<std::size_t>(k)].hit && hits[static_cast<std::size_t>(k)].distance < first) {
+    if (hits[static_cast<std::size_t>(k)].hit && hits[static_cast<std::size_t>(k)].distance <= search &&
+        hits[static_cast<std::size_t>(k)].distance < first) {
       first = hits[static_cast<std::size_t>(k)].distance;
       first_pixel = k;
     }
-  const Eigen::Vector3d start = waypoint + d * n;
   if (first_pixel < 0) {
-    appendSamples(start, -n, 2.0 * d, c.free_space_spacing_m, result.free_space);
+    appendSamples(start, -n, search, c.free_space_spacing_m, result.free_space);
     return result;
   }
   appendSamples(start, -n, first - c.free_space_margin_m, c.free_space_spacing_m, result.free_space);
@@ -254,8 +264,10 @@ ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoi
     result.touched = hits[static_cast<std::size_t>(first_pixel)].kind;
   }
   if (other_kinds != 0)
-    result.note = "the pressed pad also reached the " + kindsToText(other_kinds) +
-                  (result.patch.empty() ? "" : " (indentation_m deeper than the object stands above it there)");
+    result.note = result.patch.empty()
+                      ? "the pressed pad reached only the " + kindsToText(other_kinds)
+                      : "the pressed pad also reached the " + kindsToText(other_kinds) +
+                            " (indentation_m deeper than the object stands above it there)";
 
   gpatlas_core::PadPress pad;
   pad.centre = waypoint + (d - pressed) * n;
@@ -267,8 +279,10 @@ ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoi
 
   // Free space over the pressed pad, where nothing lies within the margin in front of it.
   const int free_block = std::max(1, static_cast<int>(std::lround(c.free_space_spacing_m / pitch)));
-  for (int i = free_block / 2; i < m; i += free_block)
-    for (int j = free_block / 2; j < m; j += free_block) {
+  // A free-space spacing wider than the pad still gives the pad's centre.
+  const int free_first = std::min(free_block, m) / 2;
+  for (int i = free_first; i < m; i += free_block)
+    for (int j = free_first; j < m; j += free_block) {
       const RayHit& hit = hits[static_cast<std::size_t>(i * m + j)];
       if (hit.hit && hit.distance < pressed + c.free_space_margin_m) continue;
       result.free_space.push_back(from.col(i * m + j) - pressed * n);

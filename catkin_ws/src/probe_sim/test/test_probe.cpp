@@ -496,6 +496,35 @@ TEST_F(SphereObject, APatchOnTheSphereLiesOnItWithItsNormalsOverTheDiscThePadOve
   }
 }
 
+TEST_F(SphereObject, APressAtTheEndOfTheSearchStillSeesItsWholeDiscAndFreeSpaceOnlyOutside) {
+  const probe_sim::PatchProbe::Config config = patchConfig(0.001);
+  probe_sim::PatchProbe pad(config);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  // The first contact 0.2 mm before the end of the 2 d search: the pressed pad reaches 0.8 mm
+  // beyond it, and so must its depth image and its free space.
+  const double d = config.start_offset_m;
+  const Eigen::Vector3d top = kCentre + kRadius * up;
+  const probe_sim::ProbeStroke stroke = pad.stroke(*scene_, top + (d - 0.0002) * up, up);
+  ASSERT_EQ(stroke.touched, probe_sim::SurfaceKind::kObject) << stroke.failure;
+  const double disc = std::sqrt(2.0 * 0.001 * kRadius);
+  EXPECT_GT(patchExtent(stroke, up, top), disc - 0.0015);
+  for (const gpatlas_core::Contact& c : stroke.patch)
+    EXPECT_LE(std::abs((c.position - kCentre).norm() - kRadius), sagitta_ + 1e-6);
+  ASSERT_FALSE(stroke.free_space.empty());
+  for (const Eigen::Vector3d& f : stroke.free_space) EXPECT_GT((f - kCentre).norm(), kRadius);
+}
+
+TEST_F(SphereObject, APadThatWouldStartInTheObjectIsRefused) {
+  probe_sim::PatchProbe pad(patchConfig(0.001));
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  // The pad's start, start_offset_m above the waypoint, is on the sphere's top.
+  const probe_sim::ProbeStroke stroke =
+      pad.stroke(*scene_, kCentre + (kRadius - pad.startOffset()) * up, up);
+  EXPECT_EQ(stroke.touched, probe_sim::SurfaceKind::kNone);
+  EXPECT_TRUE(stroke.patch.empty());
+  EXPECT_NE(stroke.failure.find("object"), std::string::npos) << stroke.failure;
+}
+
 TEST(PatchProbe, ABoxEdgeGivesBothFacesWithTheirNormals) {
   constexpr double kBox = 0.1;
   Scene scene(probe_sim::makeProceduralObject("box", kBox));

@@ -68,6 +68,45 @@ geometry_msgs::TransformStamped toTransformMsg(const Eigen::Isometry3d& pose,
   return msg;
 }
 
+// The pad's squares and the patch's points, replacing the last touch's (a touch without a pad
+// press only clears them).
+visualization_msgs::MarkerArray padMarkers(const gpatlas_core::ProbeResult& result,
+                                           const gpatlas_msgs::Observations& observations) {
+  visualization_msgs::MarkerArray markers;
+  visualization_msgs::Marker clear;
+  clear.header = observations.header;
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  markers.markers.push_back(clear);
+  if (result.pads.empty()) return markers;
+  visualization_msgs::Marker points;
+  points.header = observations.header;
+  points.ns = "patch";
+  points.type = visualization_msgs::Marker::POINTS;
+  points.scale.x = points.scale.y = 0.001;
+  points.color.g = 0.8f;
+  points.color.b = 0.2f;
+  points.color.a = 1.0f;
+  points.pose.orientation.w = 1.0;
+  points.points = observations.contacts;
+  markers.markers.push_back(points);
+  for (std::size_t i = 0; i < result.pads.size(); ++i) {
+    visualization_msgs::Marker pad;
+    pad.header = observations.header;
+    pad.ns = "pad";
+    pad.id = static_cast<int>(i);
+    pad.type = visualization_msgs::Marker::CUBE;
+    pad.pose = observations.pad_poses[i];
+    pad.scale.x = pad.scale.y = result.pads[i].size_m;
+    pad.scale.z = 0.001;
+    pad.color.r = 0.2f;
+    pad.color.g = 0.4f;
+    pad.color.b = 1.0f;
+    pad.color.a = 0.4f;
+    markers.markers.push_back(pad);
+  }
+  return markers;
+}
+
 }  // namespace
 
 SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
@@ -320,40 +359,7 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
     response.observations.header.frame_id = settings_.world_frame;
     response.observations.header.stamp = ros::Time::now();
     if (!arm_solutions.empty()) animateArm(arm_solutions);
-    if (!result.pads.empty()) {
-      // The pad's squares and the patch's points, replacing the last touch's.
-      visualization_msgs::MarkerArray markers;
-      visualization_msgs::Marker clear;
-      clear.action = visualization_msgs::Marker::DELETEALL;
-      markers.markers.push_back(clear);
-      visualization_msgs::Marker points;
-      points.header = response.observations.header;
-      points.ns = "patch";
-      points.type = visualization_msgs::Marker::POINTS;
-      points.scale.x = points.scale.y = 0.001;
-      points.color.g = 0.8f;
-      points.color.b = 0.2f;
-      points.color.a = 1.0f;
-      points.pose.orientation.w = 1.0;
-      points.points = response.observations.contacts;
-      markers.markers.push_back(points);
-      for (std::size_t i = 0; i < result.pads.size(); ++i) {
-        visualization_msgs::Marker pad;
-        pad.header = response.observations.header;
-        pad.ns = "pad";
-        pad.id = static_cast<int>(i);
-        pad.type = visualization_msgs::Marker::CUBE;
-        pad.pose = response.observations.pad_poses[i];
-        pad.scale.x = pad.scale.y = result.pads[i].size_m;
-        pad.scale.z = 0.001;
-        pad.color.r = 0.2f;
-        pad.color.g = 0.4f;
-        pad.color.b = 1.0f;
-        pad.color.a = 0.4f;
-        markers.markers.push_back(pad);
-      }
-      patch_publisher_.publish(markers);
-    }
+    patch_publisher_.publish(padMarkers(result, response.observations));
     ROS_DEBUG_STREAM("probe_sim: touch with " << touch.points.size() << " waypoint(s): "
                      << (result.success ? "success" : "failed: " + result.reason) << ", "
                      << result.contacts.size() << " contacts");
