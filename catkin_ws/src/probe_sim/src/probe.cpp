@@ -1,5 +1,7 @@
 #include "probe_sim/probe.h"
 
+#include <Eigen/Geometry>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -10,6 +12,8 @@ namespace probe_sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+// Below this tilt the gimbal leaves the pad as it pressed (a second press would repeat the first).
+constexpr double kMinGimbalTilt = 0.5 * kPi / 180.0;
 
 // Points start + k * spacing * direction for k = 0, 1, ... up to length (inclusive).
 void appendSamples(const Eigen::Vector3d& start, const Eigen::Vector3d& direction, double length,
@@ -115,10 +119,10 @@ PatchProbe::PatchProbe(const Config& config) : config_(config), rng_(config.seed
   const Config& c = config_;
   if (!(c.pad_size_m > 0.0) || !(c.resolution_m > 0.0) || !(c.resolution_m <= c.pad_size_m) ||
       !(c.indentation_m >= 0.0) || !(c.point_spacing_m >= 0.0) || !(c.normal_noise_deg >= 0.0) ||
-      !(c.pad_curvature_radius_m >= 0.0))
+      !(c.pad_curvature_radius_m >= 0.0) || !(c.gimbal_range_deg >= 0.0 && c.gimbal_range_deg <= 90.0))
     throw std::runtime_error(
         "patch probe: need pad_size_m > 0, 0 < resolution_m <= pad_size_m, and indentation_m, point_spacing_m, "
-        "normal_noise_deg, pad_curvature_radius_m >= 0");
+        "normal_noise_deg, pad_curvature_radius_m >= 0, and 0 <= gimbal_range_deg <= 90");
   if (c.pad_size_m / c.resolution_m > 2000.0)
     throw std::runtime_error("patch probe: more than 2000 x 2000 pixels over the pad (pad_size_m / resolution_m)");
   if (c.pad_curvature_radius_m > 0.0 && !(c.pad_curvature_radius_m > padHalfDiagonal()))
@@ -132,9 +136,31 @@ double PatchProbe::padHalfDiagonal() const { return config_.pad_size_m / std::sq
 
 ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
                                const Eigen::Vector3d& outward_normal) {
+  const Eigen::Vector3d n = outward_normal.normalized();
+  Eigen::Vector3d settled = Eigen::Vector3d::Zero();
+  ProbeStroke first = press(scene, waypoint, n, &settled);
+  const double range = config_.gimbal_range_deg * kPi / 180.0;
+  if (!(range > 0.0) || first.touched != SurfaceKind::kObject || settled.isZero()) return first;
+  const double tilt = std::atan2(n.cross(settled).norm(), n.dot(settled));
+  if (tilt < kMinGimbalTilt) return first;
+  // The gimbal turns the pad about its first contact toward the surface under it, as far as its
+  // range allows, and the pad presses again from there.
+  const Eigen::Vector3d turned = Eigen::AngleAxisd(std::min(tilt, range), n.cross(settled).normalized()) * n;
+  ProbeStroke second = press(scene, first.contact.position, turned, nullptr);
+  if (second.touched != SurfaceKind::kObject) {
+    first.note += (first.note.empty() ? "" : "; ") + std::string("the gimbal could not settle the pad (") +
+                  (second.failure.empty() ? "it lost the object" : second.failure) + ")";
+    return first;
+  }
+  // Both presses saw free space; the settled press gives the patch.
+  second.free_space.insert(second.free_space.begin(), first.free_space.begin(), first.free_space.end());
+  return second;
+}
+
+ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
+                              Eigen::Vector3d* mean_contact_normal) {
   ProbeStroke result;
   const Config& c = config_;
-  const Eigen::Vector3d n = outward_normal.normalized();
   const Eigen::Vector3d u = n.unitOrthogonal();
   const Eigen::Vector3d v = n.cross(u);
   const double d = c.start_offset_m;
@@ -197,9 +223,11 @@ ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoi
       continue;
     }
     on_object[static_cast<std::size_t>(k)] = 1;
+    if (mean_contact_normal) *mean_contact_normal += hit.normal;
     height[static_cast<std::size_t>(k)] =
         (hit.point - waypoint).dot(n) + (c.depth_noise_m > 0.0 ? c.depth_noise_m * gauss(rng_) : 0.0);
   }
+  if (mean_contact_normal && !mean_contact_normal->isZero()) mean_contact_normal->normalize();
   const auto contactAt = [&](int i, int j) { return on_object[static_cast<std::size_t>(i * m + j)] != 0; };
   // The surface's slope across the pad: central differences of the height where both neighbours
   // are in contact, one-sided where one is; a pixel with no neighbour in contact along an axis

@@ -56,6 +56,7 @@ void readSimulation(gpatlas_core::ParamReader& r, SimulationSettings* s) {
   patch.indentation_m = r.number("simulation/patch/indentation_m", patch.indentation_m, 0.0, 0.05);
   patch.resolution_m = r.number("simulation/patch/resolution_m", patch.resolution_m, 1e-5, 1.0);
   patch.point_spacing_m = r.number("simulation/patch/point_spacing_m", patch.point_spacing_m, 0.0, 1.0);
+  patch.gimbal_range_deg = r.number("simulation/patch/gimbal_range_deg", patch.gimbal_range_deg, 0.0, 90.0);
   patch.depth_noise_m = r.number("simulation/patch/depth_noise_m", patch.depth_noise_m, 0.0, 0.01);
   patch.normal_noise_deg = r.number("simulation/patch/normal_noise_deg", patch.normal_noise_deg, 0.0, 45.0);
   s->slide_step_m = r.number("simulation/slide_step_m", s->slide_step_m, 1e-4, 1.0);

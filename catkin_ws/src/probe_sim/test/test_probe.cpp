@@ -549,6 +549,42 @@ TEST(PatchProbe, ABoxEdgeGivesBothFacesWithTheirNormals) {
   EXPECT_GT(side, 10u);
 }
 
+TEST(PatchProbe, AGimbalSettlesThePadFlatOnAFaceItApproachesTilted) {
+  constexpr double kBox = 0.1;
+  Scene scene(probe_sim::makeProceduralObject("box", kBox));
+  const Eigen::Vector3d top(0.0, 0.0, kBox);
+  const auto tiltedFromUp = [](double degrees) {
+    return Eigen::Vector3d(std::sin(degrees * kDegree), 0.0, std::cos(degrees * kDegree));
+  };
+  probe_sim::PatchProbe::Config config = patchConfig(0.001);
+  // Rigid, 20 degrees off the face: a strip along the pad's lower edge, 1 mm / tan(20 deg) wide.
+  const probe_sim::ProbeStroke rigid = probe_sim::PatchProbe(config).stroke(scene, top, tiltedFromUp(20.0));
+  ASSERT_EQ(rigid.touched, probe_sim::SurfaceKind::kObject);
+  EXPECT_LT(rigid.patch.size(), 20u * 4u);
+  // With a 30-degree gimbal the pad lies flat on the face: the whole 20 x 20 mm pad in contact.
+  config.gimbal_range_deg = 30.0;
+  const probe_sim::ProbeStroke settled = probe_sim::PatchProbe(config).stroke(scene, top, tiltedFromUp(20.0));
+  ASSERT_EQ(settled.touched, probe_sim::SurfaceKind::kObject) << settled.note;
+  EXPECT_GE(settled.patch.size(), 20u * 20u);
+  for (const gpatlas_core::Contact& c : settled.patch) {
+    EXPECT_NEAR(c.position.z(), kBox, 1e-6);
+    if (c.normal.norm() > 0.0) EXPECT_LT(angleBetween(c.normal, Eigen::Vector3d::UnitZ()), 0.1 * kDegree);
+  }
+  ASSERT_EQ(settled.pad.size(), 1u);
+  EXPECT_LT(angleBetween(settled.pad[0].orientation * Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()),
+            0.1 * kDegree);
+  for (const Eigen::Vector3d& f : settled.free_space) EXPECT_GT(f.z(), kBox);
+  // 40 degrees off: the gimbal turns its 30, and the pad presses 10 degrees off the face.
+  const probe_sim::ProbeStroke limited = probe_sim::PatchProbe(config).stroke(scene, top, tiltedFromUp(40.0));
+  ASSERT_EQ(limited.touched, probe_sim::SurfaceKind::kObject);
+  ASSERT_EQ(limited.pad.size(), 1u);
+  EXPECT_NEAR(angleBetween(limited.pad[0].orientation * Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()),
+              10.0 * kDegree, 0.1 * kDegree);
+  EXPECT_LT(limited.patch.size(), settled.patch.size() / 2);
+  config.gimbal_range_deg = 91.0;
+  EXPECT_THROW(probe_sim::PatchProbe{config}, std::runtime_error);
+}
+
 TEST(PatchProbe, GrazingAndTooDeepPressesGiveAClearResult) {
   // A 4 cm square plate, 2 mm thick, on the table.
   probe_sim::TriangleMesh plate = probe_sim::makeProceduralObject("box", 0.04);

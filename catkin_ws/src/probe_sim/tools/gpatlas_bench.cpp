@@ -104,7 +104,7 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
                                  [the config's strategy], or one from a --strategy-library
   --strategy-library FILE        a shared library that registers strategies of your own
                                  (GPATLAS_REGISTER_STRATEGY, gpatlas_core/strategy_library.h) (repeatable)
-  --probe ray|sphere             simulated probe model [simulation/probe]
+  --probe ray|sphere|patch       simulated probe model [simulation/probe]
   --seeds 0,1,2                  seeds (camera noise, the view's subset, the planner) [the config's seed]
   --max-actions N                cap on tactile actions per run [the config's exploration/max_actions]
   --jobs N                       runs in parallel [1]
@@ -560,8 +560,9 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     if (!rec.touch.points.empty()) {
       // How far the planned target is from the real surface: a touch aimed far from it
       // tells the prediction (not the planner) is wrong there.
-      line << ", target " << std::setprecision(3) << 1000.0 * gt_index->distance(rec.touch.points.back())
-           << " mm from the true surface";
+      const gpatlas_core::Vector3& target = rec.touch.points.back();
+      line << ", target (" << std::setprecision(3) << target.x() << ", " << target.y() << ", " << target.z() << ") m, "
+           << 1000.0 * gt_index->distance(target) << " mm from the true surface";
     }
     std::lock_guard<std::mutex> lock(print_mutex);
     std::cout << line.str() << std::endl;

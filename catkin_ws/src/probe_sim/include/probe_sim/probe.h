@@ -116,6 +116,9 @@ struct PatchProbeConfig {
   // ... and reported as contact points on a grid of this spacing (a multiple of the pixel;
   // 0: every pixel), each with its normal from the depth image's gradient at full resolution.
   double point_spacing_m = 0.001;
+  // A passive gimbal between pad and mount: after the first contact the pad turns about it toward
+  // the mean surface normal under the pad, by at most this angle, and presses again (0: rigid).
+  double gimbal_range_deg = 0.0;
   double depth_noise_m = 0.0;     // Gaussian, along the pad's normal, per pixel
   double normal_noise_deg = 0.0;  // Gaussian tilt of each reported normal
   double start_offset_m = 0.10;
@@ -144,6 +147,10 @@ class PatchProbe : public ProbeModel {
   double padHalfDiagonal() const;
 
  private:
+  // One press along n; adds the mean surface normal over the pixels in contact, if asked.
+  ProbeStroke press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
+                    Eigen::Vector3d* mean_contact_normal);
+
   Config config_;
   std::mt19937 rng_;
 };
