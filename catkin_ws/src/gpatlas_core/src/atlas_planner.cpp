@@ -28,6 +28,8 @@ std::string validate(const AtlasPlanner::Config& config) {
   if (!(config.max_start_distance_m > 0.0)) problem << "max_start_distance_m must be positive; ";
   if (config.max_start_attempts < 1) problem << "max_start_attempts must be at least 1; ";
   if (config.extend_path_charts < 0) problem << "extend_path_charts must be >= 0; ";
+  if (!(config.aim_past_m >= 0.0) || !std::isfinite(config.aim_past_m))
+    problem << "aim_past_m must be finite and >= 0; ";
   if (!(config.projection.f_tolerance > 0.0) || config.projection.max_iterations < 1 ||
       !(config.projection.max_step_fraction > 0.0))
     problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
@@ -135,14 +137,16 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
     if (direction) chart.approach_direction = *direction;
     return direction.has_value();
   };
-  const auto needsTouch = [&](Chart& chart) {
+  // `counted`: a chart passed over is reported in the plan's message (not for the aim's charts,
+  // past the one already found).
+  const auto needsTouch = [&](Chart& chart, bool counted = true) {
     if (!(chart.variance > v_max) && !evidence.isUnsupported(chart.centre, chart.normal)) return false;
     if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
-      ++result.retouch_skipped;
+      if (counted) ++result.retouch_skipped;
       return false;
     }
     if (!takeApproach(chart)) {
-      ++result.unreachable_skipped;
+      if (counted) ++result.unreachable_skipped;
       return false;
     }
     return true;
@@ -229,6 +233,14 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
           if (!extension.ok) break;
           // A slide ends where the probe can still leave the surface.
           if (!takeApproach(extension.chart)) break;
+          last = atlas.addChart(std::move(extension.chart));
+        }
+        for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < config_.aim_past_m;) {
+          if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
+          if (atlas.chart(last).candidates.empty()) break;
+          ChartCreation extension = expand(last);
+          if (!extension.ok || !needsTouch(extension.chart, false)) break;
+          aimed += (extension.chart.centre - atlas.chart(last).centre).norm();
           last = atlas.addChart(std::move(extension.chart));
         }
         result.path = atlas.pathTo(last);

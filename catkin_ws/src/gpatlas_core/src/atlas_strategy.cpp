@@ -12,6 +12,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
   config.evidence = request.evidence;
+  if (mode_ == Mode::kPoke) config.aim_past_m = request.footprint_radius_m;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start, {}, request.reachable);
 
   PlanResult result;

@@ -100,6 +100,10 @@ std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRe
     error.message = problem;
     return error;
   }
+  if (!(request.footprint_radius_m >= 0.0) || !std::isfinite(request.footprint_radius_m)) {
+    error.message = "the probe's footprint radius must be finite and >= 0";
+    return error;
+  }
   if (request.start && !request.start->allFinite()) {
     error.message = "start point is not finite";
     return error;

@@ -431,6 +431,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
   // approach another part of the object blocks is asked for again after every touch.
   std::vector<Vector3> attempted_targets;
   std::vector<double> attempted_errors;  // per target: how far from it its touch found the surface
+  double footprint_radius_m = 0.0;       // half the side of the largest pad the prober reported
   try {
     for (int action = 0;; ++action) {
       const Clock::time_point action_started = Clock::now();
@@ -451,6 +452,7 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
         request.v_max = config_.v_max;
         request.evidence.attempted_targets = attempted_targets;
         request.evidence.attempted_target_errors_m = attempted_errors;
+        request.footprint_radius_m = footprint_radius_m;
         request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));
         if (attempt > 0) request.seed = mixSeeds(request.seed, static_cast<std::uint64_t>(attempt));
         if (approacher)
@@ -537,6 +539,8 @@ ExplorationResult Explorer::run(TouchPlanner& planner, Prober& prober, ModelUpda
       attempted_targets.insert(attempted_targets.end(), aimed.begin(), aimed.end());
       attempted_errors.insert(attempted_errors.end(), passed.begin(), passed.end());
       record.target_error_m = finiteMedian(targetErrors(aimed, probed.contacts));
+      for (const PadPress& pad : probed.pads)
+        if (std::isfinite(pad.size_m)) footprint_radius_m = std::max(footprint_radius_m, 0.5 * pad.size_m);
       ++result.actions;
       record.probe_success = probed.success;
       record.probe_reason = probed.reason;

@@ -681,6 +681,69 @@ class RecordingProber : public Prober {
 
 }  // namespace
 
+namespace {
+
+// Reports a 2 cm pad with every touch after the first, as a tactile sensor's driver would.
+class PadProber : public Prober {
+ public:
+  explicit PadProber(const AnalyticSphere& sphere) : inner_(sphere) {}
+  ProbeResult probe(const Touch& touch) override {
+    ProbeResult result = inner_.probe(touch);
+    if (++touches_ > 1 && result.success) {
+      PadPress pad;
+      pad.centre = result.contacts.front().position;
+      pad.size_m = 0.02;
+      result.pads.push_back(pad);
+    }
+    return result;
+  }
+
+ private:
+  AnalyticSphereProber inner_;
+  int touches_ = 0;
+};
+
+// atlas_poke, with every request it was given.
+class RequestRecorder : public ExplorationStrategy {
+ public:
+  RequestRecorder() : inner_(makeStrategy("atlas_poke", StrategyConfig())) {}
+  std::string name() const override { return inner_->name(); }
+  PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override {
+    requests.push_back(request);
+    return inner_->plan(model, request);
+  }
+  mutable std::vector<PlanRequest> requests;
+
+ private:
+  std::unique_ptr<ExplorationStrategy> inner_;
+};
+
+}  // namespace
+
+// The pad's footprint reaches the strategy from the pads the prober reported, and a poke then
+// aims past the first chart that needs a touch.
+TEST(Explorer, ThePadsFootprintReachesThePlanAfterThePadReportsIt) {
+  const AnalyticSphere sphere;
+  GpisModel model = initialModel(sphere, 3);
+  PadProber prober(sphere);
+  RequestRecorder strategy;
+  Explorer::Config config;
+  config.max_actions = 4;
+  config.seed = 3;
+  const ExplorationResult result =
+      Explorer(config).run(model, strategy, prober, TouchObservationConfig(), sparseViewEvidence());
+  ASSERT_GE(strategy.requests.size(), 3u) << result.stop_reason;
+  EXPECT_EQ(strategy.requests[0].footprint_radius_m, 0.0);
+  EXPECT_EQ(strategy.requests[1].footprint_radius_m, 0.0);  // the first touch reported no pad
+  for (std::size_t k = 2; k < strategy.requests.size(); ++k) EXPECT_EQ(strategy.requests[k].footprint_radius_m, 0.01);
+
+  PlanRequest bad;
+  bad.footprint_radius_m = std::numeric_limits<double>::quiet_NaN();
+  const PlanResult refused = makeStrategy("atlas_poke", StrategyConfig())->plan(model, bad);
+  EXPECT_EQ(refused.status, PlanStatus::kError);
+  EXPECT_NE(refused.message.find("footprint"), std::string::npos) << refused.message;
+}
+
 // Touches with no safe approach are not executed: each counts as evidence, the planner is asked
 // for another, and the executed ones carry the approacher's paths to the probe.
 TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {

@@ -281,6 +281,45 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   }
 }
 
+TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreStillNeeded) {
+  const AnalyticSphere sphere;
+  const GpisModel model = modelWithAHoleOnTop(sphere);
+  AtlasPlanner::Config config;
+  config.evidence.max_distance = 0.3;
+  config.evidence.view_max_distance = 0.3;
+  const double max_distance_m = config.evidence.max_distance * model.scale();
+  for (const double fraction : {0.25, 0.5}) {
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      SCOPED_TRACE(::testing::Message() << "fraction " << fraction << ", seed " << seed);
+      config.seed = seed;
+      config.aim_past_m = 0.0;
+      const AtlasPlanResult first = AtlasPlanner(config).plan(model, kHugeVMax);
+      config.aim_past_m = fraction * max_distance_m;
+      const AtlasPlanResult aimed = AtlasPlanner(config).plan(model, kHugeVMax);
+      ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
+      ASSERT_EQ(aimed.status, PlanStatus::kTouch) << aimed.message;
+      // The same search up to the first chart that needs a touch, then the aim's charts.
+      ASSERT_GT(aimed.path.size(), first.path.size());
+      for (std::size_t k = 0; k < first.path.size(); ++k)
+        EXPECT_LT((aimed.atlas.chart(aimed.path[k]).centre - first.atlas.chart(first.path[k]).centre).norm(), 1e-12);
+      double aimed_m = 0.0;
+      for (std::size_t k = first.path.size(); k < aimed.path.size(); ++k) {
+        const Chart& chart = aimed.atlas.chart(aimed.path[k]);
+        EXPECT_GT(bruteForceDistance(model, chart.centre), max_distance_m) << "chart " << k << " needs no touch";
+        const double step = (chart.centre - aimed.atlas.chart(aimed.path[k - 1]).centre).norm();
+        // The aim stops at the first chart that reaches the distance.
+        EXPECT_LT(aimed_m, fraction * max_distance_m);
+        aimed_m += step;
+      }
+      // Deeper into the hole than the first chart: farther from every measurement.
+      EXPECT_GT(bruteForceDistance(model, aimed.atlas.chart(aimed.path.back()).centre),
+                bruteForceDistance(model, first.atlas.chart(first.path.back()).centre));
+    }
+  }
+  config.aim_past_m = -0.01;
+  EXPECT_FALSE(validate(config).empty());
+}
+
 TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);

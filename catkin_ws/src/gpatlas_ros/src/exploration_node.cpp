@@ -476,6 +476,7 @@ class ExplorationNode {
       srv.request.reachable_only = node_.approach_config_.enabled;
       for (const auto& p : request.evidence.attempted_targets) srv.request.attempted_targets.push_back(toPointMsg(p));
       srv.request.attempted_target_errors_m = request.evidence.attempted_target_errors_m;
+      srv.request.footprint_radius_m = request.footprint_radius_m;
       // Plan on the model that holds the last update: the planner rebuilds its replica from the
       // training set this node has seen, which can take it longer than this node took to see it.
       if (const auto training = node_.latestTraining()) srv.request.model_stamp = training->header.stamp;

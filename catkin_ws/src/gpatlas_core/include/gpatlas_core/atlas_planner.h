@@ -67,6 +67,13 @@ class AtlasPlanner {
     // on into the unknown instead of stopping at its edge, up to the first chart plan()'s
     // `reachable` refuses. 0: Algorithm 1 verbatim.
     int extend_path_charts{0};
+    // The first chart that needs a touch lies where the supported surface ends. A probe with a
+    // footprint (a tactile pad) centred there spends half of it on surface already measured, so
+    // past that chart the path goes on toward the highest variance, chart by chart while each
+    // still needs a touch, for up to this distance (metres): the footprint's rim, not its
+    // centre, then meets the supported surface. 0: the first chart (Algorithm 1). Only when
+    // extend_path_charts is 0.
+    double aim_past_m{0.0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
     // charts are kept small enough that none hides such a point. Default: off, variance alone
     // (Algorithm 1). AtlasStrategy sets it from PlanRequest::evidence.

@@ -28,6 +28,10 @@ struct PlanRequest {
   // test); empty: every candidate is reachable. The baselines ignore it: a touch they choose
   // that has no safe approach is refused by the approacher itself.
   TouchFilter reachable;
+  // The probe's contact footprint: half the side of the largest tactile pad it has reported
+  // (ProbeResult::pads; the Explorer fills it), 0 for a point probe. atlas_poke aims this far
+  // past the edge of the supported surface (AtlasPlanner::Config::aim_past_m).
+  double footprint_radius_m{0.0};
 };
 
 struct PlanResult {

@@ -147,6 +147,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   if (req.use_start) request.start = fromMsg(req.start);
   for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
   request.evidence.attempted_target_errors_m = req.attempted_target_errors_m;
+  request.footprint_radius_m = req.footprint_radius_m;
   // reachable_only: the approach planner's cheap test on the collision map of this model.
   std::unique_ptr<gpatlas_motion::TouchMotionPlanner> approach_check;
   std::string reachability_note;
