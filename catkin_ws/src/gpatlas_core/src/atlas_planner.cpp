@@ -235,6 +235,8 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
           if (!takeApproach(extension.chart)) break;
           last = atlas.addChart(std::move(extension.chart));
         }
+        // Until the path has gone at least that far: in unsupported surface the charts are
+        // rho_min_m wide, so the last step overshoots by less than that.
         for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < config_.aim_past_m;) {
           if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
           if (atlas.chart(last).candidates.empty()) break;

@@ -302,15 +302,17 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
       ASSERT_GT(aimed.path.size(), first.path.size());
       for (std::size_t k = 0; k < first.path.size(); ++k)
         EXPECT_LT((aimed.atlas.chart(aimed.path[k]).centre - first.atlas.chart(first.path[k]).centre).norm(), 1e-12);
+      const double aim_m = fraction * max_distance_m;
       double aimed_m = 0.0;
       for (std::size_t k = first.path.size(); k < aimed.path.size(); ++k) {
         const Chart& chart = aimed.atlas.chart(aimed.path[k]);
         EXPECT_GT(bruteForceDistance(model, chart.centre), max_distance_m) << "chart " << k << " needs no touch";
         const double step = (chart.centre - aimed.atlas.chart(aimed.path[k - 1]).centre).norm();
         // The aim stops at the first chart that reaches the distance.
-        EXPECT_LT(aimed_m, fraction * max_distance_m);
+        EXPECT_LT(aimed_m, aim_m);
         aimed_m += step;
       }
+      EXPECT_LT(aimed_m, aim_m + config.chart.rho_max_m);
       // Deeper into the hole than the first chart: farther from every measurement.
       EXPECT_GT(bruteForceDistance(model, aimed.atlas.chart(aimed.path.back()).centre),
                 bruteForceDistance(model, first.atlas.chart(first.path.back()).centre));
@@ -318,6 +320,32 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
   }
   config.aim_past_m = -0.01;
   EXPECT_FALSE(validate(config).empty());
+}
+
+TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
+  const AnalyticSphere sphere;
+  const GpisModel model = modelWithAHoleOnTop(sphere);
+  PlanRequest request;
+  request.v_max = kHugeVMax;
+  request.evidence.max_distance = 0.3;
+  request.evidence.view_max_distance = 0.3;
+  request.seed = 5;
+  PlanRequest with_pad = request;
+  with_pad.footprint_radius_m = 0.01;
+  const auto poke = makeStrategy("atlas_poke", StrategyConfig());
+  const PlanResult point = poke->plan(model, request), pad = poke->plan(model, with_pad);
+  ASSERT_EQ(point.status, PlanStatus::kTouch) << point.message;
+  ASSERT_EQ(pad.status, PlanStatus::kTouch) << pad.message;
+  ASSERT_EQ(pad.touch.points.size(), 1u);
+  EXPECT_GT(bruteForceDistance(model, pad.touch.points.front()), bruteForceDistance(model, point.touch.points.front()));
+  EXPECT_GT(pad.atlas->path.size(), point.atlas->path.size());
+  // A slide's path runs on into the unknown by itself: the footprint changes nothing.
+  const auto slide = makeStrategy("atlas_slide", StrategyConfig());
+  const PlanResult slid = slide->plan(model, request), slid_with_pad = slide->plan(model, with_pad);
+  ASSERT_EQ(slid.status, PlanStatus::kTouch) << slid.message;
+  ASSERT_EQ(slid.touch.points.size(), slid_with_pad.touch.points.size());
+  for (std::size_t k = 0; k < slid.touch.points.size(); ++k)
+    EXPECT_EQ(slid.touch.points[k], slid_with_pad.touch.points[k]);
 }
 
 TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {

@@ -137,33 +137,53 @@ double PatchProbe::padHalfDiagonal() const { return config_.pad_size_m / std::sq
 ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoint,
                                const Eigen::Vector3d& outward_normal) {
   const Eigen::Vector3d n = outward_normal.normalized();
-  Eigen::Vector3d settled = Eigen::Vector3d::Zero();
-  ProbeStroke first = press(scene, waypoint, n, &settled);
   const double range = config_.gimbal_range_deg * kPi / 180.0;
-  if (!(range > 0.0) || first.touched != SurfaceKind::kObject || settled.isZero()) return first;
+  if (!(range > 0.0)) return press(scene, waypoint, n, PressOptions{config_.start_offset_m});
+  PressOptions rigid{config_.start_offset_m};
+  Eigen::Vector3d settled = Eigen::Vector3d::Zero();
+  double first_travel = 0.0;
+  rigid.mean_contact_normal = &settled;
+  rigid.first_travel_m = &first_travel;
+  ProbeStroke first = press(scene, waypoint, n, rigid);
+  if (first.touched != SurfaceKind::kObject || settled.isZero()) return first;
   const double tilt = std::atan2(n.cross(settled).norm(), n.dot(settled));
   if (tilt < kMinGimbalTilt) return first;
-  // The gimbal turns the pad about its first contact toward the surface under it, as far as its
-  // range allows, and the pad presses again from there.
+  // The gimbal turns the pad about its centre toward the surface under it, as far as its range
+  // allows, and the pad presses on from there: from its centre at the first contact, backed off
+  // along the turned axis just enough that its swung edge clears the surface.
+  const Eigen::Vector3d pivot = waypoint + (config_.start_offset_m - first_travel) * n;
   const Eigen::Vector3d turned = Eigen::AngleAxisd(std::min(tilt, range), n.cross(settled).normalized()) * n;
-  ProbeStroke second = press(scene, first.contact.position, turned, nullptr);
+  PressOptions settling{padBoundingRadius() * std::sin(tilt) + config_.indentation_m + config_.free_space_margin_m};
+  settling.check_start = false;  // the pad turns in place: it does not come from elsewhere
+  ProbeStroke second = press(scene, pivot, turned, settling);
   if (second.touched != SurfaceKind::kObject) {
     first.note += (first.note.empty() ? "" : "; ") + std::string("the gimbal could not settle the pad (") +
                   (second.failure.empty() ? "it lost the object" : second.failure) + ")";
     return first;
   }
-  // Both presses saw free space; the settled press gives the patch.
-  second.free_space.insert(second.free_space.begin(), first.free_space.begin(), first.free_space.end());
+  // The settled press gives the patch; the first press's approach was free space (its pressed
+  // pad never was: the pad turned at the first contact).
+  std::vector<Eigen::Vector3d> approach;
+  appendSamples(waypoint + config_.start_offset_m * n, -n, first_travel - config_.free_space_margin_m,
+                config_.free_space_spacing_m, approach);
+  second.free_space.insert(second.free_space.begin(), approach.begin(), approach.end());
   return second;
 }
 
+double PatchProbe::padBoundingRadius() const {
+  const double h = padHalfDiagonal(), r = config_.pad_curvature_radius_m;
+  const double recess = r > 0.0 ? r - std::sqrt(r * r - h * h) : 0.0;
+  return std::sqrt(h * h + recess * recess);
+}
+
 ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
-                              Eigen::Vector3d* mean_contact_normal) {
+                              const PressOptions& options) {
   ProbeStroke result;
   const Config& c = config_;
+  Eigen::Vector3d* mean_contact_normal = options.mean_contact_normal;
   const Eigen::Vector3d u = n.unitOrthogonal();
   const Eigen::Vector3d v = n.cross(u);
-  const double d = c.start_offset_m;
+  const double d = options.start_offset_m;
   const int m = std::max(1, static_cast<int>(std::lround(c.pad_size_m / c.resolution_m)));
   const double pitch = c.pad_size_m / m;
   const auto coordinate = [&](int i) { return (i + 0.5) * pitch - 0.5 * c.pad_size_m; };
@@ -175,8 +195,8 @@ ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoin
 
   const Eigen::Vector3d start = waypoint + d * n;
   // A pad that starts in contact has no meaningful first contact, and a real sensor could not
-  // have got there; the sphere is the one the body check uses for the pad.
-  if (const unsigned start_overlap = scene.sphereOverlaps(padHalfDiagonal(), start)) {
+  // have got there. The sphere encloses the pad, curved or flat.
+  if (const unsigned start_overlap = options.check_start ? scene.sphereOverlaps(padBoundingRadius(), start) : 0u) {
     result.failure = "pad start position overlaps the " + kindsToText(start_overlap);
     return result;
   }
@@ -203,9 +223,14 @@ ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoin
       first_pixel = k;
     }
   if (first_pixel < 0) {
-    appendSamples(start, -n, search, c.free_space_spacing_m, result.free_space);
+    // Nothing within the search; something just beyond it still keeps the margin.
+    double nearest = search + c.free_space_margin_m;
+    for (const RayHit& hit : hits)
+      if (hit.hit) nearest = std::min(nearest, hit.distance);
+    appendSamples(start, -n, nearest - c.free_space_margin_m, c.free_space_spacing_m, result.free_space);
     return result;
   }
+  if (options.first_travel_m) *options.first_travel_m = first;
   appendSamples(start, -n, first - c.free_space_margin_m, c.free_space_spacing_m, result.free_space);
 
   // Pressed: the pixels the pad reaches at its final travel are in contact. Their height along n

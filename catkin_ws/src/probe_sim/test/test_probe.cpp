@@ -573,6 +573,11 @@ TEST(PatchProbe, AGimbalSettlesThePadFlatOnAFaceItApproachesTilted) {
   ASSERT_EQ(settled.pad.size(), 1u);
   EXPECT_LT(angleBetween(settled.pad[0].orientation * Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()),
             0.1 * kDegree);
+  // The pad turned about its centre on the mount's axis, a few millimetres from where that axis
+  // meets the face: it did not slide sideways to its first-touching corner (about 10 mm away).
+  const Eigen::Vector3d axis = tiltedFromUp(20.0);
+  const Eigen::Vector3d off_axis = (settled.pad[0].centre - top) - (settled.pad[0].centre - top).dot(axis) * axis;
+  EXPECT_LT(off_axis.norm(), 0.002);
   for (const Eigen::Vector3d& f : settled.free_space) EXPECT_GT(f.z(), kBox);
   // 40 degrees off: the gimbal turns its 30, and the pad presses 10 degrees off the face.
   const probe_sim::ProbeStroke limited = probe_sim::PatchProbe(config).stroke(scene, top, tiltedFromUp(40.0));
@@ -581,6 +586,14 @@ TEST(PatchProbe, AGimbalSettlesThePadFlatOnAFaceItApproachesTilted) {
   EXPECT_NEAR(angleBetween(limited.pad[0].orientation * Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()),
               10.0 * kDegree, 0.1 * kDegree);
   EXPECT_LT(limited.patch.size(), settled.patch.size() / 2);
+  // Near the face's edge, tilted over it: whatever the pad settles on lies on the box.
+  const probe_sim::ProbeStroke edge =
+      probe_sim::PatchProbe(config).stroke(scene, Eigen::Vector3d(kBox / 2 - 0.004, 0.0, kBox), tiltedFromUp(20.0));
+  ASSERT_EQ(edge.touched, probe_sim::SurfaceKind::kObject) << edge.note;
+  for (const gpatlas_core::Contact& c : edge.patch)
+    EXPECT_LT(std::abs(*probe_sim::proceduralSignedDistance("box", kBox, c.position)), 1e-6);
+  for (const Eigen::Vector3d& f : edge.free_space)
+    EXPECT_GT(*probe_sim::proceduralSignedDistance("box", kBox, f), 0.0);
   config.gimbal_range_deg = 91.0;
   EXPECT_THROW(probe_sim::PatchProbe{config}, std::runtime_error);
 }

@@ -70,8 +70,8 @@ class AtlasPlanner {
     // The first chart that needs a touch lies where the supported surface ends. A probe with a
     // footprint (a tactile pad) centred there spends half of it on surface already measured, so
     // past that chart the path goes on toward the highest variance, chart by chart while each
-    // still needs a touch, for up to this distance (metres): the footprint's rim, not its
-    // centre, then meets the supported surface. 0: the first chart (Algorithm 1). Only when
+    // still needs a touch, until it has gone at least this distance (metres): the footprint's
+    // rim, not its centre, then meets the supported surface. 0: the first chart (Algorithm 1). Only when
     // extend_path_charts is 0.
     double aim_past_m{0.0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and

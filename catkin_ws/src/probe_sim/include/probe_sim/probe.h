@@ -116,8 +116,8 @@ struct PatchProbeConfig {
   // ... and reported as contact points on a grid of this spacing (a multiple of the pixel;
   // 0: every pixel), each with its normal from the depth image's gradient at full resolution.
   double point_spacing_m = 0.001;
-  // A passive gimbal between pad and mount: after the first contact the pad turns about it toward
-  // the mean surface normal under the pad, by at most this angle, and presses again (0: rigid).
+  // A passive gimbal between pad and mount: after the first contact the pad turns about its centre
+  // toward the mean surface normal under the pad, by at most this angle, and presses on (0: rigid).
   double gimbal_range_deg = 0.0;
   double depth_noise_m = 0.0;     // Gaussian, along the pad's normal, per pixel
   double normal_noise_deg = 0.0;  // Gaussian tilt of each reported normal
@@ -147,9 +147,17 @@ class PatchProbe : public ProbeModel {
   double padHalfDiagonal() const;
 
  private:
-  // One press along n; adds the mean surface normal over the pixels in contact, if asked.
+  struct PressOptions {
+    double start_offset_m;  // the pad starts this far out along n from the waypoint
+    Eigen::Vector3d* mean_contact_normal = nullptr;  // adds the mean surface normal under the contact
+    double* first_travel_m = nullptr;                // the pad's travel at its first contact
+    bool check_start = true;                         // refuse a start that overlaps the scene
+  };
+  // One press along n.
   ProbeStroke press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
-                    Eigen::Vector3d* mean_contact_normal);
+                    const PressOptions& options);
+  // Of the sphere about the pad's centre that holds the pad, curved or flat.
+  double padBoundingRadius() const;
 
   Config config_;
   std::mt19937 rng_;
