@@ -170,10 +170,14 @@ ProbeStroke PatchProbe::stroke(const Scene& scene, const Eigen::Vector3d& waypoi
   return second;
 }
 
+double PatchProbe::padRecess(double lateral_m) const {
+  const double r = config_.pad_curvature_radius_m;
+  return r > 0.0 ? r - std::sqrt(r * r - lateral_m * lateral_m) : 0.0;
+}
+
 double PatchProbe::padBoundingRadius() const {
-  const double h = padHalfDiagonal(), r = config_.pad_curvature_radius_m;
-  const double recess = r > 0.0 ? r - std::sqrt(r * r - h * h) : 0.0;
-  return std::sqrt(h * h + recess * recess);
+  const double h = padHalfDiagonal();
+  return std::hypot(h, padRecess(h));
 }
 
 ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
@@ -187,11 +191,6 @@ ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoin
   const int m = std::max(1, static_cast<int>(std::lround(c.pad_size_m / c.resolution_m)));
   const double pitch = c.pad_size_m / m;
   const auto coordinate = [&](int i) { return (i + 0.5) * pitch - 0.5 * c.pad_size_m; };
-  // How far a pixel of a curved pad lies behind its centre.
-  const auto recess = [&](double a, double b) {
-    const double r = c.pad_curvature_radius_m;
-    return r > 0.0 ? r - std::sqrt(r * r - a * a - b * b) : 0.0;
-  };
 
   const Eigen::Vector3d start = waypoint + d * n;
   // A pad that starts in contact has no meaningful first contact, and a real sensor could not
@@ -209,7 +208,7 @@ ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoin
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < m; ++j) {
       const double a = coordinate(i), b = coordinate(j);
-      const Eigen::Vector3d origin = waypoint + (d + recess(a, b)) * n + a * u + b * v;
+      const Eigen::Vector3d origin = waypoint + (d + padRecess(std::hypot(a, b))) * n + a * u + b * v;
       from.col(i * m + j) = origin;
       to.col(i * m + j) = origin - reach * n;
     }

@@ -156,6 +156,8 @@ class PatchProbe : public ProbeModel {
   // One press along n.
   ProbeStroke press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
                     const PressOptions& options);
+  // How far a point of a curved pad this far from its centre lies behind the centre (0: flat).
+  double padRecess(double lateral_m) const;
   // Of the sphere about the pad's centre that holds the pad, curved or flat.
   double padBoundingRadius() const;
 
