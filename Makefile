@@ -42,7 +42,7 @@ bench: build
 	$(WS)/devel/lib/probe_sim/gpatlas_bench $(BENCH_ARGS)
 
 bench-core: build
-	$(WS)/devel/lib/gpatlas_core/gpatlas_core_benchmark $(BENCH_CORE_ARGS)
+	$(WS)/devel/lib/gpatlas_geometry/gpatlas_core_benchmark $(BENCH_CORE_ARGS)
 
 # The soak test of make test (test/soak.test, 40 actions), longer: it prints where each action's
 # wall time goes and the nodelet manager's memory, and fails if the time per action grows by half

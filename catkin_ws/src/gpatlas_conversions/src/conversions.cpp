@@ -6,7 +6,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace gpatlas_ros {
+namespace gpatlas_conversions {
 
 geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p) {
   geometry_msgs::Point m;
@@ -388,4 +388,4 @@ sensor_msgs::PointCloud2 pointsToCloud(const std::vector<Eigen::Vector3d>& point
   return cloud;
 }
 
-}  // namespace gpatlas_ros
+}  // namespace gpatlas_conversions

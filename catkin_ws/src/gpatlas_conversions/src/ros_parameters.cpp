@@ -2,7 +2,7 @@
 
 #include <xmlrpcpp/XmlRpcValue.h>
 
-namespace gpatlas_ros {
+namespace gpatlas_conversions {
 
 bool RosParameterSource::exists(const std::string& name) const { return nh_.hasParam(name); }
 
@@ -50,4 +50,4 @@ std::optional<std::vector<std::string>> RosParameterSource::texts(const std::str
   return std::nullopt;
 }
 
-}  // namespace gpatlas_ros
+}  // namespace gpatlas_conversions

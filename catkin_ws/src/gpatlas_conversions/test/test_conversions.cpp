@@ -6,7 +6,7 @@
 #include <limits>
 #include <random>
 
-using namespace gpatlas_ros;
+using namespace gpatlas_conversions;
 
 namespace {
 
@@ -95,11 +95,11 @@ TEST(Conversions, SupportPlaneRoundTripAndNormalisation) {
   gpatlas_core::SupportPlane plane;
   plane.normal = Eigen::Vector3d(0.1, -0.2, 0.9).normalized();
   plane.offset = -0.73;
-  const gpatlas_msgs::SupportPlane msg = gpatlas_ros::toMsg(plane, "world");
+  const gpatlas_msgs::SupportPlane msg = gpatlas_conversions::toMsg(plane, "world");
   EXPECT_EQ(msg.header.frame_id, "world");
   gpatlas_core::SupportPlane back;
   std::string error;
-  ASSERT_TRUE(gpatlas_ros::fromMsg(msg, &back, &error)) << error;
+  ASSERT_TRUE(gpatlas_conversions::fromMsg(msg, &back, &error)) << error;
   EXPECT_NEAR((back.normal - plane.normal).norm(), 0.0, 1e-15);
   EXPECT_DOUBLE_EQ(back.offset, plane.offset);
   // A non-unit normal describes the same plane: same heights after normalisation.
@@ -108,12 +108,12 @@ TEST(Conversions, SupportPlaneRoundTripAndNormalisation) {
   scaled.normal.y *= 3.0;
   scaled.normal.z *= 3.0;
   scaled.offset *= 3.0;
-  ASSERT_TRUE(gpatlas_ros::fromMsg(scaled, &back, &error)) << error;
+  ASSERT_TRUE(gpatlas_conversions::fromMsg(scaled, &back, &error)) << error;
   const Eigen::Vector3d x(0.3, 0.4, -0.5);
   EXPECT_NEAR(back.height(x), plane.height(x), 1e-12);
   gpatlas_msgs::SupportPlane zero = msg;
   zero.normal.x = zero.normal.y = zero.normal.z = 0.0;
-  EXPECT_FALSE(gpatlas_ros::fromMsg(zero, &back, &error));
+  EXPECT_FALSE(gpatlas_conversions::fromMsg(zero, &back, &error));
   EXPECT_FALSE(error.empty());
 }
 
@@ -124,7 +124,7 @@ TEST(Conversions, APlaneMovedToAnotherFrameKeepsEveryPointsHeight) {
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1.0, -2.0, 0.5).normalized()).toRotationMatrix();
   pose.translation() = Eigen::Vector3d(0.2, -1.1, 0.6);
-  const gpatlas_core::SupportPlane moved = gpatlas_ros::transformPlane(plane, pose);
+  const gpatlas_core::SupportPlane moved = gpatlas_conversions::transformPlane(plane, pose);
   EXPECT_NEAR(moved.normal.norm(), 1.0, 1e-12);
   // Any point's signed height above the plane is the same in both frames.
   for (const Eigen::Vector3d x : {Eigen::Vector3d(0.0, 0.0, 0.0), Eigen::Vector3d(1.0, 2.0, -3.0),

@@ -4,10 +4,10 @@
 // stop. It pokes, among the sampled surface points that still need a touch, the one farthest
 // from everything measured (view points and contacts). It stops by the built-in baselines' rule:
 // no sampled surface point above V_max or without evidence.
-#include <gpatlas_core/exploration_strategy.h>
-#include <gpatlas_core/strategy_library.h>
-#include <gpatlas_core/surface_evidence.h>
-#include <gpatlas_core/surface_sampler.h>
+#include <gpatlas_core/planning/exploration_strategy.h>
+#include <gpatlas_core/planning/strategy_library.h>
+#include <gpatlas_core/observations/surface_evidence.h>
+#include <gpatlas_core/planning/surface_sampler.h>
 
 #include <algorithm>
 #include <chrono>

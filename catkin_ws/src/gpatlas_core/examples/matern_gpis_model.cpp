@@ -2,8 +2,8 @@
 // (`strategy_libraries: [libgpatlas_example_models.so]`, `model/type: gpis_matern52`): the global
 // GPIS with a Matern 5/2 kernel in place of its default. Its name() is the registered name, by
 // which the planner's and the collision map's replicas are rebuilt.
-#include <gpatlas_core/gpis_model.h>
-#include <gpatlas_core/surface_model_factory.h>
+#include <gpatlas_core/model/gpis_model.h>
+#include <gpatlas_core/model/surface_model_factory.h>
 
 #include <memory>
 

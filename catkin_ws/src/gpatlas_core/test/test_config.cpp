@@ -1,8 +1,8 @@
 // The configuration file against the Configs' readers, the YAML source, and the view builder.
-#include "gpatlas_core/config_readers.h"
-#include "gpatlas_core/exploration_report.h"
-#include "gpatlas_core/parameters.h"
-#include "gpatlas_core/view_training.h"
+#include "gpatlas_core/config/config_readers.h"
+#include "gpatlas_core/exploration/exploration_report.h"
+#include "gpatlas_core/config/parameters.h"
+#include "gpatlas_core/observations/view_training.h"
 
 #include <gtest/gtest.h>
 
@@ -13,36 +13,8 @@
 namespace {
 
 using gpatlas_core::ParamReader;
-using gpatlas_core::PipelineConfig;
 using gpatlas_core::Vector3;
 using gpatlas_core::YamlParameters;
-
-// The file's values reach the Configs (a second, independent parse of the text).
-TEST(PipelineYaml, ValuesReachTheConfigs) {
-  std::string error;
-  const auto params = YamlParameters::fromString(
-      "seed: 7\nexploration: {v_max: 0.05, max_actions: 12}\nview:\n  free_space: {max_rays: 10}\n"
-      "segmentation: {crop_min_m: [0.1, -0.2, 0.0], object_hint_m: [1, 2, 3]}\ngpis: {kernel_params: [2.5]}\n",
-      &error);
-  ASSERT_TRUE(params) << error;
-  ParamReader reader(*params);
-  PipelineConfig c;
-  gpatlas_core::readPipeline(reader, &c);
-  ASSERT_TRUE(reader.ok()) << reader.errors();
-  EXPECT_EQ(c.seed, 7u);
-  EXPECT_EQ(c.exploration.seed, 7u);
-  EXPECT_EQ(c.strategy.seed, 7u);
-  EXPECT_DOUBLE_EQ(c.exploration.v_max, 0.05);
-  EXPECT_EQ(c.exploration.max_actions, 12);
-  EXPECT_EQ(c.view.free_space.max_rays, 10);
-  EXPECT_EQ(c.segmentation.crop_min_m, Vector3(0.1, -0.2, 0.0));
-  ASSERT_TRUE(c.segmentation.object_hint_m.has_value());
-  EXPECT_EQ(*c.segmentation.object_hint_m, Vector3(1, 2, 3));
-  ASSERT_EQ(c.model.gpis.initial_params.size(), 1u);
-  EXPECT_NEAR(std::exp(c.model.gpis.initial_params[0]), 2.5, 1e-12);
-  // Unset sections keep the Configs' own defaults.
-  EXPECT_EQ(c.touch.min_point_spacing_m, gpatlas_core::TouchObservationConfig().min_point_spacing_m);
-}
 
 TEST(YamlParameters, AnOverlaySetsItsLeavesAndKeepsTheRest) {
   std::string error;

@@ -1,6 +1,6 @@
 // The BLAS- and LAPACK-backed dense steps against Eigen's own factorisation and solves, on
 // factors stored with spare capacity as GpisModel keeps them.
-#include "gpatlas_core/dense_solve.h"
+#include "gpatlas_core/common/dense_solve.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>

@@ -1,4 +1,4 @@
-#include "gpatlas_core/gpis_model.h"
+#include "gpatlas_core/model/gpis_model.h"
 
 #include <gtest/gtest.h>
 
@@ -287,26 +287,6 @@ TEST(GpisModel, SlopeObservationsSetTheSlopeAndAreAddedIncrementallyAsAFitWould)
   EXPECT_EQ(third.num_added, 0u);
   ASSERT_FALSE(third.warnings.empty());
   EXPECT_NE(third.warnings.front().find("direction"), std::string::npos);
-}
-
-// The GP models a slope's residual over the prior's slope per normalised unit (scale * grad m . u):
-// with a steep linear prior, the predicted slope still meets the observed one.
-TEST(GpisModel, SlopeObservationsWithAPriorMeanKeepTheirTarget) {
-  struct LinearPrior : gpatlas_core::PriorMean {
-    double value(const Vector3d& x, Vector3d* gradient) const override {
-      const Vector3d w(3.0, -5.0, 2.0);  // per metre
-      if (gradient) *gradient = w;
-      return w.dot(x - kCentre);
-    }
-  };
-  std::vector<TrainingPoint> points = surfacePoints(capDirections(60, -0.5, 12), Vector3d::Constant(kRadius));
-  const std::vector<TrainingPoint> slopes = outwardSlopes(points, 5);
-  points.insert(points.end(), slopes.begin(), slopes.end());
-  GpisModel model;
-  ASSERT_TRUE(model.fit(points).ok);
-  const FitReport report = model.setPriorMean(std::make_shared<LinearPrior>());
-  ASSERT_TRUE(report.ok) << report.message;
-  expectSlopesMet(model, slopes);
 }
 
 TEST(GpisModel, GradientsOfOtherKernelsMatchFiniteDifferences) {

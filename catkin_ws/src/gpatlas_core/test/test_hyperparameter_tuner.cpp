@@ -1,5 +1,5 @@
-#include "gpatlas_core/gpis_model.h"
-#include "gpatlas_core/hyperparameter_tuner.h"
+#include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/model/hyperparameter_tuner.h"
 
 #include <gtest/gtest.h>
 

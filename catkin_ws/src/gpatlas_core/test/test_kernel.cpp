@@ -1,4 +1,4 @@
-#include "gpatlas_core/kernel.h"
+#include "gpatlas_core/model/kernel.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-#include "gpatlas_core/gpis_model.h"
-#include "gpatlas_core/model_calibration.h"
+#include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/model/model_calibration.h"
 
-#include "analytic_sphere.h"
+#include "gpatlas_core/testing/analytic_sphere.h"
 
 #include <gtest/gtest.h>
 

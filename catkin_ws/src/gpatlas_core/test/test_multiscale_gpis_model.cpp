@@ -1,7 +1,7 @@
-#include "gpatlas_core/multiscale_gpis_model.h"
-#include "gpatlas_core/hyperparameter_tuner.h"
-#include "gpatlas_core/occupancy_grid.h"
-#include "gpatlas_core/surface_model_factory.h"
+#include "gpatlas_core/model/multiscale_gpis_model.h"
+#include "gpatlas_core/model/hyperparameter_tuner.h"
+#include "gpatlas_core/model/occupancy_grid.h"
+#include "gpatlas_core/model/surface_model_factory.h"
 
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>

@@ -1,8 +1,8 @@
-#include "gpatlas_core/explorer.h"
-#include "gpatlas_core/multiscale_gpis_model.h"
-#include "gpatlas_core/observation_gate.h"
+#include "gpatlas_core/exploration/explorer.h"
+#include "gpatlas_core/model/multiscale_gpis_model.h"
+#include "gpatlas_core/observations/observation_gate.h"
 
-#include "analytic_sphere.h"
+#include "gpatlas_core/testing/analytic_sphere.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
-#include "gpatlas_core/multiscale_gpis_model.h"
-#include "gpatlas_core/observation_history.h"
+#include "gpatlas_core/model/multiscale_gpis_model.h"
+#include "gpatlas_core/exploration/observation_history.h"
 
-#include "analytic_sphere.h"
+#include "gpatlas_core/testing/analytic_sphere.h"
 
 #include <gtest/gtest.h>
 

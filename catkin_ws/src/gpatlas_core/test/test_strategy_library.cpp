@@ -1,9 +1,9 @@
-#include "gpatlas_core/gpis_model.h"
-#include "gpatlas_core/explorer.h"
-#include "gpatlas_core/strategy_library.h"
-#include "gpatlas_core/surface_model_factory.h"
+#include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/exploration/explorer.h"
+#include "gpatlas_core/planning/strategy_library.h"
+#include "gpatlas_core/model/surface_model_factory.h"
 
-#include "analytic_sphere.h"
+#include "gpatlas_core/testing/analytic_sphere.h"
 
 #include <gtest/gtest.h>
 

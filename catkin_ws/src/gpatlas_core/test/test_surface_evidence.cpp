@@ -1,13 +1,13 @@
 // SurfaceEvidence and the evidence test of the planners: checked against brute-force distances
 // to the measured surface points.
 
-#include "gpatlas_core/gpis_model.h"
-#include "gpatlas_core/atlas_planner.h"
-#include "gpatlas_core/exploration_strategy.h"
-#include "gpatlas_core/explorer.h"
-#include "gpatlas_core/surface_evidence.h"
+#include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/planning/atlas_planner.h"
+#include "gpatlas_core/planning/strategy_registry.h"
+#include "gpatlas_core/exploration/explorer.h"
+#include "gpatlas_core/observations/surface_evidence.h"
 
-#include "analytic_sphere.h"
+#include "gpatlas_core/testing/analytic_sphere.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,12 @@
-#include "gpatlas_core/gpis_model.h"
-#include "gpatlas_core/multiscale_gpis_model.h"
-#include "gpatlas_core/view_training.h"
-#include "gpatlas_core/view_free_space.h"
+#include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/model/multiscale_gpis_model.h"
+#include "gpatlas_core/observations/view_training.h"
+#include "gpatlas_core/observations/support_plane.h"
+#include "gpatlas_core/observations/view_free_space.h"
+#include "gpatlas_core/observations/near_surface_free_space.h"
+#include "gpatlas_core/observations/occluded_interior.h"
+#include "gpatlas_core/observations/below_support.h"
+#include "gpatlas_core/observations/support_free_space.h"
 
 #include <gtest/gtest.h>
 
@@ -49,7 +54,7 @@ TEST(ViewFreeSpace, SamplesLieOnTheRaysBeforeTheHitWithDistanceLabelsToTheView) 
   ViewFreeSpaceConfig config;
   config.max_rays = 100;
   config.samples_per_ray = 3;
-  const ViewFreeSpace free = sampleViewFreeSpace(view, kEye, config);
+  const ViewSamples free = sampleViewFreeSpace(view, kEye, config);
   ASSERT_TRUE(free.ok) << free.message;
   ASSERT_GT(free.points.size(), 250u);
 
@@ -175,7 +180,7 @@ TEST(NearSurfaceFreeSpace, OneSampleInFrontOfEachViewPointLabelledWithItsNearest
   NearSurfaceFreeSpaceConfig config;
   config.offset_m = 0.003;
   config.max_points = 100;
-  const ViewFreeSpace near = sampleNearSurfaceFreeSpace(view, sensor, config);
+  const ViewSamples near = sampleNearSurfaceFreeSpace(view, sensor, config);
   ASSERT_TRUE(near.ok) << near.message;
   ASSERT_EQ(near.points.size(), 100u);
   for (const TrainingPoint& t : near.points) {
@@ -192,7 +197,7 @@ TEST(NearSurfaceFreeSpace, OneSampleInFrontOfEachViewPointLabelledWithItsNearest
     EXPECT_LE(t.surface_distance_m, config.offset_m + 1e-12);  // its own view point is that far
   }
   config.max_points = 0;
-  const ViewFreeSpace none = sampleNearSurfaceFreeSpace(view, sensor, config);
+  const ViewSamples none = sampleNearSurfaceFreeSpace(view, sensor, config);
   EXPECT_TRUE(none.ok && none.points.empty());
   config.max_points = 10;
   config.offset_m = 0.0;
@@ -205,7 +210,7 @@ TEST(OccludedInterior, SamplesOfASolidBallLieInsideItBehindTheVisibleSurface) {
   const auto view = visibleBallFront(3000, 4);
   OccludedInteriorConfig config;
   config.max_points = 80;
-  const ViewFreeSpace inside = sampleOccludedInterior(view, kSideEye, config);
+  const ViewSamples inside = sampleOccludedInterior(view, kSideEye, config);
   ASSERT_TRUE(inside.ok) << inside.message;
   ASSERT_EQ(inside.points.size(), 80u);  // the ball's hidden half is large: the cap applies
 
@@ -244,7 +249,7 @@ TEST(OccludedInterior, NothingTheCameraSawAsAirInABowl) {
   const auto view = sphereSamples(3000, 5, [&eye](const Vector3& p) {
     return p.z() <= 0.0 && (openingCrossing(eye, p).head<2>().norm() < kRadius || p.dot(eye - p) > 0.0);
   });
-  const ViewFreeSpace inside = sampleOccludedInterior(view, eye);
+  const ViewSamples inside = sampleOccludedInterior(view, eye);
   ASSERT_TRUE(inside.ok) << inside.message;
   ASSERT_GE(inside.points.size(), 20u);
   std::size_t grazing = 0;
@@ -346,7 +351,7 @@ TEST(SupportPlane, SamplesLieBelowThePlaneUnderTheViewLabelledWithTheirDepth) {
   plane.normal = Vector3(0.2, -0.1, 1.0).normalized();
   plane.offset = 0.12;
   BelowSupportConfig config;
-  const ViewFreeSpace below = sampleBelowSupport(view, plane, config);
+  const ViewSamples below = sampleBelowSupport(view, plane, config);
   ASSERT_TRUE(below.ok) << below.message;
   // Every layer has the same cells, and the ball's footprint (a disc) fills most of the grid.
   ASSERT_EQ(below.points.size() % config.depth_fractions.size(), 0u);
@@ -371,7 +376,7 @@ TEST(SupportPlane, SamplesLieBelowThePlaneUnderTheViewLabelledWithTheirDepth) {
   SupportPlane flipped = plane;
   flipped.normal = -plane.normal;
   flipped.offset = -plane.offset;
-  const ViewFreeSpace refused = sampleBelowSupport(view, flipped);
+  const ViewSamples refused = sampleBelowSupport(view, flipped);
   EXPECT_FALSE(refused.ok);
   EXPECT_NE(refused.message.find("flipped"), std::string::npos);
 
@@ -499,7 +504,7 @@ TEST(SupportFreeSpace, SamplesOnlyTheTableTheCameraSawBesideTheObject) {
   const std::vector<Vector3> view = visibleBoxView();
   const SupportPlane table;
   SupportFreeSpaceConfig config;
-  const ViewFreeSpace beside = sampleSupportFreeSpace(view, kBoxEye, table, config);
+  const ViewSamples beside = sampleSupportFreeSpace(view, kBoxEye, table, config);
   ASSERT_TRUE(beside.ok) << beside.message;
   std::size_t in_front = 0, on_the_side = 0;
   for (const TrainingPoint& t : beside.points) {
@@ -546,7 +551,7 @@ TEST(SupportFreeSpace, SamplesOnlyTheTableTheCameraSawBesideTheObject) {
   config.max_points = 10;
   EXPECT_EQ(sampleSupportFreeSpace(view, kBoxEye, table, config).points.size(), 10u);
   config.max_points = 0;
-  const ViewFreeSpace none = sampleSupportFreeSpace(view, kBoxEye, table, config);
+  const ViewSamples none = sampleSupportFreeSpace(view, kBoxEye, table, config);
   EXPECT_TRUE(none.ok && none.points.empty());
 }
 
@@ -596,7 +601,7 @@ TEST(SupportFreeSpace, BadInputIsRefusedWithAReason) {
   const std::vector<Vector3> view = visibleBoxView();
   const SupportPlane table;
   SupportFreeSpaceConfig config;
-  const ViewFreeSpace below = sampleSupportFreeSpace(view, Vector3(0.3, 0.0, -0.1), table, config);
+  const ViewSamples below = sampleSupportFreeSpace(view, Vector3(0.3, 0.0, -0.1), table, config);
   EXPECT_FALSE(below.ok);
   EXPECT_NE(below.message.find("not above"), std::string::npos);
   EXPECT_FALSE(sampleSupportFreeSpace(view, Vector3::Constant(std::nan("")), table, config).ok);
@@ -605,7 +610,7 @@ TEST(SupportFreeSpace, BadInputIsRefusedWithAReason) {
   with_nan.push_back(Vector3::Constant(std::nan("")));
   EXPECT_TRUE(sampleSupportFreeSpace(with_nan, kBoxEye, table, config).ok);
   config.min_distance_m = config.max_distance_m;
-  const ViewFreeSpace bad = sampleSupportFreeSpace(view, kBoxEye, table, config);
+  const ViewSamples bad = sampleSupportFreeSpace(view, kBoxEye, table, config);
   EXPECT_FALSE(bad.ok);
   EXPECT_NE(bad.message.find("invalid"), std::string::npos);
 }

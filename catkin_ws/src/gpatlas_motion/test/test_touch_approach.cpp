@@ -2,7 +2,7 @@
 // probe's way to touches on a GP fitted to a sphere, checked against the analytic sphere itself.
 #include "gpatlas_motion/touch_approach.h"
 
-#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/model/gpis_model.h>
 
 #include <octomap/OcTree.h>
 

@@ -3,13 +3,13 @@
 // max_actions, or max_consecutive_failures failed touches. The probe service is probe_sim's in
 // simulation; a real robot driver implements the same gpatlas_msgs/Probe service.
 
-#include <gpatlas_core/background_work.h>
-#include <gpatlas_core/exploration_report.h>
-#include <gpatlas_core/explorer.h>
-#include <gpatlas_core/shape_metrics.h>
-#include <gpatlas_core/surface_sampler.h>
-#include <gpatlas_core/surface_mesher.h>
-#include <gpatlas_core/triangle_mesh.h>
+#include <gpatlas_core/common/background_work.h>
+#include <gpatlas_core/exploration/exploration_report.h>
+#include <gpatlas_core/exploration/explorer.h>
+#include <gpatlas_geometry/shape_metrics.h>
+#include <gpatlas_core/planning/surface_sampler.h>
+#include <gpatlas_geometry/surface_mesher.h>
+#include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_msgs/AddObservations.h>
 #include <gpatlas_msgs/Capture.h>
 #include <gpatlas_msgs/CollisionMapStatus.h>
@@ -46,6 +46,8 @@
 #include <vector>
 
 namespace gpatlas_ros {
+
+using namespace gpatlas_conversions;
 namespace {
 
 namespace fs = std::filesystem;
@@ -53,7 +55,7 @@ namespace fs = std::filesystem;
 class ExplorationNode {
  public:
   ExplorationNode(ros::NodeHandle nh, ros::NodeHandle pnh) : nh_(nh), pnh_(pnh) {
-    ParamReader r(pnh_);
+    RosParamReader r(pnh_);
     gpatlas_core::PipelineFrames frames;
     readFrames(r, &frames);
     world_frame_ = frames.world_frame;
@@ -306,11 +308,11 @@ class ExplorationNode {
     const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
     if (sample.ok) record.sampled_max_variance = sample.maxVariance();
     if (ground_truth_.empty()) return;
-    gpatlas_core::SurfaceMesher::Config shape_only = mesher_config_;
+    gpatlas_geometry::SurfaceMesher::Config shape_only = mesher_config_;
     shape_only.vertex_variances = false;  // only the shape is measured here
-    const auto surface = gpatlas_core::SurfaceMesher(shape_only).mesh(model);
+    const auto surface = gpatlas_geometry::SurfaceMesher(shape_only).mesh(model);
     if (!surface.ok) return;
-    const auto metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
+    const auto metrics = gpatlas_geometry::ShapeMetrics().compare(surface.mesh, ground_truth_);
     if (!metrics.ok) return;
     record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
     record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
@@ -414,14 +416,14 @@ class ExplorationNode {
     if (const auto training = latestTraining()) {
       std::unique_ptr<gpatlas_core::SurfaceModel> model;
       if (modelFromMsg(*training, model_config_, &model, &surface_message)) {
-        const auto surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model);
+        const auto surface = gpatlas_geometry::SurfaceMesher(mesher_config_).mesh(*model);
         surface_message = surface.message;
         has_surface = surface.ok;
         if (surface.ok) {
           const std::string write_error = gpatlas_core::writePly(surface.mesh, (dir / "surface.ply").string());
           if (!write_error.empty()) ROS_WARN_STREAM("exploration: " << write_error);
           if (!ground_truth_.empty()) {
-            const auto metrics = gpatlas_core::ShapeMetrics().compare(surface.mesh, ground_truth_);
+            const auto metrics = gpatlas_geometry::ShapeMetrics().compare(surface.mesh, ground_truth_);
             if (metrics.ok)
               report.final_shape = {true, metrics.rmse_predicted_to_truth, metrics.rmse_truth_to_predicted,
                                     metrics.chamfer_l1, metrics.f_score};
@@ -637,7 +639,7 @@ class ExplorationNode {
   std::map<std::string, ros::ServiceClient> clients_;  // callService's connections, by resolved name
   ExplorationNodeConfig node_config_;
   gpatlas_core::SurfaceModelConfig model_config_;
-  gpatlas_core::SurfaceMesher::Config mesher_config_;
+  gpatlas_geometry::SurfaceMesher::Config mesher_config_;
   gpatlas_core::TriangleMesh ground_truth_;
   gpatlas_core::ExplorationRecord initial_;
 

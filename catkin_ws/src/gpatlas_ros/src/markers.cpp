@@ -6,6 +6,8 @@
 
 namespace gpatlas_ros {
 
+using namespace gpatlas_conversions;
+
 namespace {
 
 std_msgs::ColorRGBA colour(double variance, double v_max, float alpha = 1.0f) {

@@ -1,6 +1,9 @@
 // Nodelet shims: each builds its server from the nodelet's handles and keeps it alive.
 
-#include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/atlas_planner_server.h"
+#include "gpatlas_ros/collision_map_server.h"
+#include "gpatlas_ros/gp_model_server.h"
+#include "gpatlas_ros/segmentation_server.h"
 
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>

@@ -1,6 +1,6 @@
 #include "gpatlas_ros/ros_params.h"
 
-#include <gpatlas_core/strategy_library.h>
+#include <gpatlas_core/planning/strategy_library.h>
 
 #include <ros/console.h>
 
@@ -15,7 +15,7 @@ void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c)
   c->results_dir = r.text("results_dir", c->results_dir);
 }
 
-void ParamReader::report(const std::string& who) const {
+void RosParamReader::report(const std::string& who) const {
   if (!ok()) ROS_ERROR_STREAM(who << ": invalid parameters, defaults used instead: " << errors());
   if (!defaultedNames().empty())
     ROS_INFO_STREAM(who << ": parameters not set in " << ns() << ", defaults used: " << defaulted());

@@ -6,6 +6,8 @@
 
 namespace gpatlas_ros {
 
+using namespace gpatlas_conversions;
+
 bool modelForTrainingSet(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                          const gpatlas_core::SurfaceModelConfig& config,
                          std::shared_ptr<const gpatlas_core::SurfaceModel>* model, std::string* error, bool* shared) {

@@ -70,12 +70,12 @@ sensor_msgs::PointCloud2 syntheticView() {
   std::vector<Eigen::Vector3d> camera;
   for (const auto& p : syntheticViewInWorld()) camera.push_back(to_camera * p);
   camera.emplace_back(std::nan(""), 0.0, 0.0);
-  auto cloud = gpatlas_ros::pointsToCloud(camera, {}, 1.0, "test_camera");
+  auto cloud = gpatlas_conversions::pointsToCloud(camera, {}, 1.0, "test_camera");
   return cloud;
 }
 
 double sphereError(const geometry_msgs::Point& p) {
-  return std::abs((gpatlas_ros::fromMsg(p) - kCentre).norm() - kRadius);
+  return std::abs((gpatlas_conversions::fromMsg(p) - kCentre).norm() - kRadius);
 }
 
 template <typename Srv>
@@ -97,13 +97,13 @@ TEST(Pipeline, BadCloudsLeaveNoModelAndTheManagerAlive) {
                                  for (double y = -0.3; y <= 0.3; y += 0.01) table.emplace_back(x, y, 0.0);
                                return table;
                              }()}) {
-    auto cloud = gpatlas_ros::pointsToCloud(points, {}, 1.0, "world");
+    auto cloud = gpatlas_conversions::pointsToCloud(points, {}, 1.0, "world");
     cloud.header.stamp = ros::Time::now();
     pub.publish(cloud);
     ros::Duration(1.0).sleep();
   }
   // A good view without a frame: refused, not taken for world coordinates.
-  auto frameless = gpatlas_ros::pointsToCloud(syntheticViewInWorld(), {}, 1.0, "");
+  auto frameless = gpatlas_conversions::pointsToCloud(syntheticViewInWorld(), {}, 1.0, "");
   frameless.header.stamp = ros::Time::now();
   pub.publish(frameless);
   ros::Duration(2.0).sleep();
@@ -127,7 +127,7 @@ TEST(Pipeline, AnswersBeforeTheModelExists) {
 
   gpatlas_msgs::AddObservations add;
   add.request.observations.header.frame_id = "world";
-  add.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(kCentre));
+  add.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(kCentre));
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", add));
   EXPECT_FALSE(add.response.success);
   EXPECT_NE(add.response.message.find("no model"), std::string::npos) << add.response.message;
@@ -138,8 +138,8 @@ TEST(Pipeline, AnswersBeforeTheModelExists) {
   EXPECT_FALSE(save.response.success);
 
   gpatlas_msgs::PlanApproach approach;
-  approach.request.touch.points.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * Eigen::Vector3d::UnitX()));
-  approach.request.touch.normals.push_back(gpatlas_ros::toVectorMsg(Eigen::Vector3d::UnitX()));
+  approach.request.touch.points.push_back(gpatlas_conversions::toPointMsg(kCentre + kRadius * Eigen::Vector3d::UnitX()));
+  approach.request.touch.normals.push_back(gpatlas_conversions::toVectorMsg(Eigen::Vector3d::UnitX()));
   ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", approach));
   EXPECT_FALSE(approach.response.success);
   EXPECT_NE(approach.response.message.find("no collision map"), std::string::npos) << approach.response.message;
@@ -241,7 +241,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
     if (training->labels[i] == 0) {
       EXPECT_LT(sphereError(p), 0.004);
     } else if (training->labels[i] == 1) {
-      const double distance = (gpatlas_ros::fromMsg(p) - kCentre).norm() - kRadius;
+      const double distance = (gpatlas_conversions::fromMsg(p) - kCentre).norm() - kRadius;
       EXPECT_GT(distance, 0.0);
       EXPECT_GE(training->surface_distances_m[i] + 0.004, distance);
       ++view_free_space;
@@ -249,7 +249,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
       // The view's occluded interior (occluded_interior/*): inside the sphere, labelled with a
       // distance to the view at least its true depth, and clear of the table (clearance_m).
       EXPECT_GE(p.z, 0.005 - 0.002);
-      const double depth = kRadius - (gpatlas_ros::fromMsg(p) - kCentre).norm();
+      const double depth = kRadius - (gpatlas_conversions::fromMsg(p) - kCentre).norm();
       EXPECT_GT(depth, 0.0);
       EXPECT_GE(training->surface_distances_m[i] + 0.004, depth);
       ++occluded_interior;
@@ -283,7 +283,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // at least the sphere's radius for a view of its half, and segmentation's 2 mm voxels keep a
   // point within a voxel's diagonal (3.5 mm) of every one the camera saw: an unsupported end
   // lies more than 0.2 * kRadius - 3.5 mm from the view.
-  const Eigen::Vector3d touch_end = gpatlas_ros::fromMsg(touch.response.touch.points.back());
+  const Eigen::Vector3d touch_end = gpatlas_conversions::fromMsg(touch.response.touch.points.back());
   double view_distance = std::numeric_limits<double>::infinity();
   for (const auto& v : syntheticViewInWorld()) view_distance = std::min(view_distance, (v - touch_end).norm());
   EXPECT_TRUE(touch.response.touch.variances.back() > 0.1 || view_distance > 0.2 * kRadius - 0.0035)
@@ -354,7 +354,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", evidence_only));
   EXPECT_EQ(evidence_only.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << evidence_only.response.message;
   for (const Eigen::Vector3d& direction : gpatlas_core::fibonacciSphere(400))
-    evidence_only.request.attempted_targets.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * direction));
+    evidence_only.request.attempted_targets.push_back(gpatlas_conversions::toPointMsg(kCentre + kRadius * direction));
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", evidence_only));
   EXPECT_EQ(evidence_only.response.status, gpatlas_msgs::GetNextTouch::Response::CONVERGED)
       << evidence_only.response.message;
@@ -362,8 +362,8 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // A touch result goes back into the model.
   gpatlas_msgs::AddObservations add;
   add.request.observations.header.frame_id = "world";
-  add.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * Eigen::Vector3d(0, 0, 1)));
-  add.request.observations.free_space.push_back(gpatlas_ros::toPointMsg(kCentre + 1.2 * kRadius * Eigen::Vector3d(0, 0, 1)));
+  add.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(kCentre + kRadius * Eigen::Vector3d(0, 0, 1)));
+  add.request.observations.free_space.push_back(gpatlas_conversions::toPointMsg(kCentre + 1.2 * kRadius * Eigen::Vector3d(0, 0, 1)));
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", add));
   EXPECT_TRUE(add.response.success) << add.response.message;
   EXPECT_EQ(add.response.num_added, 2u);
@@ -375,7 +375,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // frame (the training sets below have no surface point off the sphere).
   gpatlas_msgs::AddObservations outlier;
   outlier.request.observations.header.frame_id = "world";
-  outlier.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(kCentre + Eigen::Vector3d(0.5, 0.0, 0.0)));
+  outlier.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(kCentre + Eigen::Vector3d(0.5, 0.0, 0.0)));
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", outlier));
   EXPECT_FALSE(outlier.response.success);
   EXPECT_EQ(outlier.response.num_refused, 1u);
@@ -383,15 +383,15 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_NE(outlier.response.message.find("inconsistent with the model"), std::string::npos) << outlier.response.message;
   // Without a frame: refused with the reason.
   outlier.request.observations.header.frame_id = "";
-  outlier.request.observations.contacts = {gpatlas_ros::toPointMsg(kCentre + kRadius * Eigen::Vector3d(1, 0, 0))};
+  outlier.request.observations.contacts = {gpatlas_conversions::toPointMsg(kCentre + kRadius * Eigen::Vector3d(1, 0, 0))};
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", outlier));
   EXPECT_FALSE(outlier.response.success);
   EXPECT_NE(outlier.response.message.find("frame_id is empty"), std::string::npos) << outlier.response.message;
   // A NaN contact next to a good one: the good one is added and the NaN counted.
   gpatlas_msgs::AddObservations mixed;
   mixed.request.observations.header.frame_id = "world";
-  mixed.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * Eigen::Vector3d(1, 0, 0)));
-  mixed.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(Eigen::Vector3d(std::nan(""), 0.0, 0.0)));
+  mixed.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(kCentre + kRadius * Eigen::Vector3d(1, 0, 0)));
+  mixed.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(Eigen::Vector3d(std::nan(""), 0.0, 0.0)));
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", mixed));
   EXPECT_TRUE(mixed.response.success) << mixed.response.message;
   EXPECT_EQ(mixed.response.num_contacts_added, 1u);
@@ -404,13 +404,13 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const Eigen::Vector3d wrong_contact = kCentre + (kRadius - 0.02) * Eigen::Vector3d(0, -1, 0);
   gpatlas_msgs::AddObservations wrong;
   wrong.request.observations.header.frame_id = "world";
-  wrong.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(wrong_contact));
+  wrong.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(wrong_contact));
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", wrong));
   ASSERT_TRUE(wrong.response.success) << wrong.response.message;
   ASSERT_GT(wrong.response.batch_id, mixed.response.batch_id);
   const auto hasPointAt = [](const gpatlas_msgs::TrainingSet& set, const Eigen::Vector3d& x) {
     for (const auto& p : set.points)
-      if ((gpatlas_ros::fromMsg(p) - x).norm() < 1e-6) return true;
+      if ((gpatlas_conversions::fromMsg(p) - x).norm() < 1e-6) return true;
     return false;
   };
   gpatlas_msgs::RemoveObservations remove;
@@ -439,9 +439,9 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const Eigen::Isometry3d world_to_camera = cameraPose().inverse();
   gpatlas_msgs::AddObservations with_normal;
   with_normal.request.observations.header.frame_id = "test_camera";
-  with_normal.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(world_to_camera * side_contact));
+  with_normal.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(world_to_camera * side_contact));
   with_normal.request.observations.contact_normals.push_back(
-      gpatlas_ros::toVectorMsg(world_to_camera.linear() * side_normal));
+      gpatlas_conversions::toVectorMsg(world_to_camera.linear() * side_normal));
   const ros::Time before_add = ros::Time::now();
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", with_normal));
   EXPECT_TRUE(with_normal.response.success) << with_normal.response.message;
@@ -453,7 +453,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const Eigen::Vector3d expected_inside = side_contact - 0.003 * side_normal;
   bool found_inside = false;
   for (std::size_t i = 0; i < updated->points.size(); ++i)
-    if (updated->labels[i] == -1 && (gpatlas_ros::fromMsg(updated->points[i]) - expected_inside).norm() < 1e-6) {
+    if (updated->labels[i] == -1 && (gpatlas_conversions::fromMsg(updated->points[i]) - expected_inside).norm() < 1e-6) {
       found_inside = true;
       EXPECT_NEAR(updated->surface_distances_m[i], 0.003, 1e-9);
     }
@@ -462,7 +462,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   for (std::size_t i = 0; i < updated->slope_directions.size(); ++i) {
     const Eigen::Vector3d direction(updated->slope_directions[i].x, updated->slope_directions[i].y,
                                     updated->slope_directions[i].z);
-    if (direction.norm() == 0.0 || (gpatlas_ros::fromMsg(updated->points[i]) - side_contact).norm() > 1e-6) continue;
+    if (direction.norm() == 0.0 || (gpatlas_conversions::fromMsg(updated->points[i]) - side_contact).norm() > 1e-6) continue;
     EXPECT_NEAR(direction.dot(side_normal), 0.0, 1e-9) << "a slope not across the world-frame normal";
     ++tangents;
   }
@@ -475,13 +475,13 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   for (std::size_t i = 0; i < training->points.size(); ++i)
     if (training->labels[i] == -1 && training->surface_distances_m[i] > deepest) {
       deepest = training->surface_distances_m[i];
-      deepest_guess = gpatlas_ros::fromMsg(training->points[i]);
+      deepest_guess = gpatlas_conversions::fromMsg(training->points[i]);
     }
   ASSERT_GT(deepest, 0.01);
   gpatlas_msgs::AddObservations contradicting;
   contradicting.request.observations.header.frame_id = "world";
   contradicting.request.observations.free_space.push_back(
-      gpatlas_ros::toPointMsg(deepest_guess + Eigen::Vector3d(0.001, 0.0, 0.0)));
+      gpatlas_conversions::toPointMsg(deepest_guess + Eigen::Vector3d(0.001, 0.0, 0.0)));
   const ros::Time before_contradiction = ros::Time::now();
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", contradicting));
   EXPECT_TRUE(contradicting.response.success) << contradicting.response.message;
@@ -490,7 +490,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(retracted) << "no training set after the contradicting observation";
   EXPECT_EQ(retracted->points.size(), updated->points.size());  // one guess out, one free point in
   for (std::size_t i = 0; i < retracted->points.size(); ++i)
-    EXPECT_GT((gpatlas_ros::fromMsg(retracted->points[i]) - deepest_guess).norm(), 1e-6) << "the guess is still there";
+    EXPECT_GT((gpatlas_conversions::fromMsg(retracted->points[i]) - deepest_guess).norm(), 1e-6) << "the guess is still there";
 
   gpatlas_msgs::CollisionMapStatus::ConstPtr status;
   std::mutex status_mutex;
@@ -518,25 +518,25 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   // sphere, so that the straight line runs through it: the path ends at the approach pose 10 cm
   // out along the touch's normal, and the tip's centre stays out of the true sphere and above
   // the table.
-  const Eigen::Vector3d target = gpatlas_ros::fromMsg(touch.response.touch.points.front());
-  const Eigen::Vector3d target_normal = gpatlas_ros::fromMsg(touch.response.touch.normals.front()).normalized();
+  const Eigen::Vector3d target = gpatlas_conversions::fromMsg(touch.response.touch.points.front());
+  const Eigen::Vector3d target_normal = gpatlas_conversions::fromMsg(touch.response.touch.normals.front()).normalized();
   const Eigen::Vector3d across = Eigen::Vector3d(target_normal.x(), target_normal.y(), 0.0).normalized();
   ASSERT_TRUE(across.allFinite()) << "the touch is on top of the sphere";
   gpatlas_msgs::PlanApproach approach;
   approach.request.touch = touch.response.touch;
-  approach.request.start = gpatlas_ros::toPointMsg(kCentre - 0.25 * across + Eigen::Vector3d(0.0, 0.0, 0.03));
+  approach.request.start = gpatlas_conversions::toPointMsg(kCentre - 0.25 * across + Eigen::Vector3d(0.0, 0.0, 0.03));
   ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", approach));
   ASSERT_TRUE(approach.response.success) << approach.response.message;
   EXPECT_EQ(approach.response.map_training_sequence, first_map->map_training_sequence);
   EXPECT_GE(approach.response.approach.size(), 3u);  // a detour around the sphere
-  EXPECT_LT((gpatlas_ros::fromMsg(approach.response.approach.back()) - (target + 0.1 * target_normal)).norm(), 1e-6);
+  EXPECT_LT((gpatlas_conversions::fromMsg(approach.response.approach.back()) - (target + 0.1 * target_normal)).norm(), 1e-6);
   ASSERT_EQ(approach.response.probing.size(), 2u);
-  EXPECT_LT((gpatlas_ros::fromMsg(approach.response.probing.back()) - target).norm(), 1e-6);
+  EXPECT_LT((gpatlas_conversions::fromMsg(approach.response.probing.back()) - target).norm(), 1e-6);
   EXPECT_EQ(approach.response.retreat.size(), approach.response.approach.size());
   double closest = 1.0, lowest = 1.0;
   for (std::size_t i = 0; i + 1 < approach.response.approach.size(); ++i) {
-    const Eigen::Vector3d a = gpatlas_ros::fromMsg(approach.response.approach[i]);
-    const Eigen::Vector3d b = gpatlas_ros::fromMsg(approach.response.approach[i + 1]);
+    const Eigen::Vector3d a = gpatlas_conversions::fromMsg(approach.response.approach[i]);
+    const Eigen::Vector3d b = gpatlas_conversions::fromMsg(approach.response.approach[i + 1]);
     for (int s = 0; s <= 100; ++s) {
       const Eigen::Vector3d p = a + (b - a) * (s / 100.0);
       closest = std::min(closest, (p - kCentre).norm() - kRadius);
@@ -624,7 +624,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const auto touchAt = [](const Eigen::Vector3d& direction) {
     gpatlas_msgs::AddObservations touch;
     touch.request.observations.header.frame_id = "world";
-    touch.request.observations.contacts.push_back(gpatlas_ros::toPointMsg(kCentre + kRadius * direction.normalized()));
+    touch.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(kCentre + kRadius * direction.normalized()));
     return touch;
   };
   gpatlas_msgs::AddObservations first_touch = touchAt(Eigen::Vector3d(0.3, 0.9, 0.2));

@@ -3,7 +3,7 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/shared_models.h"
 
-#include <gpatlas_core/gpis_model.h>
+#include <gpatlas_core/model/gpis_model.h>
 
 #include <octomap/OcTree.h>
 
@@ -31,7 +31,7 @@ std::shared_ptr<const gpatlas_core::SurfaceModel> hemisphereModel(unsigned seed)
 }
 
 gpatlas_msgs::TrainingSet stamped(const gpatlas_core::SurfaceModel& model, std::uint32_t sequence, double stamp_s) {
-  gpatlas_msgs::TrainingSet training = gpatlas_ros::toMsg(model);
+  gpatlas_msgs::TrainingSet training = gpatlas_conversions::toMsg(model);
   training.sequence = sequence;
   training.header.stamp = ros::Time(stamp_s);
   training.header.frame_id = "world";

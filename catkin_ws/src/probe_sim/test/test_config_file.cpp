@@ -1,9 +1,10 @@
 // config/pipeline.yaml against the readers of every Config it feeds: the pipeline's
-// (gpatlas_core::readPipeline) and the simulated scene's (probe_sim::readSimulation).
+// (probe_sim::readPipeline) and the simulated scene's (probe_sim::readSimulation).
 #include "probe_sim/simulation_settings.h"
 
-#include <gpatlas_core/config_readers.h>
-#include <gpatlas_core/parameters.h>
+#include "probe_sim/pipeline_config.h"
+#include <gpatlas_core/config/config_readers.h>
+#include <gpatlas_core/config/parameters.h>
 
 #include <gtest/gtest.h>
 
@@ -18,13 +19,13 @@ struct ReadFile {
   std::string error;  // before params, which its constructor fills it for
   std::unique_ptr<gpatlas_core::YamlParameters> params;
   std::unique_ptr<gpatlas_core::ParamReader> reader;
-  gpatlas_core::PipelineConfig pipeline;
+  probe_sim::PipelineConfig pipeline;
   probe_sim::SimulationSettings simulation;
 
   ReadFile() : params(gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error)) {
     if (!params) return;
     reader = std::make_unique<gpatlas_core::ParamReader>(*params);
-    gpatlas_core::readPipeline(*reader, &pipeline);
+    probe_sim::readPipeline(*reader, &pipeline);
     probe_sim::readSimulation(*reader, &simulation);
   }
 };
@@ -80,11 +81,38 @@ TEST(PipelineYaml, ThePapersOverlaySetsOnlyParametersAndSelectsTheGlobalGpis) {
     EXPECT_TRUE(std::find(names.begin(), names.end(), key) != names.end()) << "not a parameter: '" << key << "'";
   ASSERT_TRUE(base->overlay(*overlay, &error)) << error;
   gpatlas_core::ParamReader reader(*base);
-  gpatlas_core::PipelineConfig pipeline;
-  gpatlas_core::readPipeline(reader, &pipeline);
+  probe_sim::PipelineConfig pipeline;
+  probe_sim::readPipeline(reader, &pipeline);
   EXPECT_TRUE(reader.ok()) << reader.errors();
   EXPECT_EQ(pipeline.model.type, "gpis");
   EXPECT_EQ(pipeline.view.max_surface_points, 600);
+}
+
+// The file's values reach the Configs (a second, independent parse of the text).
+TEST(PipelineYaml, ValuesReachTheConfigs) {
+  std::string error;
+  const auto params = gpatlas_core::YamlParameters::fromString(
+      "seed: 7\nexploration: {v_max: 0.05, max_actions: 12}\nview:\n  free_space: {max_rays: 10}\n"
+      "segmentation: {crop_min_m: [0.1, -0.2, 0.0], object_hint_m: [1, 2, 3]}\ngpis: {kernel_params: [2.5]}\n",
+      &error);
+  ASSERT_TRUE(params) << error;
+  gpatlas_core::ParamReader reader(*params);
+  probe_sim::PipelineConfig c;
+  probe_sim::readPipeline(reader, &c);
+  ASSERT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_EQ(c.seed, 7u);
+  EXPECT_EQ(c.exploration.seed, 7u);
+  EXPECT_EQ(c.strategy.seed, 7u);
+  EXPECT_DOUBLE_EQ(c.exploration.v_max, 0.05);
+  EXPECT_EQ(c.exploration.max_actions, 12);
+  EXPECT_EQ(c.view.free_space.max_rays, 10);
+  EXPECT_EQ(c.segmentation.crop_min_m, gpatlas_core::Vector3(0.1, -0.2, 0.0));
+  ASSERT_TRUE(c.segmentation.object_hint_m.has_value());
+  EXPECT_EQ(*c.segmentation.object_hint_m, gpatlas_core::Vector3(1, 2, 3));
+  ASSERT_EQ(c.model.gpis.initial_params.size(), 1u);
+  EXPECT_NEAR(std::exp(c.model.gpis.initial_params[0]), 2.5, 1e-12);
+  // Unset sections keep the Configs' own defaults.
+  EXPECT_EQ(c.touch.min_point_spacing_m, gpatlas_core::TouchObservationConfig().min_point_spacing_m);
 }
 
 }  // namespace

@@ -6,11 +6,11 @@
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
 
-#include <gpatlas_core/explorer.h>
-#include <gpatlas_core/multiscale_gpis_model.h>
-#include <gpatlas_core/shape_metrics.h>
-#include <gpatlas_core/surface_mesher.h>
-#include <gpatlas_core/view_training.h>
+#include <gpatlas_core/exploration/explorer.h>
+#include <gpatlas_core/model/multiscale_gpis_model.h>
+#include <gpatlas_geometry/shape_metrics.h>
+#include <gpatlas_geometry/surface_mesher.h>
+#include <gpatlas_core/observations/view_training.h>
 
 #include <gtest/gtest.h>
 
@@ -117,13 +117,13 @@ TEST(MugReconstruction, SeenAndSlidOverKeepsItsHandleAndItsWall) {
   }
   ASSERT_GT(num_contacts, 1000u);
 
-  gpatlas_core::SurfaceMesher::Config mesher_config;
+  gpatlas_geometry::SurfaceMesher::Config mesher_config;
   mesher_config.vertex_variances = false;
-  const gpatlas_core::SurfaceMeshResult predicted = gpatlas_core::SurfaceMesher(mesher_config).mesh(model);
+  const gpatlas_geometry::SurfaceMeshResult predicted = gpatlas_geometry::SurfaceMesher(mesher_config).mesh(model);
   ASSERT_TRUE(predicted.ok) << predicted.message;
 
   // The handle: the truth's triangles outside the cup's radius, sampled by area.
-  const gpatlas_core::MeshDistanceIndex onto_predicted(predicted.mesh);
+  const gpatlas_geometry::MeshDistanceIndex onto_predicted(predicted.mesh);
   std::mt19937 rng(3);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   double handle_area = 0.0, sum_squared = 0.0;

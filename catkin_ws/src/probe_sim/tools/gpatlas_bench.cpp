@@ -6,20 +6,21 @@
 // simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
 // Writes runs.csv, history.csv, reachability.csv, summary.md and one PNG per object into --out.
 
-#include <gpatlas_core/config_readers.h>
-#include <gpatlas_core/exploration_report.h>
-#include <gpatlas_core/exploration_strategy.h>
-#include <gpatlas_core/model_calibration.h>
-#include <gpatlas_core/explorer.h>
+#include <probe_sim/pipeline_config.h>
+#include <gpatlas_core/config/config_readers.h>
+#include <gpatlas_core/exploration/exploration_report.h>
+#include <gpatlas_core/planning/exploration_strategy.h>
+#include <gpatlas_core/model/model_calibration.h>
+#include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_motion/touch_approach.h>
-#include <gpatlas_core/shape_metrics.h>
-#include <gpatlas_core/strategy_library.h>
-#include <gpatlas_core/surface_sampler.h>
-#include <gpatlas_core/surface_mesher.h>
-#include <gpatlas_core/triangle_mesh.h>
-#include <gpatlas_core/parameters.h>
-#include <gpatlas_core/segmentation.h>
-#include <gpatlas_core/view_training.h>
+#include <gpatlas_geometry/shape_metrics.h>
+#include <gpatlas_core/planning/strategy_library.h>
+#include <gpatlas_core/planning/surface_sampler.h>
+#include <gpatlas_geometry/surface_mesher.h>
+#include <gpatlas_core/common/triangle_mesh.h>
+#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_geometry/segmentation.h>
+#include <gpatlas_core/observations/view_training.h>
 #include <probe_sim/depth_camera.h>
 #include <probe_sim/object_mesh.h>
 #include <probe_sim/probe.h>
@@ -78,7 +79,7 @@ struct Options {
   bool save_meshes{false};
   // Everything else comes from the config file: the pipeline's own Configs and the simulated
   // scene that probe_sim_node builds from the same file.
-  gpatlas_core::PipelineConfig pipeline;
+  probe_sim::PipelineConfig pipeline;
   probe_sim::SimulationSettings simulation;
 };
 
@@ -103,7 +104,7 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
   --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
                                  [the config's strategy], or one from a --strategy-library
   --strategy-library FILE        a shared library that registers strategies of your own
-                                 (GPATLAS_REGISTER_STRATEGY, gpatlas_core/strategy_library.h) (repeatable)
+                                 (GPATLAS_REGISTER_STRATEGY, gpatlas_core/planning/strategy_library.h) (repeatable)
   --probe ray|sphere|patch       simulated probe model [simulation/probe]
   --seeds 0,1,2                  seeds (camera noise, the view's subset, the planner) [the config's seed]
   --max-actions N                cap on tactile actions per run [the config's exploration/max_actions]
@@ -205,7 +206,7 @@ Options parseArgs(int argc, char** argv) {
   for (const std::string& assignment : o.overrides)
     if (!params->set(assignment, &error)) throw std::invalid_argument("--set: " + error);
   gpatlas_core::ParamReader reader(*params);
-  gpatlas_core::readPipeline(reader, &o.pipeline);
+  probe_sim::readPipeline(reader, &o.pipeline);
   probe_sim::readSimulation(reader, &o.simulation);
   if (!reader.ok()) throw std::invalid_argument(o.config_path + ": " + reader.errors());
   if (!o.probe.empty()) o.simulation.probe = o.probe;
@@ -272,16 +273,16 @@ void measureReachability(GroundTruth& gt, const probe_sim::SimulationSettings& s
   gt.reachable_area_fraction = split.reachable_area_fraction;
   gt.sample_reachable.clear();
   // The very points ShapeMetrics::compare measures truth-to-predicted on, with their triangles.
-  const gpatlas_core::ShapeMetrics::Config metrics;
+  const gpatlas_geometry::ShapeMetrics::Config metrics;
   std::vector<std::size_t> owners;
-  const std::vector<gpatlas_core::Vector3> samples = gpatlas_core::sampleMeshSurface(
-      gt.mesh, metrics.samples_per_mesh, gpatlas_core::truthSampleSeed(metrics.seed), &owners);
+  const std::vector<gpatlas_core::Vector3> samples = gpatlas_geometry::sampleMeshSurface(
+      gt.mesh, metrics.samples_per_mesh, gpatlas_geometry::truthSampleSeed(metrics.seed), &owners);
   if (split.reachable.triangles.empty() || samples.empty()) {
     gt.floor_rmse_gt_to_pred = std::nan("");
     gt.reachability_measured = true;
     return;
   }
-  const gpatlas_core::MeshDistanceIndex onto_reachable(split.reachable, metrics.index);
+  const gpatlas_geometry::MeshDistanceIndex onto_reachable(split.reachable, metrics.index);
   if (!onto_reachable.ok()) throw std::runtime_error("reachable surface index: " + onto_reachable.message());
   double sum_squared = 0.0;
   for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -301,9 +302,9 @@ constexpr std::uint64_t kCalibrationSeed = 11;
 // to the sample is the sample itself.
 std::vector<bool> samplesSeenFrom(const probe_sim::Scene& scene, const probe_sim::TriangleMesh& mesh,
                                   const Eigen::Vector3d& eye) {
-  const gpatlas_core::ShapeMetrics::Config metrics;
+  const gpatlas_geometry::ShapeMetrics::Config metrics;
   const std::vector<gpatlas_core::Vector3> samples =
-      gpatlas_core::sampleMeshSurface(mesh, metrics.samples_per_mesh, gpatlas_core::truthSampleSeed(metrics.seed));
+      gpatlas_geometry::sampleMeshSurface(mesh, metrics.samples_per_mesh, gpatlas_geometry::truthSampleSeed(metrics.seed));
   Eigen::Matrix3Xd from(3, static_cast<Eigen::Index>(samples.size())), to(3, from.cols());
   for (std::size_t i = 0; i < samples.size(); ++i) {
     from.col(static_cast<Eigen::Index>(i)) = eye;
@@ -325,7 +326,7 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
   simulation.object = spec;
   simulation.object_scale = scale;
   gt.mesh = probe_sim::loadSimulatedObject(simulation);
-  gt.calibration_samples = gpatlas_core::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed);
+  gt.calibration_samples = gpatlas_geometry::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed);
   // A camera the settings cannot place fails every run of the object, with the reason.
   std::string camera_error;
   if (const std::optional<Eigen::Isometry3d> camera = probe_sim::cameraPose(simulation, o.urdf_xml, &camera_error))
@@ -344,7 +345,7 @@ struct RunResult {
   int contacts{0};
   bool converged{false};
   std::size_t n_train{0};
-  gpatlas_core::ShapeMetricsResult metrics;
+  gpatlas_geometry::ShapeMetricsResult metrics;
   // Truth-to-predicted RMSE over the reachable truth only (GroundTruth::sample_reachable).
   double rmse_gt_to_pred_reachable{std::nan("")};
   // Truth-to-predicted RMSE over the truth the camera saw, and over the rest (touch's part).
@@ -406,20 +407,20 @@ struct TruthSubsetRmse {
   double unseen{std::nan("")};
 };
 
-gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
+gpatlas_geometry::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
                                          const Options& o, const std::string& save_as = "",
                                          TruthSubsetRmse* subsets = nullptr) {
   const auto mesh_start = std::chrono::steady_clock::now();
   // The variances only colour a saved mesh.
-  gpatlas_core::SurfaceMesher::Config mesh_config = o.pipeline.mesh;
+  gpatlas_geometry::SurfaceMesher::Config mesh_config = o.pipeline.mesh;
   mesh_config.vertex_variances = !save_as.empty();
-  const auto surface = gpatlas_core::SurfaceMesher(mesh_config).mesh(model);
+  const auto surface = gpatlas_geometry::SurfaceMesher(mesh_config).mesh(model);
   const double mesh_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
   if (o.verbose)
     std::cout << "  [" << gt.name << "] mesh: " << surface.mesh.triangles.size() << " triangles on a "
               << surface.grid_size.transpose() << " grid in " << mesh_s << " s" << std::endl;
   if (!surface.ok || surface.mesh.empty()) {
-    gpatlas_core::ShapeMetricsResult failed;
+    gpatlas_geometry::ShapeMetricsResult failed;
     failed.message = "no predicted surface: " + surface.message;
     return failed;
   }
@@ -427,10 +428,10 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
     const std::string error = gpatlas_core::writePly(surface.mesh, save_as);
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
   }
-  gpatlas_core::ShapeMetrics::Config metrics_config;
+  gpatlas_geometry::ShapeMetrics::Config metrics_config;
   metrics_config.keep_truth_distances = subsets && (gt.reachability_measured || !gt.sample_seen.empty());
   const auto metrics_start = std::chrono::steady_clock::now();
-  gpatlas_core::ShapeMetricsResult metrics = gpatlas_core::ShapeMetrics(metrics_config).compare(surface.mesh, gt.mesh);
+  gpatlas_geometry::ShapeMetricsResult metrics = gpatlas_geometry::ShapeMetrics(metrics_config).compare(surface.mesh, gt.mesh);
   if (o.verbose)
     std::cout << "  [" << gt.name << "] shape metrics in "
               << std::chrono::duration<double>(std::chrono::steady_clock::now() - metrics_start).count() << " s"
@@ -449,7 +450,7 @@ gpatlas_core::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model
 RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
                  std::mutex& print_mutex) {
   const auto start = std::chrono::steady_clock::now();
-  const gpatlas_core::PipelineConfig& pipeline = o.pipeline;
+  const probe_sim::PipelineConfig& pipeline = o.pipeline;
   RunResult r;
   r.object = gt.name;
   r.strategy = strategy_name;
@@ -480,11 +481,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     scene_points.push_back(*camera_pose * Vector3(cloud.points_camera.col(i).cast<float>().cast<double>()));
 
   // What the pipeline does with a camera cloud: segmentation, then the view builder.
-  const gpatlas_core::SegmentationResult segmented =
-      gpatlas_core::ObjectSegmenter(pipeline.segmentation).segment(scene_points);
+  const gpatlas_geometry::SegmentationResult segmented =
+      gpatlas_geometry::ObjectSegmenter(pipeline.segmentation).segment(scene_points);
   if (!segmented.ok) return failed("segmentation: " + segmented.message);
   if (o.verbose) {
-    const gpatlas_core::SegmentationStats& n = segmented.stats;
+    const gpatlas_geometry::SegmentationStats& n = segmented.stats;
     Eigen::AlignedBox3d kept;
     for (const Vector3& p : segmented.object_points) kept.extend(p);
     std::lock_guard<std::mutex> lock(print_mutex);
@@ -546,8 +547,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
       record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
     }
   };
-  std::unique_ptr<gpatlas_core::MeshDistanceIndex> gt_index;
-  if (o.verbose) gt_index = std::make_unique<gpatlas_core::MeshDistanceIndex>(gt.mesh);
+  std::unique_ptr<gpatlas_geometry::MeshDistanceIndex> gt_index;
+  if (o.verbose) gt_index = std::make_unique<gpatlas_geometry::MeshDistanceIndex>(gt.mesh);
   gpatlas_core::ExplorationRecord initial;
   initial.index = -1;
   initial.n_train = model.observations().size();

@@ -4,7 +4,7 @@
 
 #include <gpatlas_conversions/conversions.h>
 #include <gpatlas_conversions/ros_parameters.h>
-#include <gpatlas_core/config_readers.h>
+#include <gpatlas_core/config/config_readers.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/JointState.h>
@@ -159,7 +159,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 
 std::string SimulationServer::readSettings() {
   // config/pipeline.yaml's `simulation` section, read as gpatlas_bench reads it.
-  const gpatlas_ros::RosParameterSource source(pnh_);
+  const gpatlas_conversions::RosParameterSource source(pnh_);
   gpatlas_core::ParamReader reader(source);
   readSimulation(reader, &settings_);
   gpatlas_core::readApproach(reader, &approach_);
@@ -330,7 +330,7 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
     gpatlas_core::Touch touch;
     std::string error;
     // The arm's trajectories, when planned for it, in the order of its joints.
-    if (!gpatlas_ros::fromMsg(request.touch, &touch, &error, arm_ ? &arm_->jointNames() : nullptr)) {
+    if (!gpatlas_conversions::fromMsg(request.touch, &touch, &error, arm_ ? &arm_->jointNames() : nullptr)) {
       response.reason = "invalid touch: " + error;
       return true;
     }
@@ -355,7 +355,7 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
       ROS_WARN_STREAM("probe_sim: the probe hit the scene " << result.approach_collisions << " time(s) on the way to the touch and "
                       << result.retreat_collisions << " on the way back"
                       << (touch.approach_path.empty() ? " (no planned approach: a straight motion from the rest)" : ""));
-    response.observations = gpatlas_ros::toMsg(result);
+    response.observations = gpatlas_conversions::toMsg(result);
     response.observations.header.frame_id = settings_.world_frame;
     response.observations.header.stamp = ros::Time::now();
     if (!arm_solutions.empty()) animateArm(arm_solutions);
@@ -382,7 +382,7 @@ bool SimulationServer::onGroundTruth(gpatlas_msgs::GetMesh::Request& /*request*/
   response.header.frame_id = settings_.world_frame;
   response.header.stamp = ros::Time::now();
   response.mesh.vertices.reserve(mesh.vertices.size());
-  for (const auto& v : mesh.vertices) response.mesh.vertices.push_back(gpatlas_ros::toPointMsg(v));
+  for (const auto& v : mesh.vertices) response.mesh.vertices.push_back(gpatlas_conversions::toPointMsg(v));
   response.mesh.triangles.reserve(mesh.triangles.size());
   for (const Eigen::Vector3i& t : mesh.triangles) {
     shape_msgs::MeshTriangle triangle;
@@ -443,7 +443,7 @@ bool SimulationServer::renderCloud(sensor_msgs::PointCloud2* cloud, std::string*
     points[static_cast<std::size_t>(i)] = depth.points_camera.col(i);
   }
   // Camera points carry no model variance: the cloud's variance channel is 0 throughout.
-  *cloud = gpatlas_ros::pointsToCloud(points, {}, 1.0, settings_.camera_frame);
+  *cloud = gpatlas_conversions::pointsToCloud(points, {}, 1.0, settings_.camera_frame);
   cloud->header.stamp = ros::Time::now();
   *message = std::to_string(points.size()) + " points";
   return true;
@@ -467,7 +467,7 @@ void SimulationServer::publishObjectMarker() {
   marker.points.reserve(3 * mesh.triangles.size());
   for (const Eigen::Vector3i& triangle : mesh.triangles) {
     for (int k = 0; k < 3; ++k) {
-      marker.points.push_back(gpatlas_ros::toPointMsg(mesh.vertices[triangle[k]]));
+      marker.points.push_back(gpatlas_conversions::toPointMsg(mesh.vertices[triangle[k]]));
     }
   }
   marker_publisher_.publish(marker);

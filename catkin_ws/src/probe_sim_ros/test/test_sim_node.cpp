@@ -52,8 +52,8 @@ gpatlas_msgs::Touch poke(const Eigen::Vector3d& point, const Eigen::Vector3d& no
   gpatlas_msgs::Touch touch;
   touch.header.frame_id = kWorld;
   touch.kind = gpatlas_msgs::Touch::POKE;
-  touch.points.push_back(gpatlas_ros::toPointMsg(point));
-  touch.normals.push_back(gpatlas_ros::toVectorMsg(normal));
+  touch.points.push_back(gpatlas_conversions::toPointMsg(point));
+  touch.normals.push_back(gpatlas_conversions::toVectorMsg(normal));
   touch.variances.push_back(0.0);
   return touch;
 }
@@ -111,7 +111,7 @@ TEST_F(SimNode, CaptureGivesTheVisibleSideOfTheSphereInTheCameraFrame) {
   std::vector<Eigen::Vector3d> points;
   std::size_t invalid = 0;
   std::string error;
-  ASSERT_TRUE(gpatlas_ros::cloudToPoints(cloud, &points, &invalid, &error)) << error;
+  ASSERT_TRUE(gpatlas_conversions::cloudToPoints(cloud, &points, &invalid, &error)) << error;
   EXPECT_EQ(invalid, 0u);
   // About 1200 pixels see a 15 cm sphere 1.1 m away at 320 x 240 and 58.6 degrees.
   EXPECT_GT(points.size(), 500u);
@@ -157,7 +157,7 @@ TEST_F(SimNode, ObjectMarkerIsTheSphereOnTheTable) {
   EXPECT_EQ(marker->points.size() % 3, 0u);
   double worst_m = 0.0, lowest_z = std::numeric_limits<double>::infinity();
   for (const auto& p : marker->points) {
-    const Eigen::Vector3d v = gpatlas_ros::fromMsg(p);
+    const Eigen::Vector3d v = gpatlas_conversions::fromMsg(p);
     worst_m = std::max(worst_m, std::abs((v - sphere_.centre).norm() - sphere_.radius));
     lowest_z = std::min(lowest_z, v.z());
   }
@@ -184,15 +184,15 @@ TEST_F(SimNode, PokeAtTheTopTouchesTheSphereThereAndTheArmShowsIt) {
   EXPECT_EQ(response.observations.header.frame_id, kWorld);
   ASSERT_EQ(response.observations.contacts.size(), 1u);
   ASSERT_EQ(response.observations.contact_normals.size(), 1u);
-  const Eigen::Vector3d contact = gpatlas_ros::fromMsg(response.observations.contacts[0]);
-  const Eigen::Vector3d normal = gpatlas_ros::fromMsg(response.observations.contact_normals[0]);
+  const Eigen::Vector3d contact = gpatlas_conversions::fromMsg(response.observations.contacts[0]);
+  const Eigen::Vector3d normal = gpatlas_conversions::fromMsg(response.observations.contact_normals[0]);
   RecordProperty("contact_error_um", static_cast<int>((contact - sphere_.top()).norm() * 1e6));
   EXPECT_LT((contact - sphere_.top()).norm(), 1e-3);
   EXPECT_GT(normal.dot(Eigen::Vector3d::UnitZ()), std::cos(2.0 * M_PI / 180.0));
   // Free space: where the probe's centre passed, above the sphere.
   ASSERT_FALSE(response.observations.free_space.empty());
   for (const auto& p : response.observations.free_space) {
-    EXPECT_GT((gpatlas_ros::fromMsg(p) - sphere_.centre).norm(), sphere_.radius + kProbeRadius - 1e-3);
+    EXPECT_GT((gpatlas_conversions::fromMsg(p) - sphere_.centre).norm(), sphere_.radius + kProbeRadius - 1e-3);
   }
 
   // The displayed arm goes to the touch and back: at some published configuration the probe

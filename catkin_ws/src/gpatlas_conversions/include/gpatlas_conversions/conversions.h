@@ -2,13 +2,13 @@
 
 // Conversions between gpatlas_core types and ROS messages. Every function here is a pure
 // function of its arguments, round-trip tested in test/test_conversions.cpp.
-// The package is gpatlas_conversions (so that probe_sim_ros and other nodes can use it without
-// the pipeline's nodelets); the namespace stays gpatlas_ros, where these functions have always been.
+// Its own package (so that probe_sim_ros and other nodes can use it without the pipeline's
+// nodelets).
 
-#include <gpatlas_core/surface_model_factory.h>
-#include <gpatlas_core/prober.h>
-#include <gpatlas_core/types.h>
-#include <gpatlas_core/view_free_space.h>
+#include <gpatlas_core/model/surface_model_factory.h>
+#include <gpatlas_core/exploration/prober.h>
+#include <gpatlas_core/common/types.h>
+#include <gpatlas_core/observations/support_plane.h>
 
 #include <geometry_msgs/Point.h>
 #include <geometry_msgs/Vector3.h>
@@ -25,7 +25,7 @@
 #include <string>
 #include <vector>
 
-namespace gpatlas_ros {
+namespace gpatlas_conversions {
 
 geometry_msgs::Point toPointMsg(const Eigen::Vector3d& p);
 geometry_msgs::Vector3 toVectorMsg(const Eigen::Vector3d& v);
@@ -86,4 +86,4 @@ sensor_msgs::PointCloud2 pointsToCloud(const std::vector<Eigen::Vector3d>& point
 // The colour map used everywhere for variance: blue (0) -> green -> red (>= variance_max).
 void varianceColour(double variance, double variance_max, float* r, float* g, float* b);
 
-}  // namespace gpatlas_ros
+}  // namespace gpatlas_conversions

@@ -1,10 +1,10 @@
 #pragma once
 
 // The ROS parameter server as a gpatlas_core::ParameterSource: the core's Config readers
-// (gpatlas_core/config_readers.h, probe_sim's readSimulation) read the nodes' parameters with
+// (gpatlas_core/config/config_readers.h, probe_sim's readSimulation) read the nodes' parameters with
 // the same code that reads config/pipeline.yaml in gpatlas_bench.
 
-#include <gpatlas_core/parameters.h>
+#include <gpatlas_core/config/parameters.h>
 
 #include <ros/node_handle.h>
 
@@ -12,7 +12,7 @@
 #include <string>
 #include <vector>
 
-namespace gpatlas_ros {
+namespace gpatlas_conversions {
 
 // The parameter server under a node handle's namespace.
 class RosParameterSource : public gpatlas_core::ParameterSource {
@@ -32,4 +32,4 @@ class RosParameterSource : public gpatlas_core::ParameterSource {
   ros::NodeHandle nh_;
 };
 
-}  // namespace gpatlas_ros
+}  // namespace gpatlas_conversions

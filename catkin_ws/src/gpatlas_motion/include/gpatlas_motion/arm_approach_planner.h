@@ -3,7 +3,7 @@
 #include "gpatlas_motion/arm.h"
 #include "gpatlas_motion/probe_approach_planner.h"
 
-#include <gpatlas_core/types.h>
+#include <gpatlas_core/common/types.h>
 
 #include <Eigen/Core>
 

@@ -1,6 +1,6 @@
 #pragma once
 
-#include <gpatlas_core/approach_config.h>
+#include <gpatlas_core/config/approach_config.h>
 
 #include <Eigen/Core>
 

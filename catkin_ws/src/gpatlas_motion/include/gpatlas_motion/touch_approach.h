@@ -3,9 +3,9 @@
 #include "gpatlas_motion/arm_approach_planner.h"
 #include "gpatlas_motion/probe_approach_planner.h"
 
-#include <gpatlas_core/explorer.h>
-#include <gpatlas_core/occupancy_grid.h>
-#include <gpatlas_core/view_free_space.h>
+#include <gpatlas_core/exploration/explorer.h>
+#include <gpatlas_core/model/occupancy_grid.h>
+#include <gpatlas_core/observations/support_plane.h>
 
 #include <cstddef>
 #include <memory>

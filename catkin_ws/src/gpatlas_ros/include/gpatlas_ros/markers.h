@@ -2,8 +2,8 @@
 
 // rviz markers for the model, the atlas and the collision map (pure functions).
 
-#include <gpatlas_core/atlas.h>
-#include <gpatlas_core/triangle_mesh.h>
+#include <gpatlas_core/planning/atlas.h>
+#include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_motion/arm.h>
 
 #include <shape_msgs/Mesh.h>

@@ -1,13 +1,14 @@
 #pragma once
 
 // The one place where ROS parameters become core Configs: the core's readers
-// (gpatlas_core/config_readers.h) on the parameter server. Every reader starts from the
+// (gpatlas_core/config/config_readers.h, gpatlas_geometry/config_readers.h) on the parameter server. Every reader starts from the
 // Config's defaults, overrides what the parameter server has, and collects every invalid value
 // (with the parameter's full name) into one error message.
 
-#include <gpatlas_core/config_readers.h>
-#include <gpatlas_core/parameters.h>
+#include <gpatlas_core/config/config_readers.h>
+#include <gpatlas_core/config/parameters.h>
 #include <gpatlas_conversions/ros_parameters.h>
+#include <gpatlas_geometry/config_readers.h>
 
 #include <ros/node_handle.h>
 
@@ -20,9 +21,9 @@ using gpatlas_core::readEvidence;
 using gpatlas_core::readExplorer;
 using gpatlas_core::readFrames;
 using gpatlas_core::readGpis;
-using gpatlas_core::readMesher;
+using gpatlas_geometry::readMesher;
 using gpatlas_core::readSeed;
-using gpatlas_core::readSegmenter;
+using gpatlas_geometry::readSegmenter;
 using gpatlas_core::readStrategy;
 using gpatlas_core::readStrategyChoice;
 using gpatlas_core::readTouchObservations;
@@ -47,14 +48,14 @@ namespace detail {
 // Constructed before the reader that refers to it.
 struct SourceHolder {
   explicit SourceHolder(const ros::NodeHandle& nh) : source(nh) {}
-  RosParameterSource source;
+  gpatlas_conversions::RosParameterSource source;
 };
 }  // namespace detail
 
-// A core ParamReader on a node's private parameters.
-class ParamReader : private detail::SourceHolder, public gpatlas_core::ParamReader {
+// The core's ParamReader on a node's private parameters (the parameter server as its source).
+class RosParamReader : private detail::SourceHolder, public gpatlas_core::ParamReader {
  public:
-  explicit ParamReader(const ros::NodeHandle& nh) : detail::SourceHolder(nh), gpatlas_core::ParamReader(source) {}
+  explicit RosParamReader(const ros::NodeHandle& nh) : detail::SourceHolder(nh), gpatlas_core::ParamReader(source) {}
   // Logs the invalid parameters (error) and the defaulted ones (info) under `who`.
   void report(const std::string& who) const;
   const std::string& ns() const { return source.ns(); }

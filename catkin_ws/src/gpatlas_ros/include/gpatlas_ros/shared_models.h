@@ -1,7 +1,7 @@
 #pragma once
 
-#include <gpatlas_core/surface_model.h>
-#include <gpatlas_core/surface_model_factory.h>
+#include <gpatlas_core/model/surface_model.h>
+#include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_msgs/TrainingSet.h>
 
 #include <cstdint>

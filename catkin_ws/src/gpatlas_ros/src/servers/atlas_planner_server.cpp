@@ -1,13 +1,13 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/approach_arm.h"
 #include "gpatlas_ros/markers.h"
-#include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/atlas_planner_server.h"
 #include "gpatlas_ros/shared_models.h"
 
 #include <gpatlas_msgs/Atlas.h>
 #include <gpatlas_msgs/Touch.h>
 
-#include <gpatlas_core/strategy_library.h>
+#include <gpatlas_core/planning/strategy_library.h>
 #include <gpatlas_motion/touch_approach.h>
 
 #include <cmath>
@@ -15,9 +15,11 @@
 
 namespace gpatlas_ros {
 
+using namespace gpatlas_conversions;
+
 AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
-  ParamReader reader(pnh_);
+  RosParamReader reader(pnh_);
   gpatlas_core::PipelineFrames frames;
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
@@ -129,7 +131,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
   if (!(v_max > 0.0) || !std::isfinite(v_max)) {
     res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-    res.message = "v_max must be > 0 (0 uses the parameter ~v_max), got " + std::to_string(req.v_max);
+    res.message = "v_max must be > 0 (0 uses the parameter exploration/v_max), got " + std::to_string(req.v_max);
     return true;
   }
   const std::string name = req.strategy.empty() ? default_strategy_ : req.strategy;

@@ -1,7 +1,7 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/approach_arm.h"
 #include "gpatlas_ros/markers.h"
-#include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/collision_map_server.h"
 #include "gpatlas_ros/shared_models.h"
 
 #include <gpatlas_motion/touch_approach.h>
@@ -20,6 +20,8 @@
 
 namespace gpatlas_ros {
 
+using namespace gpatlas_conversions;
+
 struct CollisionMapServer::Map {
   // Occupied or not at approach/occupied_probability: what approaches are planned on.
   std::shared_ptr<const octomap::OcTree> tree;
@@ -32,7 +34,7 @@ struct CollisionMapServer::Map {
 
 CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
-  ParamReader reader(pnh_);
+  RosParamReader reader(pnh_);
   gpatlas_core::PipelineFrames frames;
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;

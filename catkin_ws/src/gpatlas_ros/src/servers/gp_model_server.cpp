@@ -1,11 +1,11 @@
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/markers.h"
-#include "gpatlas_ros/servers.h"
+#include "gpatlas_ros/gp_model_server.h"
 #include "gpatlas_ros/shared_models.h"
 
-#include <gpatlas_core/background_work.h>
-#include <gpatlas_core/explorer.h>
-#include <gpatlas_core/view_training.h>
+#include <gpatlas_core/common/background_work.h>
+#include <gpatlas_core/exploration/explorer.h>
+#include <gpatlas_core/observations/view_training.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <shape_msgs/Mesh.h>
 #include <visualization_msgs/Marker.h>
@@ -15,10 +15,12 @@
 
 namespace gpatlas_ros {
 
+using namespace gpatlas_conversions;
+
 
 GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
-  ParamReader reader(pnh_);
+  RosParamReader reader(pnh_);
   gpatlas_core::PipelineFrames frames;
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
@@ -331,8 +333,8 @@ void GpModelServer::meshLoop() {
     }
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
-      gpatlas_core::SurfaceMeshResult surface;
-      gpatlas_core::runOnThisThreadOnly([&] { surface = gpatlas_core::SurfaceMesher(mesher_config_).mesh(*model); });
+      gpatlas_geometry::SurfaceMeshResult surface;
+      gpatlas_core::runOnThisThreadOnly([&] { surface = gpatlas_geometry::SurfaceMesher(mesher_config_).mesh(*model); });
       if (!surface.ok) {
         ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
         continue;

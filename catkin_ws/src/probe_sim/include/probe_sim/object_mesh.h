@@ -1,6 +1,6 @@
 #pragma once
 
-#include <gpatlas_core/triangle_mesh.h>
+#include <gpatlas_core/common/triangle_mesh.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

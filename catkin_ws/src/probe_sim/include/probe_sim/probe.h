@@ -4,9 +4,9 @@
 
 #include <gpatlas_motion/arm.h>
 
-#include <gpatlas_core/approach_config.h>
-#include <gpatlas_core/prober.h>
-#include <gpatlas_core/types.h>
+#include <gpatlas_core/config/approach_config.h>
+#include <gpatlas_core/exploration/prober.h>
+#include <gpatlas_core/common/types.h>
 
 #include <Eigen/Core>
 

@@ -5,8 +5,8 @@
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
 
-#include <gpatlas_core/approach_config.h>
-#include <gpatlas_core/parameters.h>
+#include <gpatlas_core/config/approach_config.h>
+#include <gpatlas_core/config/parameters.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

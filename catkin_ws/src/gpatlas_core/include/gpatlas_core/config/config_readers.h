@@ -1,0 +1,71 @@
+#pragma once
+
+// The one reader of each Config. The YAML (config/pipeline.yaml) mirrors them: each reader reads
+// its Config's section, and a test checks that the file sets every name the readers read and
+// nothing else. The nodelets read them from the ROS parameter server, gpatlas_bench from the
+// file itself.
+
+#include "gpatlas_core/config/approach_config.h"
+#include "gpatlas_core/planning/strategy_registry.h"
+#include "gpatlas_core/exploration/explorer.h"
+#include "gpatlas_core/model/surface_model_factory.h"
+#include "gpatlas_core/model/hyperparameter_tuner.h"
+#include "gpatlas_core/model/occupancy_grid.h"
+#include "gpatlas_core/config/parameters.h"
+#include "gpatlas_core/observations/surface_evidence.h"
+#include "gpatlas_core/observations/view_training.h"
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// Frames and the run's seed, shared by every stage.
+struct PipelineFrames {
+  std::string world_frame{"world"};
+  // The depth camera's optical frame in tf: the view's free space and occluded interior need
+  // its origin ("" disables them).
+  std::string sensor_frame{"camera_optical_frame"};
+  double tf_timeout_s{0.5};
+};
+
+// The collision map's settings (paper section 4.1).
+struct CollisionMapConfig {
+  OccupancyGridBuilder::Config grid;
+  double occupied_probability{0.5};
+};
+
+// The tuning step after each new view.
+struct TuningConfig {
+  bool enabled{false};
+  HyperparameterTuner::Config tuner;
+};
+
+// The exploration strategy and its plugins.
+struct StrategyChoice {
+  std::string name{"atlas_poke"};
+  std::vector<std::string> libraries;  // shared libraries registering strategies of your own
+};
+
+void readFrames(ParamReader& r, PipelineFrames* c);
+// The run's seed ("seed"): the view's subset and samples, the strategy and every plan.
+std::uint64_t readSeed(ParamReader& r, std::uint64_t fallback = 0);
+void readGpis(ParamReader& r, GpisModel::Config* c);
+// model/type and the settings of every built-in model.
+void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c);
+void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c);
+void readTuning(ParamReader& r, TuningConfig* c);
+void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
+// Whether the table found by segmentation is used (the view's below-support points, no guesses
+// in it, the evidence rule's approach test).
+bool readUseSupportPlane(ParamReader& r);
+void readTouchObservations(ParamReader& r, TouchObservationConfig* c);
+void readEvidence(ParamReader& r, EvidenceRule* c);
+void readExplorer(ParamReader& r, Explorer::Config* c);
+void readStrategyChoice(ParamReader& r, StrategyChoice* c);
+void readStrategy(ParamReader& r, StrategyConfig* c);
+void readCollisionMap(ParamReader& r, CollisionMapConfig* c);
+void readApproach(ParamReader& r, ApproachConfig* c);
+
+}  // namespace gpatlas_core

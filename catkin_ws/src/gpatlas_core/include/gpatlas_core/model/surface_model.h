@@ -1,0 +1,138 @@
+#pragma once
+
+#include "gpatlas_core/common/types.h"
+
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// Outcome of a fit or an update. On failure the model keeps its previous state.
+struct FitReport {
+  bool ok{false};
+  std::string message;
+  std::vector<std::string> warnings;
+  bool full_refit{false};      // false when the model was extended incrementally
+  bool renormalised{false};    // the centroid/scale changed, every point was re-normalised
+  double jitter{0.0};          // diagonal jitter that made a matrix factorisable
+  std::size_t num_added{0};    // points accepted from the call
+  std::size_t num_rejected{0}; // NaN/Inf, duplicates, out of domain
+};
+
+// Posterior at one point. Units: mean is the (unitless) implicit function value; gradients
+// are per metre of world coordinates; variance is in the model's reported units (those of the
+// paper's reference GPIS, see GpisModelConfig), so that one V_max means the same for every model.
+struct Prediction {
+  double mean{0.0};
+  double variance{0.0};
+  Vector3 gradient{Vector3::Zero()};
+  Vector3 variance_gradient{Vector3::Zero()};
+  bool in_domain{true};
+};
+
+struct BatchPrediction {
+  Eigen::VectorXd mean;
+  Eigen::VectorXd variance;
+  Points3 gradient;           // filled when requested
+  Points3 variance_gradient;  // filled when requested
+  Eigen::Array<bool, Eigen::Dynamic, 1> in_domain;
+};
+
+struct TuneReport {
+  bool ok{false};
+  std::string message;
+  double log_likelihood_before{0.0};
+  double log_likelihood_after{0.0};
+  Eigen::VectorXd params_before;  // in natural units, in the order of hyperparameterNames()
+  Eigen::VectorXd params_after;
+  double noise_scale_before{1.0};
+  double noise_scale_after{1.0};
+  int iterations{0};
+  double seconds{0.0};
+};
+
+struct HyperparameterTunerConfig;
+
+// Everything a replica needs to rebuild a model exactly (gpatlas_msgs/TrainingSet carries it
+// between nodelets): which model, its hyperparameters, its normalisation frame and its data.
+struct SurfaceModelState {
+  std::string model;                  // the registered name (surfaceModelNames())
+  std::vector<double> hyperparameters;  // the model's log-parameters, see hyperparameters()
+  Vector3 centroid{Vector3::Zero()};
+  double scale{1.0};
+  std::vector<TrainingPoint> observations;
+};
+
+// An implicit surface model (paper section 3.1): a posterior over a function f that is negative
+// inside the object, zero on its surface and positive outside, with a mean, a variance and a
+// gradient everywhere in its domain. The planner, the strategies, the mesher, the collision map,
+// the nodelets and the bench see a model through this interface only; implementations are chosen
+// by name (makeSurfaceModel) and can be added with registerSurfaceModel.
+//
+// Frame: every model has a normalisation frame, x_normalised = (x_world - centroid) / scale, in
+// which f grows like the normalised distance to the surface near it (f = 1 about one object
+// radius out). Const queries must be thread-safe; a failed fit or update leaves the model as it was.
+class SurfaceModel {
+ public:
+  virtual ~SurfaceModel() = default;
+
+  // The name the model is registered under.
+  virtual std::string name() const = 0;
+  virtual std::unique_ptr<SurfaceModel> clone() const = 0;
+
+  // ---- data
+  // Replaces the data and fits from scratch. Needs at least 4 valid surface points.
+  virtual FitReport fit(const std::vector<TrainingPoint>& points) = 0;
+  // Fits in a given normalisation frame (to replicate another process's model exactly).
+  virtual FitReport fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) = 0;
+  // Adds observations to a fitted model, incrementally where the model can.
+  virtual FitReport addPoints(const std::vector<TrainingPoint>& points) = 0;
+  virtual bool isFitted() const = 0;
+  // Observations in world coordinates (no pseudo-points), in the order they were accepted.
+  virtual const std::vector<TrainingPoint>& observations() const = 0;
+
+  // ---- frame
+  virtual const Vector3& centroid() const = 0;
+  virtual double scale() const = 0;
+  // Queries are valid within the ball of domainRadiusWorld() (metres) around centroid().
+  virtual bool inDomain(const Vector3& x_world) const = 0;
+  virtual double domainRadiusWorld() const = 0;
+  // Radius (metres) of the ball around centroid() that holds the surface data.
+  virtual double dataRadiusWorld() const = 0;
+  // Reported variance = variance of f * this factor (the collision map needs the variance of f).
+  virtual double varianceUnitFactor() const = 0;
+
+  // ---- queries (world coordinates; throw std::logic_error before the first fit)
+  virtual Prediction predict(const Vector3& x_world) const = 0;
+  // One call for the whole batch. Gradients only when asked for; without `with_variance` (and
+  // without the variance gradient) `variance` is NaN and models may skip its cost.
+  virtual BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
+                                       bool with_variance_gradient = true, bool with_variance = true) const = 0;
+  double mean(const Vector3& x_world) const;
+  double variance(const Vector3& x_world) const;
+
+  // ---- hyperparameters
+  // Names of the log-parameters that hyperparameters() returns, in order.
+  virtual std::vector<std::string> hyperparameterNames() const = 0;
+  virtual Eigen::VectorXd hyperparameters() const = 0;
+  // Sets them and refits; on failure the previous ones stay and the report says why.
+  virtual FitReport setHyperparameters(const Eigen::VectorXd& log_params) = 0;
+  // Maximises the model's marginal likelihood (Ceres) within the config's bounds and refits.
+  virtual TuneReport tune(const HyperparameterTunerConfig& config) = 0;
+
+  // Distance (metres) from a point to the nearest surface observation or `new_surface_points`:
+  // an upper bound on its distance to the surface (TrainingPoint::surface_distance_m).
+  virtual double nearestSurfaceDistance(const Vector3& point_world,
+                                        const std::vector<Vector3>& new_surface_points = {}) const;
+
+  // ---- replicas
+  SurfaceModelState state() const;
+  // Rebuilds this model from another's state (same model name): its hyperparameters, frame and
+  // data, fitted once. On failure the model is unchanged.
+  virtual FitReport restore(const SurfaceModelState& state) = 0;
+};
+
+}  // namespace gpatlas_core

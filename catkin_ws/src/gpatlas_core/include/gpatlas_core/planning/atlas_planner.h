@@ -1,0 +1,104 @@
+#pragma once
+
+#include "gpatlas_core/planning/atlas.h"
+#include "gpatlas_core/planning/chart.h"
+#include "gpatlas_core/model/surface_model.h"
+#include "gpatlas_core/observations/surface_evidence.h"
+#include "gpatlas_core/model/surface_projection.h"
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+// The direction the probe can come from to a touch of `point` (it moves along minus it): the
+// outward normal, or one tilted from it when that approach is blocked; nullopt when there is
+// none. A cheap test of the approach: the full plan is made for the chosen touch only. Empty:
+// every point can be touched along its normal.
+using TouchFilter = std::function<std::optional<Vector3>(const Vector3& point, const Vector3& outward_normal)>;
+
+enum class PlanStatus : std::uint8_t {
+  kTouch = 0,       // a touch (path) was found
+  kConverged = 1,   // the predicted surface was covered without finding variance above V_max
+  kCapReached = 2,  // a chart or time budget ran out first: not a proof of convergence
+  kError = 3        // bad input or unusable model; see the message
+};
+const char* toString(PlanStatus status);
+
+struct AtlasPlanResult {
+  PlanStatus status{PlanStatus::kError};
+  std::string message;
+  Atlas atlas;                     // every chart grown, for display
+  std::vector<int> path;           // chart indices root -> new chart (kTouch only)
+  double max_chart_variance{0.0};  // over all charts of the atlas
+  int expansions{0};               // EXPANDCHART calls
+  int failed_projections{0};       // candidates dropped because eq. 13 had no solution
+  int retouch_skipped{0};          // charts above V_max at a measurement or an earlier target (EvidenceRule::retouch_radius_m)
+  int unreachable_skipped{0};      // charts that needed a touch the TouchFilter said the probe cannot make
+  double elapsed_s{0.0};
+};
+
+// GPAtlasRRT, paper Algorithm 1: grows an atlas over the GP's zero level set toward high
+// variance and returns the tree path to the first chart whose centre variance exceeds V_max.
+class AtlasPlanner {
+ public:
+  struct Config {
+    ChartConfig chart;
+    ProjectionConfig projection;
+    // SELECTCHART: with this probability continue from the chart created by the previous
+    // expansion (depth-first, toward variance), otherwise pick an expandable chart uniformly
+    // (breadth). If the continuation chart has no candidates left, the uniform pick is used.
+    double depth_first_probability{0.4};
+    int max_charts{3000};
+    double max_time_s{10.0};
+    // A given start point must project onto the surface within this distance (metres).
+    double max_start_distance_m{0.03};
+    // Random training points tried as the root before giving up.
+    int max_start_attempts{25};
+    // Before reporting convergence, start new trees from surface observations that no chart
+    // covers (a predicted surface in several pieces); false: only the root's tree (Algorithm 1
+    // verbatim).
+    bool cover_all_observations{true};
+    // Once a chart above V_max is found, extend the path from it by up to this many charts,
+    // each grown toward the highest-variance candidate of the previous one: a slide then runs
+    // on into the unknown instead of stopping at its edge, up to the first chart plan()'s
+    // `reachable` refuses. 0: Algorithm 1 verbatim.
+    int extend_path_charts{0};
+    // The first chart that needs a touch lies where the supported surface ends. A probe with a
+    // footprint (a tactile pad) centred there spends half of it on surface already measured, so
+    // past that chart the path goes on toward the highest variance, chart by chart while each
+    // still needs a touch, until it has gone at least this distance (metres): the footprint's
+    // rim, not its centre, then meets the supported surface. 0: the first chart (Algorithm 1). Only when
+    // extend_path_charts is 0.
+    double aim_past_m{0.0};
+    // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
+    // charts are kept small enough that none hides such a point. Default: off, variance alone
+    // (Algorithm 1). AtlasStrategy sets it from PlanRequest::evidence.
+    EvidenceRule evidence;
+    std::uint64_t seed{1};
+  };
+  // Called after each chart is added (for progress displays); may be empty.
+  using Progress = std::function<void(const Atlas& atlas)>;
+
+  AtlasPlanner() = default;
+  explicit AtlasPlanner(Config config) : config_(std::move(config)) {}
+  const Config& config() const { return config_; }
+
+  // `start`: a point near the surface (e.g. the probe's position); without it the root is a
+  // random on-surface training point of the model (SELECTSURFACEPOINT). A chart that needs a
+  // touch `reachable` refuses is passed over: the atlas grows on past it, and the surface
+  // counts as covered when only such charts are left.
+  AtlasPlanResult plan(const SurfaceModel& model, double v_max,
+                       const std::optional<Vector3>& start = std::nullopt,
+                       const Progress& progress = {}, const TouchFilter& reachable = {}) const;
+
+ private:
+  Config config_;
+};
+
+std::string validate(const AtlasPlanner::Config& config);
+
+}  // namespace gpatlas_core

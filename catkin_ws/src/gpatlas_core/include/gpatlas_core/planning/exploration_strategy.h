@@ -1,0 +1,70 @@
+#pragma once
+
+#include "gpatlas_core/planning/atlas_planner.h"
+#include "gpatlas_core/model/surface_model.h"
+#include "gpatlas_core/planning/surface_sampler.h"
+#include "gpatlas_core/common/seeds.h"
+#include "gpatlas_core/common/types.h"
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_core {
+
+struct PlanRequest {
+  double v_max{0.1};  // reported (paper-equivalent) variance units
+  // Every strategy applies the evidence test (SurfaceEvidence) to its convergence test; the
+  // Explorer fills attempted_targets (max_distance 0: off, V_max alone as in the paper).
+  EvidenceRule evidence;
+  // Where the probe is, if known: the atlas grows from there instead of a random surface point.
+  std::optional<Vector3> start;
+  // Mixed with the strategy's own seed so that successive plans of one exploration differ
+  // while the whole run stays reproducible.
+  std::uint64_t seed{0};
+  // The atlas strategies pass over candidates this refuses (the Explorer's approacher's cheap
+  // test); empty: every candidate is reachable. The baselines ignore it: a touch they choose
+  // that has no safe approach is refused by the approacher itself.
+  TouchFilter reachable;
+  // The probe's contact footprint: half the side of the largest tactile pad it has reported
+  // (ProbeResult::pads; the Explorer fills it), 0 for a point probe. atlas_poke aims this far
+  // past the edge of the supported surface (AtlasPlanner::Config::aim_past_m).
+  double footprint_radius_m{0.0};
+};
+
+struct PlanResult {
+  PlanStatus status{PlanStatus::kError};
+  std::string message;
+  Touch touch;  // filled for kTouch
+  // The largest variance the plan evaluated: over the atlas's charts (atlas strategies) or the
+  // surface samples (the others). A lower bound on the surface's largest: an atlas that stops
+  // at the first chart above V_max has seen only part of the surface.
+  double max_evaluated_variance{0.0};
+  std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
+  double elapsed_s{0.0};
+  int unreachable_candidates{0};  // candidates passed over for PlanRequest::reachable
+};
+
+// Chooses the next touch on a GPIS model (the step "plan" of Algorithm 2).
+class ExplorationStrategy {
+ public:
+  virtual ~ExplorationStrategy() = default;
+  virtual std::string name() const = 0;
+  virtual PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const = 0;
+};
+
+// The atlas strategies' planner settings: a slide's path runs on for up to 20 charts past the
+// first one above V_max, into the unknown, instead of stopping at its edge.
+// Empty, or a note that V_max lies below a tenth of the smallest noise variance of the model's
+// surface observations: a point would have to be observed more than ten times to get there
+// (a point observed k times gets to about sigma^2 / k), so the loop may not converge. Strategies
+// append it to every answer.
+std::string vMaxNoiseNote(const SurfaceModel& model, double v_max);
+
+// Shared argument checks: an error PlanResult for an unusable model or V_max, else nullopt.
+std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRequest& request);
+
+}  // namespace gpatlas_core

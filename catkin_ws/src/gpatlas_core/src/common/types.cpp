@@ -1,0 +1,43 @@
+#include "gpatlas_core/common/types.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gpatlas_core {
+
+const char* toString(PointSource source) {
+  switch (source) {
+    case PointSource::kVision: return "vision";
+    case PointSource::kTouch: return "touch";
+    case PointSource::kFreeSpace: return "free_space";
+    case PointSource::kPseudo: return "pseudo";
+    case PointSource::kViewSupport: return "view_support";
+  }
+  return "unknown";
+}
+
+std::vector<Vector3> fibonacciSphere(int count) {
+  std::vector<Vector3> dirs;
+  dirs.reserve(static_cast<std::size_t>(std::max(count, 0)));
+  const double golden = M_PI * (3.0 - std::sqrt(5.0));
+  for (int i = 0; i < count; ++i) {
+    const double z = 1.0 - 2.0 * (i + 0.5) / count;
+    const double rho = std::sqrt(std::max(0.0, 1.0 - z * z));
+    const double phi = golden * i;
+    dirs.emplace_back(rho * std::cos(phi), rho * std::sin(phi), z);
+  }
+  return dirs;
+}
+
+std::vector<Vector3> aimedPoints(const Touch& touch) {
+  if (touch.kind == Touch::Kind::kPoke && !touch.points.empty()) return {touch.points.back()};
+  return touch.points;
+}
+
+std::size_t approachTarget(const Touch& touch) {
+  return touch.kind == Touch::Kind::kPoke && !touch.points.empty() ? touch.points.size() - 1 : 0;
+}
+
+std::size_t retreatTarget(const Touch& touch) { return touch.points.empty() ? 0 : touch.points.size() - 1; }
+
+}  // namespace gpatlas_core

@@ -1,0 +1,146 @@
+#include "gpatlas_core/exploration/exploration_report.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <vector>
+
+namespace gpatlas_core {
+
+namespace {
+
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream s;
+  s << std::setprecision(8) << v;
+  return s.str();
+}
+
+std::string jsonString(const std::string& text) {
+  std::string out = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (c == '\n') {
+      out += "\\n";
+      continue;
+    }
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+const char* jsonBool(bool b) { return b ? "true" : "false"; }
+
+}  // namespace
+
+std::string describeAction(const ExplorationRecord& record) {
+  std::ostringstream line;
+  line << "action " << std::setw(3) << record.index + 1 << ": " << (record.probe_success ? "contact   " : "no contact")
+       << " +" << record.contacts_added << " contacts (" << record.contacts_total << "), max evaluated variance "
+       << std::setprecision(3) << record.max_evaluated_variance << ", plan " << std::fixed << std::setprecision(0)
+       << record.plan_ms << " ms, probe " << record.probe_ms << " ms, update " << record.update_ms << " ms";
+  if (std::isfinite(record.rmse_pred_to_gt_m))
+    line << std::setprecision(1) << ", RMSE " << 1000 * record.rmse_pred_to_gt_m << "/" << 1000 * record.rmse_gt_to_pred_m
+         << " mm";
+  if (std::isfinite(record.target_error_m))
+    line << std::setprecision(1) << ", surface found " << 1000 * record.target_error_m << " mm from the target";
+  if (record.approach_ms > 0.0) {
+    line << std::setprecision(0) << ", approach " << record.approach_ms << " ms";
+    if (record.approach_refusals > 0)
+      line << " (" << record.approach_refusals << " touch(es) refused: " << record.approach_message << ")";
+  }
+  if (record.approach_collisions + record.retreat_collisions > 0)
+    line << ", " << record.approach_collisions << "+" << record.retreat_collisions << " collisions on the way";
+  if (!record.probe_reason.empty()) line << " (probe: " << record.probe_reason << ")";
+  if (!record.update_message.empty()) line << " (model: " << record.update_message << ")";
+  return line.str();
+}
+
+double approachPlanMsMedian(const ExplorationResult& result) {
+  std::vector<double> times;
+  for (const ExplorationRecord& r : result.records)
+    if (r.approach_ms > 0.0) times.push_back(r.approach_compute_ms);
+  if (times.empty()) return std::nan("");
+  std::sort(times.begin(), times.end());
+  const std::size_t m = times.size() / 2;
+  return times.size() % 2 ? times[m] : 0.5 * (times[m - 1] + times[m]);
+}
+
+double recentTargetError(const ExplorationResult& result, std::size_t touches) {
+  std::vector<double> recent;
+  for (auto r = result.records.rbegin(); r != result.records.rend() && recent.size() < touches; ++r)
+    if (std::isfinite(r->target_error_m)) recent.push_back(r->target_error_m);
+  return finiteMedian(recent);
+}
+
+std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message) {
+  if (!has_surface) return "error: no predicted surface: " + surface_message;
+  if (result.converged) return "converged";
+  const std::string& reason = result.stop_reason;
+  if (reason.rfind("error", 0) == 0 || reason.rfind("planner_error", 0) == 0 || reason.rfind("invalid_config", 0) == 0)
+    return "error: " + reason;
+  return "stopped: " + reason;
+}
+
+std::string toJson(const ExplorationReport& report) {
+  const ExplorationResult& result = report.result;
+  std::ostringstream json;
+  json << "{\n  \"settings\": {\"strategy\": " << jsonString(report.strategy) << ", \"v_max\": "
+       << jsonNumber(report.loop.v_max) << ", \"max_actions\": " << report.loop.max_actions
+       << ", \"max_consecutive_failures\": " << report.loop.max_consecutive_failures << ", \"seed\": " << report.loop.seed
+       << ", \"model\": " << jsonString(report.model) << "},\n";
+  json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
+       << ",\n  \"converged\": " << jsonBool(report.status == "converged") << ",\n  \"actions\": " << result.actions
+       << ",\n  \"contacts\": " << result.contacts << ",\n  \"unreachable_touches\": " << result.unreachable_touches
+       << ",\n  \"unreachable_candidates\": " << result.unreachable_candidates
+       << ",\n  \"final_unreachable_candidates\": " << result.final_unreachable_candidates
+       << ",\n  \"approach_collisions\": " << result.approach_collisions
+       << ",\n  \"retreat_collisions\": " << result.retreat_collisions
+       << ",\n  \"approach_plan_ms_median\": " << jsonNumber(approachPlanMsMedian(result))
+       << ",\n  \"recent_target_error_m\": " << jsonNumber(recentTargetError(result))
+       << ",\n  \"final_max_evaluated_variance\": " << jsonNumber(result.final_max_evaluated_variance) << ",\n";
+  json << "  \"final_metrics\": ";
+  const FinalShape& shape = report.final_shape;
+  if (shape.measured)
+    json << "{\"rmse_pred_to_gt_m\": " << jsonNumber(shape.rmse_pred_to_gt_m)
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(shape.rmse_gt_to_pred_m)
+         << ", \"chamfer_l1_m\": " << jsonNumber(shape.chamfer_l1_m) << ", \"fscore_5mm\": " << jsonNumber(shape.fscore_5mm)
+         << "}";
+  else
+    json << "null";
+  const ExplorationRecord& initial = report.initial;
+  json << ",\n  \"initial\": {\"n_train\": " << initial.n_train
+       << ", \"sampled_max_variance\": " << jsonNumber(initial.sampled_max_variance)
+       << ", \"rmse_pred_to_gt_m\": " << jsonNumber(initial.rmse_pred_to_gt_m)
+       << ", \"rmse_gt_to_pred_m\": " << jsonNumber(initial.rmse_gt_to_pred_m) << "}";
+  json << ",\n  \"history\": [\n";
+  for (std::size_t i = 0; i < result.records.size(); ++i) {
+    const ExplorationRecord& r = result.records[i];
+    json << "    {\"action\": " << r.index + 1 << ", \"probe_success\": " << jsonBool(r.probe_success)
+         << ", \"probe_reason\": " << jsonString(r.probe_reason) << ", \"contacts\": " << r.contacts_added
+         << ", \"free_points\": " << r.free_points_added << ", \"contacts_total\": " << r.contacts_total
+         << ", \"max_evaluated_variance\": " << jsonNumber(r.max_evaluated_variance)
+         << ", \"action_ms\": " << jsonNumber(r.action_ms) << ", \"plan_ms\": " << jsonNumber(r.plan_ms)
+         << ", \"plan_compute_ms\": " << jsonNumber(r.plan_compute_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
+         << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"progress_ms\": " << jsonNumber(r.progress_ms)
+         << ", \"approach_ms\": " << jsonNumber(r.approach_ms)
+         << ", \"approach_compute_ms\": " << jsonNumber(r.approach_compute_ms)
+         << ", \"approach_refusals\": " << r.approach_refusals
+         << ", \"unreachable_candidates\": " << r.unreachable_candidates
+         << ", \"approach_message\": " << jsonString(r.approach_message)
+         << ", \"target_error_m\": " << jsonNumber(r.target_error_m)
+         << ", \"approach_collisions\": " << r.approach_collisions
+         << ", \"retreat_collisions\": " << r.retreat_collisions << ", \"n_train\": " << r.n_train
+         << ", \"update_message\": " << jsonString(r.update_message)
+         << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)
+         << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m) << "}"
+         << (i + 1 < result.records.size() ? ",\n" : "\n");
+  }
+  json << "  ]\n}\n";
+  return json.str();
+}
+
+}  // namespace gpatlas_core

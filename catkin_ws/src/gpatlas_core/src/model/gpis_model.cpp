@@ -1,0 +1,994 @@
+#include "gpatlas_core/model/gpis_model.h"
+
+#include "gpatlas_core/common/dense_solve.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+namespace gpatlas_core {
+
+double gpisTarget(const TrainingPoint& p, double scale) {
+  if (std::isfinite(p.target_override)) return p.target_override;
+  if (observesSlope(p)) return 1.0;
+  if (p.label != PointLabel::kSurface && std::isfinite(p.surface_distance_m) && scale > 0.0)
+    return static_cast<double>(static_cast<int>(p.label)) * std::min(1.0, std::max(0.0, p.surface_distance_m) / scale);
+  return static_cast<double>(static_cast<int>(p.label));
+}
+
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093453;
+
+bool isFinite(const Vector3& v) { return v.allFinite(); }
+
+
+// Covariance between two observations at normalised positions a and b: of f itself where the
+// direction is zero, else of f's slope along that unit direction. With d = a - b and k' = dk/dr:
+//   cov(f(a), f(b))         = k(r)
+//   cov(D_u f(a), f(b))     = (k'/r) d.u
+//   cov(D_u f(a), D_v f(b)) = -(k'' - k'/r) (d.u)(d.v) / r^2 - (k'/r) u.v
+// (the derivatives of k(|a - b|) in a and b); k'/r tends to k''(0) as r -> 0.
+double observationCovariance(const Kernel& kernel, const Vector3& a, const Vector3& u, const Vector3& b,
+                             const Vector3& v) {
+  const Vector3 d = a - b;
+  const double r = d.norm();
+  const bool slope_a = u.squaredNorm() > 0.0, slope_b = v.squaredNorm() > 0.0;
+  if (!slope_a && !slope_b) return kernel.value(r);
+  const double slope_over_r = r > 0.0 ? kernel.derivative(r) / r : kernel.secondDerivative(0.0);
+  if (!slope_b) return slope_over_r * d.dot(u);
+  if (!slope_a) return -slope_over_r * d.dot(v);
+  if (!(r > 0.0)) return -slope_over_r * u.dot(v);
+  const Vector3 along = d / r;
+  return -(kernel.secondDerivative(r) - slope_over_r) * along.dot(u) * along.dot(v) - slope_over_r * u.dot(v);
+}
+
+// Gradient with respect to the query x of cov(f(x), D_u f(b)) = -(k'/r) e.u, e = x - b:
+// -(k'' - k'/r) (e^.u) e^ - (k'/r) u, with e^ = e / r.
+Vector3 slopeCovarianceGradient(const Kernel& kernel, const Vector3& x, const Vector3& b, const Vector3& u) {
+  const Vector3 e = x - b;
+  const double r = e.norm();
+  if (!(r > 0.0)) return -kernel.secondDerivative(0.0) * u;
+  const double slope_over_r = kernel.derivative(r) / r;
+  const Vector3 along = e / r;
+  return -(kernel.secondDerivative(r) - slope_over_r) * along.dot(u) * along - slope_over_r * u;
+}
+
+}  // namespace
+
+struct GpisModel::Impl {
+  Impl() = default;
+  Impl(Impl&&) = default;
+  Impl& operator=(Impl&&) = default;
+  // Deep copy (the kernel is cloned); the one place that lists the members. The copy holds
+  // the n training rows without the original's spare capacity: copies are mostly snapshots
+  // that never grow, and the factor's capacity grows with the square of the size. A copy that
+  // is made to be extended asks for its room up front (capacity, in rows), so that the factor
+  // is copied once.
+  Impl(const Impl& o) : Impl(o, 0) {}
+  Impl(const Impl& o, Eigen::Index capacity)
+      : config(o.config),
+        kernel(o.kernel ? o.kernel->clone() : nullptr),
+        noise_scale(o.noise_scale),
+        observations(o.observations),
+        fitted(o.fitted),
+        frame_preset(o.frame_preset),
+        centroid(o.centroid),
+        scale(o.scale),
+        n(o.n),
+        num_pseudo(o.num_pseudo),
+        slope_rows(o.slope_rows),
+        alpha(o.alpha),
+        jitter(o.jitter) {
+    const Eigen::Index cap = std::max(n, capacity);
+    x.resize(3, cap);
+    slope_dir.resize(3, cap);
+    y.resize(cap);
+    noise_var.resize(cap);
+    chol.resize(cap, cap);
+    x.leftCols(n) = o.x.leftCols(n);
+    slope_dir.leftCols(n) = o.slope_dir.leftCols(n);
+    y.head(n) = o.y.head(n);
+    noise_var.head(n) = o.noise_var.head(n);
+    chol.topLeftCorner(n, n) = o.chol.topLeftCorner(n, n);
+  }
+
+  Config config;
+  std::unique_ptr<Kernel> kernel;
+  double noise_scale{1.0};
+
+  std::vector<TrainingPoint> observations;  // world frame, accepted points only
+
+  // Derived state, rebuilt from `observations` whenever the normalisation changes.
+  bool fitted{false};
+  bool frame_preset{false};  // fitInFrame: the next refit keeps centroid/scale
+  Vector3 centroid{Vector3::Zero()};
+  double scale{1.0};
+  Eigen::Index n{0};              // training-set size (pseudo-points first)
+  Eigen::Index num_pseudo{0};
+  Points3 x;                      // normalised inputs, capacity columns
+  Points3 slope_dir;              // unit direction of a slope observation, zero for a value
+  std::vector<Eigen::Index> slope_rows;  // the rows that observe a slope, ascending
+  Eigen::VectorXd y;              // targets, capacity
+  Eigen::VectorXd noise_var;      // per-point noise variance before noise_scale, capacity
+  Eigen::MatrixXd chol;           // lower Cholesky factor in the top-left n x n block
+  Eigen::VectorXd alpha;          // K^-1 y (size n)
+  double jitter{0.0};
+
+  void reserve(Eigen::Index needed) {
+    const Eigen::Index cap = chol.rows();
+    if (needed <= cap) return;
+    const Eigen::Index new_cap = std::max<Eigen::Index>(needed + 64, cap + cap / 2);
+    Eigen::MatrixXd new_chol(new_cap, new_cap);
+    new_chol.topLeftCorner(n, n) = chol.topLeftCorner(n, n);
+    chol.swap(new_chol);
+    Points3 new_x(3, new_cap);
+    new_x.leftCols(n) = x.leftCols(n);
+    x.swap(new_x);
+    Points3 new_dir(3, new_cap);
+    new_dir.leftCols(n) = slope_dir.leftCols(n);
+    slope_dir.swap(new_dir);
+    Eigen::VectorXd new_y(new_cap), new_noise(new_cap);
+    new_y.head(n) = y.head(n);
+    new_noise.head(n) = noise_var.head(n);
+    y.swap(new_y);
+    noise_var.swap(new_noise);
+  }
+
+  Vector3 normalise(const Vector3& p) const { return (p - centroid) / scale; }
+
+  bool isSlopeRow(Eigen::Index i) const { return slope_dir.col(i).squaredNorm() > 0.0; }
+  void collectSlopeRows() {
+    slope_rows.clear();
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (isSlopeRow(i)) slope_rows.push_back(i);
+  }
+
+  // Removes training row r: the factor of K without row and column r is L11 and L31 as they
+  // are, and below them the factor of L33 L33^T + l l^T (l: column r below the diagonal), a
+  // rank-one update in O((n - r)^2). slope_rows must be collected again after it.
+  void removeRow(Eigen::Index r) {
+    const Eigen::Index tail = n - r - 1;
+    Eigen::VectorXd l = chol.block(r + 1, r, tail, 1);
+    auto lower = chol.block(r + 1, r + 1, tail, tail);
+    for (Eigen::Index k = 0; k < tail; ++k) {
+      const double diagonal = std::hypot(lower(k, k), l[k]);
+      const double c = diagonal / lower(k, k), s = l[k] / lower(k, k);
+      lower(k, k) = diagonal;
+      const Eigen::Index below = tail - k - 1;
+      if (below == 0) continue;
+      lower.col(k).tail(below) = (lower.col(k).tail(below) + s * l.tail(below)) / c;
+      l.tail(below) = c * l.tail(below) - s * lower.col(k).tail(below);
+    }
+    chol.block(r, 0, tail, r) = chol.block(r + 1, 0, tail, r).eval();
+    chol.block(r, r, tail, tail) = chol.block(r + 1, r + 1, tail, tail).eval();
+    x.middleCols(r, tail) = x.middleCols(r + 1, tail).eval();
+    slope_dir.middleCols(r, tail) = slope_dir.middleCols(r + 1, tail).eval();
+    y.segment(r, tail) = y.segment(r + 1, tail).eval();
+    noise_var.segment(r, tail) = noise_var.segment(r + 1, tail).eval();
+    --n;
+  }
+  // Prior covariance of training rows i != j.
+  double covariance(Eigen::Index i, Eigen::Index j) const {
+    return observationCovariance(*kernel, x.col(i), slope_dir.col(i), x.col(j), slope_dir.col(j));
+  }
+  double diagonal(Eigen::Index i) const {
+    // A slope's prior variance is -k''(0): the curvature of the correlation at the origin.
+    const double prior = isSlopeRow(i) ? -kernel->secondDerivative(0.0) : kernel->value(0.0);
+    return prior + noise_scale * noise_var[i] * noiseUnit(*kernel) + jitter;
+  }
+
+  double varianceUnitFactor() const { return config.reference_prior_variance / kernel->value(0.0); }
+  // Factor turning a noise variance given in reported units into units of f (the inverse of
+  // varianceUnitFactor), so that the noise-to-prior ratio does not depend on the kernel's scale.
+  double noiseUnit(const Kernel& k) const {
+    return config.noise_in_reported_units ? k.value(0.0) / config.reference_prior_variance : 1.0;
+  }
+
+  // A pivot that is tiny relative to the prior variance means a numerically rank-deficient
+  // matrix: LLT may still "succeed" on rounding noise, but its solution would be garbage.
+  bool wellConditioned(const Eigen::Ref<const Eigen::VectorXd>& pivots) const {
+    const double floor = 1e-13 * kernel->value(0.0);
+    return (pivots.array().square() > floor).all();
+  }
+
+  void solveAlpha() {
+    alpha = y.head(n);
+    solveLowerInPlace(chol, n, alpha);
+    solveLowerInPlace(chol, n, alpha, /*transposed=*/true);
+  }
+
+  // Factorises K for the first n points, escalating jitter. Returns false when even the largest
+  // jitter fails.
+  bool factorise(std::string* message) {
+    // Jitter ladder: the configured value, then x10 steps up to max_jitter.
+    std::vector<double> ladder{config.jitter};
+    for (double j = std::max(config.jitter * 10.0, 1e-12); j <= config.max_jitter * 1.0001; j *= 10.0) ladder.push_back(j);
+    for (double trial : ladder) {
+      jitter = trial;
+      auto block = chol.topLeftCorner(n, n);
+      for (Eigen::Index j = 0; j < n; ++j) {
+        for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = covariance(i, j);
+        block(j, j) = diagonal(j);
+      }
+      if (choleskyLowerInPlace(block) && wellConditioned(block.diagonal())) return true;
+    }
+    std::ostringstream msg;
+    msg << "covariance matrix of " << n << " points is not positive definite even with jitter "
+        << config.max_jitter << " (duplicate or contradictory points, or a kernel outside its valid range)";
+    *message = msg.str();
+    return false;
+  }
+};
+
+GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
+  impl_->config = std::move(config);
+  impl_->kernel = makeKernel(impl_->config.kernel);
+  if (!impl_->config.initial_params.empty()) {
+    impl_->kernel->setLogParams(Eigen::Map<const Eigen::VectorXd>(impl_->config.initial_params.data(),
+                                                                   impl_->config.initial_params.size()));
+  }
+  impl_->noise_scale = impl_->config.noise_scale;
+  const Config& c = impl_->config;
+  if (!(c.data_radius > 0.0 && c.data_radius < c.renormalise_radius && c.renormalise_radius <= c.domain_radius))
+    throw std::invalid_argument("GpisModel: need 0 < data_radius < renormalise_radius <= domain_radius");
+  if (2.0 * c.domain_radius > impl_->kernel->maxValidDistance())
+    throw std::invalid_argument("GpisModel: kernel '" + c.kernel + "' is valid only up to distance " +
+                                std::to_string(impl_->kernel->maxValidDistance()) +
+                                " but the domain diameter is " + std::to_string(2.0 * c.domain_radius));
+  if (!(c.noise_scale > 0.0)) throw std::invalid_argument("GpisModel: noise_scale must be > 0");
+}
+
+GpisModel::GpisModel(const GpisModel& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
+
+GpisModel::GpisModel(const GpisModel& other, std::size_t room_for_observations)
+    : impl_(std::make_unique<Impl>(*other.impl_,
+                                   other.impl_->num_pseudo + static_cast<Eigen::Index>(room_for_observations))) {}
+
+GpisModel& GpisModel::operator=(const GpisModel& other) {
+  if (this != &other) impl_ = std::make_unique<Impl>(*other.impl_);
+  return *this;
+}
+
+GpisModel::GpisModel(GpisModel&&) noexcept = default;
+GpisModel& GpisModel::operator=(GpisModel&&) noexcept = default;
+GpisModel::~GpisModel() = default;
+
+namespace {
+
+// Validates and deduplicates incoming points against `existing` (normalised with the given
+// frame when the frame is known). Rejected points are counted and explained in warnings.
+std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
+  std::vector<TrainingPoint> accepted;
+  accepted.reserve(points.size());
+  std::size_t non_finite = 0, bad_noise = 0, bad_direction = 0;
+  for (const auto& p : points) {
+    if (!isFinite(p.position) || !isFinite(p.slope_direction)) {
+      ++non_finite;
+      continue;
+    }
+    if (observesSlope(p) && !(p.slope_direction.norm() > 1e-9)) {
+      ++bad_direction;
+      continue;
+    }
+    if (!std::isfinite(p.noise_sigma) || p.noise_sigma < 0.0) {
+      ++bad_noise;
+      continue;
+    }
+    accepted.push_back(p);
+    // A unit direction is kept as given (bit for bit), so that callers can find their points.
+    if (observesSlope(p) && std::abs(p.slope_direction.norm() - 1.0) > 1e-12) accepted.back().slope_direction.normalize();
+  }
+  if (non_finite > 0)
+    report->warnings.push_back(std::to_string(non_finite) + " point(s) with NaN/Inf coordinates dropped");
+  if (bad_noise > 0)
+    report->warnings.push_back(std::to_string(bad_noise) + " point(s) with a negative or NaN noise sigma dropped");
+  if (bad_direction > 0)
+    report->warnings.push_back(std::to_string(bad_direction) + " slope observation(s) with a near-zero direction dropped");
+  report->num_rejected += non_finite + bad_noise + bad_direction;
+  return accepted;
+}
+
+}  // namespace
+
+FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) { return fitFrom(points, nullptr, 0.0); }
+
+FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) {
+  if (!centroid.allFinite() || !(scale > 0.0) || !std::isfinite(scale)) {
+    FitReport report;
+    report.message = "invalid normalisation frame (centroid must be finite, scale > 0)";
+    return report;
+  }
+  return fitFrom(points, &centroid, scale);
+}
+
+FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale) {
+  FitReport report;
+  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  if (centroid && report.num_rejected == 0) {
+    FitReport updated;
+    if (updateInFrame(accepted, *centroid, scale, &updated)) return updated;
+  }
+  // A full fit starts from an empty set: the existing observations are replaced.
+  Impl trial;
+  trial.config = impl_->config;
+  trial.kernel = impl_->kernel->clone();
+  trial.noise_scale = impl_->noise_scale;
+  trial.observations = std::move(accepted);
+  if (centroid) {
+    trial.centroid = *centroid;
+    trial.scale = scale;
+    trial.frame_preset = true;
+  }
+  std::swap(*impl_, trial);  // `trial` now holds the previous state
+  report.num_added = impl_->observations.size();
+  FitReport fit_report = refit();
+  fit_report.warnings.insert(fit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+  fit_report.num_rejected += report.num_rejected;
+  if (!fit_report.ok) {
+    std::swap(*impl_, trial);  // restore
+    return fit_report;
+  }
+  return fit_report;
+}
+
+bool GpisModel::updateInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale,
+                              FitReport* report) {
+  Impl& m = *impl_;
+  if (!m.fitted || m.centroid != centroid || m.scale != scale) return false;
+  // The points held, in order, some missing (removed) or with another target, then new ones. A
+  // refit's factor of what is held depends on the points' positions, slopes, noise and labels,
+  // and on which of them are duplicates, which compares their targets.
+  const auto samePoint = [](const TrainingPoint& p, const TrainingPoint& o) {
+    return p.position == o.position && p.label == o.label && p.noise_sigma == o.noise_sigma &&
+           p.slope_direction == o.slope_direction;
+  };
+  const std::size_t held = m.observations.size();
+  std::vector<std::size_t> removed;  // in what is held
+  std::vector<std::size_t> changed;  // in points
+  std::size_t kept = 0;              // points[0, kept) are the held points that stay
+  for (std::size_t j = 0; j < held; ++j) {
+    if (kept < points.size() && samePoint(points[kept], m.observations[j])) {
+      if (gpisTarget(points[kept], m.scale) != gpisTarget(m.observations[j], m.scale)) changed.push_back(kept);
+      ++kept;
+    } else {
+      removed.push_back(j);
+    }
+  }
+  // Each removal is a rank-one update of up to n^2: beyond a third of the points a refit is cheaper
+  // (a moved point early in the list removes everything after it here).
+  if (3 * removed.size() > held) return false;
+  // Without the inside pseudo-point, the refit might place it once a point near the centroid is
+  // gone (inside points do not count).
+  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(m.config.num_outside_points);
+  for (const std::size_t j : removed)
+    if (!has_inside_point && m.config.inside_point_at_centroid && m.observations[j].label != PointLabel::kInside)
+      return false;
+  const double dup2 = m.config.duplicate_distance * m.config.duplicate_distance * m.scale * m.scale;
+  for (const std::size_t i : changed) {
+    if (!std::isfinite(gpisTarget(points[i], m.scale))) return false;
+    const double value = gpisTarget(points[i], m.scale);
+    for (std::size_t k = 0; k < kept; ++k)
+      if (k != i && gpisTarget(points[k], m.scale) == value && sameSlopeDirection(points[k], points[i]) &&
+          (points[k].position - points[i].position).squaredNorm() <= dup2)
+        return false;
+  }
+  // Removing rows cannot be undone in place: keep the state until the update has succeeded.
+  std::optional<Impl> backup;
+  if (!removed.empty()) backup.emplace(m);
+  const std::vector<TrainingPoint> previous = m.observations;
+  std::vector<std::pair<Eigen::Index, double>> previous_residuals;
+  for (auto j = removed.rbegin(); j != removed.rend(); ++j) m.removeRow(m.num_pseudo + static_cast<Eigen::Index>(*j));
+  if (!removed.empty()) m.collectSlopeRows();
+  for (const std::size_t i : changed) {
+    double& y = m.y[m.num_pseudo + static_cast<Eigen::Index>(i)];
+    previous_residuals.emplace_back(m.num_pseudo + static_cast<Eigen::Index>(i), y);
+    y = gpisTarget(points[i], m.scale);
+  }
+  m.observations.assign(points.begin(), points.begin() + static_cast<std::ptrdiff_t>(kept));
+  m.solveAlpha();
+  const std::vector<TrainingPoint> appended(points.begin() + static_cast<std::ptrdiff_t>(kept), points.end());
+  *report = appended.empty() ? FitReport() : addPoints(appended);
+  if (appended.empty()) {
+    report->ok = true;
+    report->jitter = m.jitter;
+  }
+  if (!report->ok) {
+    if (backup) {
+      m = std::move(*backup);
+    } else {
+      for (const auto& [row, y] : previous_residuals) m.y[row] = y;
+      m.observations = previous;
+      m.solveAlpha();
+    }
+    return false;
+  }
+  report->num_added = m.observations.size();
+  report->message = "refitted by update: " + std::to_string(removed.size()) + " point(s) removed, " +
+                    std::to_string(changed.size()) + " target(s) changed, " + std::to_string(appended.size()) +
+                    " point(s) appended" + (report->message.empty() ? "" : " (" + report->message + ")");
+  return true;
+}
+
+FitReport GpisModel::refit(bool renormalise) {
+  FitReport report;
+  report.full_refit = true;
+  Impl& m = *impl_;
+  const Config& c = m.config;
+
+  std::size_t num_surface = 0;
+  Vector3 sum = Vector3::Zero();
+  for (const auto& p : m.observations) {
+    if (isSurfaceValue(p)) {
+      ++num_surface;
+      sum += p.position;
+    }
+  }
+  if (num_surface < 4) {
+    report.message = "need at least 4 valid surface points to fit, got " + std::to_string(num_surface);
+    return report;
+  }
+  if ((m.fitted || m.frame_preset) && !renormalise) {
+    for (const auto& p : m.observations)
+      if (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius) renormalise = true;
+  }
+  renormalise = renormalise || !(m.fitted || m.frame_preset);
+  m.frame_preset = false;
+  Vector3 centroid = m.centroid;
+  double scale = m.scale;
+  if (renormalise) {
+    centroid = sum / static_cast<double>(num_surface);
+    double max_dist = 0.0;
+    for (const auto& p : m.observations)
+      if (isSurfaceValue(p)) max_dist = std::max(max_dist, (p.position - centroid).norm());
+    if (!(max_dist > 1e-9)) {
+      report.message = "degenerate surface data: all surface points coincide";
+      return report;
+    }
+    scale = max_dist / c.data_radius;
+  }
+  report.renormalised = renormalise;
+
+  // Keep the old state so that a failed factorisation leaves the model untouched.
+  Impl backup(m);
+
+  m.centroid = centroid;
+  m.scale = scale;
+
+  const std::vector<Vector3> outside = fibonacciSphere(c.num_outside_points);
+  // The inside point goes at the centroid only when that is surely inside the object: no
+  // surface or free-space observation within inside_point_min_clearance (normalised) of it. The
+  // centroid of a partial view of a cup or bowl lies in its cavity, a few centimetres from the
+  // wall, where the camera saw free space; a -1 there tells the model the air is material.
+  bool use_inside_point = c.inside_point_at_centroid;
+  if (use_inside_point && c.inside_point_min_clearance > 0.0) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& p : m.observations)
+      if (p.label != PointLabel::kInside) nearest = std::min(nearest, ((p.position - centroid) / scale).norm());
+    use_inside_point = nearest >= c.inside_point_min_clearance;
+  }
+  const Eigen::Index num_pseudo = static_cast<Eigen::Index>(outside.size()) + (use_inside_point ? 1 : 0);
+  m.n = 0;
+  m.num_pseudo = num_pseudo;
+  m.chol.resize(0, 0);
+  m.x.resize(3, 0);
+  m.slope_dir.resize(3, 0);
+  m.y.resize(0);
+  m.noise_var.resize(0);
+  m.reserve(num_pseudo + static_cast<Eigen::Index>(m.observations.size()));
+
+  const double pseudo_var = c.pseudo_point_sigma * c.pseudo_point_sigma;
+  for (const auto& dir : outside) {
+    m.x.col(m.n) = dir * c.domain_radius;
+    m.slope_dir.col(m.n).setZero();
+    m.y[m.n] = 1.0;
+    m.noise_var[m.n] = pseudo_var;
+    ++m.n;
+  }
+  if (use_inside_point) {
+    m.x.col(m.n).setZero();
+    m.slope_dir.col(m.n).setZero();
+    m.y[m.n] = -1.0;
+    m.noise_var[m.n] = pseudo_var;
+    ++m.n;
+  }
+
+  // Observations: drop out-of-domain outside points and duplicates.
+  std::vector<TrainingPoint> kept;
+  std::vector<double> kept_values;  // their targets
+  kept.reserve(m.observations.size());
+  std::size_t out_of_domain = 0, duplicates = 0, bad_target = 0;
+  const double dup2 = c.duplicate_distance * c.duplicate_distance;
+  for (const auto& p : m.observations) {
+    const Vector3 xn = m.normalise(p.position);
+    if (xn.norm() > c.domain_radius) {
+      ++out_of_domain;
+      continue;
+    }
+    const double target = gpisTarget(p, m.scale);
+    if (!std::isfinite(target)) {
+      ++bad_target;
+      continue;
+    }
+    // Duplicates: the same label's value (or the same slope) at (nearly) the same place; kept
+    // observations are in the order of m.x after the pseudo-points.
+    bool duplicate = false;
+    const double value = target;
+    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
+      duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
+                  (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
+    if (duplicate) {
+      ++duplicates;
+      continue;
+    }
+    kept_values.push_back(value);
+    m.x.col(m.n) = xn;
+    m.slope_dir.col(m.n) = p.slope_direction;
+    m.y[m.n] = target;
+    m.noise_var[m.n] = p.noise_sigma * p.noise_sigma;
+    ++m.n;
+    kept.push_back(p);
+  }
+  if (out_of_domain > 0)
+    report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
+  if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
+  if (bad_target > 0) {
+    // Never drop accepted data silently: refuse the fit instead.
+    m = std::move(backup);
+    report.message = "the target is not finite at " + std::to_string(bad_target) + " observation(s)";
+    return report;
+  }
+  report.num_rejected = out_of_domain + duplicates;
+  m.observations = std::move(kept);
+  m.collectSlopeRows();
+
+  std::string error;
+  if (!m.factorise(&error)) {
+    m = std::move(backup);
+    report.message = error;
+    return report;
+  }
+  if (m.jitter > c.jitter)
+    report.warnings.push_back("covariance needed jitter " + std::to_string(m.jitter) + " to factorise");
+  m.solveAlpha();
+  m.fitted = true;
+  report.ok = true;
+  report.jitter = m.jitter;
+  report.num_added = m.observations.size();
+  report.message = "fitted " + std::to_string(m.n) + " training points (" + std::to_string(num_pseudo) +
+                   " pseudo-points)";
+  return report;
+}
+
+FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
+  if (!isFitted()) return fit(points);
+  FitReport report;
+  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  Impl& m = *impl_;
+  const Config& c = m.config;
+  if (accepted.empty()) {
+    report.ok = true;
+    report.message = "no valid point to add";
+    return report;
+  }
+
+  // A surface point far from the current centroid means the object is larger than the data
+  // seen so far: renormalise so that every point, old and new, stays within the domain.
+  bool needs_renormalise = false;
+  for (const auto& p : accepted)
+    if (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius) needs_renormalise = true;
+  if (needs_renormalise) {
+    const auto previous = m.observations;
+    m.observations.insert(m.observations.end(), accepted.begin(), accepted.end());
+    FitReport refit_report = refit(true);
+    if (!refit_report.ok) m.observations = previous;  // refit() restored the derived state
+    refit_report.num_added = refit_report.ok ? accepted.size() : 0;
+    refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+    if (refit_report.ok) refit_report.message = "renormalised and refitted: " + refit_report.message;
+    return refit_report;
+  }
+
+  // Screen against the domain and duplicates in the current frame.
+  std::vector<TrainingPoint> kept;
+  std::vector<Vector3> kept_x;
+  std::vector<double> kept_residuals;  // their targets for the GP
+  std::vector<double> kept_values;  // their label values, as for the model's
+  std::vector<double> observation_values;
+  observation_values.reserve(m.observations.size());
+  for (const auto& o : m.observations) observation_values.push_back(gpisTarget(o, m.scale));
+  std::size_t out_of_domain = 0, duplicates = 0, bad_target = 0;
+  const double dup2 = c.duplicate_distance * c.duplicate_distance;
+  for (const auto& p : accepted) {
+    const Vector3 xn = m.normalise(p.position);
+    if (xn.norm() > c.domain_radius) {
+      ++out_of_domain;
+      continue;
+    }
+    const double residual = gpisTarget(p, m.scale);
+    if (!std::isfinite(residual)) {
+      ++bad_target;
+      continue;
+    }
+    const double value = gpisTarget(p, m.scale);
+    bool duplicate = false;
+    for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
+      duplicate = observation_values[j] == value && sameSlopeDirection(m.observations[j], p) &&
+                  (m.x.col(m.num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
+    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
+      duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
+                  (kept_x[j] - xn).squaredNorm() <= dup2;
+    if (duplicate) {
+      ++duplicates;
+      continue;
+    }
+    kept_values.push_back(value);
+    kept_residuals.push_back(residual);
+    kept.push_back(p);
+    kept_x.push_back(xn);
+  }
+  if (out_of_domain > 0)
+    report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
+  if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
+  if (bad_target > 0)
+    report.warnings.push_back(std::to_string(bad_target) + " point(s) dropped: their target is not finite");
+  report.num_rejected += out_of_domain + duplicates + bad_target;
+  if (kept.empty()) {
+    report.ok = true;
+    report.message = "no new point to add";
+    return report;
+  }
+
+  // Where extending the factor would not give the model a refit builds, the points go in by a
+  // full refit of all the data; on failure the observations are restored.
+  const auto refitWithKept = [&]() {
+    const auto previous = m.observations;
+    m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+    FitReport refit_report = refit(false);
+    if (!refit_report.ok) m.observations = previous;
+    refit_report.num_added = refit_report.ok ? kept.size() : 0;
+    refit_report.num_rejected += report.num_rejected;
+    refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
+    return refit_report;
+  };
+
+  // A contact or free-space point near the centroid invalidates the inside pseudo-point there
+  // (refit() drops it when such a point is that close, e.g. in a cup's cavity).
+  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
+  if (has_inside_point && c.inside_point_min_clearance > 0.0)
+    for (std::size_t j = 0; j < kept.size(); ++j)
+      if (kept[j].label != PointLabel::kInside && kept_x[j].norm() < c.inside_point_min_clearance)
+        return refitWithKept();
+
+  const Eigen::Index n = m.n;
+  const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
+  m.reserve(n + k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
+    m.slope_dir.col(n + j) = kept[static_cast<std::size_t>(j)].slope_direction;
+    m.y[n + j] = kept_residuals[static_cast<std::size_t>(j)];
+    const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
+    m.noise_var[n + j] = s * s;
+  }
+
+  // Block Cholesky extension: [L11 0; L21 L22] with L21^T = L11^-1 K12 and
+  // L22 L22^T = K22 - L21 L21^T. Cost O(n^2 k) for the triangular solve.
+  Eigen::MatrixXd cross(n, k);
+  for (Eigen::Index j = 0; j < k; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.covariance(i, n + j);
+  solveLowerInPlace(m.chol, n, cross);
+  Eigen::MatrixXd schur(k, k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = m.covariance(n + i, n + j);
+    schur(j, j) = m.diagonal(n + j);
+  }
+  schur.triangularView<Eigen::Lower>() -= cross.transpose() * cross;
+  Eigen::LLT<Eigen::MatrixXd> llt(schur.selfadjointView<Eigen::Lower>());
+  auto factored = [&] {
+    return llt.info() == Eigen::Success && m.wellConditioned(Eigen::MatrixXd(llt.matrixL()).diagonal());
+  };
+  if (!factored()) {
+    // The new block needs more jitter than the model has: a full refit escalates the jitter on
+    // every point alike (a larger jitter on the new block only would not be what a refit builds).
+    FitReport refit_report = refitWithKept();
+    if (!refit_report.ok)
+      refit_report.message = "adding " + std::to_string(k) +
+                             " point(s) makes the covariance singular (a point contradicts existing data); model "
+                             "unchanged: " +
+                             refit_report.message;
+    return refit_report;
+  }
+  m.chol.block(n, 0, k, n) = cross.transpose();
+  m.chol.block(n, n, k, k) = llt.matrixL();
+  m.n = n + k;
+  m.observations.insert(m.observations.end(), kept.begin(), kept.end());
+  m.collectSlopeRows();
+  m.solveAlpha();
+  report.ok = true;
+  report.num_added = kept.size();
+  report.jitter = m.jitter;
+  report.message = "added " + std::to_string(k) + " point(s) incrementally";
+  return report;
+}
+
+bool GpisModel::isFitted() const { return impl_->fitted; }
+const GpisModel::Config& GpisModel::config() const { return impl_->config; }
+const std::vector<TrainingPoint>& GpisModel::observations() const { return impl_->observations; }
+std::size_t GpisModel::size() const { return static_cast<std::size_t>(impl_->n); }
+const Vector3& GpisModel::centroid() const { return impl_->centroid; }
+double GpisModel::scale() const { return impl_->scale; }
+Vector3 GpisModel::toNormalised(const Vector3& x_world) const { return impl_->normalise(x_world); }
+Vector3 GpisModel::toWorld(const Vector3& x_normalised) const { return impl_->centroid + impl_->scale * x_normalised; }
+bool GpisModel::inDomain(const Vector3& x_world) const {
+  return impl_->fitted && impl_->normalise(x_world).norm() <= impl_->config.domain_radius;
+}
+double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
+double GpisModel::dataRadiusWorld() const { return impl_->config.data_radius * impl_->scale; }
+
+std::unique_ptr<SurfaceModel> GpisModel::clone() const { return std::make_unique<GpisModel>(*this); }
+
+std::vector<std::string> GpisModel::hyperparameterNames() const {
+  std::vector<std::string> names;
+  for (const std::string& p : impl_->kernel->paramNames()) names.push_back("log_" + p);
+  names.push_back("log_noise_scale");
+  return names;
+}
+
+Eigen::VectorXd GpisModel::hyperparameters() const {
+  const Eigen::VectorXd kernel_params = impl_->kernel->logParams();
+  Eigen::VectorXd all(kernel_params.size() + 1);
+  all << kernel_params, std::log(impl_->noise_scale);
+  return all;
+}
+
+FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& log_params) {
+  const Eigen::Index k = impl_->kernel->numParams();
+  if (log_params.size() != k + 1) {
+    FitReport report;
+    report.message = "expected " + std::to_string(k + 1) + " log-parameters (" + std::to_string(k) +
+                     " of the kernel, then the noise scale), got " + std::to_string(log_params.size());
+    return report;
+  }
+  return setHyperparameters(log_params.head(k), std::exp(log_params[k]));
+}
+
+FitReport GpisModel::restore(const SurfaceModelState& state) {
+  FitReport report;
+  const Eigen::Index k = impl_->kernel->numParams();
+  if (state.model != name()) {
+    report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
+    return report;
+  }
+  const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(),
+                                                                    static_cast<Eigen::Index>(state.hyperparameters.size()));
+  if (params.size() != k + 1 || !params.allFinite()) {
+    report.message = "the state has " + std::to_string(params.size()) + " hyperparameters, the '" +
+                     impl_->kernel->name() + "' GPIS has " + std::to_string(k + 1) + " (or they are not finite)";
+    return report;
+  }
+  GpisModel trial(*this);
+  trial.impl_->kernel->setLogParams(params.head(k));
+  trial.impl_->noise_scale = std::exp(params[k]);
+  report = trial.fitInFrame(state.observations, state.centroid, state.scale);
+  if (report.ok) *this = std::move(trial);
+  return report;
+}
+
+const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
+double GpisModel::noiseScale() const { return impl_->noise_scale; }
+double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
+
+BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
+                                        bool with_variance_gradient, bool with_variance) const {
+  const Impl& m = *impl_;
+  if (!m.fitted) throw std::logic_error("GpisModel: query before the model was fitted");
+  const Eigen::Index q = x_world.cols();
+  const Eigen::Index n = m.n;
+  BatchPrediction out;
+  out.mean.resize(q);
+  out.variance.resize(q);
+  out.in_domain.resize(q);
+  if (with_gradient) out.gradient.resize(3, q);
+  if (with_variance_gradient) out.variance_gradient.resize(3, q);
+  if (q == 0) return out;
+
+  Points3 xq = (x_world.colwise() - m.centroid) / m.scale;
+  // The training inputs as three contiguous coordinate arrays, so that the distances and the
+  // kernel for one query and all n training points are array operations.
+  const Eigen::ArrayXd train_x = m.x.row(0).head(n).transpose().array();
+  const Eigen::ArrayXd train_y = m.x.row(1).head(n).transpose().array();
+  const Eigen::ArrayXd train_z = m.x.row(2).head(n).transpose().array();
+  Eigen::ArrayXd dx(n), dy(n), dz(n);  // reused for every query: no allocation per query
+  const auto distancesTo = [&](Eigen::Index j, Eigen::ArrayXd* distance) {
+    dx = train_x - xq(0, j);
+    dy = train_y - xq(1, j);
+    dz = train_z - xq(2, j);
+    *distance = (dx * dx + dy * dy + dz * dz).sqrt();
+  };
+  // Gradient of sum_i w_i k(|x - x_i|) at query j, given slope_i = (dk/dr / r)(|x - x_i|):
+  // sum_i w_i slope_i (x - x_i), in world units.
+  const double inv_scale = 1.0 / m.scale;
+  const auto weightedGradient = [&](Eigen::Index j, const Eigen::ArrayXd& slope, const auto& weights) {
+    Vector3 sum = Vector3::Zero();
+    const Vector3 xj = xq.col(j);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      const double w = slope[i] * weights[i];
+      sum.x() += w * (xj.x() - train_x[i]);
+      sum.y() += w * (xj.y() - train_y[i]);
+      sum.z() += w * (xj.z() - train_z[i]);
+    }
+    return Vector3(sum * inv_scale);
+  };
+
+  // The array code is written for rows that observe f's value; a row that observes a slope gets
+  // its covariance and its gradient from observationCovariance and slopeCovarianceGradient.
+  const Vector3 no_slope = Vector3::Zero();
+  const auto gradientOf = [&](Eigen::Index j, Eigen::ArrayXd* slope, const auto& weights) {
+    for (Eigen::Index i : m.slope_rows) (*slope)[i] = 0.0;
+    Vector3 gradient = weightedGradient(j, *slope, weights);
+    for (Eigen::Index i : m.slope_rows)
+      gradient += weights[i] * inv_scale * slopeCovarianceGradient(*m.kernel, xq.col(j), m.x.col(i), m.slope_dir.col(i));
+    return gradient;
+  };
+  Eigen::MatrixXd cross(n, q);  // cov(row i, f(x*_j))
+  Eigen::ArrayXd distance, k, slope;
+  for (Eigen::Index j = 0; j < q; ++j) {
+    out.in_domain[j] = xq.col(j).allFinite() && xq.col(j).norm() <= m.config.domain_radius;
+    distancesTo(j, &distance);
+    m.kernel->values(distance, &k);
+    cross.col(j) = k.matrix();
+    for (Eigen::Index i : m.slope_rows)
+      cross(i, j) = observationCovariance(*m.kernel, m.x.col(i), m.slope_dir.col(i), xq.col(j), no_slope);
+    if (with_gradient) {
+      m.kernel->derivativesOverDistance(distance, &slope);
+      out.gradient.col(j) = gradientOf(j, &slope, m.alpha);
+    }
+  }
+  out.mean.noalias() = cross.transpose() * m.alpha;
+
+  if (!with_variance && !with_variance_gradient) {
+    out.variance.setConstant(std::numeric_limits<double>::quiet_NaN());
+    return out;
+  }
+
+  // v = L^-1 k*, var = k(0) - |v|^2; K^-1 k* = L^-T v is needed only for the variance gradient.
+  Eigen::MatrixXd solved = cross;
+  solveLowerInPlace(m.chol, n, solved);
+  const double prior = m.kernel->value(0.0);
+  const double unit = m.varianceUnitFactor();
+  out.variance = ((prior - solved.colwise().squaredNorm().array()).max(0.0) * unit).matrix();
+  if (with_variance_gradient) {
+    solveLowerInPlace(m.chol, n, solved, /*transposed=*/true);
+    // d/dx [k(0) - k*^T K^-1 k*] = -2 (dk*/dx)^T K^-1 k*; the slopes are recomputed rather than
+    // kept for every query (an n x q matrix) from the loop above.
+    for (Eigen::Index j = 0; j < q; ++j) {
+      distancesTo(j, &distance);
+      m.kernel->derivativesOverDistance(distance, &slope);
+      out.variance_gradient.col(j) = -2.0 * unit * gradientOf(j, &slope, solved.col(j));
+    }
+  }
+  return out;
+}
+
+Prediction GpisModel::predict(const Vector3& x_world) const {
+  const BatchPrediction batch = predictBatch(x_world, true, true);
+  Prediction p;
+  p.mean = batch.mean[0];
+  p.variance = batch.variance[0];
+  p.gradient = batch.gradient.col(0);
+  p.variance_gradient = batch.variance_gradient.col(0);
+  p.in_domain = batch.in_domain[0];
+  return p;
+}
+
+
+double GpisModel::logMarginalLikelihood() const {
+  const Impl& m = *impl_;
+  if (!m.fitted) return std::numeric_limits<double>::quiet_NaN();
+  const double data_fit = m.y.head(m.n).dot(m.alpha);
+  const double log_det = 2.0 * m.chol.topLeftCorner(m.n, m.n).diagonal().array().log().sum();
+  return -0.5 * data_fit - 0.5 * log_det - 0.5 * static_cast<double>(m.n) * kLog2Pi;
+}
+
+double GpisModel::logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params, double log_noise_scale,
+                                        Eigen::VectorXd* gradient) const {
+  const Impl& m = *impl_;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  // The hyperparameter gradient of slope observations' covariances is not implemented.
+  if (!m.fitted || !m.slope_rows.empty()) return nan;
+  std::unique_ptr<Kernel> kernel = m.kernel->clone();
+  kernel->setLogParams(kernel_log_params);
+  if (2.0 * m.config.domain_radius > kernel->maxValidDistance()) return nan;
+  const double noise_scale = std::exp(log_noise_scale);
+  const Eigen::Index n = m.n;
+  const int p = kernel->numParams();
+  const auto train = m.x.leftCols(n);
+
+  const double noise_unit = m.noiseUnit(*kernel);
+  const bool noise_unit_gradient = m.config.noise_in_reported_units;
+  std::vector<double> dk0(static_cast<std::size_t>(p));
+  kernel->paramGradient(0.0, dk0.data());
+  Eigen::MatrixXd cov(n, n);
+  std::vector<Eigen::MatrixXd> dcov;
+  if (gradient) dcov.assign(static_cast<std::size_t>(p), Eigen::MatrixXd(n, n));
+  std::vector<double> dk(static_cast<std::size_t>(p));
+  for (Eigen::Index j = 0; j < n; ++j) {
+    for (Eigen::Index i = j; i < n; ++i) {
+      const double r = (train.col(i) - train.col(j)).norm();
+      cov(i, j) = kernel->value(r);
+      if (gradient) {
+        kernel->paramGradient(r, dk.data());
+        for (int t = 0; t < p; ++t) dcov[static_cast<std::size_t>(t)](i, j) = dk[static_cast<std::size_t>(t)];
+      }
+    }
+    cov(j, j) += noise_scale * m.noise_var[j] * noise_unit + m.jitter;
+    if (gradient && noise_unit_gradient) {
+      // The noise variance is proportional to k(0) (noise_in_reported_units).
+      for (int t = 0; t < p; ++t)
+        dcov[static_cast<std::size_t>(t)](j, j) += noise_scale * m.noise_var[j] * dk0[static_cast<std::size_t>(t)] /
+                                                   m.config.reference_prior_variance;
+    }
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(cov.selfadjointView<Eigen::Lower>());
+  if (llt.info() != Eigen::Success) return nan;
+  const Eigen::VectorXd targets = m.y.head(n);
+  const Eigen::VectorXd alpha = llt.solve(targets);
+  const double log_det = 2.0 * Eigen::MatrixXd(llt.matrixL()).diagonal().array().log().sum();
+  const double lml = -0.5 * targets.dot(alpha) - 0.5 * log_det - 0.5 * static_cast<double>(n) * kLog2Pi;
+  if (gradient) {
+    // dL/dtheta = 0.5 tr((alpha alpha^T - K^-1) dK/dtheta), with symmetric dK stored lower.
+    Eigen::MatrixXd weight = -llt.solve(Eigen::MatrixXd::Identity(n, n));
+    weight.noalias() += alpha * alpha.transpose();
+    gradient->resize(p + 1);
+    for (int t = 0; t < p; ++t) {
+      const Eigen::MatrixXd& d = dcov[static_cast<std::size_t>(t)];
+      double acc = 0.0;
+      for (Eigen::Index j = 0; j < n; ++j) {
+        acc += 0.5 * weight(j, j) * d(j, j);
+        for (Eigen::Index i = j + 1; i < n; ++i) acc += weight(i, j) * d(i, j);
+      }
+      (*gradient)[t] = acc;
+    }
+    double acc = 0.0;
+    for (Eigen::Index i = 0; i < n; ++i) acc += 0.5 * weight(i, i) * noise_scale * m.noise_var[i] * noise_unit;
+    (*gradient)[p] = acc;
+  }
+  return lml;
+}
+
+FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& kernel_log_params, double noise_scale) {
+  FitReport report;
+  if (!kernel_log_params.allFinite() || kernel_log_params.size() != impl_->kernel->numParams() ||
+      !(noise_scale > 0.0) || !std::isfinite(noise_scale)) {
+    report.message = "invalid hyperparameters (wrong count, NaN or non-positive noise scale)";
+    return report;
+  }
+  std::unique_ptr<Kernel> trial = impl_->kernel->clone();
+  trial->setLogParams(kernel_log_params);
+  if (2.0 * impl_->config.domain_radius > trial->maxValidDistance()) {
+    report.message = "kernel parameters make the kernel invalid over the model domain";
+    return report;
+  }
+  std::unique_ptr<Kernel> previous = std::move(impl_->kernel);
+  const double previous_noise = impl_->noise_scale;
+  impl_->kernel = std::move(trial);
+  impl_->noise_scale = noise_scale;
+  if (!impl_->fitted) {
+    report.ok = true;
+    report.message = "hyperparameters set; model not fitted yet";
+    return report;
+  }
+  report = refit();
+  if (!report.ok) {
+    // refit() already restored the previous factorisation; only the parameters remain.
+    impl_->kernel = std::move(previous);
+    impl_->noise_scale = previous_noise;
+  }
+  return report;
+}
+
+}  // namespace gpatlas_core

@@ -1,0 +1,35 @@
+#include "gpatlas_core/model/surface_model.h"
+
+#include <cmath>
+#include <limits>
+
+namespace gpatlas_core {
+
+double SurfaceModel::mean(const Vector3& x_world) const { return predictBatch(x_world, false, false, false).mean[0]; }
+
+double SurfaceModel::variance(const Vector3& x_world) const {
+  return predictBatch(x_world, false, false, true).variance[0];
+}
+
+double SurfaceModel::nearestSurfaceDistance(const Vector3& point_world,
+                                            const std::vector<Vector3>& new_surface_points) const {
+  double nearest = std::numeric_limits<double>::infinity();
+  for (const TrainingPoint& p : observations())
+    if (isSurfaceValue(p)) nearest = std::min(nearest, (p.position - point_world).squaredNorm());
+  for (const Vector3& p : new_surface_points) nearest = std::min(nearest, (p - point_world).squaredNorm());
+  return std::sqrt(nearest);
+}
+
+SurfaceModelState SurfaceModel::state() const {
+  SurfaceModelState s;
+  s.model = name();
+  const Eigen::VectorXd params = hyperparameters();
+  s.hyperparameters.assign(params.data(), params.data() + params.size());
+  s.centroid = centroid();
+  s.scale = scale();
+  s.observations = observations();
+  return s;
+}
+
+
+}  // namespace gpatlas_core

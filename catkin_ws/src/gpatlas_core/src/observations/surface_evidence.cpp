@@ -1,0 +1,150 @@
+#include "gpatlas_core/observations/surface_evidence.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace gpatlas_core {
+
+namespace {
+constexpr std::int64_t kCellRange = 1 << 20;  // cells per axis: enough for any scene in metres
+// The grid's cell side when the distance test is off (measuredNear alone): about a retouch radius.
+constexpr double kRetouchCellM = 0.01;
+std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
+  return ((i + kCellRange / 2) * kCellRange + (j + kCellRange / 2)) * kCellRange + (k + kCellRange / 2);
+}
+}  // namespace
+
+SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
+                                 const std::optional<SupportPlane>& support, double approach_m,
+                                 const std::vector<Vector3>& attempted, double view_max_distance_m,
+                                 const std::vector<double>& attempted_errors_m, double surprise_distance_m,
+                                 double min_surprise_fraction)
+    : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0),
+      cell_m_(enabled() ? max_distance_m_ : kRetouchCellM),
+      surprise_distance_m_(std::isfinite(surprise_distance_m) && surprise_distance_m > 0.0 ? surprise_distance_m : 0.0),
+      min_surprise_fraction_(std::isfinite(min_surprise_fraction) ? std::clamp(min_surprise_fraction, 0.0, 1.0) : 1.0) {
+  const double view_radius_m = std::isnan(view_max_distance_m) ? max_distance_m_
+                                                                : std::clamp(view_max_distance_m, 0.0, max_distance_m_);
+  // Without the distance test the points are still kept for measuredNear, on a grid of its own.
+  const auto add = [&](const Vector3& p, double radius_m) {
+    if (!p.allFinite()) return;
+    cells_[key(p)].push_back(static_cast<std::uint32_t>(points_.size()));
+    points_.push_back(p);
+    support_radius_m_.push_back(radius_m);
+  };
+  for (const TrainingPoint& point : model.observations()) {
+    if (!isSurfaceValue(point)) continue;  // a contact's slopes add nothing to the contact
+    if (point.source == PointSource::kVision) add(point.position, view_radius_m);
+    if (point.source == PointSource::kTouch)
+      add(point.position, max_distance_m_ * surpriseFraction(point.prediction_error_m));
+  }
+  for (std::size_t i = 0; i < attempted.size(); ++i)
+    add(attempted[i], max_distance_m_ * surpriseFraction(i < attempted_errors_m.size()
+                                                              ? attempted_errors_m[i]
+                                                              : std::numeric_limits<double>::quiet_NaN()));
+  if (support && support->normal.allFinite() && support->normal.norm() > 0.5 && std::isfinite(support->offset)) {
+    support_ = SupportPlane{support->normal.normalized(), support->offset / support->normal.norm()};
+    approach_m_ = std::isfinite(approach_m) ? std::max(0.0, approach_m) : 0.0;
+  }
+}
+
+SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule)
+    : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
+                      rule.attempted_targets, rule.view_max_distance * model.scale(), rule.attempted_target_errors_m,
+                      rule.surprise_distance_m, rule.min_surprise_fraction) {}
+
+double SurfaceEvidence::surpriseFraction(double error_m) const {
+  if (!(surprise_distance_m_ > 0.0) || !std::isfinite(error_m) || error_m <= surprise_distance_m_) return 1.0;
+  return std::max(min_surprise_fraction_, surprise_distance_m_ / error_m);
+}
+
+bool SurfaceEvidence::measuredNear(const Vector3& x, double radius_m) const {
+  if (!x.allFinite() || !(radius_m > 0.0)) return false;
+  const double squared = radius_m * radius_m;
+  const auto near = [&](const Vector3& p) { return (p - x).squaredNorm() <= squared; };
+  if (radius_m > cell_m_) return std::any_of(points_.begin(), points_.end(), near);
+  bool found = false;
+  forEachCandidate(x, [&](std::uint32_t index) {
+    found = near(points_[index]);
+    return !found;
+  });
+  return found;
+}
+
+template <typename Visit>
+void SurfaceEvidence::forEachCandidate(const Vector3& x, Visit visit) const {
+  for (int di = -1; di <= 1; ++di)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int dk = -1; dk <= 1; ++dk) {
+        const auto it = cells_.find(key(x, di, dj, dk));
+        if (it == cells_.end()) continue;
+        for (const std::uint32_t index : it->second)
+          if (!visit(index)) return;
+      }
+}
+
+std::string validate(const EvidenceRule& rule) {
+  if (!(rule.retouch_radius_m >= 0.0) || !std::isfinite(rule.retouch_radius_m))
+    return "retouch_radius_m must be finite and >= 0";
+  if (!(rule.approach_distance_m >= 0.0) || !std::isfinite(rule.approach_distance_m))
+    return "approach_distance_m must be finite and >= 0";
+  if (!(rule.max_distance >= 0.0) || !std::isfinite(rule.max_distance))
+    return "max_evidence_distance must be finite and >= 0";
+  if (!(rule.view_max_distance >= 0.0) && !std::isnan(rule.view_max_distance))
+    return "view_max_distance must be >= 0 (NaN: max_distance)";
+  if (!(rule.surprise_distance_m >= 0.0) || !std::isfinite(rule.surprise_distance_m))
+    return "surprise_distance_m must be finite and >= 0";
+  if (!(rule.min_surprise_fraction > 0.0 && rule.min_surprise_fraction <= 1.0))
+    return "min_surprise_fraction must be in (0, 1]";
+  if (!rule.attempted_target_errors_m.empty() && rule.attempted_target_errors_m.size() != rule.attempted_targets.size())
+    return "attempted_target_errors_m must be empty or hold one value per attempted target";
+  return "";
+}
+
+bool SurfaceEvidence::isUnsupported(const Vector3& x, const Vector3& normal) const {
+  if (!isUnsupported(x)) return false;
+  if (!support_ || !normal.allFinite() || !(normal.norm() > 0.0)) return true;
+  const Vector3 approach_start = x + approach_m_ * normal.normalized();
+  return support_->height(approach_start) >= 0.0 && support_->height(x) >= 0.0;
+}
+
+std::int64_t SurfaceEvidence::key(const Vector3& x, int di, int dj, int dk) const {
+  const Vector3 cell = (x / cell_m_).array().floor();
+  return packCell(static_cast<std::int64_t>(cell.x()) + di, static_cast<std::int64_t>(cell.y()) + dj,
+                  static_cast<std::int64_t>(cell.z()) + dk);
+}
+
+double SurfaceEvidence::distance(const Vector3& x) const {
+  const double infinity = std::numeric_limits<double>::infinity();
+  if (!enabled() || !x.allFinite()) return infinity;
+  double best_squared = max_distance_m_ * max_distance_m_;
+  bool found = false;
+  forEachCandidate(x, [&](std::uint32_t index) {
+    const double squared = (points_[index] - x).squaredNorm();
+    if (squared <= best_squared) {
+      best_squared = squared;
+      found = true;
+    }
+    return true;
+  });
+  return found ? std::sqrt(best_squared) : infinity;
+}
+
+double SurfaceEvidence::supportSlack(const Vector3& x) const {
+  double best = -std::numeric_limits<double>::infinity();
+  if (!enabled() || !x.allFinite()) return best;
+  // Every support radius is at most max_distance_m_ = cell_m_: the 27 cells hold every point
+  // whose support can reach x.
+  forEachCandidate(x, [&](std::uint32_t index) {
+    best = std::max(best, support_radius_m_[index] - (points_[index] - x).norm());
+    return true;
+  });
+  return best;
+}
+
+double SurfaceEvidence::radiusCap(const Vector3& x, double floor_m) const {
+  if (!enabled()) return std::numeric_limits<double>::infinity();
+  return std::max(floor_m, std::max(0.0, supportSlack(x)));
+}
+
+}  // namespace gpatlas_core

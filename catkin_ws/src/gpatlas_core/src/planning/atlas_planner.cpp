@@ -1,0 +1,279 @@
+#include "gpatlas_core/planning/atlas_planner.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <sstream>
+
+namespace gpatlas_core {
+
+const char* toString(PlanStatus status) {
+  switch (status) {
+    case PlanStatus::kTouch: return "touch";
+    case PlanStatus::kConverged: return "converged";
+    case PlanStatus::kCapReached: return "cap_reached";
+    case PlanStatus::kError: return "error";
+  }
+  return "unknown";
+}
+
+std::string validate(const AtlasPlanner::Config& config) {
+  std::ostringstream problem;
+  problem << validate(config.chart);
+  if (!(config.depth_first_probability >= 0.0 && config.depth_first_probability <= 1.0))
+    problem << "depth_first_probability must be in [0, 1]; ";
+  if (config.max_charts < 1) problem << "max_charts must be at least 1; ";
+  if (!(config.max_time_s > 0.0)) problem << "max_time_s must be positive; ";
+  if (!(config.max_start_distance_m > 0.0)) problem << "max_start_distance_m must be positive; ";
+  if (config.max_start_attempts < 1) problem << "max_start_attempts must be at least 1; ";
+  if (config.extend_path_charts < 0) problem << "extend_path_charts must be >= 0; ";
+  if (!(config.aim_past_m >= 0.0) || !std::isfinite(config.aim_past_m))
+    problem << "aim_past_m must be finite and >= 0; ";
+  if (!(config.projection.f_tolerance > 0.0) || config.projection.max_iterations < 1 ||
+      !(config.projection.max_step_fraction > 0.0))
+    problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
+  return problem.str();
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+SurfacePoint projectFreePoint(const SurfaceModel& model, const Vector3& point, const ProjectionConfig& config) {
+  Points3 starts(3, 1);
+  starts.col(0) = point;
+  return projectAlongGradient(model, starts, config).front();
+}
+
+// SELECTSURFACEPOINT: the given start projected onto the surface, else a random surface
+// observation (they lie on the surface up to noise, so the projection is short).
+SurfacePoint selectSurfacePoint(const SurfaceModel& model, const std::optional<Vector3>& start,
+                                const AtlasPlanner::Config& config, std::mt19937_64& rng,
+                                std::string* error) {
+  if (start) {
+    if (!start->allFinite()) {
+      *error = "start point is not finite";
+      return {};
+    }
+    if (!model.inDomain(*start)) {
+      *error = "start point is outside the model's domain";
+      return {};
+    }
+    SurfacePoint root = projectFreePoint(model, *start, config.projection);
+    if (!root.ok) {
+      *error = std::string("start point could not be projected onto the surface: ") + toString(root.failure);
+      return {};
+    }
+    const double distance = (root.position - *start).norm();
+    if (distance > config.max_start_distance_m) {
+      std::ostringstream message;
+      message << "start point is " << distance << " m from the predicted surface (limit "
+              << config.max_start_distance_m << " m)";
+      *error = message.str();
+      return {};
+    }
+    return root;
+  }
+  std::vector<Vector3> surface_points;
+  for (const TrainingPoint& point : model.observations())
+    if (isSurfaceValue(point) && point.position.allFinite()) surface_points.push_back(point.position);
+  if (surface_points.empty()) {
+    *error = "the model has no surface observations to start from";
+    return {};
+  }
+  std::uniform_int_distribution<std::size_t> pick(0, surface_points.size() - 1);
+  for (int attempt = 0; attempt < config.max_start_attempts; ++attempt) {
+    SurfacePoint root = projectFreePoint(model, surface_points[pick(rng)], config.projection);
+    if (root.ok) return root;
+  }
+  *error = "no surface observation could be projected onto the predicted surface";
+  return {};
+}
+
+}  // namespace
+
+AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, const std::optional<Vector3>& start,
+                                   const Progress& progress, const TouchFilter& reachable) const {
+  const Clock::time_point started = Clock::now();
+  AtlasPlanResult result;
+  auto finish = [&](PlanStatus status, std::string message) {
+    result.status = status;
+    result.message = std::move(message);
+    result.elapsed_s = secondsSince(started);
+    for (const Chart& chart : result.atlas.charts())
+      result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
+    if (result.retouch_skipped > 0)
+      result.message += "; " + std::to_string(result.retouch_skipped) +
+                        " chart(s) that would need a touch lie right at a measurement or an earlier target";
+    if (result.unreachable_skipped > 0)
+      result.message += "; " + std::to_string(result.unreachable_skipped) +
+                        " chart(s) that need a touch passed over: no safe approach";
+    return result;
+  };
+
+  if (!model.isFitted()) return finish(PlanStatus::kError, "no model: the GP is not fitted");
+  if (!(v_max > 0.0) || !std::isfinite(v_max))
+    return finish(PlanStatus::kError, "V_max must be a positive finite number");
+  if (const std::string problem = validate(config_); !problem.empty())
+    return finish(PlanStatus::kError, "invalid planner config: " + problem);
+
+  std::mt19937_64 rng(config_.seed);
+  std::string error;
+  const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
+  if (!root_point.ok) return finish(PlanStatus::kError, error);
+  const SurfaceEvidence evidence(model, config_.evidence);
+  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart right at
+  // a measurement or an earlier touch's target needs none (EvidenceRule::retouch_radius_m): a
+  // touch there would find what was found.
+  // The touch filter's direction for the chart, kept in it; false when it has none.
+  const auto takeApproach = [&](Chart& chart) {
+    if (!reachable) return true;
+    const std::optional<Vector3> direction = reachable(chart.centre, chart.normal);
+    if (direction) chart.approach_direction = *direction;
+    return direction.has_value();
+  };
+  // `counted`: a chart passed over is reported in the plan's message (not for the aim's charts,
+  // past the one already found).
+  const auto needsTouch = [&](Chart& chart, bool counted = true) {
+    if (!(chart.variance > v_max) && !evidence.isUnsupported(chart.centre, chart.normal)) return false;
+    if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
+      if (counted) ++result.retouch_skipped;
+      return false;
+    }
+    if (!takeApproach(chart)) {
+      if (counted) ++result.unreachable_skipped;
+      return false;
+    }
+    return true;
+  };
+  const auto makeChart = [&](const SurfacePoint& point, int parent) {
+    return createChart(model, point, parent, config_.chart, rng,
+                       evidence.radiusCap(point.position, config_.chart.rho_min_m));
+  };
+  ChartCreation root = makeChart(root_point, -1);
+  if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
+  Atlas& atlas = result.atlas;
+  const bool root_needs_touch = needsTouch(root.chart);
+  int continuation = atlas.addChart(std::move(root.chart));
+  if (progress) progress(atlas);
+  // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
+  // (its candidates may all be covered or out of the domain).
+  if (root_needs_touch) {
+    result.path = atlas.pathTo(continuation);
+    return finish(PlanStatus::kTouch, "the root chart needs a touch (variance above V_max or no evidence nearby)");
+  }
+
+  // Surface observations in random order: when the tree runs out of candidates, a new tree
+  // starts from one that no chart covers, so that a predicted surface in several pieces (or a
+  // piece the first tree cannot reach) is explored too before "converged" is declared. The
+  // paper notes that, in theory, the atlas could start from all surface points.
+  std::vector<Vector3> uncovered_candidates;
+  if (config_.cover_all_observations) {
+    for (const TrainingPoint& point : model.observations())
+      if (isSurfaceValue(point) && point.position.allFinite())
+        uncovered_candidates.push_back(point.position);
+    std::shuffle(uncovered_candidates.begin(), uncovered_candidates.end(), rng);
+  }
+  std::size_t next_candidate = 0;
+  int trees = 1;
+
+  // EXPANDCHART toward the chart's highest-variance candidate (eq. 16): the new chart, not yet
+  // added (ok false when the projection or the chart failed). The candidate is consumed
+  // whatever happens, which bounds the search by the total number of candidates.
+  const auto expand = [&](int parent_index) {
+    const Chart& parent = atlas.chart(parent_index);
+    const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
+                                       [](const ChartCandidate& a, const ChartCandidate& b) {
+                                         return a.variance < b.variance;
+                                       });
+    Points3 start_point(3, 1), direction(3, 1);
+    start_point.col(0) = best->ambient;
+    direction.col(0) = parent.normal;
+    atlas.removeCandidate(parent_index, static_cast<std::size_t>(best - parent.candidates.begin()));
+    ++result.expansions;
+    const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
+    ChartCreation created;
+    if (projected.ok) created = makeChart(projected, parent_index);
+    if (!created.ok) ++result.failed_projections;
+    return created;
+  };
+
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  for (;;) {
+    while (atlas.isExpandable()) {
+      if (static_cast<int>(atlas.size()) >= config_.max_charts)
+        return finish(PlanStatus::kCapReached, "chart cap reached without finding variance above V_max");
+      if (secondsSince(started) > config_.max_time_s)
+        return finish(PlanStatus::kCapReached, "time cap reached without finding variance above V_max");
+
+      // SELECTCHART.
+      int selected = continuation;
+      const bool continue_depth_first = unit(rng) < config_.depth_first_probability;
+      if (!continue_depth_first || !atlas.chart(selected).expandable()) {
+        const std::vector<int> expandable = atlas.expandableCharts();
+        selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng)];
+      }
+
+      ChartCreation created = expand(selected);
+      if (!created.ok) continue;
+      const bool new_needs_touch = needsTouch(created.chart);
+      continuation = atlas.addChart(std::move(created.chart));
+      if (progress) progress(atlas);
+      if (new_needs_touch) {
+        int last = continuation;
+        for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
+          if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
+          if (atlas.chart(last).candidates.empty()) break;
+          ChartCreation extension = expand(last);
+          if (!extension.ok) break;
+          // A slide ends where the probe can still leave the surface.
+          if (!takeApproach(extension.chart)) break;
+          last = atlas.addChart(std::move(extension.chart));
+        }
+        // Until the path has gone at least that far: in unsupported surface the charts are
+        // rho_min_m wide, so the last step overshoots by less than that.
+        for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < config_.aim_past_m;) {
+          if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
+          if (atlas.chart(last).candidates.empty()) break;
+          ChartCreation extension = expand(last);
+          if (!extension.ok || !needsTouch(extension.chart, false)) break;
+          aimed += (extension.chart.centre - atlas.chart(last).centre).norm();
+          last = atlas.addChart(std::move(extension.chart));
+        }
+        result.path = atlas.pathTo(last);
+        return finish(PlanStatus::kTouch, "found a chart that needs a touch (variance above V_max or no evidence nearby)");
+      }
+    }
+    // The current tree is exhausted: root a new one at an uncovered surface observation.
+    bool rooted = false;
+    while (!rooted && next_candidate < uncovered_candidates.size()) {
+      if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s)
+        return finish(PlanStatus::kCapReached, "cap reached while covering the remaining surface observations");
+      const Vector3& observation = uncovered_candidates[next_candidate++];
+      if (atlas.coveredByOtherChart(observation, -1)) continue;
+      const SurfacePoint projected = projectFreePoint(model, observation, config_.projection);
+      if (!projected.ok || atlas.coveredByOtherChart(projected.position, -1)) continue;
+      ChartCreation created = makeChart(projected, -1);
+      if (!created.ok) continue;
+      const bool new_needs_touch = needsTouch(created.chart);
+      continuation = atlas.addChart(std::move(created.chart));
+      ++trees;
+      if (progress) progress(atlas);
+      if (new_needs_touch) {
+        result.path = atlas.pathTo(continuation);
+        return finish(PlanStatus::kTouch, "a new tree's root needs a touch (variance above V_max or no evidence nearby)");
+      }
+      rooted = true;
+    }
+    if (!rooted) break;
+  }
+  return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(trees) +
+                                            " tree(s) covering the surface observations: the predicted surface is below V_max and near evidence");
+}
+
+}  // namespace gpatlas_core

@@ -1,0 +1,55 @@
+#include "gpatlas_core/planning/atlas_strategy.h"
+
+namespace gpatlas_core {
+
+AtlasStrategy::AtlasStrategy(Mode mode, AtlasPlanner::Config config, std::uint64_t seed)
+    : mode_(mode), config_(std::move(config)), seed_(seed) {}
+
+std::string AtlasStrategy::name() const { return mode_ == Mode::kPoke ? "atlas_poke" : "atlas_slide"; }
+
+PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
+  if (auto error = checkPlanInput(model, request)) return *error;
+  AtlasPlanner::Config config = config_;
+  config.seed = mixSeeds(seed_, request.seed);
+  config.evidence = request.evidence;
+  if (mode_ == Mode::kPoke) config.aim_past_m = request.footprint_radius_m;
+  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start, {}, request.reachable);
+
+  PlanResult result;
+  result.status = planned.status;
+  result.message = planned.message;
+  result.max_evaluated_variance = planned.max_chart_variance;
+  result.elapsed_s = planned.elapsed_s;
+  result.unreachable_candidates = planned.unreachable_skipped;
+  if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
+  if (planned.status == PlanStatus::kTouch) {
+    Touch& touch = result.touch;
+    touch.strategy = name();
+    touch.kind = mode_ == Mode::kPoke ? Touch::Kind::kPoke : Touch::Kind::kSlide;
+    // Poke: only the uncertain end of the path. Slide: the whole path, root first, so the
+    // probe starts where the model is certain and slides toward the uncertainty.
+    std::size_t first = mode_ == Mode::kPoke ? planned.path.size() - 1 : 0;
+    // A slide starts at the first chart of the path the probe can be brought to.
+    std::optional<Vector3> first_direction;
+    if (mode_ == Mode::kSlide && request.reachable)
+      for (; first + 1 < planned.path.size(); ++first) {
+        const Chart& chart = planned.atlas.chart(planned.path[first]);
+        first_direction = request.reachable(chart.centre, chart.normal);
+        if (first_direction) break;
+      }
+    // Each waypoint is approached (pressed) along its chart's direction: the one the filter
+    // chose for the ends, the normal in between, where the probe slides on in contact.
+    for (std::size_t k = first; k < planned.path.size(); ++k) {
+      const Chart& chart = planned.atlas.chart(planned.path[k]);
+      touch.points.push_back(chart.centre);
+      Vector3 direction = chart.approach_direction.norm() > 0.0 ? chart.approach_direction : chart.normal;
+      if (k == first && first_direction) direction = *first_direction;
+      touch.normals.push_back(direction.normalized());
+      touch.variances.push_back(chart.variance);
+    }
+  }
+  result.atlas = std::move(planned);
+  return result;
+}
+
+}  // namespace gpatlas_core

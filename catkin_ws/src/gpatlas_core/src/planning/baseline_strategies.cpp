@@ -1,0 +1,126 @@
+#include "gpatlas_core/planning/baseline_strategies.h"
+#include "gpatlas_core/observations/surface_evidence.h"
+
+#include <algorithm>
+#include <chrono>
+#include <random>
+
+namespace gpatlas_core {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// A sampled surface and, per point, whether it needs a touch: variance above V_max or no
+// measured surface point within the request's evidence distance, and no measurement or earlier
+// touch's target right there (EvidenceRule::retouch_radius_m): a touch would find what was found.
+struct NeedySample {
+  SurfaceSample sample;
+  std::vector<char> unsupported;
+  std::vector<char> retouched;
+  bool needsTouch(std::size_t i, double v_max) const {
+    return (unsupported[i] || sample.variances[i] > v_max) && !retouched[i];
+  }
+  bool anyNeedsTouch(double v_max) const {
+    for (std::size_t i = 0; i < sample.points.size(); ++i)
+      if (needsTouch(i, v_max)) return true;
+    return false;
+  }
+};
+
+// Samples the surface and handles the shared outcomes: errors and the convergence rule.
+// Returns nullopt when a touch must be chosen from `needy`.
+std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRequest& request,
+                                         SurfaceSampler::Config config, std::uint64_t seed, NeedySample* needy) {
+  if (auto error = checkPlanInput(model, request)) return error;
+  config.seed = seed;
+  needy->sample = SurfaceSampler(config).sample(model);
+  PlanResult result;
+  if (!needy->sample.ok) {
+    result.status = PlanStatus::kError;
+    result.message = "surface sampling failed: " + needy->sample.message;
+    return result;
+  }
+  const SurfaceEvidence evidence(model, request.evidence);
+  needy->unsupported.clear();
+  needy->retouched.clear();
+  for (std::size_t i = 0; i < needy->sample.points.size(); ++i) {
+    needy->unsupported.push_back(evidence.isUnsupported(needy->sample.points[i], needy->sample.normals[i]));
+    needy->retouched.push_back(evidence.measuredNear(needy->sample.points[i], request.evidence.retouch_radius_m));
+  }
+  result.max_evaluated_variance = needy->sample.maxVariance();
+  if (!needy->anyNeedsTouch(request.v_max)) {
+    result.status = PlanStatus::kConverged;
+    result.message = "no sampled surface point has variance above V_max or lacks evidence";
+    std::size_t retouched = 0;
+    for (std::size_t i = 0; i < needy->retouched.size(); ++i)
+      retouched += needy->retouched[i] && needy->sample.variances[i] > request.v_max ? 1 : 0;
+    if (retouched > 0)
+      result.message += " (" + std::to_string(retouched) + " above V_max at measurements or earlier targets)";
+    return result;
+  }
+  return std::nullopt;
+}
+
+PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::string& strategy) {
+  PlanResult result;
+  result.status = PlanStatus::kTouch;
+  result.message = "touch at a sampled surface point";
+  result.max_evaluated_variance = sample.maxVariance();
+  result.touch.kind = Touch::Kind::kPoke;
+  result.touch.strategy = strategy;
+  result.touch.points.push_back(sample.points[index]);
+  result.touch.normals.push_back(sample.normals[index]);
+  result.touch.variances.push_back(sample.variances[index]);
+  return result;
+}
+
+double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+
+// The baselines share everything but the choice of the sampled point they poke.
+template <typename Pick>
+PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
+                        std::uint64_t seed, const std::string& name, Pick pick) {
+  const Clock::time_point started = Clock::now();
+  NeedySample needy;
+  const auto noted = [&](PlanResult result) {
+    if (result.status != PlanStatus::kError)
+      if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
+    result.elapsed_s = secondsSince(started);
+    return result;
+  };
+  if (auto finished = sampleOrFinish(model, request, config, seed, &needy)) return noted(*finished);
+  return noted(pokeAt(needy.sample, pick(needy, request, seed), name));
+}
+
+}  // namespace
+
+RandomStrategy::RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed)
+    : config_(std::move(config)), seed_(seed) {}
+
+PlanResult RandomStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
+  return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+                      [](const NeedySample& needy, const PlanRequest&, std::uint64_t seed) {
+                        std::mt19937_64 rng(mixSeeds(seed, 1));
+                        return std::uniform_int_distribution<std::size_t>(0, needy.sample.points.size() - 1)(rng);
+                      });
+}
+
+MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed)
+    : config_(std::move(config)), seed_(seed) {}
+
+PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
+  return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+                      [](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
+                        // The largest variance among the points that need a touch (one does).
+                        const std::vector<double>& variances = needy.sample.variances;
+                        std::size_t best = variances.size();
+                        for (std::size_t i = 0; i < variances.size(); ++i) {
+                          if (!needy.needsTouch(i, request.v_max)) continue;
+                          if (best == variances.size() || variances[i] > variances[best]) best = i;
+                        }
+                        return best;
+                      });
+}
+
+}  // namespace gpatlas_core

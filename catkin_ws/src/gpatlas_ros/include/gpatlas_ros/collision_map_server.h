@@ -1,0 +1,101 @@
+#pragma once
+
+#include <gpatlas_core/model/occupancy_grid.h>
+#include <gpatlas_core/model/surface_model_factory.h>
+#include <gpatlas_motion/arm_approach_planner.h>
+#include <gpatlas_msgs/PlanApproach.h>
+#include <gpatlas_msgs/SaveMap.h>
+#include <gpatlas_msgs/SupportPlane.h>
+#include <gpatlas_msgs/TrainingSet.h>
+#include <gpatlas_ros/ros_params.h>
+#include <gpatlas_ros/tf_gated_subscriber.h>
+#include <gpatlas_ros/world_frame.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace octomap {
+class OcTree;
+}
+
+namespace gpatlas_ros {
+
+// Probabilistic collision map (paper section 4.1): P(the object reaches into a voxel) from the GP
+// (gpatlas_core::OccupancyGridBuilder) on a coarse grid, stored in an OctoMap octree. Publishes `~octomap_binary`
+// (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
+// Builds the collision map in a thread of its own: a training set only replaces the pending
+// one (latest wins, intermediate models are skipped), so no callback of the manager waits for
+// a rebuild. What approaches are planned on is built first: the voxels above
+// approach/occupied_probability (OccupancyGridBuilder::buildOccupancy, no variance at 0.5);
+// ~status says which training set it is from. The probabilities are built after it, in a
+// second thread, only while someone subscribes to the map's topics (as octomap_server does),
+// and for `~save_map`. `~plan_approach` plans the probe's way to a touch on that map and the
+// table (`support_plane`), with gpatlas_motion's TouchMotionPlanner (for the arm of
+// robot_description with approach/use_arm), and shows it on `~approach_path` (the tip) and
+// `~approach_arm` (the arm's links); with the arm, `~approach_trajectory`
+// (trajectory_msgs/JointTrajectory) is the last planned approach.
+class CollisionMapServer {
+ public:
+  CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
+  ~CollisionMapServer();
+  CollisionMapServer(const CollisionMapServer&) = delete;
+  CollisionMapServer& operator=(const CollisionMapServer&) = delete;
+
+ private:
+  struct Map;
+  void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
+  bool onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res);
+  bool onPlanApproach(gpatlas_msgs::PlanApproach::Request& req, gpatlas_msgs::PlanApproach::Response& res);
+  void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
+  void buildLoop();
+  // The map of one training set and what it holds, or null with the reason.
+  std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::string* error, std::string* summary);
+  // Builds the probabilities of the newest map for its subscribers, latest wins.
+  void publishLoop();
+  bool hasMapSubscribers() const;
+  void requestProbabilities();  // with mutex_ held: for map_, when someone subscribes
+  // The map's probabilities, built now if they are not yet (null with the reason on failure).
+  std::shared_ptr<const octomap::OcTree> probabilitiesOf(const std::shared_ptr<Map>& map, std::string* error);
+  void publishMap(const Map& map);  // with mutex_ held, the map's probabilities built
+  void publishStatus();  // with mutex_ held
+
+  ros::NodeHandle nh_, pnh_;
+  std::string world_frame_;
+  gpatlas_core::SurfaceModelConfig model_config_;
+  gpatlas_core::CollisionMapConfig map_config_;
+  gpatlas_core::ApproachConfig approach_config_;
+  std::shared_ptr<const gpatlas_motion::Arm> approach_arm_;  // with approach/use_arm
+  std::string approach_arm_error_;                           // why there is none, when asked for
+  double tf_timeout_s_{0.5};
+  tf2_ros::Buffer tf_buffer_;
+  tf2_ros::TransformListener tf_listener_;
+
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::optional<gpatlas_core::SupportPlane> support_plane_;  // the table, world frame
+  bool stopping_{false};
+  gpatlas_msgs::TrainingSet::ConstPtr pending_;  // the newest training set not built yet
+  std::shared_ptr<Map> map_;                     // the newest map approaches are planned on
+  std::shared_ptr<Map> publish_pending_;         // the map whose probabilities subscribers wait for
+  std::uint32_t latest_sequence_{0};
+  std::uint8_t state_{0};
+  std::string status_message_;
+  std::condition_variable publish_wake_;
+  std::thread builder_, publisher_;
+
+  ros::Subscriber training_sub_, plane_sub_;
+  ros::ServiceServer save_srv_, approach_srv_;
+  ros::Publisher octomap_pub_, voxels_pub_, status_pub_, approach_pub_, approach_arm_pub_, approach_trajectory_pub_;
+};
+
+}  // namespace gpatlas_ros

@@ -1,0 +1,30 @@
+#pragma once
+
+#include "gpatlas_core/config/config_readers.h"
+#include "gpatlas_geometry/config_readers.h"
+
+#include <cstdint>
+
+namespace probe_sim {
+
+// Every section of config/pipeline.yaml that the pipeline reads.
+struct PipelineConfig {
+  gpatlas_core::PipelineFrames frames;
+  std::uint64_t seed{0};
+  gpatlas_core::SurfaceModelConfig model;
+  gpatlas_core::TuningConfig tuning;
+  gpatlas_core::ViewTrainingConfig view;
+  bool use_support_plane{true};
+  gpatlas_core::TouchObservationConfig touch;
+  gpatlas_core::EvidenceRule evidence;
+  gpatlas_core::Explorer::Config exploration;
+  gpatlas_core::StrategyChoice strategy_choice;
+  gpatlas_core::StrategyConfig strategy;
+  gpatlas_geometry::SurfaceMesher::Config mesh;
+  gpatlas_core::CollisionMapConfig collision_map;
+  gpatlas_core::ApproachConfig approach;
+  gpatlas_geometry::ObjectSegmenter::Config segmentation;
+};
+void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c);
+
+}  // namespace probe_sim

@@ -1,0 +1,26 @@
+#include "probe_sim/pipeline_config.h"
+
+namespace probe_sim {
+
+void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
+  using namespace gpatlas_core;
+  using gpatlas_geometry::readMesher;
+  using gpatlas_geometry::readSegmenter;
+  readFrames(r, &c->frames);
+  c->seed = readSeed(r, c->seed);
+  readSurfaceModel(r, &c->model);
+  readTuning(r, &c->tuning);
+  readViewTraining(r, &c->view);
+  c->use_support_plane = readUseSupportPlane(r);
+  readTouchObservations(r, &c->touch);
+  readEvidence(r, &c->evidence);
+  readExplorer(r, &c->exploration);
+  readStrategyChoice(r, &c->strategy_choice);
+  readStrategy(r, &c->strategy);
+  readMesher(r, &c->mesh);
+  readCollisionMap(r, &c->collision_map);
+  readApproach(r, &c->approach);
+  readSegmenter(r, &c->segmentation);
+}
+
+}  // namespace probe_sim
