@@ -12,6 +12,8 @@ PACKAGES=(
   python3-rosservice python3-rosmsg python3-rosparam
   libnodeletlib-dev libnodelet-dev libnodeletlib-tools pluginlib-dev libclass-loader-dev
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev python3-tf2-ros
+  # a real camera's set-up: static_transform_publisher (extrinsics), rosbag play (recorded views)
+  tf2-tools python3-rosbag
   # algorithms
   libyaml-cpp-dev libpcl-dev libpcl-conversions-dev liboctomap-dev libbullet-dev libceres-dev libeigen3-dev libtbb-dev libopenblas-dev
   liborocos-kdl-dev libkdl-parser-dev liburdf-dev liburdfdom-dev liburdfdom-tools libompl-dev libfcl-dev

@@ -564,7 +564,7 @@ FitReport MultiscaleGpisModel::Impl::build(const Vector3* frame_centroid, double
   if (tune) {
     log_fine = defaultLogFine();
     fine_tune = tuneFine();
-    report.warnings.push_back(fine_tune.message);
+    (fine_tune.ok ? report.notes : report.warnings).push_back(fine_tune.message);
   }
   FitReport fine_report = factorCells(all);
   report.warnings.insert(report.warnings.end(), fine_report.warnings.begin(), fine_report.warnings.end());

@@ -166,6 +166,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     last_fit_had_plane_ = plane.has_value();
   }
   for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
+  for (const auto& note : report.notes) ROS_DEBUG_STREAM("gp_model: " << note);
   std::string tuned;
   if (tuning_.enabled) {
     const gpatlas_core::TuneReport tune = model_->tune(tuning_.tuner);

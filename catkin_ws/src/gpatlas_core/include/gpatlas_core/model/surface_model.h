@@ -14,7 +14,8 @@ namespace gpatlas_core {
 struct FitReport {
   bool ok{false};
   std::string message;
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings;  // something the user should look at
+  std::vector<std::string> notes;     // routine information (e.g. what tuning found): for debug logs
   bool full_refit{false};      // false when the model was extended incrementally
   bool renormalised{false};    // the centroid/scale changed, every point was re-normalised
   double jitter{0.0};          // diagonal jitter that made a matrix factorisable

@@ -1,0 +1,92 @@
+// A recorded cloud as the camera: reads a PCD or PLY file once (PCL's readers) and publishes it
+// on `points` (sensor_msgs/PointCloud2) in `~frame_id`, once and latched (`~rate_hz` 0), or as a
+// stream at `~rate_hz` for `~duration_s` (0: until shut down), each message freshly stamped, the
+// way a driver streams. The single cloud waits up to `~wait_for_subscriber_s` for a subscriber before
+// it is stamped. NaN points are kept: an organised cloud stays organised.
+
+#include <pcl/PCLPointCloud2.h>
+#include <pcl/io/pcd_io.h>
+#include <pcl/io/ply_io.h>
+#include <pcl_conversions/pcl_conversions.h>
+#include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <string>
+
+namespace {
+
+std::string lowerExtension(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension;
+}
+
+// Empty when the file was read; otherwise why not.
+std::string readCloud(const std::string& path, sensor_msgs::PointCloud2* cloud) {
+  if (path.empty()) return "~file is empty: give the path of a .pcd or .ply cloud";
+  if (!std::filesystem::is_regular_file(path)) return "no such file: " + path;
+  pcl::PCLPointCloud2 pcl_cloud;
+  const std::string extension = lowerExtension(path);
+  int status = -1;
+  if (extension == ".pcd") status = pcl::io::loadPCDFile(path, pcl_cloud);
+  else if (extension == ".ply") status = pcl::io::loadPLYFile(path, pcl_cloud);
+  else return path + ": unknown extension '" + extension + "' (.pcd or .ply)";
+  if (status < 0) return path + ": PCL could not read it (status " + std::to_string(status) + ")";
+  if (pcl_cloud.width * pcl_cloud.height == 0) return path + ": the cloud has no points";
+  pcl_conversions::fromPCL(pcl_cloud, *cloud);
+  return "";
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  ros::init(argc, argv, "cloud_file_publisher");
+  ros::NodeHandle nh, pnh("~");
+  const std::string path = pnh.param<std::string>("file", "");
+  const std::string frame_id = pnh.param<std::string>("frame_id", "camera_optical_frame");
+  const double rate_hz = pnh.param("rate_hz", 0.0);
+  const double duration_s = pnh.param("duration_s", 0.0);
+  const double wait_for_subscriber_s = pnh.param("wait_for_subscriber_s", 10.0);
+  if (!(rate_hz >= 0.0) || !(duration_s >= 0.0)) {
+    ROS_FATAL_STREAM("cloud_file_publisher: ~rate_hz and ~duration_s must be >= 0 (got " << rate_hz << ", "
+                                                                                        << duration_s << ")");
+    return 1;
+  }
+  sensor_msgs::PointCloud2 cloud;
+  if (const std::string error = readCloud(path, &cloud); !error.empty()) {
+    ROS_FATAL_STREAM("cloud_file_publisher: " << error);
+    return 1;
+  }
+  cloud.header.frame_id = frame_id;
+  ROS_INFO_STREAM("cloud_file_publisher: " << path << ": " << cloud.width << " x " << cloud.height << " points in '"
+                                           << frame_id << "', "
+                                           << (rate_hz > 0.0 ? std::to_string(rate_hz) + " Hz" : std::string("once")));
+  // Latched: a pipeline that starts later still gets the one view.
+  ros::Publisher pub = nh.advertise<sensor_msgs::PointCloud2>("points", 1, /*latch=*/rate_hz == 0.0);
+  if (rate_hz == 0.0) {
+    // Stamped when the pipeline listens, so that the stamp says when the view reached it.
+    const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(wait_for_subscriber_s);
+    while (ros::ok() && pub.getNumSubscribers() == 0 && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+    cloud.header.stamp = ros::Time::now();
+    pub.publish(cloud);
+    ros::spin();
+    return 0;
+  }
+  ros::Rate rate(rate_hz);
+  const ros::Time start = ros::Time::now();
+  std::uint32_t published = 0;
+  while (ros::ok() && (duration_s == 0.0 || (ros::Time::now() - start).toSec() < duration_s)) {
+    cloud.header.stamp = ros::Time::now();
+    cloud.header.seq = published++;
+    pub.publish(cloud);
+    rate.sleep();
+  }
+  ROS_INFO_STREAM("cloud_file_publisher: " << published << " clouds published in " << (ros::Time::now() - start).toSec()
+                                           << " s");
+  ros::spin();
+  return 0;
+}
