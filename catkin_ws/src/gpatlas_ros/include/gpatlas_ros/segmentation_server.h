@@ -29,9 +29,13 @@ class SegmentationServer {
 
  private:
   void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  // An error naming both frames when the cloud's frame is not sensor_frame and sensor_frame has
+  // no transform: the GP would fit the view without its free space.
+  void checkSensorFrame(const sensor_msgs::PointCloud2& msg);
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
+  std::string sensor_frame_;
   double tf_timeout_s_{0.5};
   gpatlas_geometry::ObjectSegmenter segmenter_;
   tf2_ros::Buffer tf_buffer_;

@@ -130,7 +130,10 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     if (transformToWorld(tf_buffer_, world_frame_, sensor_frame_, msg->header.stamp, tf_timeout_s_, &origin, &tf_error))
       sensor_origin = origin.front();
     else
-      ROS_WARN_STREAM_THROTTLE(10.0, "gp_model: no view free space or occluded interior (sensor_frame): " << tf_error);
+      ROS_ERROR_STREAM_THROTTLE(10.0, "gp_model: the view is fitted without its free space and occluded interior: "
+                                          "no transform for sensor_frame '"
+                                          << sensor_frame_ << "' (" << tf_error
+                                          << "); set sensor_frame to the camera cloud's frame, or \"\" to fit without them");
   }
   const gpatlas_core::ViewTraining view = gpatlas_core::buildViewTraining(points, sensor_origin, plane, view_config_, seed_);
   if (!view.ok) {

@@ -13,6 +13,7 @@ SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   gpatlas_core::PipelineFrames frames;
   readFrames(reader, &frames);
   world_frame_ = frames.world_frame;
+  sensor_frame_ = frames.sensor_frame;
   tf_timeout_s_ = frames.tf_timeout_s;
   gpatlas_geometry::ObjectSegmenter::Config config;
   readSegmenter(reader, &config);
@@ -43,6 +44,7 @@ void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg)
       ROS_WARN_STREAM("segmentation: cloud ignored: " << error);
       return;
     }
+    checkSensorFrame(*msg);
     const gpatlas_geometry::SegmentationResult result = segmenter_.segment(points);
     if (!result.ok) {
       ROS_WARN_STREAM("segmentation: " << result.message << " (" << msg->width * msg->height << " points in, "
@@ -66,6 +68,22 @@ void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg)
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("segmentation: message ignored: " << e.what());
   }
+}
+
+void SegmentationServer::checkSensorFrame(const sensor_msgs::PointCloud2& msg) {
+  if (sensor_frame_.empty() || msg.header.frame_id == sensor_frame_) return;
+  // A frame tf has never heard of is reported at once; a known one gets the usual wait.
+  if (tf_buffer_._frameExists(sensor_frame_) &&
+      tf_buffer_.canTransform(world_frame_, sensor_frame_, msg.header.stamp, ros::Duration(tf_timeout_s_)))
+    return;
+  // The GP places the view's free space and occluded interior from sensor_frame's origin; without
+  // it they are gone, and a smooth fit closes every opening the camera looked into.
+  ROS_ERROR_STREAM_THROTTLE(10.0, "segmentation: the camera's cloud is in frame '"
+                                      << msg.header.frame_id << "', but sensor_frame is '" << sensor_frame_
+                                      << "', which has no transform to '" << world_frame_
+                                      << "': the model loses the view's free space (a mug gets a lid). Set the "
+                                         "parameter sensor_frame: "
+                                      << msg.header.frame_id << " (or publish '" << sensor_frame_ << "' in tf)");
 }
 
 }  // namespace gpatlas_ros
