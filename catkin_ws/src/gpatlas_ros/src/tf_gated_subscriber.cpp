@@ -3,8 +3,9 @@
 namespace gpatlas_ros {
 
 namespace {
-// Enough for a camera stream's few clouds in flight; older ones are superseded anyway.
-constexpr std::uint32_t kQueueSize = 5;
+// Latest wins: a cloud that arrives while the previous one still waits (for its transform, or for
+// a busy callback) replaces it, so a streaming camera is never worked through from a backlog.
+constexpr std::uint32_t kQueueSize = 1;
 }  // namespace
 
 TfGatedCloudSubscriber::TfGatedCloudSubscriber(ros::NodeHandle nh, const std::string& topic, tf2_ros::Buffer* buffer,

@@ -34,9 +34,12 @@ namespace gpatlas_ros {
 // (`contacts` topic and `~add_observations` service). Publishes the training set for the
 // planner and the collision map (`~training_set`, latched), and the predicted surface
 // (`~surface` cloud coloured by variance, `~surface_mesh` marker, `~surface_shape` mesh).
-// The surface model. Its training set is published as soon as the model changes; the predicted
-// surface for display is meshed in a thread of its own from a copy of the newest model (latest
-// wins), so that add_observations never waits behind a mesh.
+// The surface model. Views are fitted in a thread of their own, newest first: a cloud that arrives
+// while a fit runs replaces the one waiting (latest wins), so a streaming camera never queues
+// refits. Its training set is published as soon as the model changes; the predicted surface is
+// meshed for every model in a thread of its own from a copy of the newest model (latest wins), so
+// that add_observations never waits behind a mesh and a late subscriber gets the current surface,
+// stamped like the training set it shows.
 class GpModelServer {
  public:
   GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh);
@@ -46,6 +49,11 @@ class GpModelServer {
 
  private:
   void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  // Hands a cloud to the fit thread, replacing one that waits there.
+  void queueFit(const sensor_msgs::PointCloud2::ConstPtr& msg);
+  void fitLoop();
+  // Waits up to plane_wait_s_ for the support plane of the cloud stamped `stamp`.
+  void waitForPlane(const ros::Time& stamp);
   void fitCloud(const sensor_msgs::PointCloud2& cloud);
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
@@ -57,8 +65,20 @@ class GpModelServer {
   // false with a message when nothing could be used.
   bool addObservations(const gpatlas_msgs::Observations& msg, gpatlas_msgs::AddObservations::Response* answer);
   void publishModel();  // with mutex_ held
+  std::uint32_t trainingSequence();  // takes mutex_
   void meshLoop();
   std::uint32_t training_sequence_{0};  // with mutex_
+
+  std::mutex fit_mutex_;  // guards the four below
+  std::condition_variable fit_wake_;
+  sensor_msgs::PointCloud2::ConstPtr fit_pending_;  // the newest cloud not fitted yet
+  std::size_t clouds_dropped_{0};  // replaced while waiting, since the last fit
+  bool fit_stopping_{false};
+  std::thread fitter_;
+  // Segmentation publishes a cloud's plane just before it: a fit waits this long for it, so that
+  // one cloud is fitted once, with its plane.
+  static constexpr double plane_wait_s_{0.5};
+  std::condition_variable plane_arrived_;  // with plane_mutex_
 
   std::mutex mesh_mutex_;  // guards the three below
   std::condition_variable mesh_wake_;
@@ -90,10 +110,11 @@ class GpModelServer {
     ros::Time stamp;
     bool belongsTo(const ros::Time& cloud_stamp) const { return stamp.isZero() || stamp == cloud_stamp; }
   };
-  std::mutex plane_mutex_;  // guards the three below
+  std::mutex plane_mutex_;  // guards the two below
   std::optional<StampedPlane> support_plane_;
-  sensor_msgs::PointCloud2::ConstPtr last_cloud_;
-  bool last_fit_had_plane_{false};
+  // The cloud of the last fit when it was fitted without its plane (a plane that came after the
+  // fit's wait): refitted when its plane arrives.
+  sensor_msgs::PointCloud2::ConstPtr last_fitted_without_plane_;
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
 

@@ -51,6 +51,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   }
 
   mesher_ = std::thread(&GpModelServer::meshLoop, this);
+  fitter_ = std::thread(&GpModelServer::fitLoop, this);
   training_pub_ = pnh_.advertise<gpatlas_msgs::TrainingSet>("training_set", 1, true);
   surface_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("surface", 1, true);
   mesh_marker_pub_ = pnh_.advertise<visualization_msgs::Marker>("surface_mesh", 1, true);
@@ -67,18 +68,63 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
                                       << points_sub_->topic());
 }
 
-void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
-  // roscpp does not catch exceptions thrown by subscription callbacks: one would end the
-  // nodelet manager. Report it and keep the previous model.
-  try {
-    {
-      std::lock_guard<std::mutex> lock(plane_mutex_);
-      last_cloud_ = msg;
-    }
-    fitCloud(*msg);
-  } catch (const std::exception& e) {
-    ROS_ERROR_STREAM("gp_model: object cloud ignored: " << e.what());
+void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) { queueFit(msg); }
+
+void GpModelServer::queueFit(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  {
+    std::lock_guard<std::mutex> lock(fit_mutex_);
+    if (fit_pending_) ++clouds_dropped_;
+    fit_pending_ = msg;
   }
+  fit_wake_.notify_one();
+}
+
+void GpModelServer::waitForPlane(const ros::Time& stamp) {
+  if (!use_support_plane_) return;
+  std::unique_lock<std::mutex> lock(plane_mutex_);
+  plane_arrived_.wait_for(lock, std::chrono::duration<double>(plane_wait_s_),
+                          [&] { return support_plane_ && support_plane_->belongsTo(stamp); });
+}
+
+void GpModelServer::fitLoop() {
+  for (;;) {
+    sensor_msgs::PointCloud2::ConstPtr cloud;
+    std::size_t dropped = 0;
+    {
+      std::unique_lock<std::mutex> lock(fit_mutex_);
+      fit_wake_.wait(lock, [this] { return fit_stopping_ || fit_pending_; });
+      if (fit_stopping_) return;
+      cloud = std::move(fit_pending_);
+      fit_pending_.reset();
+      dropped = clouds_dropped_;
+      clouds_dropped_ = 0;
+    }
+    // Nothing may escape this thread: an exception would end the nodelet manager. A failed fit
+    // keeps the previous model.
+    try {
+      waitForPlane(cloud->header.stamp);
+      const std::uint32_t before = trainingSequence();
+      fitCloud(*cloud);
+      const bool fitted = trainingSequence() != before;
+      if (fitted && use_support_plane_) {
+        std::lock_guard<std::mutex> lock(plane_mutex_);
+        const bool had_plane = support_plane_ && support_plane_->belongsTo(cloud->header.stamp);
+        last_fitted_without_plane_ = had_plane ? nullptr : cloud;
+      }
+      if (fitted)
+        ROS_INFO_STREAM("gp_model: cloud to model " << (ros::Time::now() - cloud->header.stamp).toSec() << " s; "
+                                                    << dropped << " newer cloud(s) replaced older ones while it waited");
+      else if (dropped > 0)
+        ROS_INFO_STREAM("gp_model: " << dropped << " cloud(s) replaced while waiting for the fit");
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM("gp_model: object cloud ignored: " << e.what());
+    }
+  }
+}
+
+std::uint32_t GpModelServer::trainingSequence() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return training_sequence_;
 }
 
 void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
@@ -95,10 +141,11 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
       support_plane_ = StampedPlane{plane, msg->header.stamp};
       // The plane and its cloud come on two topics: if the cloud it belongs to was fitted
       // before the plane arrived, fit that cloud again.
-      if (last_cloud_ && !last_fit_had_plane_ && support_plane_->belongsTo(last_cloud_->header.stamp))
-        refit = last_cloud_;
+      if (last_fitted_without_plane_ && support_plane_->belongsTo(last_fitted_without_plane_->header.stamp))
+        refit = last_fitted_without_plane_;
     }
-    if (refit) fitCloud(*refit);
+    plane_arrived_.notify_all();
+    if (refit) queueFit(refit);
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("gp_model: support plane ignored: " << e.what());
   }
@@ -164,10 +211,6 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
     return;
   }
   history_.setView(view.points);
-  {
-    std::lock_guard<std::mutex> plane_lock(plane_mutex_);
-    last_fit_had_plane_ = plane.has_value();
-  }
   for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
   for (const auto& note : report.notes) ROS_DEBUG_STREAM("gp_model: " << note);
   std::string tuned;
@@ -197,10 +240,14 @@ bool GpModelServer::onAddObservations(gpatlas_msgs::AddObservations::Request& re
 
 bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   {
+    std::lock_guard<std::mutex> fit_lock(fit_mutex_);  // a cloud waiting for its fit is forgotten too
+    fit_pending_.reset();
+    clouds_dropped_ = 0;
+  }
+  {
     std::lock_guard<std::mutex> plane_lock(plane_mutex_);
     support_plane_.reset();
-    last_cloud_.reset();
-    last_fit_had_plane_ = false;
+    last_fitted_without_plane_.reset();
   }
   std::lock_guard<std::mutex> lock(mutex_);
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
@@ -310,9 +357,6 @@ void GpModelServer::publishModel() {
   SharedModels::offer(training_pub_.getTopic(), training, snapshot);
   training_pub_.publish(training);
 
-  if (surface_pub_.getNumSubscribers() == 0 && mesh_marker_pub_.getNumSubscribers() == 0 &&
-      mesh_shape_pub_.getNumSubscribers() == 0)
-    return;
   {
     std::lock_guard<std::mutex> lock(mesh_mutex_);
     mesh_pending_ = snapshot;  // replaces one not meshed yet
@@ -358,6 +402,12 @@ void GpModelServer::meshLoop() {
 }
 
 GpModelServer::~GpModelServer() {
+  {
+    std::lock_guard<std::mutex> lock(fit_mutex_);
+    fit_stopping_ = true;
+  }
+  fit_wake_.notify_all();
+  if (fitter_.joinable()) fitter_.join();
   SharedModels::withdraw(training_pub_.getTopic());
   {
     std::lock_guard<std::mutex> lock(mesh_mutex_);
