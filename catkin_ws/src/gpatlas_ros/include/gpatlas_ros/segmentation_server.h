@@ -32,6 +32,8 @@ class SegmentationServer {
   // An error naming both frames when the cloud's frame is not sensor_frame and sensor_frame has
   // no transform: the GP would fit the view without its free space.
   void checkSensorFrame(const sensor_msgs::PointCloud2& msg);
+  // An error naming the frames, the box and where the cloud is, when no point is in the crop box.
+  void reportOutsideCropBox(const sensor_msgs::PointCloud2& msg, const std::vector<Eigen::Vector3d>& points);
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;

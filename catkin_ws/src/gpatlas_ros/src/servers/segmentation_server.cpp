@@ -3,6 +3,8 @@
 
 #include <tf2_eigen/tf2_eigen.h>
 
+#include <sstream>
+
 namespace gpatlas_ros {
 
 using namespace gpatlas_conversions;
@@ -46,6 +48,10 @@ void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg)
     }
     checkSensorFrame(*msg);
     const gpatlas_geometry::SegmentationResult result = segmenter_.segment(points);
+    if (!result.ok && result.stats.after_crop == 0 && !points.empty()) {
+      reportOutsideCropBox(*msg, points);
+      return;
+    }
     if (!result.ok) {
       ROS_WARN_STREAM("segmentation: " << result.message << " (" << msg->width * msg->height << " points in, "
                                        << invalid << " NaN)");
@@ -68,6 +74,33 @@ void SegmentationServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg)
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("segmentation: message ignored: " << e.what());
   }
+}
+
+namespace {
+
+std::string span(const Eigen::Vector3d& lo, const Eigen::Vector3d& hi) {
+  std::ostringstream out;
+  out.precision(3);
+  out << "x [" << lo.x() << ", " << hi.x() << "], y [" << lo.y() << ", " << hi.y() << "], z [" << lo.z() << ", "
+      << hi.z() << "] m";
+  return out.str();
+}
+
+}  // namespace
+
+void SegmentationServer::reportOutsideCropBox(const sensor_msgs::PointCloud2& msg,
+                                              const std::vector<Eigen::Vector3d>& points) {
+  Eigen::Vector3d lo = points.front(), hi = points.front();
+  for (const Eigen::Vector3d& p : points) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+  const auto& c = segmenter_.config();
+  ROS_ERROR_STREAM_THROTTLE(10.0, "segmentation: none of the cloud's "
+                                      << points.size() << " points (frame '" << msg.header.frame_id << "'; in '"
+                                      << world_frame_ << "' they span " << span(lo, hi)
+                                      << ") lies in the crop box " << span(c.crop_min_m, c.crop_max_m) << " of '"
+                                      << world_frame_
+                                      << "' (segmentation/crop_min_m, crop_max_m). The workspace is given in "
+                                         "world_frame, z up with the table near z = 0: check the camera's pose in "
+                                         "tf, or move the box");
 }
 
 void SegmentationServer::checkSensorFrame(const sensor_msgs::PointCloud2& msg) {
