@@ -21,6 +21,7 @@
 #include <gpatlas_core/config/parameters.h>
 #include <gpatlas_geometry/segmentation.h>
 #include <gpatlas_core/observations/view_training.h>
+#include <gpatlas_core/observations/view_update.h>
 #include <probe_sim/depth_camera.h>
 #include <probe_sim/object_mesh.h>
 #include <probe_sim/probe.h>
@@ -513,9 +514,9 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     return failed(std::string("model/type: ") + e.what());
   }
   gpatlas_core::SurfaceModel& model = *model_ptr;
-  const auto fit = model.fit(view.points);
-  if (!fit.ok) return failed("initial fit failed: " + fit.message);
-  if (pipeline.tuning.enabled) model.tune(pipeline.tuning.tuner);
+  const gpatlas_core::ViewUpdate fit = gpatlas_core::applyView(
+      model, view.points, pipeline.touch, pipeline.tuning.enabled ? &pipeline.tuning.tuner : nullptr);
+  if (!fit.ok) return failed("initial fit failed: " + fit.fit.message);
 
   gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
   strategy_config.seed = static_cast<std::uint64_t>(seed);
