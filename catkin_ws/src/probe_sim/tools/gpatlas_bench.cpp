@@ -10,12 +10,11 @@
 #include <gpatlas_core/config/config_readers.h>
 #include <gpatlas_core/exploration/exploration_report.h>
 #include <gpatlas_core/planning/exploration_strategy.h>
-#include <gpatlas_core/model/model_calibration.h>
 #include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_motion/touch_approach.h>
+#include <gpatlas_geometry/model_measurement.h>
 #include <gpatlas_geometry/shape_metrics.h>
 #include <gpatlas_core/planning/strategy_library.h>
-#include <gpatlas_core/planning/surface_sampler.h>
 #include <gpatlas_geometry/surface_mesher.h>
 #include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_core/config/parameters.h>
@@ -262,8 +261,6 @@ struct GroundTruth {
   std::vector<bool> sample_reachable;
   // Which of the same samples the camera sees (samplesSeenFrom); empty without a camera.
   std::vector<bool> sample_seen;
-  // The truth samples of the calibration (surfaceCalibration).
-  std::vector<gpatlas_core::Vector3> calibration_samples;
 };
 
 void measureReachability(GroundTruth& gt, const probe_sim::SimulationSettings& simulation, int directions) {
@@ -295,10 +292,6 @@ void measureReachability(GroundTruth& gt, const probe_sim::SimulationSettings& s
 }
 
 
-// The truth samples of the calibration (surfaceCalibration): the same for every run of an object.
-constexpr std::size_t kCalibrationSamples = 2000;
-constexpr std::uint64_t kCalibrationSeed = 11;
-
 // Which of the shape metrics' truth samples the camera at `eye` sees: the first hit of its ray
 // to the sample is the sample itself.
 std::vector<bool> samplesSeenFrom(const probe_sim::Scene& scene, const probe_sim::TriangleMesh& mesh,
@@ -327,7 +320,6 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
   simulation.object = spec;
   simulation.object_scale = scale;
   gt.mesh = probe_sim::loadSimulatedObject(simulation);
-  gt.calibration_samples = gpatlas_geometry::sampleMeshSurface(gt.mesh, kCalibrationSamples, kCalibrationSeed);
   // A camera the settings cannot place fails every run of the object, with the reason.
   std::string camera_error;
   if (const std::optional<Eigen::Isometry3d> camera = probe_sim::cameraPose(simulation, o.urdf_xml, &camera_error))
@@ -382,25 +374,6 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
-// The largest variance over one fixed surface sample (SurfaceSampler's defaults: 600 seeds, seed
-// 7); NaN when the surface cannot be sampled.
-double sampledMaxVariance(const gpatlas_core::SurfaceModel& model) {
-  const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
-  return sample.ok ? sample.maxVariance() : std::nan("");
-}
-
-// The RMSE of the distances whose mask entry equals `in`; NaN when there are none.
-double maskedRmse(const std::vector<double>& distances, const std::vector<bool>& mask, bool in) {
-  double sum_squared = 0.0;
-  std::size_t n = 0;
-  for (std::size_t i = 0; i < distances.size() && i < mask.size(); ++i)
-    if (mask[i] == in) {
-      sum_squared += distances[i] * distances[i];
-      ++n;
-    }
-  return n > 0 ? std::sqrt(sum_squared / static_cast<double>(n)) : std::nan("");
-}
-
 // Truth-to-predicted RMSE over parts of the truth (GroundTruth's masks); NaN where not measured.
 struct TruthSubsetRmse {
   double reachable{std::nan("")};
@@ -408,44 +381,29 @@ struct TruthSubsetRmse {
   double unseen{std::nan("")};
 };
 
-gpatlas_geometry::ShapeMetricsResult measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
-                                         const Options& o, const std::string& save_as = "",
-                                         TruthSubsetRmse* subsets = nullptr) {
-  const auto mesh_start = std::chrono::steady_clock::now();
-  // The variances only colour a saved mesh.
-  gpatlas_geometry::SurfaceMesher::Config mesh_config = o.pipeline.mesh;
-  mesh_config.vertex_variances = !save_as.empty();
-  const auto surface = gpatlas_geometry::SurfaceMesher(mesh_config).mesh(model);
-  const double mesh_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - mesh_start).count();
-  if (o.verbose)
-    std::cout << "  [" << gt.name << "] mesh: " << surface.mesh.triangles.size() << " triangles on a "
-              << surface.grid_size.transpose() << " grid in " << mesh_s << " s" << std::endl;
-  if (!surface.ok || surface.mesh.empty()) {
-    gpatlas_geometry::ShapeMetricsResult failed;
-    failed.message = "no predicted surface: " + surface.message;
-    return failed;
+// The model measured against the object's truth (gpatlas_geometry::measureModel); with
+// `subsets`, also over the parts of the truth the object's masks mark.
+gpatlas_geometry::ModelMeasurement measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
+                                           const Options& o, gpatlas_geometry::MeasurementRequest request,
+                                           TruthSubsetRmse* subsets = nullptr) {
+  request.truth_distances = subsets && (gt.reachability_measured || !gt.sample_seen.empty());
+  gpatlas_geometry::ModelMeasurement measured = gpatlas_geometry::measureModel(model, gt.mesh, o.pipeline.mesh, request);
+  if (o.verbose) {
+    std::cout << "  [" << gt.name << "] mesh: " << measured.surface.mesh.triangles.size() << " triangles on a "
+              << measured.surface.grid_size.transpose() << " grid in " << measured.mesh_s << " s" << std::endl;
+    if (measured.surface.ok && !measured.surface.mesh.empty())
+      std::cout << "  [" << gt.name << "] shape metrics in " << measured.metrics_s << " s" << std::endl;
   }
-  if (!save_as.empty()) {
-    const std::string error = gpatlas_core::writePly(surface.mesh, save_as);
-    if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
-  }
-  gpatlas_geometry::ShapeMetrics::Config metrics_config;
-  metrics_config.keep_truth_distances = subsets && (gt.reachability_measured || !gt.sample_seen.empty());
-  const auto metrics_start = std::chrono::steady_clock::now();
-  gpatlas_geometry::ShapeMetricsResult metrics = gpatlas_geometry::ShapeMetrics(metrics_config).compare(surface.mesh, gt.mesh);
-  if (o.verbose)
-    std::cout << "  [" << gt.name << "] shape metrics in "
-              << std::chrono::duration<double>(std::chrono::steady_clock::now() - metrics_start).count() << " s"
-              << std::endl;
+  const gpatlas_geometry::ShapeMetricsResult& metrics = measured.shape;
   const std::vector<double>& distances = metrics.truth_to_predicted_distances;
   if (metrics.ok && subsets && gt.reachability_measured && distances.size() == gt.sample_reachable.size())
-    subsets->reachable = maskedRmse(distances, gt.sample_reachable, true);
+    subsets->reachable = gpatlas_geometry::maskedRmse(distances, gt.sample_reachable, true);
   if (metrics.ok && subsets && distances.size() == gt.sample_seen.size()) {
-    subsets->seen = maskedRmse(distances, gt.sample_seen, true);
-    subsets->unseen = maskedRmse(distances, gt.sample_seen, false);
+    subsets->seen = gpatlas_geometry::maskedRmse(distances, gt.sample_seen, true);
+    subsets->unseen = gpatlas_geometry::maskedRmse(distances, gt.sample_seen, false);
   }
-  metrics.truth_to_predicted_distances = {};  // 20000 numbers per run, not needed after this
-  return metrics;
+  measured.shape.truth_to_predicted_distances = {};  // 20000 numbers per run, not needed after this
+  return measured;
 }
 
 RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
@@ -541,11 +499,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   const gpatlas_core::Explorer explorer(loop);
 
   const auto measureInto = [&](const gpatlas_core::SurfaceModel& m, gpatlas_core::ExplorationRecord& record) {
-    record.sampled_max_variance = sampledMaxVariance(m);
-    const auto metrics = measure(m, gt, o);
-    if (metrics.ok) {
-      record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
-      record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
+    const gpatlas_geometry::ModelMeasurement measured = measure(m, gt, o, gpatlas_geometry::MeasurementRequest());
+    record.sampled_max_variance = measured.sampled_max_variance;
+    if (measured.shape.ok) {
+      record.rmse_pred_to_gt_m = measured.shape.rmse_predicted_to_truth;
+      record.rmse_gt_to_pred_m = measured.shape.rmse_truth_to_predicted;
     }
   };
   std::unique_ptr<gpatlas_geometry::MeshDistanceIndex> gt_index;
@@ -612,14 +570,23 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
       o.save_meshes ? (fs::path(o.out) / (gt.name + "_" + strategy_name + "_seed" + std::to_string(seed) + ".ply")).string()
                     : std::string();
   TruthSubsetRmse subsets;
-  r.metrics = measure(model, gt, o, mesh_file, &subsets);
+  gpatlas_geometry::MeasurementRequest final_request;
+  // The final model's sampled variance does not depend on the curve's schedule.
+  final_request.sampled_max_variance = !result.records.empty() && std::isnan(result.records.back().sampled_max_variance);
+  final_request.vertex_variances = !mesh_file.empty();  // they only colour a saved mesh
+  final_request.calibration = true;
+  const gpatlas_geometry::ModelMeasurement final_measurement = measure(model, gt, o, final_request, &subsets);
+  if (!mesh_file.empty() && final_measurement.surface.ok && !final_measurement.surface.mesh.empty()) {
+    const std::string error = gpatlas_core::writePly(final_measurement.surface.mesh, mesh_file);
+    if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
+  }
+  r.metrics = final_measurement.shape;
   r.rmse_gt_to_pred_reachable = subsets.reachable;
   r.rmse_gt_to_pred_seen = subsets.seen;
   r.rmse_gt_to_pred_unseen = subsets.unseen;
-  const gpatlas_core::CalibrationResult calibration = gpatlas_core::surfaceCalibration(model, gt.calibration_samples);
-  if (calibration.ok) {
-    r.calibration = calibration.fraction;
-    r.position_sd_m = calibration.median_position_sd_m;
+  if (final_measurement.calibration.ok) {
+    r.calibration = final_measurement.calibration.fraction;
+    r.position_sd_m = final_measurement.calibration.median_position_sd_m;
   }
   // A run that leaves no predicted surface is an error whatever the loop said.
   r.status = gpatlas_core::runStatus(result, r.metrics.ok, r.metrics.message);
@@ -628,7 +595,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   if (!result.records.empty()) {
     // The final model's numbers do not depend on the curve's schedule.
     gpatlas_core::ExplorationRecord& last = result.records.back();
-    if (std::isnan(last.sampled_max_variance)) last.sampled_max_variance = sampledMaxVariance(model);
+    if (std::isnan(last.sampled_max_variance)) last.sampled_max_variance = final_measurement.sampled_max_variance;
     if (r.metrics.ok) {
       last.rmse_pred_to_gt_m = r.metrics.rmse_predicted_to_truth;
       last.rmse_gt_to_pred_m = r.metrics.rmse_truth_to_predicted;
