@@ -7,7 +7,7 @@
 #include <gpatlas_core/exploration/exploration_report.h>
 #include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_geometry/shape_metrics.h>
-#include <gpatlas_core/planning/surface_sampler.h>
+#include <gpatlas_geometry/model_measurement.h>
 #include <gpatlas_geometry/surface_mesher.h>
 #include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_msgs/AddObservations.h>
@@ -305,17 +305,12 @@ class ExplorationNode {
   }
 
   void measureModel(const gpatlas_core::SurfaceModel& model, gpatlas_core::ExplorationRecord& record) {
-    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
-    if (sample.ok) record.sampled_max_variance = sample.maxVariance();
-    if (ground_truth_.empty()) return;
-    gpatlas_geometry::SurfaceMesher::Config shape_only = mesher_config_;
-    shape_only.vertex_variances = false;  // only the shape is measured here
-    const auto surface = gpatlas_geometry::SurfaceMesher(shape_only).mesh(model);
-    if (!surface.ok) return;
-    const auto metrics = gpatlas_geometry::ShapeMetrics().compare(surface.mesh, ground_truth_);
-    if (!metrics.ok) return;
-    record.rmse_pred_to_gt_m = metrics.rmse_predicted_to_truth;
-    record.rmse_gt_to_pred_m = metrics.rmse_truth_to_predicted;
+    const gpatlas_geometry::ModelMeasurement measured =
+        gpatlas_geometry::measureModel(model, ground_truth_, mesher_config_);
+    record.sampled_max_variance = measured.sampled_max_variance;
+    if (!measured.shape.ok) return;
+    record.rmse_pred_to_gt_m = measured.shape.rmse_predicted_to_truth;
+    record.rmse_gt_to_pred_m = measured.shape.rmse_truth_to_predicted;
   }
 
   // The models after the actions are measured off the loop's thread: a measurement refits the

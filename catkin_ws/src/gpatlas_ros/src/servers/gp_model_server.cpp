@@ -6,6 +6,7 @@
 #include <gpatlas_core/common/background_work.h>
 #include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_core/observations/view_training.h>
+#include <gpatlas_core/observations/view_update.h>
 #include <tf2_eigen/tf2_eigen.h>
 #include <shape_msgs/Mesh.h>
 #include <visualization_msgs/Marker.h>
@@ -190,35 +191,27 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   for (const auto& w : view.warnings) ROS_WARN_STREAM("gp_model: " << w);
 
   std::lock_guard<std::mutex> lock(mutex_);
-  // A new view replaces the previous vision points; touches and free space are kept.
-  std::vector<gpatlas_core::TrainingPoint> data = view.points;
-  std::vector<Eigen::Vector3d> touch_evidence;
-  for (const auto& t : model_->observations()) {
-    if (gpatlas_core::fromView(t.source)) continue;
-    data.push_back(t);
-    if (t.source == gpatlas_core::PointSource::kFreeSpace || gpatlas_core::isSurfaceValue(t))
-      touch_evidence.push_back(t.position);
-  }
-  // The new view's guesses must not bring back what earlier touches retracted (their kept,
-  // thinned points stand for the touches here).
-  if (model_->isFitted())
-    gpatlas_core::retractContradictedInterior(&data, touch_evidence,
-                                              touch_config_.guess_min_depth_fraction * model_->scale());
+  // The same fit as the bench's: a new view replaces the previous one, the touches stay.
   const ros::WallTime start = ros::WallTime::now();
-  const gpatlas_core::FitReport report = model_->fit(data);
-  if (!report.ok) {
-    ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << report.message);
+  const gpatlas_core::ViewUpdate update =
+      gpatlas_core::applyView(*model_, view.points, touch_config_, tuning_.enabled ? &tuning_.tuner : nullptr);
+  if (!update.ok) {
+    ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << update.fit.message);
     return;
   }
   history_.setView(view.points);
-  for (const auto& w : report.warnings) ROS_WARN_STREAM("gp_model: " << w);
-  for (const auto& note : report.notes) ROS_DEBUG_STREAM("gp_model: " << note);
+  for (const auto& w : update.fit.warnings) ROS_WARN_STREAM("gp_model: " << w);
+  for (const auto& note : update.fit.notes) ROS_DEBUG_STREAM("gp_model: " << note);
   std::string tuned;
-  if (tuning_.enabled) {
-    const gpatlas_core::TuneReport tune = model_->tune(tuning_.tuner);
-    tuned = tune.ok ? ", tuned: " + tune.message : ", tuning kept the previous hyperparameters: " + tune.message;
-  }
-  ROS_INFO_STREAM("gp_model: view: " << view.message << "; " << report.message << " in " << (ros::WallTime::now() - start).toSec() << " s" << tuned);
+  if (update.tuning)
+    tuned = update.tuning->ok ? ", tuned: " + update.tuning->message
+                              : ", tuning kept the previous hyperparameters: " + update.tuning->message;
+  std::string retracted;
+  if (update.retraction.any())
+    retracted = "; the touches contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +
+                " of its occluded-interior guesses (" + std::to_string(update.retraction.dropped) + " dropped)";
+  ROS_INFO_STREAM("gp_model: view: " << view.message << retracted << "; " << update.fit.message << " in "
+                                     << (ros::WallTime::now() - start).toSec() << " s" << tuned);
   publishModel();
 }
 

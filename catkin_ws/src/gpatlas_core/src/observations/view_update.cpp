@@ -1,0 +1,26 @@
+#include "gpatlas_core/observations/view_update.h"
+
+namespace gpatlas_core {
+
+ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view_training,
+                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning) {
+  ViewUpdate update;
+  std::vector<TrainingPoint> data = view_training;
+  std::vector<Vector3> touch_evidence;
+  for (const TrainingPoint& point : model.observations()) {
+    if (fromView(point.source)) continue;
+    data.push_back(point);
+    ++update.touch_points_kept;
+    if (point.source == PointSource::kFreeSpace || isSurfaceValue(point)) touch_evidence.push_back(point.position);
+  }
+  // The touches' kept (thinned) contacts and free space stand for the touches here.
+  if (model.isFitted())
+    update.retraction =
+        retractContradictedInterior(&data, touch_evidence, touch.guess_min_depth_fraction * model.scale());
+  update.fit = model.fit(data);
+  update.ok = update.fit.ok;
+  if (update.ok && tuning) update.tuning = model.tune(*tuning);
+  return update;
+}
+
+}  // namespace gpatlas_core

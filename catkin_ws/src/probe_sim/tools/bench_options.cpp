@@ -1,0 +1,205 @@
+#include "bench_options.h"
+
+#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/planning/strategy_library.h>
+#include <gpatlas_core/planning/strategy_registry.h>
+#include <probe_sim/object_mesh.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <iostream>
+#include <iterator>
+#include <memory>
+#include <sstream>
+#include <stdexcept>
+
+namespace gpatlas_bench {
+
+namespace {
+
+void printUsage() {
+  std::cout <<
+      R"(usage: gpatlas_bench [options]
+Runs the pipeline's exploration (segmentation of a simulated depth view, the GPIS, Algorithm 2
+with a strategy, the simulated probe) on objects with a known truth, and measures the shape.
+  --config FILE                  the pipeline's parameters [the repository's config/pipeline.yaml]
+  --overlay FILE                 a partial file whose parameters replace the config's (repeatable),
+                                 e.g. config/paper.yaml: the paper's global GPIS
+  --set KEY=VALUE                override one of them, e.g. --set exploration/v_max=0.05 (repeatable)
+  --object FILE|procedural:NAME  object to explore (repeatable); procedural names: )"
+            << [] {
+                 std::string names;
+                 for (const auto& n : probe_sim::proceduralObjectNames()) names += n + " ";
+                 return names;
+               }() << R"(
+                                 [the config's simulation/object]
+  --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
+  --size-m S                     size of procedural objects in metres [simulation/procedural_size_m]
+  --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
+                                 [the config's strategy], or one from a --strategy-library
+  --strategy-library FILE        a shared library that registers strategies of your own
+                                 (GPATLAS_REGISTER_STRATEGY, gpatlas_core/planning/strategy_library.h) (repeatable)
+  --probe ray|sphere|patch       simulated probe model [simulation/probe]
+  --seeds 0,1,2                  seeds (camera noise, the view's subset, the planner) [the config's seed]
+  --max-actions N                cap on tactile actions per run [the config's exploration/max_actions]
+  --jobs N                       runs in parallel [1]
+  --out DIR                      output folder [bench_out]
+  --urdf FILE                    the robot (head camera, arm) [vito_description's vito.urdf]
+  --curve-every K                measure the shape error every K actions (0: only at the end) [5]
+  --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
+  --reach-directions N           escape lines tried per truth triangle for it [256]
+  --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
+                                 and each object as OBJECT_truth.ply
+  --verbose                      one line per action
+  --no-plot                      skip the PNG plots
+)";
+}
+
+std::vector<std::string> splitList(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) if (!item.empty()) out.push_back(item);
+  return out;
+}
+
+double parseDouble(const std::string& flag, const std::string& value) {
+  char* end = nullptr;
+  const double v = std::strtod(value.c_str(), &end);
+  if (end == value.c_str() || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument(flag + " needs a number, got '" + value + "'");
+  return v;
+}
+
+int parseInt(const std::string& flag, const std::string& value) {
+  const double v = parseDouble(flag, value);
+  if (v != std::floor(v)) throw std::invalid_argument(flag + " needs an integer, got '" + value + "'");
+  return static_cast<int>(v);
+}
+
+void loadStrategyLibraryAnnounced(const std::string& file) {
+  const auto load = gpatlas_core::loadStrategyLibrary(file);
+  if (!load.ok) throw std::invalid_argument(load.message);
+  std::string names;
+  for (const auto& name : load.added) names += " " + name;
+  std::cout << "gpatlas_bench: " << file << " adds the strategies:" << names << std::endl;
+}
+
+// The flags, in order; returns whether --seeds was given.
+bool parseFlags(int argc, char** argv, Options& o) {
+  bool seeds_given = false;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto next = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      printUsage();
+      std::exit(0);
+    } else if (a == "--config") o.config_path = next();
+    else if (a == "--overlay") o.overlays.push_back(next());
+    else if (a == "--set") o.overrides.push_back(next());
+    else if (a == "--object") o.objects.push_back({next(), o.scale});
+    else if (a == "--scale") {
+      o.scale = parseDouble(a, next());
+      if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
+    }
+    else if (a == "--size-m") {
+      o.procedural_size_m = parseDouble(a, next());
+      if (!(*o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
+    }
+    else if (a == "--strategy") {
+      for (const auto& s : splitList(next())) o.strategies.push_back(s);
+    } else if (a == "--strategy-library") loadStrategyLibraryAnnounced(next());
+    else if (a == "--probe") o.probe = next();
+    else if (a == "--seeds") {
+      o.seeds.clear();
+      for (const auto& s : splitList(next())) o.seeds.push_back(parseInt(a, s));
+      seeds_given = true;
+    } else if (a == "--max-actions") o.max_actions = parseInt(a, next());
+    else if (a == "--jobs") o.jobs = parseInt(a, next());
+    else if (a == "--out") o.out = next();
+    else if (a == "--urdf") o.urdf_path = next();
+    else if (a == "--curve-every") o.curve_every = parseInt(a, next());
+    else if (a == "--no-reachability") o.reachability = false;
+    else if (a == "--reach-directions") o.reach_directions = parseInt(a, next());
+    else if (a == "--verbose") o.verbose = true;
+    else if (a == "--no-plot") o.plot = false;
+    else if (a == "--save-meshes") o.save_meshes = true;
+    else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
+  }
+  return seeds_given;
+}
+
+// The config file with its overlays and --set overrides, read into o.pipeline and o.simulation;
+// the robot's URDF; the config's strategy libraries.
+void readConfiguration(Options& o) {
+  std::string error;
+  const std::unique_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
+  if (!params) throw std::invalid_argument("--config: " + error);
+  std::vector<std::string> overlaid;
+  for (const std::string& path : o.overlays) {
+    const std::unique_ptr<gpatlas_core::YamlParameters> overlay = gpatlas_core::YamlParameters::fromFile(path, &error);
+    if (!overlay || !params->overlay(*overlay, &error)) throw std::invalid_argument("--overlay " + path + ": " + error);
+    for (const std::string& name : overlay->leafNames()) overlaid.push_back(name + " (" + path + ")");
+  }
+  for (const std::string& assignment : o.overrides)
+    if (!params->set(assignment, &error)) throw std::invalid_argument("--set: " + error);
+  gpatlas_core::ParamReader reader(*params);
+  probe_sim::readPipeline(reader, &o.pipeline);
+  probe_sim::readSimulation(reader, &o.simulation);
+  if (!reader.ok()) throw std::invalid_argument(o.config_path + ": " + reader.errors());
+  if (!o.probe.empty()) o.simulation.probe = o.probe;
+  if (o.procedural_size_m) o.simulation.procedural_size_m = *o.procedural_size_m;
+  if (const std::string problem = probe_sim::validate(o.simulation); !problem.empty())
+    throw std::invalid_argument(o.config_path + ": " + problem);
+  std::ifstream urdf(o.urdf_path);
+  if (!urdf) throw std::invalid_argument("--urdf: cannot read " + o.urdf_path);
+  o.urdf_xml.assign(std::istreambuf_iterator<char>(urdf), std::istreambuf_iterator<char>());
+  // A --set or an overlay of a name no reader knows is a typo, not a setting.
+  std::vector<std::string> given = overlaid;
+  for (const std::string& assignment : o.overrides) given.push_back(assignment);
+  for (const std::string& setting : given) {
+    const std::string key = setting.substr(0, setting.find_first_of("= "));
+    const auto& read = reader.readNames();
+    if (std::find(read.begin(), read.end(), key) == read.end())
+      throw std::invalid_argument(setting + ": no such parameter (see " + o.config_path + ")");
+  }
+  for (const std::string& library : o.pipeline.strategy_choice.libraries) {
+    const auto load = gpatlas_core::loadStrategyLibrary(library);
+    if (!load.ok) throw std::invalid_argument(load.message);
+  }
+}
+
+// What the command line left to the config, and the checks of the whole.
+void completeAndCheck(Options& o, bool seeds_given) {
+  if (o.objects.empty()) o.objects.push_back({o.simulation.object, o.simulation.object_scale});
+  if (o.strategies.empty()) o.strategies.push_back(o.pipeline.strategy_choice.name);
+  if (!seeds_given) o.seeds = {static_cast<int>(o.pipeline.seed)};
+  if (o.max_actions >= 0) o.pipeline.exploration.max_actions = o.max_actions;
+  if (o.reach_directions < 1) throw std::invalid_argument("--reach-directions must be >= 1");
+  if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
+  if (o.seeds.empty()) throw std::invalid_argument("--seeds needs at least one seed");
+  const auto known = gpatlas_core::strategyNames();
+  for (const auto& s : o.strategies)
+    if (std::find(known.begin(), known.end(), s) == known.end()) {
+      std::string list;
+      for (const auto& k : known) list += " " + k;
+      throw std::invalid_argument("unknown strategy '" + s + "'; known:" + list);
+    }
+}
+
+}  // namespace
+
+Options parseArgs(int argc, char** argv, Options defaults) {
+  Options o = std::move(defaults);
+  const bool seeds_given = parseFlags(argc, argv, o);
+  readConfiguration(o);
+  completeAndCheck(o, seeds_given);
+  return o;
+}
+
+}  // namespace gpatlas_bench

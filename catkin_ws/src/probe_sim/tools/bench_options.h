@@ -1,0 +1,51 @@
+#pragma once
+
+// gpatlas_bench's command line, and the configuration file it reads.
+
+#include <probe_sim/pipeline_config.h>
+#include <probe_sim/reachability.h>
+#include <probe_sim/simulation_settings.h>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace gpatlas_bench {
+
+struct Options {
+  struct ObjectSpec {
+    std::string spec;
+    double scale;  // the --scale in force when the --object was given
+  };
+  std::vector<ObjectSpec> objects;
+  double scale{1.0};
+  std::optional<double> procedural_size_m;  // --size-m; otherwise simulation/procedural_size_m
+  std::vector<std::string> strategies;
+  std::string probe;  // --probe; otherwise simulation/probe
+  std::vector<int> seeds{0};
+  int max_actions{-1};  // < 0: the config's exploration/max_actions
+  int jobs{1};
+  std::string out{"bench_out"};
+  std::string config_path;  // the build's config/pipeline.yaml unless --config
+  std::vector<std::string> overlays;  // partial files over it, in order (e.g. config/paper.yaml)
+  std::vector<std::string> overrides;  // --set key=value, in order
+  std::string urdf_path;  // the robot: its head camera and its arm (the build's vito.urdf unless --urdf)
+  std::string urdf_xml;
+  int curve_every{5};
+  bool reachability{true};
+  int reach_directions{probe_sim::ReachabilityConfig().directions};
+  bool verbose{false};
+  bool plot{true};
+  bool save_meshes{false};
+  // Everything else comes from the config file: the pipeline's own Configs and the simulated
+  // scene that probe_sim_node builds from the same file.
+  probe_sim::PipelineConfig pipeline;
+  probe_sim::SimulationSettings simulation;
+};
+
+// The options of a command line over `defaults` (which give this build's config and URDF
+// paths), with the configuration read and checked. Throws std::invalid_argument with the
+// reason; --help prints the usage and exits.
+Options parseArgs(int argc, char** argv, Options defaults);
+
+}  // namespace gpatlas_bench

@@ -1,0 +1,347 @@
+#include "bench_run.h"
+
+#include <gpatlas_core/common/triangle_mesh.h>
+#include <gpatlas_core/exploration/exploration_report.h>
+#include <gpatlas_core/model/surface_model_factory.h>
+#include <gpatlas_core/observations/view_training.h>
+#include <gpatlas_core/observations/view_update.h>
+#include <gpatlas_core/planning/strategy_registry.h>
+#include <gpatlas_geometry/model_measurement.h>
+#include <gpatlas_geometry/segmentation.h>
+#include <gpatlas_motion/touch_approach.h>
+#include <probe_sim/depth_camera.h>
+#include <probe_sim/probe.h>
+#include <probe_sim/scene.h>
+#include <probe_sim/simulation_settings.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <optional>
+#include <sstream>
+
+namespace gpatlas_bench {
+
+namespace {
+
+using gpatlas_core::Vector3;
+
+RunResult failedRun(RunResult r, const std::string& why) {
+  r.error = why;
+  r.stop_reason = "error";
+  return r;
+}
+
+// The object as the pipeline sees it: the camera's cloud segmented, with its table, as the
+// view's training data.
+struct ObjectView {
+  gpatlas_core::ViewTraining training;
+  std::optional<gpatlas_core::SupportPlane> support;
+};
+
+// The cloud as probe_sim_node publishes it (float32 coordinates in the camera's frame), moved to
+// the world frame: the segmentation then sees what the pipeline's sees. The camera's noise follows
+// the run's seed, as in probe_sim_node.
+std::vector<Vector3> captureCloud(const probe_sim::Scene& scene, const Eigen::Isometry3d& camera_pose,
+                                  const probe_sim::SimulationSettings& simulation, int seed) {
+  probe_sim::DepthCamera camera(probe_sim::cameraConfig(simulation, static_cast<std::uint32_t>(seed + 1)), camera_pose);
+  const probe_sim::DepthCloud cloud = camera.capture(scene);
+  std::vector<Vector3> scene_points;
+  for (Eigen::Index i = 0; i < cloud.points_camera.cols(); ++i)
+    scene_points.push_back(camera_pose * Vector3(cloud.points_camera.col(i).cast<float>().cast<double>()));
+  return scene_points;
+}
+
+void printSegmentation(const GroundTruth& gt, int seed, const gpatlas_geometry::SegmentationResult& segmented,
+                       std::mutex& print_mutex) {
+  const Eigen::AlignedBox3d box = gt.mesh.boundingBox();
+  const gpatlas_geometry::SegmentationStats& n = segmented.stats;
+  Eigen::AlignedBox3d kept;
+  for (const Vector3& p : segmented.object_points) kept.extend(p);
+  std::lock_guard<std::mutex> lock(print_mutex);
+  std::cout << "  [" << gt.name << " seed " << seed << "] segmentation: " << segmented.message << "; "
+            << n.input << " points, " << n.after_crop << " in the crop box, " << n.after_voxel << " after the voxel grid, "
+            << n.plane_inliers << " on the " << (segmented.plane_found ? "support plane" : "plane (not a support)")
+            << ", " << n.after_outliers << " after outlier removal; kept from " << kept.min().transpose() << " to "
+            << kept.max().transpose() << " (the truth: " << box.min().transpose() << " to " << box.max().transpose()
+            << ")" << std::endl;
+}
+
+// What the pipeline does with a camera cloud: segmentation, then the view builder. False, with
+// the reason in `why`, when the run cannot go on.
+bool observeObject(const probe_sim::Scene& scene, const GroundTruth& gt, int seed, const Options& o,
+                   std::mutex& print_mutex, ObjectView* view, std::string* why) {
+  const std::optional<Eigen::Isometry3d> camera_pose = probe_sim::cameraPose(o.simulation, o.urdf_xml, why);
+  if (!camera_pose) return false;
+  const gpatlas_geometry::SegmentationResult segmented =
+      gpatlas_geometry::ObjectSegmenter(o.pipeline.segmentation).segment(captureCloud(scene, *camera_pose, o.simulation, seed));
+  if (!segmented.ok) {
+    *why = "segmentation: " + segmented.message;
+    return false;
+  }
+  if (o.verbose) printSegmentation(gt, seed, segmented, print_mutex);
+  if (o.pipeline.use_support_plane && segmented.plane_found)
+    view->support = gpatlas_core::SupportPlane{segmented.plane_normal, segmented.plane_offset};
+  view->training = gpatlas_core::buildViewTraining(segmented.object_points, camera_pose->translation(), view->support,
+                                                   o.pipeline.view, static_cast<std::uint64_t>(seed));
+  if (!view->training.ok) {
+    *why = "view: " + view->training.message;
+    return false;
+  }
+  if (o.verbose) {
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::cout << "  [" << gt.name << " seed " << seed << "] view: " << view->training.message << std::endl;
+  }
+  return true;
+}
+
+// The initial model: the view fitted as the GP nodelet fits it.
+bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pipeline,
+                     std::unique_ptr<gpatlas_core::SurfaceModel>* model, std::string* why) {
+  try {
+    *model = gpatlas_core::makeSurfaceModel(pipeline.model);
+  } catch (const std::exception& e) {
+    *why = std::string("model/type: ") + e.what();
+    return false;
+  }
+  const gpatlas_core::ViewUpdate fit = gpatlas_core::applyView(
+      **model, view.training.points, pipeline.touch, pipeline.tuning.enabled ? &pipeline.tuning.tuner : nullptr);
+  if (!fit.ok) *why = "initial fit failed: " + fit.fit.message;
+  return fit.ok;
+}
+
+// The simulated probe in the scene, moved by the robot's arm when the simulation has one; null,
+// with the reason in `why`, when the arm cannot be built.
+std::unique_ptr<probe_sim::SimulatedProber> makeProber(std::shared_ptr<probe_sim::Scene> scene, const Options& o,
+                                                       std::string* why) {
+  std::unique_ptr<probe_sim::SimulatedProber> prober =
+      probe_sim::makeSimulatedProber(std::move(scene), o.simulation, o.pipeline.approach);
+  if (!o.simulation.use_arm) return prober;
+  gpatlas_motion::Arm::Config arm_config;
+  arm_config.base_link = o.simulation.world_frame;
+  arm_config.tip_link = o.simulation.tip_frame;
+  try {
+    prober->setArm(std::make_shared<const gpatlas_motion::Arm>(gpatlas_motion::Arm::fromUrdfString(o.urdf_xml, arm_config)));
+  } catch (const std::exception& e) {
+    *why = std::string("simulation/use_arm: ") + e.what();
+    return nullptr;
+  }
+  return prober;
+}
+
+// Approach planning on the model (approach/enabled), for the arm's links with approach/use_arm.
+bool makeApproacher(const gpatlas_core::SurfaceModel& model, const std::optional<gpatlas_core::SupportPlane>& support,
+                    const Options& o, std::unique_ptr<gpatlas_motion::ModelTouchApproacher>* approacher,
+                    std::string* why) {
+  const gpatlas_core::ApproachConfig& approach = o.pipeline.approach;
+  if (!approach.enabled) return true;
+  try {
+    std::shared_ptr<const gpatlas_motion::Arm> planned_arm;
+    if (approach.use_arm) {
+      gpatlas_motion::Arm::Config arm_config;
+      arm_config.base_link = approach.arm_base_link;
+      arm_config.tip_link = approach.arm_tip_link;
+      arm_config.link_radius_m = approach.arm_link_radius_m;
+      planned_arm = std::make_shared<const gpatlas_motion::Arm>(gpatlas_motion::Arm::fromUrdfString(o.urdf_xml, arm_config));
+    }
+    *approacher = std::make_unique<gpatlas_motion::ModelTouchApproacher>(model, approach, o.pipeline.collision_map.grid,
+                                                                         support, planned_arm);
+  } catch (const std::exception& e) {
+    *why = std::string("approach/use_arm: ") + e.what();
+    return false;
+  }
+  return true;
+}
+
+// Truth-to-predicted RMSE over parts of the truth (GroundTruth's masks); NaN where not measured.
+struct TruthSubsetRmse {
+  double reachable{std::nan("")};
+  double seen{std::nan("")};
+  double unseen{std::nan("")};
+};
+
+// The model measured against the object's truth; with `subsets`, also over the parts of the
+// truth the object's masks mark.
+gpatlas_geometry::ModelMeasurement measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
+                                           const Options& o, gpatlas_geometry::MeasurementRequest request,
+                                           TruthSubsetRmse* subsets = nullptr) {
+  request.truth_distances = subsets && (gt.reachability_measured || !gt.sample_seen.empty());
+  gpatlas_geometry::ModelMeasurement measured = gpatlas_geometry::measureModel(model, gt.mesh, o.pipeline.mesh, request);
+  if (o.verbose) {
+    std::cout << "  [" << gt.name << "] mesh: " << measured.surface.mesh.triangles.size() << " triangles on a "
+              << measured.surface.grid_size.transpose() << " grid in " << measured.mesh_s << " s" << std::endl;
+    if (measured.surface.ok && !measured.surface.mesh.empty())
+      std::cout << "  [" << gt.name << "] shape metrics in " << measured.metrics_s << " s" << std::endl;
+  }
+  const std::vector<double>& distances = measured.shape.truth_to_predicted_distances;
+  if (measured.shape.ok && subsets && gt.reachability_measured && distances.size() == gt.sample_reachable.size())
+    subsets->reachable = gpatlas_geometry::maskedRmse(distances, gt.sample_reachable, true);
+  if (measured.shape.ok && subsets && distances.size() == gt.sample_seen.size()) {
+    subsets->seen = gpatlas_geometry::maskedRmse(distances, gt.sample_seen, true);
+    subsets->unseen = gpatlas_geometry::maskedRmse(distances, gt.sample_seen, false);
+  }
+  measured.shape.truth_to_predicted_distances = {};  // 20000 numbers per run, not needed after this
+  return measured;
+}
+
+// A point of the shape's curve (history.csv): the sampled variance and the shape error.
+void measureInto(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt, const Options& o,
+                 gpatlas_core::ExplorationRecord& record) {
+  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, gpatlas_geometry::MeasurementRequest());
+  record.sampled_max_variance = measured.sampled_max_variance;
+  if (measured.shape.ok) {
+    record.rmse_pred_to_gt_m = measured.shape.rmse_predicted_to_truth;
+    record.rmse_gt_to_pred_m = measured.shape.rmse_truth_to_predicted;
+  }
+}
+
+// After each action: the curve's point every --curve-every actions, and with --verbose one line
+// that says how far the touch's target was from the true surface.
+gpatlas_core::Explorer::Progress progressOf(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
+                                            const std::string& strategy_name, int seed, const Options& o,
+                                            std::mutex& print_mutex) {
+  std::shared_ptr<const gpatlas_geometry::MeshDistanceIndex> gt_index;
+  if (o.verbose) gt_index = std::make_shared<const gpatlas_geometry::MeshDistanceIndex>(gt.mesh);
+  return [&model, &gt, strategy_name, seed, &o, &print_mutex, gt_index](gpatlas_core::ExplorationRecord& rec) {
+    if (o.curve_every > 0 && (rec.index + 1) % o.curve_every == 0) measureInto(model, gt, o, rec);
+    if (!o.verbose) return;
+    std::ostringstream line;
+    line << "  [" << gt.name << " " << strategy_name << " seed " << seed << "] " << gpatlas_core::describeAction(rec);
+    if (!rec.touch.points.empty()) {
+      // How far the planned target is from the real surface: a touch aimed far from it
+      // tells the prediction (not the planner) is wrong there.
+      const Vector3& target = rec.touch.points.back();
+      line << ", target (" << std::setprecision(3) << target.x() << ", " << target.y() << ", " << target.z() << ") m, "
+           << 1000.0 * gt_index->distance(target) << " mm from the true surface";
+    }
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::cout << line.str() << std::endl;
+  };
+}
+
+// The loop's counts and timings.
+void recordLoop(const gpatlas_core::ExplorationResult& result, const gpatlas_core::SurfaceModel& model, RunResult& r) {
+  r.actions = result.actions;
+  r.contacts = result.contacts;
+  r.stop_reason = result.stop_reason;
+  r.n_train = model.observations().size();
+  r.max_evaluated_variance = result.final_max_evaluated_variance;
+  std::vector<double> plan_ms, update_ms;
+  for (const auto& rec : result.records) {
+    plan_ms.push_back(rec.plan_ms);
+    update_ms.push_back(rec.update_ms);
+  }
+  r.plan_ms_median = median(plan_ms);
+  r.update_ms_median = median(update_ms);
+  r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
+  r.recent_target_error_m = gpatlas_core::recentTargetError(result);
+  r.unreachable_touches = result.unreachable_touches;
+  r.unreachable_candidates = result.unreachable_candidates;
+  r.final_unreachable_candidates = result.final_unreachable_candidates;
+  r.approach_collisions = result.approach_collisions;
+  r.retreat_collisions = result.retreat_collisions;
+}
+
+// The final model against the truth: the run's shape metrics, calibration and status, saved
+// with --save-meshes; the last action's record gets the same numbers.
+void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt, const Options& o,
+                       gpatlas_core::ExplorationResult& result, RunResult& r) {
+  const std::string mesh_file =
+      o.save_meshes ? (std::filesystem::path(o.out) / (r.object + "_" + r.strategy + "_seed" + std::to_string(r.seed) + ".ply")).string()
+                    : std::string();
+  gpatlas_geometry::MeasurementRequest request;
+  // The final model's sampled variance does not depend on the curve's schedule.
+  request.sampled_max_variance = !result.records.empty() && std::isnan(result.records.back().sampled_max_variance);
+  request.vertex_variances = !mesh_file.empty();  // they only colour a saved mesh
+  request.calibration = true;
+  TruthSubsetRmse subsets;
+  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, request, &subsets);
+  if (!mesh_file.empty() && measured.surface.ok && !measured.surface.mesh.empty()) {
+    const std::string error = gpatlas_core::writePly(measured.surface.mesh, mesh_file);
+    if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
+  }
+  r.metrics = measured.shape;
+  r.rmse_gt_to_pred_reachable = subsets.reachable;
+  r.rmse_gt_to_pred_seen = subsets.seen;
+  r.rmse_gt_to_pred_unseen = subsets.unseen;
+  if (measured.calibration.ok) {
+    r.calibration = measured.calibration.fraction;
+    r.position_sd_m = measured.calibration.median_position_sd_m;
+  }
+  // A run that leaves no predicted surface is an error whatever the loop said.
+  r.status = gpatlas_core::runStatus(result, r.metrics.ok, r.metrics.message);
+  r.converged = r.status == "converged";
+  if (!r.metrics.ok) r.error = r.metrics.message;
+  if (result.records.empty()) return;
+  gpatlas_core::ExplorationRecord& last = result.records.back();
+  if (std::isnan(last.sampled_max_variance)) last.sampled_max_variance = measured.sampled_max_variance;
+  if (r.metrics.ok) {
+    last.rmse_pred_to_gt_m = r.metrics.rmse_predicted_to_truth;
+    last.rmse_gt_to_pred_m = r.metrics.rmse_truth_to_predicted;
+  }
+}
+
+}  // namespace
+
+RunResult runIdentity(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o) {
+  RunResult r;
+  r.object = gt.name;
+  r.strategy = strategy_name;
+  r.probe = o.simulation.probe;
+  r.seed = seed;
+  r.v_max = o.pipeline.exploration.v_max;
+  return r;
+}
+
+RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
+                 std::mutex& print_mutex) {
+  const auto start = std::chrono::steady_clock::now();
+  const probe_sim::PipelineConfig& pipeline = o.pipeline;
+  RunResult r = runIdentity(gt, strategy_name, seed, o);
+  std::string why;
+  // The scene probe_sim_node simulates, from the same simulation section.
+  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, probe_sim::sceneConfig(o.simulation));
+  ObjectView view;
+  std::unique_ptr<gpatlas_core::SurfaceModel> model;
+  if (!observeObject(*scene, gt, seed, o, print_mutex, &view, &why) || !fitInitialModel(view, pipeline, &model, &why))
+    return failedRun(r, why);
+
+  gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
+  strategy_config.seed = static_cast<std::uint64_t>(seed);
+  const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
+  const std::unique_ptr<probe_sim::SimulatedProber> prober = makeProber(scene, o, &why);
+  if (!prober) return failedRun(r, why);
+  gpatlas_core::Explorer::Config loop = pipeline.exploration;
+  loop.seed = static_cast<std::uint64_t>(seed);
+  gpatlas_core::EvidenceRule evidence = pipeline.evidence;
+  evidence.support_plane = view.support;
+
+  gpatlas_core::ExplorationRecord initial;
+  initial.index = -1;
+  initial.n_train = model->observations().size();
+  if (o.curve_every > 0) measureInto(*model, gt, o, initial);
+  std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
+  if (!makeApproacher(*model, view.support, o, &approacher, &why)) return failedRun(r, why);
+  gpatlas_core::ExplorationResult result =
+      gpatlas_core::Explorer(loop).run(*model, *strategy, *prober, pipeline.touch, evidence,
+                                       progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());
+
+  recordLoop(result, *model, r);
+  measureFinalModel(*model, gt, o, result, r);
+  r.history.push_back(initial);
+  r.history.insert(r.history.end(), result.records.begin(), result.records.end());
+  r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return r;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t m = v.size() / 2;
+  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+}  // namespace gpatlas_bench
