@@ -178,7 +178,7 @@ std::optional<Eigen::Isometry3d> cameraPose(const SimulationSettings& s, const s
 
 std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene> scene,
                                                      const SimulationSettings& settings,
-                                                     const gpatlas_core::ApproachConfig& approach) {
+                                                     const gpatlas_motion::ApproachConfig& approach) {
   ProbeModelConfig model_config;
   model_config.sphere.radius_m = settings.probe_radius_m;
   // Strokes start at the approach planner's approach pose.

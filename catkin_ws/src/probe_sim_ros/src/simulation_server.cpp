@@ -5,6 +5,7 @@
 #include <gpatlas_conversions/conversions.h>
 #include <gpatlas_conversions/ros_parameters.h>
 #include <gpatlas_core/config/config_readers.h>
+#include <gpatlas_motion/config_readers.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/JointState.h>
@@ -162,7 +163,7 @@ std::string SimulationServer::readSettings() {
   const gpatlas_conversions::RosParameterSource source(pnh_);
   gpatlas_core::ParamReader reader(source);
   readSimulation(reader, &settings_);
-  gpatlas_core::readApproach(reader, &approach_);
+  gpatlas_motion::readApproach(reader, &approach_);
   seed_ = gpatlas_core::readSeed(reader);
   std::string errors = reader.errors();
   const std::string invalid = validate(settings_);

@@ -1,7 +1,8 @@
 #pragma once
 
-// The one place where ROS parameters become core Configs: the core's readers
-// (gpatlas_core/config/config_readers.h, gpatlas_geometry/config_readers.h) on the parameter server. Every reader starts from the
+// The one place where ROS parameters become Configs: the packages' readers
+// (gpatlas_core/config/config_readers.h, gpatlas_geometry/config_readers.h,
+// gpatlas_motion/config_readers.h) on the parameter server. Every reader starts from the
 // Config's defaults, overrides what the parameter server has, and collects every invalid value
 // (with the parameter's full name) into one error message.
 
@@ -9,6 +10,7 @@
 #include <gpatlas_core/config/parameters.h>
 #include <gpatlas_conversions/ros_parameters.h>
 #include <gpatlas_geometry/config_readers.h>
+#include <gpatlas_motion/config_readers.h>
 
 #include <ros/node_handle.h>
 
@@ -22,6 +24,7 @@ using gpatlas_core::readExplorer;
 using gpatlas_core::readFrames;
 using gpatlas_core::readGpis;
 using gpatlas_geometry::readMesher;
+using gpatlas_motion::readApproach;
 using gpatlas_core::readSeed;
 using gpatlas_geometry::readSegmenter;
 using gpatlas_core::readStrategy;

@@ -5,7 +5,7 @@
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
 
-#include <gpatlas_core/config/approach_config.h>
+#include <gpatlas_motion/approach_config.h>
 #include <gpatlas_core/config/parameters.h>
 
 #include <Eigen/Core>
@@ -74,7 +74,7 @@ SceneConfig sceneConfig(const SimulationSettings& settings);
 // planner's probe body and rest (`approach`). Throws std::runtime_error for an unknown probe.
 std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene> scene,
                                                      const SimulationSettings& settings,
-                                                     const gpatlas_core::ApproachConfig& approach);
+                                                     const gpatlas_motion::ApproachConfig& approach);
 // The camera's intrinsics and noise; `seed` draws its noise.
 DepthCamera::Config cameraConfig(const SimulationSettings& settings, std::uint32_t seed);
 // The camera's pose: camera_eye_m looking at camera_target_m when given, otherwise the fixed

@@ -5,7 +5,6 @@
 // nothing else. The nodelets read them from the ROS parameter server, gpatlas_bench from the
 // file itself.
 
-#include "gpatlas_core/config/approach_config.h"
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/model/surface_model_factory.h"
@@ -66,6 +65,5 @@ void readExplorer(ParamReader& r, Explorer::Config* c);
 void readStrategyChoice(ParamReader& r, StrategyChoice* c);
 void readStrategy(ParamReader& r, StrategyConfig* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);
-void readApproach(ParamReader& r, ApproachConfig* c);
 
 }  // namespace gpatlas_core
