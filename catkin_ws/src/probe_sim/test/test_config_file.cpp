@@ -1,5 +1,5 @@
-// config/pipeline.yaml against the readers of every Config it feeds: the pipeline's
-// (probe_sim::readPipeline) and the simulated scene's (probe_sim::readSimulation).
+// config/pipeline.yaml against the readers of every Config it feeds (probe_sim::readPipeline),
+// and probe_sim's config/simulation.yaml against the simulated scene's (probe_sim::readSimulation).
 #include "probe_sim/simulation_settings.h"
 
 #include "probe_sim/pipeline_config.h"
@@ -9,45 +9,49 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <functional>
 #include <memory>
 #include <set>
 
 namespace {
 
-// The repository's file, read by every reader it feeds.
+// One of the repository's files, read by the readers it feeds.
 struct ReadFile {
   std::string error;  // before params, which its constructor fills it for
   std::unique_ptr<gpatlas_core::YamlParameters> params;
   std::unique_ptr<gpatlas_core::ParamReader> reader;
-  probe_sim::PipelineConfig pipeline;
-  probe_sim::SimulationSettings simulation;
 
-  ReadFile() : params(gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error)) {
+  ReadFile(const std::string& path, const std::function<void(gpatlas_core::ParamReader&)>& read)
+      : params(gpatlas_core::YamlParameters::fromFile(path, &error)) {
     if (!params) return;
     reader = std::make_unique<gpatlas_core::ParamReader>(*params);
-    probe_sim::readPipeline(*reader, &pipeline);
-    probe_sim::readSimulation(*reader, &simulation);
+    read(*reader);
   }
 };
 
-// The file sets exactly what the readers read: no key that no Config reads (a typo or a removed
+ReadFile pipelineFile(probe_sim::PipelineConfig* pipeline) {
+  return ReadFile(GPATLAS_PIPELINE_CONFIG, [pipeline](gpatlas_core::ParamReader& r) { probe_sim::readPipeline(r, pipeline); });
+}
+
+ReadFile simulationFile(probe_sim::SimulationSettings* simulation) {
+  return ReadFile(GPATLAS_SIMULATION_CONFIG,
+                  [simulation](gpatlas_core::ParamReader& r) { probe_sim::readSimulation(r, simulation); });
+}
+
+// The file sets exactly what its readers read: no key that no Config reads (a typo or a removed
 // option), and no parameter that the file leaves to a code default.
-TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
-  const ReadFile file;
+void expectSetsExactlyWhatIsRead(const ReadFile& file) {
   ASSERT_TRUE(file.params) << file.error;
   const gpatlas_core::ParamReader& reader = *file.reader;
-  const gpatlas_core::YamlParameters* params = file.params.get();
   EXPECT_TRUE(reader.ok()) << reader.errors();
   EXPECT_TRUE(reader.defaultedNames().empty()) << "not set in the file: " << reader.defaulted();
   const std::set<std::string> read(reader.readNames().begin(), reader.readNames().end());
-  for (const std::string& key : params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
-  EXPECT_EQ(probe_sim::validate(file.simulation), "");
+  for (const std::string& key : file.params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
 }
 
 // The code's defaults are the file's values, so that a node started without the file behaves
 // as the pipeline does.
-TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
-  const ReadFile file;
+void expectTheCodesDefaultsAreTheFilesValues(const ReadFile& file) {
   ASSERT_TRUE(file.params) << file.error;
   const gpatlas_core::ParamReader& reader = *file.reader;
   const gpatlas_core::YamlParameters* params = file.params.get();
@@ -67,6 +71,27 @@ TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
       EXPECT_EQ(params->text(name).value_or("?"), in_code->text("v").value_or("")) << name;
     }
   }
+}
+
+TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
+  probe_sim::PipelineConfig pipeline;
+  expectSetsExactlyWhatIsRead(pipelineFile(&pipeline));
+}
+
+TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
+  probe_sim::PipelineConfig pipeline;
+  expectTheCodesDefaultsAreTheFilesValues(pipelineFile(&pipeline));
+}
+
+TEST(SimulationYaml, SetsEveryParameterTheReaderReadsAndNothingElse) {
+  probe_sim::SimulationSettings simulation;
+  expectSetsExactlyWhatIsRead(simulationFile(&simulation));
+  EXPECT_EQ(probe_sim::validate(simulation), "");
+}
+
+TEST(SimulationYaml, TheCodesDefaultsAreTheFilesValues) {
+  probe_sim::SimulationSettings simulation;
+  expectTheCodesDefaultsAreTheFilesValues(simulationFile(&simulation));
 }
 
 // config/paper.yaml, the paper's configuration over the file: every name it sets is a parameter,
