@@ -176,8 +176,10 @@ void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->min_surprise_fraction = r.number("evidence/min_surprise_fraction", c->min_surprise_fraction, 1e-3, 1.0);
 }
 
+double readVMax(ParamReader& r, double fallback) { return r.number("exploration/v_max", fallback, 1e-12, 1e12); }
+
 void readExplorer(ParamReader& r, Explorer::Config* c) {
-  c->v_max = r.number("exploration/v_max", c->v_max, 1e-12, 1e12);
+  c->v_max = readVMax(r, c->v_max);
   c->max_actions = r.integer("exploration/max_actions", c->max_actions, 0, 1000000);
   c->max_consecutive_failures = r.integer("exploration/max_consecutive_failures", c->max_consecutive_failures, 1, 1000000);
   c->max_approach_attempts = r.integer("exploration/max_approach_attempts", c->max_approach_attempts, 1, 1000);

@@ -14,7 +14,9 @@
 
 #include <ros/node_handle.h>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace gpatlas_ros {
 
@@ -33,6 +35,7 @@ using gpatlas_core::readTouchObservations;
 using gpatlas_core::readTuning;
 using gpatlas_core::readUseSupportPlane;
 using gpatlas_core::readViewTraining;
+using gpatlas_core::readVMax;
 
 // The exploration node's own settings (launch parameters, not config/pipeline.yaml's: the file
 // holds what the pipeline and the bench share).
@@ -65,6 +68,20 @@ class RosParamReader : private detail::SourceHolder, public gpatlas_core::ParamR
 };
 
 void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c);
+
+// What the servers that hold or rebuild the surface model (gp_model, atlas_planner,
+// collision_map) read first, alike: the frames, the seed, whether the table is used, the model,
+// and the plugin libraries (strategy_libraries: strategies and surface models of your own).
+struct ServerPreamble {
+  gpatlas_core::PipelineFrames frames;
+  std::uint64_t seed{0};
+  bool use_support_plane{true};
+  gpatlas_core::SurfaceModelConfig model;
+  gpatlas_core::StrategyChoice strategy_choice;
+};
+// Reads the preamble and loads its plugin libraries (loadPluginLibraries), so that a model or a
+// strategy of your own can be built after it.
+ServerPreamble readServerPreamble(gpatlas_core::ParamReader& reader, const std::string& who);
 
 // Loads `libraries` (strategy_libraries: strategies and surface models of your own,
 // strategy_library.h), logging what each adds under `who`; a library that fails is an invalid

@@ -62,6 +62,9 @@ bool readUseSupportPlane(ParamReader& r);
 void readTouchObservations(ParamReader& r, TouchObservationConfig* c);
 void readEvidence(ParamReader& r, EvidenceRule* c);
 void readExplorer(ParamReader& r, Explorer::Config* c);
+// The variance threshold V_max (exploration/v_max), for the loop (readExplorer) and for whoever
+// else needs it alone (the planner's default, the displayed colour scale).
+double readVMax(ParamReader& r, double fallback = Explorer::Config().v_max);
 void readStrategyChoice(ParamReader& r, StrategyChoice* c);
 void readStrategy(ParamReader& r, StrategyConfig* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);
