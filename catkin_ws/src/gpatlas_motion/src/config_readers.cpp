@@ -8,10 +8,7 @@ void readApproach(gpatlas_core::ParamReader& r, ApproachConfig* c) {
   c->occupied_probability = r.number("approach/occupied_probability", c->occupied_probability, 1e-6, 1.0 - 1e-6);
   c->approach_distance_m = r.number("approach/approach_distance_m", c->approach_distance_m, 1e-3, 1.0);
   c->clearance_m = r.number("approach/clearance_m", c->clearance_m, 0.0, 0.5);
-  c->contact_zone_m = r.number("approach/contact_zone_m", c->contact_zone_m, 0.0, 0.5);
   c->max_planning_time_s = r.number("approach/max_planning_time_s", c->max_planning_time_s, 1e-3, 60.0);
-  c->workspace_margin_m = r.number("approach/workspace_margin_m", c->workspace_margin_m, 0.0, 5.0);
-  c->check_resolution_m = r.number("approach/check_resolution_m", c->check_resolution_m, 1e-4, 0.1);
   c->max_tilt_deg = r.number("approach/max_tilt_deg", c->max_tilt_deg, 0.0, 89.0);
   c->tilt_step_deg = r.number("approach/tilt_step_deg", c->tilt_step_deg, 0.1, 89.0);
   c->tilt_azimuths = r.integer("approach/tilt_azimuths", c->tilt_azimuths, 1, 64);
@@ -22,9 +19,6 @@ void readApproach(gpatlas_core::ParamReader& r, ApproachConfig* c) {
   c->arm_base_link = r.text("approach/arm_base_link", c->arm_base_link);
   c->arm_tip_link = r.text("approach/arm_tip_link", c->arm_tip_link);
   c->arm_link_radius_m = r.number("approach/arm_link_radius_m", c->arm_link_radius_m, 1e-3, 0.5);
-  c->arm_check_step_rad = r.number("approach/arm_check_step_rad", c->arm_check_step_rad, 1e-4, 0.5);
-  c->arm_reachability_ik_restarts =
-      r.integer("approach/arm_reachability_ik_restarts", c->arm_reachability_ik_restarts, 1, 1000);
   c->arm_joint_speed_rad_s = r.number("approach/arm_joint_speed_rad_s", c->arm_joint_speed_rad_s, 1e-3, 10.0);
 }
 

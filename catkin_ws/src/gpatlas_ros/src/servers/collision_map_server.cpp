@@ -342,7 +342,7 @@ std::shared_ptr<const octomap::OcTree> CollisionMapServer::probabilitiesOf(const
       *error = grid.message;
       return nullptr;
     }
-    tree = gpatlas_motion::collisionOctree(grid, map_config_.occupied_probability);
+    tree = gpatlas_motion::collisionOctree(grid, approach_config_.occupied_probability);
   } catch (const std::exception& e) {
     *error = e.what();
     return nullptr;

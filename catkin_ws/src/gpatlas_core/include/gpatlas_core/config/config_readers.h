@@ -29,10 +29,10 @@ struct PipelineFrames {
   double tf_timeout_s{0.5};
 };
 
-// The collision map's settings (paper section 4.1).
+// The collision map's settings (paper section 4.1). Its obstacle threshold is the approach
+// planner's (approach/occupied_probability), which plans on it.
 struct CollisionMapConfig {
   OccupancyGridBuilder::Config grid;
-  double occupied_probability{0.5};
 };
 
 // The tuning step after each new view.
