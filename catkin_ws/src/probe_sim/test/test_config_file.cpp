@@ -9,7 +9,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
 #include <functional>
+#include <map>
 #include <memory>
 #include <set>
 
@@ -73,6 +75,56 @@ void expectTheCodesDefaultsAreTheFilesValues(const ReadFile& file) {
   }
 }
 
+// The leaf keys of a YAML file of nested blocks ("key: value" lines, two-space indents), by full
+// name, each with whether it has its comment: on its own line, or a comment line just above it.
+std::map<std::string, bool> leafKeysWithComments(const std::string& path) {
+  std::map<std::string, bool> keys;
+  std::ifstream file(path);
+  std::vector<std::pair<std::size_t, std::string>> sections;  // indent and name of the open ones
+  bool comment_above = false;
+  std::string line;
+  while (std::getline(file, line)) {
+    const std::size_t indent = line.find_first_not_of(' ');
+    if (indent == std::string::npos) {
+      comment_above = false;
+      continue;
+    }
+    if (line[indent] == '#') {
+      comment_above = true;
+      continue;
+    }
+    const std::size_t colon = line.find(':', indent);
+    const std::string key = line.substr(indent, colon - indent);
+    const std::string rest = colon == std::string::npos ? "" : line.substr(colon + 1);
+    const std::size_t hash = rest.find('#');
+    const bool has_value = rest.substr(0, hash).find_first_not_of(' ') != std::string::npos;
+    while (!sections.empty() && sections.back().first >= indent) sections.pop_back();
+    if (has_value) {
+      std::string name;
+      for (const auto& section : sections) name += section.second + "/";
+      keys[name + key] = hash != std::string::npos || comment_above;
+    } else {
+      sections.emplace_back(indent, key);
+    }
+    comment_above = false;
+  }
+  return keys;
+}
+
+// The comments are the configuration reference: a key cannot come without its documentation.
+void expectEveryKeyHasItsComment(const std::string& path) {
+  std::string error;
+  const auto params = gpatlas_core::YamlParameters::fromFile(path, &error);
+  ASSERT_TRUE(params) << error;
+  const std::map<std::string, bool> keys = leafKeysWithComments(path);
+  std::vector<std::string> names;
+  for (const auto& [name, commented] : keys) {
+    names.push_back(name);
+    EXPECT_TRUE(commented) << path << ": '" << name << "' has no comment on its line or just above it";
+  }
+  EXPECT_EQ(names, params->leafNames()) << "the lines of " << path << " read as keys, against the YAML parser";
+}
+
 TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
   probe_sim::PipelineConfig pipeline;
   expectSetsExactlyWhatIsRead(pipelineFile(&pipeline));
@@ -82,6 +134,10 @@ TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
   probe_sim::PipelineConfig pipeline;
   expectTheCodesDefaultsAreTheFilesValues(pipelineFile(&pipeline));
 }
+
+TEST(PipelineYaml, EveryKeyHasItsComment) { expectEveryKeyHasItsComment(GPATLAS_PIPELINE_CONFIG); }
+
+TEST(SimulationYaml, EveryKeyHasItsComment) { expectEveryKeyHasItsComment(GPATLAS_SIMULATION_CONFIG); }
 
 TEST(SimulationYaml, SetsEveryParameterTheReaderReadsAndNothingElse) {
   probe_sim::SimulationSettings simulation;
