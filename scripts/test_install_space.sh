@@ -69,7 +69,7 @@ for pkg in gpatlas_ros probe_sim_ros probe_sim; do
     *) problem+="rospack find $pkg: '$where' is not in $install; " ;;
   esac
 done
-for file in share/gpatlas_ros/config/pipeline.yaml share/gpatlas_ros/scripts/plot_exploration.py \
+for file in share/gpatlas_ros/config/pipeline.yaml share/probe_sim/config/simulation.yaml share/gpatlas_ros/scripts/plot_exploration.py \
             share/gpatlas_ros/nodelet_plugins.xml share/gpatlas_ros/launch/pipeline.launch \
             share/gpatlas_ros/rviz/exploration.rviz share/probe_sim_ros/launch/sim_exploration.launch \
             share/probe_sim_ros/rviz/sim.rviz lib/gpatlas_ros/exploration_node lib/gpatlas_ros/plot_exploration.py \
@@ -79,6 +79,9 @@ done
 # gpatlas_bench --plot runs the script whose path is compiled in: it must be the installed one.
 bench_script=$(strings "$install/lib/probe_sim/gpatlas_bench" 2>/dev/null | grep -o '/[^"]*plot_bench\.py' | head -n 1)
 [ "$bench_script" = "$install/lib/probe_sim/plot_bench.py" ] || problem+="the installed gpatlas_bench runs '$bench_script'; "
+# ... and reads the installed simulation file by default.
+bench_scene=$(strings "$install/lib/probe_sim/gpatlas_bench" 2>/dev/null | grep -o '/[^"]*simulation\.yaml' | head -n 1)
+[ "$bench_scene" = "$install/share/probe_sim/config/simulation.yaml" ] || problem+="the installed gpatlas_bench reads '$bench_scene'; "
 record installed_files "$problem" $((SECONDS - start))
 
 # 3. A short simulated exploration from the install space.

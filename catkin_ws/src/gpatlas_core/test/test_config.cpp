@@ -61,6 +61,23 @@ TEST(YamlParameters, OverridesAndBadInputSayWhatIsWrong) {
   EXPECT_FALSE(YamlParameters::fromString("- just\n- a list\n", &error));
 }
 
+// exploration/v_max has one reader: the loop's section reader and the nodes that need the
+// threshold alone read the same value with the same checks.
+TEST(Readers, VMaxHasOneReader) {
+  std::string error;
+  auto params = YamlParameters::fromString("exploration: {v_max: 0.02, max_actions: 7}\n", &error);
+  ASSERT_TRUE(params) << error;
+  ParamReader reader(*params);
+  gpatlas_core::Explorer::Config loop;
+  gpatlas_core::readExplorer(reader, &loop);
+  EXPECT_DOUBLE_EQ(loop.v_max, 0.02);
+  EXPECT_DOUBLE_EQ(gpatlas_core::readVMax(reader), 0.02);
+  ASSERT_TRUE(params->set("exploration/v_max=0", &error)) << error;
+  ParamReader strict(*params);
+  EXPECT_DOUBLE_EQ(gpatlas_core::readVMax(strict), gpatlas_core::Explorer::Config().v_max);
+  EXPECT_NE(strict.errors().find("exploration/v_max"), std::string::npos) << strict.errors();
+}
+
 // The part of a 5 cm sphere at (0.7, 0, 0.05) that a camera at `eye` sees (on a convex
 // shape: the points whose normal faces the camera).
 std::vector<Vector3> sphereView(int n, const Vector3& eye) {

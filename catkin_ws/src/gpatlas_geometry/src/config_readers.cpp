@@ -17,14 +17,7 @@ void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
   c->voxel_leaf_m = r.number("segmentation/voxel_leaf_m", c->voxel_leaf_m, 0.0, 1.0);
   c->remove_plane = r.flag("segmentation/remove_plane", c->remove_plane);
   c->plane_distance_m = r.number("segmentation/plane_distance_m", c->plane_distance_m, 1e-5, 1.0);
-  c->plane_max_tilt_deg = r.number("segmentation/plane_max_tilt_deg", c->plane_max_tilt_deg, 0.1, 90.0);
-  c->plane_max_fraction_below =
-      r.number("segmentation/plane_max_fraction_below", c->plane_max_fraction_below, 0.0, 1.0);
-  c->plane_min_inliers = static_cast<std::size_t>(
-      r.integer("segmentation/plane_min_inliers", static_cast<int>(c->plane_min_inliers), 1, 100000000));
   c->outlier_mean_k = r.integer("segmentation/outlier_mean_k", c->outlier_mean_k, 0, 1000);
-  c->outlier_stddev_multiplier =
-      r.number("segmentation/outlier_stddev_multiplier", c->outlier_stddev_multiplier, 1e-3, 100.0);
   c->cluster_tolerance_m = r.number("segmentation/cluster_tolerance_m", c->cluster_tolerance_m, 1e-5, 1.0);
   c->cluster_min_points = static_cast<std::size_t>(
       r.integer("segmentation/cluster_min_points", static_cast<int>(c->cluster_min_points), 1, 100000000));

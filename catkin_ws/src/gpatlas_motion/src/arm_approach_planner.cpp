@@ -171,7 +171,7 @@ ArmMotionPlan ArmApproachPlanner::plan(const Eigen::VectorXd& start, const Eigen
     return plan;
   };
   const ApproachConfig& c = world_->config();
-  if (const std::string problem = gpatlas_core::validate(c); !problem.empty()) return finish("invalid config: " + problem);
+  if (const std::string problem = validate(c); !problem.empty()) return finish("invalid config: " + problem);
   if (std::string problem = world_->checkApproachPose(touch_point, touch_normal); !problem.empty())
     return finish(std::move(problem));
   if (std::string problem = configurationProblem(start); !problem.empty())

@@ -168,7 +168,7 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
     return plan;
   };
   const ApproachConfig& c = impl_->config;
-  if (const std::string problem = gpatlas_core::validate(c); !problem.empty()) return finish("invalid config: " + problem);
+  if (const std::string problem = validate(c); !problem.empty()) return finish("invalid config: " + problem);
   if (!impl_->map) return finish("no collision map yet");
   if (impl_->map->getRoot() == nullptr) return finish("the collision map is empty");
   if (!start_tip.allFinite() || !touch_point.allFinite() || !touch_normal.allFinite() || touch_normal.norm() < 1e-9)

@@ -92,7 +92,7 @@ std::string TouchMotionPlanner::check(const Eigen::Vector3d& point, const Eigen:
 std::optional<Eigen::Vector3d> TouchMotionPlanner::approachDirection(const Eigen::Vector3d& point,
                                                                     const Eigen::Vector3d& outward_normal) const {
   if (!point.allFinite() || !outward_normal.allFinite() || !(outward_normal.norm() > 1e-9)) return std::nullopt;
-  for (const Eigen::Vector3d& direction : gpatlas_core::approachDirections(outward_normal, up_, config_))
+  for (const Eigen::Vector3d& direction : approachDirections(outward_normal, up_, config_))
     if (check(point, direction).empty()) return direction;
   return std::nullopt;
 }

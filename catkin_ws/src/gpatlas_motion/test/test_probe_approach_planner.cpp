@@ -133,9 +133,9 @@ TEST(ProbeApproachPlanner, TheTableIsAnObstacleAndBadInputGetsAReason) {
   EXPECT_THROW(planner.addStaticHalfSpace(Vector3d::Zero(), 0.0), std::invalid_argument);
   ApproachConfig bad;
   bad.occupied_probability = 1.5;
-  EXPECT_FALSE(gpatlas_core::validate(bad).empty());
+  EXPECT_FALSE(gpatlas_motion::validate(bad).empty());
   EXPECT_NE(ProbeApproachPlanner(bad).plan(kStart, kTouch, kNormal).message.find("invalid config"), std::string::npos);
-  EXPECT_TRUE(gpatlas_core::validate(config).empty());
+  EXPECT_TRUE(gpatlas_motion::validate(config).empty());
 }
 
 }  // namespace

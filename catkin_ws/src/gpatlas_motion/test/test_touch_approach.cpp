@@ -42,7 +42,7 @@ gpatlas_core::GpisModel sphereModel() {
 // The probe's clearance from the true sphere along a path of tip positions, sampled every
 // millimetre: the tip's and the shaft's distance from the sphere minus their radii.
 double sphereClearance(const std::vector<Vector3d>& path, const Vector3d& direction,
-                       const gpatlas_core::ProbeGeometry& probe) {
+                       const gpatlas_motion::ProbeGeometry& probe) {
   double clearance = std::numeric_limits<double>::infinity();
   const auto segmentDistance = [](const Vector3d& a, const Vector3d& b, const Vector3d& p) {
     const double t = std::clamp((p - a).dot(b - a) / (b - a).squaredNorm(), 0.0, 1.0);
@@ -97,7 +97,7 @@ TEST(CollisionOctree, EveryNodeKeepsItsProbability) {
 // planned one around it, clear of the true sphere.
 TEST(ModelTouchApproacher, GoesAroundTheModelledObjectToATouchBeneathIt) {
   const gpatlas_core::GpisModel model = sphereModel();
-  gpatlas_core::ApproachConfig config;
+  gpatlas_motion::ApproachConfig config;
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   gpatlas_core::OccupancyGridBuilder::Config grid;
   grid.resolution_m = 0.01;
@@ -125,7 +125,7 @@ TEST(ModelTouchApproacher, GoesAroundTheModelledObjectToATouchBeneathIt) {
 // A slide's retreat leaves from its last waypoint, with the probe along that waypoint's normal.
 TEST(ModelTouchApproacher, ASlideRetreatsFromItsLastWaypoint) {
   const gpatlas_core::GpisModel model = sphereModel();
-  gpatlas_core::ApproachConfig config;
+  gpatlas_motion::ApproachConfig config;
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   gpatlas_core::OccupancyGridBuilder::Config grid;
   gpatlas_motion::ModelTouchApproacher approacher(model, config, grid, std::nullopt);
@@ -151,7 +151,7 @@ TEST(ModelTouchApproacher, ASlideRetreatsFromItsLastWaypoint) {
 // The rest inside the modelled object: every approach is refused with the reason, not planned.
 TEST(ModelTouchApproacher, ARestInsideTheObjectIsRefused) {
   const gpatlas_core::GpisModel model = sphereModel();
-  gpatlas_core::ApproachConfig config;
+  gpatlas_motion::ApproachConfig config;
   config.rest_tip_position_m = kCentre;
   gpatlas_motion::ModelTouchApproacher approacher(model, config, {}, std::nullopt);
   Touch touch;
@@ -169,12 +169,12 @@ namespace {
 // The directions a blocked touch is tried along: the normal first, then rings at the configured
 // tilts, each starting toward up, all distinct unit vectors.
 TEST(ApproachDirections, RingsOfTiltedDirectionsStartTowardUp) {
-  gpatlas_core::ApproachConfig config;
+  gpatlas_motion::ApproachConfig config;
   config.max_tilt_deg = 45.0;
   config.tilt_step_deg = 15.0;
   config.tilt_azimuths = 6;
   const Vector3d normal = Vector3d(1.0, 0.0, -1.0).normalized();
-  const std::vector<Vector3d> directions = gpatlas_core::approachDirections(normal, Vector3d::UnitZ(), config);
+  const std::vector<Vector3d> directions = gpatlas_motion::approachDirections(normal, Vector3d::UnitZ(), config);
   ASSERT_EQ(directions.size(), 1u + 3u * 6u);
   EXPECT_LT((directions.front() - normal).norm(), 1e-12);
   for (std::size_t i = 1; i < directions.size(); ++i) {
@@ -190,11 +190,11 @@ TEST(ApproachDirections, RingsOfTiltedDirectionsStartTowardUp) {
     EXPECT_GT(first.z(), normal.z());
   }
   // A normal along up has no direction toward it: any tangent will do, and nothing is NaN.
-  for (const Vector3d& d : gpatlas_core::approachDirections(Vector3d::UnitZ(), Vector3d::UnitZ(), config))
+  for (const Vector3d& d : gpatlas_motion::approachDirections(Vector3d::UnitZ(), Vector3d::UnitZ(), config))
     EXPECT_TRUE(d.allFinite());
   config.max_tilt_deg = 0.0;
-  EXPECT_EQ(gpatlas_core::approachDirections(normal, Vector3d::UnitZ(), config).size(), 1u);
-  EXPECT_THROW(gpatlas_core::approachDirections(Vector3d::Zero(), Vector3d::UnitZ(), config), std::invalid_argument);
+  EXPECT_EQ(gpatlas_motion::approachDirections(normal, Vector3d::UnitZ(), config).size(), 1u);
+  EXPECT_THROW(gpatlas_motion::approachDirections(Vector3d::Zero(), Vector3d::UnitZ(), config), std::invalid_argument);
 }
 
 // The cheap test the strategies use: a touch whose approach pose lies under the table is
@@ -202,7 +202,7 @@ TEST(ApproachDirections, RingsOfTiltedDirectionsStartTowardUp) {
 // is refused, one in the open is approached along its normal.
 TEST(ModelTouchApproacher, TheCheapTestTiltsOutOfTheTableAndRefusesApproachesFromInside) {
   const gpatlas_core::GpisModel model = sphereModel();
-  gpatlas_core::ApproachConfig config;
+  gpatlas_motion::ApproachConfig config;
   config.rest_tip_position_m = kCentre + Vector3d(0.0, 0.0, 0.3);
   const double table_height = kCentre.z() - kRadius;
   const gpatlas_core::SupportPlane table{Vector3d::UnitZ(), -table_height};
@@ -230,7 +230,7 @@ TEST(ModelTouchApproacher, TheCheapTestTiltsOutOfTheTableAndRefusesApproachesFro
   EXPECT_GT(sphereClearance(planned.approach_path, -*tilted, config.probe), 0.0);
   for (const Vector3d& tip : planned.approach_path) EXPECT_GT(tip.z() - config.probe.tip_radius_m, table_height);
   // Along the normal only, it is refused, and so is its full plan.
-  gpatlas_core::ApproachConfig normal_only = config;
+  gpatlas_motion::ApproachConfig normal_only = config;
   normal_only.max_tilt_deg = 0.0;
   gpatlas_motion::ModelTouchApproacher strict(model, normal_only, {}, table);
   EXPECT_FALSE(strict.approachDirection(low_point, low).has_value());

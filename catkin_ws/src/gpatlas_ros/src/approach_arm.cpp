@@ -5,7 +5,7 @@
 namespace gpatlas_ros {
 
 std::shared_ptr<const gpatlas_motion::Arm> loadApproachArm(const ros::NodeHandle& nh,
-                                                           const gpatlas_core::ApproachConfig& config,
+                                                           const gpatlas_motion::ApproachConfig& config,
                                                            std::string* error) {
   error->clear();
   if (!config.use_arm) return nullptr;

@@ -624,7 +624,7 @@ class ExplorationNode {
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_, strategy_, results_dir_;
-  gpatlas_core::ApproachConfig approach_config_;
+  gpatlas_motion::ApproachConfig approach_config_;
   std::vector<std::string> arm_joint_names_;  // of plan_approach's trajectories, when planned for the arm
   gpatlas_core::Explorer::Config loop_;
   std_msgs::Header observations_header_;  // the frame of the last probe's observations

@@ -15,6 +15,17 @@ void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c)
   c->results_dir = r.text("results_dir", c->results_dir);
 }
 
+ServerPreamble readServerPreamble(gpatlas_core::ParamReader& reader, const std::string& who) {
+  ServerPreamble preamble;
+  readFrames(reader, &preamble.frames);
+  preamble.seed = readSeed(reader);
+  preamble.use_support_plane = readUseSupportPlane(reader);
+  gpatlas_core::readSurfaceModel(reader, &preamble.model);
+  readStrategyChoice(reader, &preamble.strategy_choice);
+  loadPluginLibraries(preamble.strategy_choice.libraries, reader, who);
+  return preamble;
+}
+
 void RosParamReader::report(const std::string& who) const {
   if (!ok()) ROS_ERROR_STREAM(who << ": invalid parameters, defaults used instead: " << errors());
   if (!defaultedNames().empty())

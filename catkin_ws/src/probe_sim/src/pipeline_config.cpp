@@ -19,7 +19,7 @@ void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
   readStrategy(r, &c->strategy);
   readMesher(r, &c->mesh);
   readCollisionMap(r, &c->collision_map);
-  readApproach(r, &c->approach);
+  gpatlas_motion::readApproach(r, &c->approach);
   readSegmenter(r, &c->segmentation);
 }
 

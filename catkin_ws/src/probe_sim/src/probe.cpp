@@ -421,7 +421,7 @@ int countContactRuns(const std::vector<Point>& path, const Steps& steps, const C
 
 }  // namespace
 
-int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
+int countPathContacts(const Scene& scene, const gpatlas_motion::ProbeGeometry& body,
                       const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m) {
   const Eigen::Vector3d d = direction.normalized();
   const auto collides = [&](const Eigen::Vector3d& tip) {
@@ -438,7 +438,7 @@ int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& bod
   return countContactRuns(tip_path, steps, collides);
 }
 
-int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_core::ProbeGeometry& body,
+int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_motion::ProbeGeometry& body,
                          const std::vector<Eigen::VectorXd>& joint_path, double step_m) {
   const auto collides = [&](const Eigen::VectorXd& q) {
     if (armCollisions(arm, scene, q) != 0) return true;

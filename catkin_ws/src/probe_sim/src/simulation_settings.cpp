@@ -39,7 +39,6 @@ std::optional<Eigen::Vector3d> optionalVector3(gpatlas_core::ParamReader& r, con
 }  // namespace
 
 void readSimulation(gpatlas_core::ParamReader& r, SimulationSettings* s) {
-  s->world_frame = r.text("world_frame", s->world_frame);
   s->object = r.text("simulation/object", s->object);
   s->object_scale = r.number("simulation/object_scale", s->object_scale, -1e9, 1e9);
   s->procedural_size_m = r.number("simulation/procedural_size_m", s->procedural_size_m, -1e9, 100.0);
@@ -178,7 +177,7 @@ std::optional<Eigen::Isometry3d> cameraPose(const SimulationSettings& s, const s
 
 std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene> scene,
                                                      const SimulationSettings& settings,
-                                                     const gpatlas_core::ApproachConfig& approach) {
+                                                     const gpatlas_motion::ApproachConfig& approach) {
   ProbeModelConfig model_config;
   model_config.sphere.radius_m = settings.probe_radius_m;
   // Strokes start at the approach planner's approach pose.

@@ -175,8 +175,9 @@ class BenchSmokeTest(unittest.TestCase):
         self.assertTrue(0.0 <= float(row["rmse_pred_to_gt_m"]) < 0.015, row)
 
     def test_bad_arguments_are_refused(self):
-        for args in (["--set", "exploration/v_max=0"], ["--set", "no/such_key=1"], ["--config", "/no/such/pipeline.yaml"], ["--strategy", "nope"], ["--object", "/no/such/file.stl"],
-                     ["--probe", "laser"], ["--reach-directions", "0"],
+        for args in (["--set", "exploration/v_max=0"], ["--set", "no/such_key=1"], ["--config", "/no/such/pipeline.yaml"],
+                     ["--simulation", "/no/such/simulation.yaml"], ["--set", "simulation/probe_radius_m=-1"],
+                     ["--strategy", "nope"], ["--object", "/no/such/file.stl"], ["--probe", "laser"], ["--reach-directions", "0"],
                      ["--strategy-library", "/no/such/libstrategies.so"]):
             proc = self.run_bench(*args, "--out", self.out)
             self.assertEqual(proc.returncode, 2, args)

@@ -1,5 +1,5 @@
-// config/pipeline.yaml against the readers of every Config it feeds: the pipeline's
-// (probe_sim::readPipeline) and the simulated scene's (probe_sim::readSimulation).
+// config/pipeline.yaml against the readers of every Config it feeds (probe_sim::readPipeline),
+// and probe_sim's config/simulation.yaml against the simulated scene's (probe_sim::readSimulation).
 #include "probe_sim/simulation_settings.h"
 
 #include "probe_sim/pipeline_config.h"
@@ -9,45 +9,51 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
+#include <functional>
+#include <map>
 #include <memory>
 #include <set>
 
 namespace {
 
-// The repository's file, read by every reader it feeds.
+// One of the repository's files, read by the readers it feeds.
 struct ReadFile {
   std::string error;  // before params, which its constructor fills it for
   std::unique_ptr<gpatlas_core::YamlParameters> params;
   std::unique_ptr<gpatlas_core::ParamReader> reader;
-  probe_sim::PipelineConfig pipeline;
-  probe_sim::SimulationSettings simulation;
 
-  ReadFile() : params(gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error)) {
+  ReadFile(const std::string& path, const std::function<void(gpatlas_core::ParamReader&)>& read)
+      : params(gpatlas_core::YamlParameters::fromFile(path, &error)) {
     if (!params) return;
     reader = std::make_unique<gpatlas_core::ParamReader>(*params);
-    probe_sim::readPipeline(*reader, &pipeline);
-    probe_sim::readSimulation(*reader, &simulation);
+    read(*reader);
   }
 };
 
-// The file sets exactly what the readers read: no key that no Config reads (a typo or a removed
+ReadFile pipelineFile(probe_sim::PipelineConfig* pipeline) {
+  return ReadFile(GPATLAS_PIPELINE_CONFIG, [pipeline](gpatlas_core::ParamReader& r) { probe_sim::readPipeline(r, pipeline); });
+}
+
+ReadFile simulationFile(probe_sim::SimulationSettings* simulation) {
+  return ReadFile(GPATLAS_SIMULATION_CONFIG,
+                  [simulation](gpatlas_core::ParamReader& r) { probe_sim::readSimulation(r, simulation); });
+}
+
+// The file sets exactly what its readers read: no key that no Config reads (a typo or a removed
 // option), and no parameter that the file leaves to a code default.
-TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
-  const ReadFile file;
+void expectSetsExactlyWhatIsRead(const ReadFile& file) {
   ASSERT_TRUE(file.params) << file.error;
   const gpatlas_core::ParamReader& reader = *file.reader;
-  const gpatlas_core::YamlParameters* params = file.params.get();
   EXPECT_TRUE(reader.ok()) << reader.errors();
   EXPECT_TRUE(reader.defaultedNames().empty()) << "not set in the file: " << reader.defaulted();
   const std::set<std::string> read(reader.readNames().begin(), reader.readNames().end());
-  for (const std::string& key : params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
-  EXPECT_EQ(probe_sim::validate(file.simulation), "");
+  for (const std::string& key : file.params->leafNames()) EXPECT_TRUE(read.count(key)) << "no Config reads '" << key << "'";
 }
 
 // The code's defaults are the file's values, so that a node started without the file behaves
 // as the pipeline does.
-TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
-  const ReadFile file;
+void expectTheCodesDefaultsAreTheFilesValues(const ReadFile& file) {
   ASSERT_TRUE(file.params) << file.error;
   const gpatlas_core::ParamReader& reader = *file.reader;
   const gpatlas_core::YamlParameters* params = file.params.get();
@@ -67,6 +73,81 @@ TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
       EXPECT_EQ(params->text(name).value_or("?"), in_code->text("v").value_or("")) << name;
     }
   }
+}
+
+// The leaf keys of a YAML file of nested blocks ("key: value" lines, two-space indents), by full
+// name, each with whether it has its comment: on its own line, or a comment line just above it.
+std::map<std::string, bool> leafKeysWithComments(const std::string& path) {
+  std::map<std::string, bool> keys;
+  std::ifstream file(path);
+  std::vector<std::pair<std::size_t, std::string>> sections;  // indent and name of the open ones
+  bool comment_above = false;
+  std::string line;
+  while (std::getline(file, line)) {
+    const std::size_t indent = line.find_first_not_of(' ');
+    if (indent == std::string::npos) {
+      comment_above = false;
+      continue;
+    }
+    if (line[indent] == '#') {
+      comment_above = true;
+      continue;
+    }
+    const std::size_t colon = line.find(':', indent);
+    const std::string key = line.substr(indent, colon - indent);
+    const std::string rest = colon == std::string::npos ? "" : line.substr(colon + 1);
+    const std::size_t hash = rest.find('#');
+    const bool has_value = rest.substr(0, hash).find_first_not_of(' ') != std::string::npos;
+    while (!sections.empty() && sections.back().first >= indent) sections.pop_back();
+    if (has_value) {
+      std::string name;
+      for (const auto& section : sections) name += section.second + "/";
+      keys[name + key] = hash != std::string::npos || comment_above;
+    } else {
+      sections.emplace_back(indent, key);
+    }
+    comment_above = false;
+  }
+  return keys;
+}
+
+// The comments are the configuration reference: a key cannot come without its documentation.
+void expectEveryKeyHasItsComment(const std::string& path) {
+  std::string error;
+  const auto params = gpatlas_core::YamlParameters::fromFile(path, &error);
+  ASSERT_TRUE(params) << error;
+  const std::map<std::string, bool> keys = leafKeysWithComments(path);
+  std::vector<std::string> names;
+  for (const auto& [name, commented] : keys) {
+    names.push_back(name);
+    EXPECT_TRUE(commented) << path << ": '" << name << "' has no comment on its line or just above it";
+  }
+  EXPECT_EQ(names, params->leafNames()) << "the lines of " << path << " read as keys, against the YAML parser";
+}
+
+TEST(PipelineYaml, SetsEveryParameterTheReadersReadAndNothingElse) {
+  probe_sim::PipelineConfig pipeline;
+  expectSetsExactlyWhatIsRead(pipelineFile(&pipeline));
+}
+
+TEST(PipelineYaml, TheCodesDefaultsAreTheFilesValues) {
+  probe_sim::PipelineConfig pipeline;
+  expectTheCodesDefaultsAreTheFilesValues(pipelineFile(&pipeline));
+}
+
+TEST(PipelineYaml, EveryKeyHasItsComment) { expectEveryKeyHasItsComment(GPATLAS_PIPELINE_CONFIG); }
+
+TEST(SimulationYaml, EveryKeyHasItsComment) { expectEveryKeyHasItsComment(GPATLAS_SIMULATION_CONFIG); }
+
+TEST(SimulationYaml, SetsEveryParameterTheReaderReadsAndNothingElse) {
+  probe_sim::SimulationSettings simulation;
+  expectSetsExactlyWhatIsRead(simulationFile(&simulation));
+  EXPECT_EQ(probe_sim::validate(simulation), "");
+}
+
+TEST(SimulationYaml, TheCodesDefaultsAreTheFilesValues) {
+  probe_sim::SimulationSettings simulation;
+  expectTheCodesDefaultsAreTheFilesValues(simulationFile(&simulation));
 }
 
 // config/paper.yaml, the paper's configuration over the file: every name it sets is a parameter,

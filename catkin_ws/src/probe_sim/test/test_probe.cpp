@@ -386,7 +386,7 @@ TEST(HollowObjects, MugHandleStandsOutOnThePlusXSide) {
 // The probe's body (a 2 cm tip and a shaft behind it) moved along a path of tip positions: each
 // separate stretch in contact with the scene counts once.
 TEST_F(SphereObject, PathContactsCountEachStretchThroughTheSceneOnce) {
-  const gpatlas_core::ProbeGeometry body;
+  const gpatlas_motion::ProbeGeometry body;
   const Eigen::Vector3d down = -Eigen::Vector3d::UnitZ();
   const auto contacts = [&](const std::vector<Eigen::Vector3d>& path, const Eigen::Vector3d& direction) {
     return probe_sim::countPathContacts(*scene_, body, path, direction, 0.002);

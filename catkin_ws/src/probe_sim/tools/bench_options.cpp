@@ -25,9 +25,11 @@ void printUsage() {
 Runs the pipeline's exploration (segmentation of a simulated depth view, the GPIS, Algorithm 2
 with a strategy, the simulated probe) on objects with a known truth, and measures the shape.
   --config FILE                  the pipeline's parameters [the repository's config/pipeline.yaml]
+  --simulation FILE              the simulated scene, probe and camera [probe_sim's config/simulation.yaml]
   --overlay FILE                 a partial file whose parameters replace the config's (repeatable),
                                  e.g. config/paper.yaml: the paper's global GPIS
-  --set KEY=VALUE                override one of them, e.g. --set exploration/v_max=0.05 (repeatable)
+  --set KEY=VALUE                override one of them, e.g. --set exploration/v_max=0.05 or
+                                 --set simulation/table=false (repeatable)
   --object FILE|procedural:NAME  object to explore (repeatable); procedural names: )"
             << [] {
                  std::string names;
@@ -100,6 +102,7 @@ bool parseFlags(int argc, char** argv, Options& o) {
       printUsage();
       std::exit(0);
     } else if (a == "--config") o.config_path = next();
+    else if (a == "--simulation") o.simulation_path = next();
     else if (a == "--overlay") o.overlays.push_back(next());
     else if (a == "--set") o.overrides.push_back(next());
     else if (a == "--object") o.objects.push_back({next(), o.scale});
@@ -140,6 +143,9 @@ void readConfiguration(Options& o) {
   std::string error;
   const std::unique_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
   if (!params) throw std::invalid_argument("--config: " + error);
+  // The scene's file joins the pipeline's, so that overlays and --set reach both alike.
+  const std::unique_ptr<gpatlas_core::YamlParameters> scene = gpatlas_core::YamlParameters::fromFile(o.simulation_path, &error);
+  if (!scene || !params->overlay(*scene, &error)) throw std::invalid_argument("--simulation: " + error);
   std::vector<std::string> overlaid;
   for (const std::string& path : o.overlays) {
     const std::unique_ptr<gpatlas_core::YamlParameters> overlay = gpatlas_core::YamlParameters::fromFile(path, &error);
@@ -151,11 +157,12 @@ void readConfiguration(Options& o) {
   gpatlas_core::ParamReader reader(*params);
   probe_sim::readPipeline(reader, &o.pipeline);
   probe_sim::readSimulation(reader, &o.simulation);
-  if (!reader.ok()) throw std::invalid_argument(o.config_path + ": " + reader.errors());
+  o.simulation.world_frame = o.pipeline.frames.world_frame;
+  if (!reader.ok()) throw std::invalid_argument(o.config_path + ", " + o.simulation_path + ": " + reader.errors());
   if (!o.probe.empty()) o.simulation.probe = o.probe;
   if (o.procedural_size_m) o.simulation.procedural_size_m = *o.procedural_size_m;
   if (const std::string problem = probe_sim::validate(o.simulation); !problem.empty())
-    throw std::invalid_argument(o.config_path + ": " + problem);
+    throw std::invalid_argument(o.simulation_path + ": " + problem);
   std::ifstream urdf(o.urdf_path);
   if (!urdf) throw std::invalid_argument("--urdf: cannot read " + o.urdf_path);
   o.urdf_xml.assign(std::istreambuf_iterator<char>(urdf), std::istreambuf_iterator<char>());
@@ -166,7 +173,7 @@ void readConfiguration(Options& o) {
     const std::string key = setting.substr(0, setting.find_first_of("= "));
     const auto& read = reader.readNames();
     if (std::find(read.begin(), read.end(), key) == read.end())
-      throw std::invalid_argument(setting + ": no such parameter (see " + o.config_path + ")");
+      throw std::invalid_argument(setting + ": no such parameter (see " + o.config_path + " and " + o.simulation_path + ")");
   }
   for (const std::string& library : o.pipeline.strategy_choice.libraries) {
     const auto load = gpatlas_core::loadStrategyLibrary(library);

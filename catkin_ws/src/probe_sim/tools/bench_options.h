@@ -27,6 +27,7 @@ struct Options {
   int jobs{1};
   std::string out{"bench_out"};
   std::string config_path;  // the build's config/pipeline.yaml unless --config
+  std::string simulation_path;  // probe_sim's config/simulation.yaml unless --simulation
   std::vector<std::string> overlays;  // partial files over it, in order (e.g. config/paper.yaml)
   std::vector<std::string> overrides;  // --set key=value, in order
   std::string urdf_path;  // the robot: its head camera and its arm (the build's vito.urdf unless --urdf)

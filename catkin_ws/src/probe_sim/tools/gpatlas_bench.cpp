@@ -179,6 +179,7 @@ int main(int argc, char** argv) {
   try {
     Options defaults;
     defaults.config_path = GPATLAS_DEFAULT_CONFIG;
+    defaults.simulation_path = GPATLAS_DEFAULT_SIMULATION;
     defaults.urdf_path = GPATLAS_VITO_URDF;
     o = parseArgs(argc, argv, std::move(defaults));
   } catch (const std::exception& e) {

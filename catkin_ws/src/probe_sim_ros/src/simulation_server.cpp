@@ -5,6 +5,7 @@
 #include <gpatlas_conversions/conversions.h>
 #include <gpatlas_conversions/ros_parameters.h>
 #include <gpatlas_core/config/config_readers.h>
+#include <gpatlas_motion/config_readers.h>
 
 #include <geometry_msgs/TransformStamped.h>
 #include <sensor_msgs/JointState.h>
@@ -158,11 +159,15 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 }
 
 std::string SimulationServer::readSettings() {
-  // config/pipeline.yaml's `simulation` section, read as gpatlas_bench reads it.
+  // probe_sim's config/simulation.yaml and, from config/pipeline.yaml, the world frame, the
+  // probe's body and rest (approach/) and the seed: read as gpatlas_bench reads them.
   const gpatlas_conversions::RosParameterSource source(pnh_);
   gpatlas_core::ParamReader reader(source);
   readSimulation(reader, &settings_);
-  gpatlas_core::readApproach(reader, &approach_);
+  gpatlas_core::PipelineFrames frames;
+  gpatlas_core::readFrames(reader, &frames);
+  settings_.world_frame = frames.world_frame;
+  gpatlas_motion::readApproach(reader, &approach_);
   seed_ = gpatlas_core::readSeed(reader);
   std::string errors = reader.errors();
   const std::string invalid = validate(settings_);

@@ -65,7 +65,7 @@ class SimulationServer {
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;
   SimulationSettings settings_;
-  gpatlas_core::ApproachConfig approach_;  // the judged probe body and its rest (approach/)
+  gpatlas_motion::ApproachConfig approach_;  // the judged probe body and its rest (approach/)
   std::uint64_t seed_{0};  // the run's seed (config/pipeline.yaml `seed`): the camera's noise
   std::string unavailable_reason_;
 

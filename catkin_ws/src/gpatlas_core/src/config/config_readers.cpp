@@ -38,8 +38,6 @@ void readGpis(ParamReader& r, GpisModel::Config* c) {
   c->num_outside_points = r.integer("gpis/num_outside_points", c->num_outside_points, 0, 10000);
   c->inside_point_at_centroid = r.flag("gpis/inside_point_at_centroid", c->inside_point_at_centroid);
   c->inside_point_min_clearance = r.number("gpis/inside_point_min_clearance", c->inside_point_min_clearance, 0.0, 100.0);
-  c->pseudo_point_sigma = r.number("gpis/pseudo_point_sigma", c->pseudo_point_sigma, 0.0, 10.0);
-  c->reference_prior_variance = r.number("gpis/reference_prior_variance", c->reference_prior_variance, 1e-9, 1e9);
   // The model checks what no single parameter can (kernel name, radii ordering, the kernel's
   // valid range): every reader falls back to the same defaults, so replicas stay exact.
   try {
@@ -68,24 +66,12 @@ void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c) {
   c->coarse_max_other_points = static_cast<std::size_t>(
       r.integer("multiscale/coarse_max_other_points", static_cast<int>(c->coarse_max_other_points), 0, 100000));
   c->coarse_probe_voxel_m = r.number("multiscale/coarse_probe_voxel_m", c->coarse_probe_voxel_m, 1e-4, 1.0);
-  c->coarse_max_probe_other_points = static_cast<std::size_t>(r.integer(
-      "multiscale/coarse_max_probe_other_points", static_cast<int>(c->coarse_max_probe_other_points), 0, 100000));
   c->cell_size_m = r.number("multiscale/cell_size_m", c->cell_size_m, 1e-3, 1.0);
   c->overlap_m = r.number("multiscale/overlap_m", c->overlap_m, 0.0, 0.5);
-  c->max_points_per_cell = r.integer("multiscale/max_points_per_cell", c->max_points_per_cell, 4, 100000);
-  c->zero_expert_weight = r.number("multiscale/zero_expert_weight", c->zero_expert_weight, 1e-9, 1.0);
   c->sigma = r.number("multiscale/sigma", c->sigma, 1e-6, 100.0);
   c->length_m = r.number("multiscale/length_m", c->length_m, 1e-5, 1.0);
   c->noise_m = r.number("multiscale/noise_m", c->noise_m, 1e-7, 1.0);
   c->tune_on_fit = r.flag("multiscale/tune_on_fit", c->tune_on_fit);
-  c->tune_max_cells = r.integer("multiscale/tune_max_cells", c->tune_max_cells, 1, 10000);
-  c->tune_max_iterations = r.integer("multiscale/tune_max_iterations", c->tune_max_iterations, 0, 1000);
-  c->length_min_m = r.number("multiscale/length_min_m", c->length_min_m, 1e-5, 1.0);
-  c->length_max_m = r.number("multiscale/length_max_m", c->length_max_m, 0.0, 1.0);
-  c->sigma_min = r.number("multiscale/sigma_min", c->sigma_min, 1e-6, 100.0);
-  c->sigma_max = r.number("multiscale/sigma_max", c->sigma_max, 1e-6, 100.0);
-  c->noise_min_m = r.number("multiscale/noise_min_m", c->noise_min_m, 1e-7, 1.0);
-  c->noise_max_m = r.number("multiscale/noise_max_m", c->noise_max_m, 1e-7, 1.0);
   // The model checks what no single parameter can (the overlap against the cell, the bounds'
   // order): every reader falls back to the same defaults, so replicas stay exact.
   try {
@@ -105,7 +91,6 @@ void readTuning(ParamReader& r, TuningConfig* c) {
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   c->max_surface_points = r.integer("view/max_surface_points", c->max_surface_points, 4, 100000);
   c->vision_noise_sigma = r.number("view/vision_noise_sigma", c->vision_noise_sigma, 0.0, 10.0);
-  c->support_clearance_m = r.number("view/support_clearance_m", c->support_clearance_m, 0.0, 0.5);
   ViewFreeSpaceConfig& free = c->free_space;
   free.max_rays = r.integer("view/free_space/max_rays", free.max_rays, 0, 100000);
   free.samples_per_ray = r.integer("view/free_space/samples_per_ray", free.samples_per_ray, 0, 10);
@@ -128,17 +113,13 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   inside.noise_sigma = r.number("view/occluded_interior/noise_sigma", inside.noise_sigma, 1e-3, 100.0);
   SupportFreeSpaceConfig& beside = c->support_free_space;
   beside.spacing_m = r.number("view/support_free_space/spacing_m", beside.spacing_m, 1e-4, 0.1);
-  beside.height_m = r.number("view/support_free_space/height_m", beside.height_m, 0.0, 0.05);
   beside.min_distance_m = r.number("view/support_free_space/min_distance_m", beside.min_distance_m, 0.0, 0.1);
   beside.max_distance_m = r.number("view/support_free_space/max_distance_m", beside.max_distance_m, 1e-4, 0.5);
   beside.max_bound_gap_m = r.number("view/support_free_space/max_bound_gap_m", beside.max_bound_gap_m, 0.0, 0.1);
-  beside.pixel_m = r.number("view/support_free_space/pixel_m", beside.pixel_m, 1e-4, 0.1);
   beside.max_points = r.integer("view/support_free_space/max_points", beside.max_points, 0, 1000000);
   beside.noise_sigma = r.number("view/support_free_space/noise_sigma", beside.noise_sigma, 1e-6, 10.0);
   BelowSupportConfig& below = c->below_support;
   below.grid_cells = r.integer("view/below_support/grid_cells", below.grid_cells, 1, 100);
-  below.footprint_margin_fraction =
-      r.number("view/below_support/footprint_margin_fraction", below.footprint_margin_fraction, 0.0, 5.0);
   below.noise_sigma = r.number("view/below_support/noise_sigma", below.noise_sigma, 0.0, 10.0);
 }
 
@@ -150,10 +131,8 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
   c->min_point_spacing_m = r.number("touch/min_point_spacing_m", c->min_point_spacing_m, 0.0, 1.0);
   c->min_free_space_spacing_m = r.number("touch/min_free_space_spacing_m", c->min_free_space_spacing_m, 0.0, 1.0);
   c->contact_inside_depth_m = r.number("touch/contact_inside_depth_m", c->contact_inside_depth_m, 0.0, 0.1);
-  c->contact_inside_noise_sigma = r.number("touch/contact_inside_noise_sigma", c->contact_inside_noise_sigma, 0.0, 10.0);
   c->contact_tangent_noise_sigma =
       r.number("touch/contact_tangent_noise_sigma", c->contact_tangent_noise_sigma, -1.0, 10.0);
-  c->guess_min_depth_fraction = r.number("touch/guess_min_depth_fraction", c->guess_min_depth_fraction, 0.0, 1.0);
   c->max_contacts_per_touch = static_cast<std::size_t>(
       r.integer("touch/max_contacts_per_touch", static_cast<int>(c->max_contacts_per_touch), 0, 1000000));
   c->max_free_space_per_touch = static_cast<std::size_t>(
@@ -176,8 +155,10 @@ void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->min_surprise_fraction = r.number("evidence/min_surprise_fraction", c->min_surprise_fraction, 1e-3, 1.0);
 }
 
+double readVMax(ParamReader& r, double fallback) { return r.number("exploration/v_max", fallback, 1e-12, 1e12); }
+
 void readExplorer(ParamReader& r, Explorer::Config* c) {
-  c->v_max = r.number("exploration/v_max", c->v_max, 1e-12, 1e12);
+  c->v_max = readVMax(r, c->v_max);
   c->max_actions = r.integer("exploration/max_actions", c->max_actions, 0, 1000000);
   c->max_consecutive_failures = r.integer("exploration/max_consecutive_failures", c->max_consecutive_failures, 1, 1000000);
   c->max_approach_attempts = r.integer("exploration/max_approach_attempts", c->max_approach_attempts, 1, 1000);
@@ -199,7 +180,6 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
       r.number("planner/depth_first_probability", c->atlas.depth_first_probability, 0.0, 1.0);
   c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
   c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
-  c->atlas.max_start_distance_m = r.number("planner/max_start_distance_m", c->atlas.max_start_distance_m, 0.0, 10.0);
   c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
   c->seed = readSeed(r, c->seed);
@@ -208,34 +188,6 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {
   c->grid.resolution_m = r.number("collision_map/resolution_m", c->grid.resolution_m, 1e-3, 1.0);
   c->grid.variance_stride = r.integer("collision_map/variance_stride", c->grid.variance_stride, 1, 16);
-  c->grid.mean_stride = r.integer("collision_map/mean_stride", c->grid.mean_stride, 1, 16);
-  c->occupied_probability = r.number("collision_map/occupied_probability", c->occupied_probability, 0.0, 1.0);
-}
-
-void readApproach(ParamReader& r, ApproachConfig* c) {
-  c->enabled = r.flag("approach/enabled", c->enabled);
-  c->rest_tip_position_m = r.vector3("approach/rest_tip_position_m", c->rest_tip_position_m);
-  c->occupied_probability = r.number("approach/occupied_probability", c->occupied_probability, 1e-6, 1.0 - 1e-6);
-  c->approach_distance_m = r.number("approach/approach_distance_m", c->approach_distance_m, 1e-3, 1.0);
-  c->clearance_m = r.number("approach/clearance_m", c->clearance_m, 0.0, 0.5);
-  c->contact_zone_m = r.number("approach/contact_zone_m", c->contact_zone_m, 0.0, 0.5);
-  c->max_planning_time_s = r.number("approach/max_planning_time_s", c->max_planning_time_s, 1e-3, 60.0);
-  c->workspace_margin_m = r.number("approach/workspace_margin_m", c->workspace_margin_m, 0.0, 5.0);
-  c->check_resolution_m = r.number("approach/check_resolution_m", c->check_resolution_m, 1e-4, 0.1);
-  c->max_tilt_deg = r.number("approach/max_tilt_deg", c->max_tilt_deg, 0.0, 89.0);
-  c->tilt_step_deg = r.number("approach/tilt_step_deg", c->tilt_step_deg, 0.1, 89.0);
-  c->tilt_azimuths = r.integer("approach/tilt_azimuths", c->tilt_azimuths, 1, 64);
-  c->probe.tip_radius_m = r.number("approach/tip_radius_m", c->probe.tip_radius_m, 1e-4, 0.5);
-  c->probe.shaft_radius_m = r.number("approach/shaft_radius_m", c->probe.shaft_radius_m, 1e-4, 0.5);
-  c->probe.shaft_length_m = r.number("approach/shaft_length_m", c->probe.shaft_length_m, 1e-4, 2.0);
-  c->use_arm = r.flag("approach/use_arm", c->use_arm);
-  c->arm_base_link = r.text("approach/arm_base_link", c->arm_base_link);
-  c->arm_tip_link = r.text("approach/arm_tip_link", c->arm_tip_link);
-  c->arm_link_radius_m = r.number("approach/arm_link_radius_m", c->arm_link_radius_m, 1e-3, 0.5);
-  c->arm_check_step_rad = r.number("approach/arm_check_step_rad", c->arm_check_step_rad, 1e-4, 0.5);
-  c->arm_reachability_ik_restarts =
-      r.integer("approach/arm_reachability_ik_restarts", c->arm_reachability_ik_restarts, 1, 1000);
-  c->arm_joint_speed_rad_s = r.number("approach/arm_joint_speed_rad_s", c->arm_joint_speed_rad_s, 1e-3, 10.0);
 }
 
 }  // namespace gpatlas_core

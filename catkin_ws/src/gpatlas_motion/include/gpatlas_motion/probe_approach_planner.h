@@ -1,6 +1,6 @@
 #pragma once
 
-#include <gpatlas_core/config/approach_config.h>
+#include "gpatlas_motion/approach_config.h"
 
 #include <Eigen/Core>
 
@@ -21,9 +21,7 @@ namespace gpatlas_motion {
 // known static world (boxes, the table's half-space). Space outside the map counts as free: the
 // map spans the model's domain, outside which the model itself predicts free space. While it
 // travels the probe keeps pointing along the touch's approach direction (against the normal).
-// The settings: gpatlas_core::ApproachConfig (config/pipeline.yaml's approach/).
-using gpatlas_core::ApproachConfig;
-using gpatlas_core::ProbeGeometry;
+// The settings: ApproachConfig (config/pipeline.yaml's approach/).
 
 struct ApproachPlan {
   bool ok{false};

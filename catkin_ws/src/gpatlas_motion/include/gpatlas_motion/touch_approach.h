@@ -61,7 +61,7 @@ class TouchMotionPlanner {
   // The cheap test of a candidate (ProbeApproachPlanner's or ArmApproachPlanner's
   // checkApproachPose): empty when it may be approached, else why not.
   std::string check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const;
-  // The first of gpatlas_core::approachDirections (the normal, then the directions tilted from
+  // The first of approachDirections (the normal, then the directions tilted from
   // it, the first of each ring toward the table's normal, or +z without a table) that check()
   // accepts; nullopt when none does.
   std::optional<Eigen::Vector3d> approachDirection(const Eigen::Vector3d& point,

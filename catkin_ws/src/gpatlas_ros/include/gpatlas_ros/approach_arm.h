@@ -1,6 +1,6 @@
 #pragma once
 
-#include <gpatlas_core/config/approach_config.h>
+#include <gpatlas_motion/approach_config.h>
 #include <gpatlas_motion/arm.h>
 
 #include <ros/node_handle.h>
@@ -15,7 +15,7 @@ namespace gpatlas_ros {
 // namespace upwards, as robot_state_publisher does), with arm_link_radius_m. Null when use_arm
 // is off; null with *error set when the URDF is missing or has no such chain.
 std::shared_ptr<const gpatlas_motion::Arm> loadApproachArm(const ros::NodeHandle& nh,
-                                                           const gpatlas_core::ApproachConfig& config,
+                                                           const gpatlas_motion::ApproachConfig& config,
                                                            std::string* error);
 
 }  // namespace gpatlas_ros

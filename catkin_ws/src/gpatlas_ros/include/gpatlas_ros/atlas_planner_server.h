@@ -57,7 +57,7 @@ class AtlasPlannerServer {
   std::shared_ptr<const gpatlas_core::SurfaceModel> model_;
   ros::Time model_stamp_;  // the stamp of the training set model_ is from
   std::uint32_t model_sequence_{0};  // and its sequence number
-  gpatlas_core::ApproachConfig approach_config_;  // for GetNextTouch's reachable_only
+  gpatlas_motion::ApproachConfig approach_config_;  // for GetNextTouch's reachable_only
   std::shared_ptr<const gpatlas_motion::Arm> approach_arm_;  // with approach/use_arm
   std::string approach_arm_error_;
   // What the cheap test learnt of the arm's reach, kept from one model's map to the next.

@@ -73,7 +73,7 @@ class CollisionMapServer {
   std::string world_frame_;
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::CollisionMapConfig map_config_;
-  gpatlas_core::ApproachConfig approach_config_;
+  gpatlas_motion::ApproachConfig approach_config_;
   std::shared_ptr<const gpatlas_motion::Arm> approach_arm_;  // with approach/use_arm
   std::string approach_arm_error_;                           // why there is none, when asked for
   double tf_timeout_s_{0.5};

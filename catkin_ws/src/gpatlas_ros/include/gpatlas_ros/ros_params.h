@@ -1,7 +1,8 @@
 #pragma once
 
-// The one place where ROS parameters become core Configs: the core's readers
-// (gpatlas_core/config/config_readers.h, gpatlas_geometry/config_readers.h) on the parameter server. Every reader starts from the
+// The one place where ROS parameters become Configs: the packages' readers
+// (gpatlas_core/config/config_readers.h, gpatlas_geometry/config_readers.h,
+// gpatlas_motion/config_readers.h) on the parameter server. Every reader starts from the
 // Config's defaults, overrides what the parameter server has, and collects every invalid value
 // (with the parameter's full name) into one error message.
 
@@ -9,10 +10,13 @@
 #include <gpatlas_core/config/parameters.h>
 #include <gpatlas_conversions/ros_parameters.h>
 #include <gpatlas_geometry/config_readers.h>
+#include <gpatlas_motion/config_readers.h>
 
 #include <ros/node_handle.h>
 
+#include <cstdint>
 #include <string>
+#include <vector>
 
 namespace gpatlas_ros {
 
@@ -22,6 +26,7 @@ using gpatlas_core::readExplorer;
 using gpatlas_core::readFrames;
 using gpatlas_core::readGpis;
 using gpatlas_geometry::readMesher;
+using gpatlas_motion::readApproach;
 using gpatlas_core::readSeed;
 using gpatlas_geometry::readSegmenter;
 using gpatlas_core::readStrategy;
@@ -30,6 +35,7 @@ using gpatlas_core::readTouchObservations;
 using gpatlas_core::readTuning;
 using gpatlas_core::readUseSupportPlane;
 using gpatlas_core::readViewTraining;
+using gpatlas_core::readVMax;
 
 // The exploration node's own settings (launch parameters, not config/pipeline.yaml's: the file
 // holds what the pipeline and the bench share).
@@ -62,6 +68,20 @@ class RosParamReader : private detail::SourceHolder, public gpatlas_core::ParamR
 };
 
 void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c);
+
+// What the servers that hold or rebuild the surface model (gp_model, atlas_planner,
+// collision_map) read first, alike: the frames, the seed, whether the table is used, the model,
+// and the plugin libraries (strategy_libraries: strategies and surface models of your own).
+struct ServerPreamble {
+  gpatlas_core::PipelineFrames frames;
+  std::uint64_t seed{0};
+  bool use_support_plane{true};
+  gpatlas_core::SurfaceModelConfig model;
+  gpatlas_core::StrategyChoice strategy_choice;
+};
+// Reads the preamble and loads its plugin libraries (loadPluginLibraries), so that a model or a
+// strategy of your own can be built after it.
+ServerPreamble readServerPreamble(gpatlas_core::ParamReader& reader, const std::string& who);
 
 // Loads `libraries` (strategy_libraries: strategies and surface models of your own,
 // strategy_library.h), logging what each adds under `who`; a library that fails is an invalid

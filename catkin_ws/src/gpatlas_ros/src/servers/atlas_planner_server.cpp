@@ -20,25 +20,19 @@ using namespace gpatlas_conversions;
 AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   RosParamReader reader(pnh_);
-  gpatlas_core::PipelineFrames frames;
-  readFrames(reader, &frames);
-  world_frame_ = frames.world_frame;
-  tf_timeout_s_ = frames.tf_timeout_s;
-  gpatlas_core::Explorer::Config loop;
-  readExplorer(reader, &loop);
-  default_v_max_ = loop.v_max;
+  // Strategies and models of your own are loaded with it, before the default is looked up.
+  const ServerPreamble preamble = readServerPreamble(reader, "atlas_planner");
+  world_frame_ = preamble.frames.world_frame;
+  tf_timeout_s_ = preamble.frames.tf_timeout_s;
+  const bool use_support_plane = preamble.use_support_plane;
+  default_strategy_ = preamble.strategy_choice.name;
+  model_config_ = preamble.model;
+  default_v_max_ = readVMax(reader);
   readEvidence(reader, &evidence_);
-  const bool use_support_plane = readUseSupportPlane(reader);
-  gpatlas_core::StrategyChoice choice;
-  readStrategyChoice(reader, &choice);
-  default_strategy_ = choice.name;
-  readSurfaceModel(reader, &model_config_);
   readStrategy(reader, &strategy_config_);
   readApproach(reader, &approach_config_);
   approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
   if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("atlas_planner: approach/use_arm: " << approach_arm_error_);
-  // Strategies and models of your own, before the default is looked up.
-  loadPluginLibraries(choice.libraries, reader, "atlas_planner");
   std::string error;
   if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
   reader.report("atlas_planner");

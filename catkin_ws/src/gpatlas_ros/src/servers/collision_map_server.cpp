@@ -35,18 +35,14 @@ struct CollisionMapServer::Map {
 CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   RosParamReader reader(pnh_);
-  gpatlas_core::PipelineFrames frames;
-  readFrames(reader, &frames);
-  world_frame_ = frames.world_frame;
-  tf_timeout_s_ = frames.tf_timeout_s;
+  const ServerPreamble preamble = readServerPreamble(reader, "collision_map");
+  world_frame_ = preamble.frames.world_frame;
+  tf_timeout_s_ = preamble.frames.tf_timeout_s;
+  const bool use_support_plane = preamble.use_support_plane;
+  model_config_ = preamble.model;
   readApproach(reader, &approach_config_);
   approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
   if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("collision_map: approach/use_arm: " << approach_arm_error_);
-  const bool use_support_plane = readUseSupportPlane(reader);
-  readSurfaceModel(reader, &model_config_);
-  gpatlas_core::StrategyChoice plugins;  // a model of your own, loaded before it is built
-  readStrategyChoice(reader, &plugins);
-  loadPluginLibraries(plugins.libraries, reader, "collision_map");
   readCollisionMap(reader, &map_config_);
   reader.report("collision_map");
   // A new subscriber gets the newest map's probabilities, built then if no one asked before.
@@ -346,7 +342,7 @@ std::shared_ptr<const octomap::OcTree> CollisionMapServer::probabilitiesOf(const
       *error = grid.message;
       return nullptr;
     }
-    tree = gpatlas_motion::collisionOctree(grid, map_config_.occupied_probability);
+    tree = gpatlas_motion::collisionOctree(grid, approach_config_.occupied_probability);
   } catch (const std::exception& e) {
     *error = e.what();
     return nullptr;

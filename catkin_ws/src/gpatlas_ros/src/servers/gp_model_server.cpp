@@ -22,23 +22,17 @@ using namespace gpatlas_conversions;
 GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
     : nh_(nh), pnh_(pnh), tf_listener_(tf_buffer_) {
   RosParamReader reader(pnh_);
-  gpatlas_core::PipelineFrames frames;
-  readFrames(reader, &frames);
-  world_frame_ = frames.world_frame;
-  tf_timeout_s_ = frames.tf_timeout_s;
-  sensor_frame_ = frames.sensor_frame;
-  seed_ = readSeed(reader);
+  const ServerPreamble preamble = readServerPreamble(reader, "gp_model");
+  world_frame_ = preamble.frames.world_frame;
+  tf_timeout_s_ = preamble.frames.tf_timeout_s;
+  sensor_frame_ = preamble.frames.sensor_frame;
+  seed_ = preamble.seed;
+  use_support_plane_ = preamble.use_support_plane;
+  model_config_ = preamble.model;
   readViewTraining(reader, &view_config_);
-  use_support_plane_ = readUseSupportPlane(reader);
   readTouchObservations(reader, &touch_config_);
   readTuning(reader, &tuning_);
-  gpatlas_core::Explorer::Config loop;
-  readExplorer(reader, &loop);
-  display_v_max_ = loop.v_max;
-  readSurfaceModel(reader, &model_config_);
-  gpatlas_core::StrategyChoice plugins;  // a model of your own, loaded before it is built
-  readStrategyChoice(reader, &plugins);
-  loadPluginLibraries(plugins.libraries, reader, "gp_model");
+  display_v_max_ = readVMax(reader);
   readMesher(reader, &mesher_config_);
   reader.report("gp_model");
   try {

@@ -2,6 +2,7 @@
 
 #include "gpatlas_core/config/config_readers.h"
 #include "gpatlas_geometry/config_readers.h"
+#include "gpatlas_motion/config_readers.h"
 
 #include <cstdint>
 
@@ -22,7 +23,7 @@ struct PipelineConfig {
   gpatlas_core::StrategyConfig strategy;
   gpatlas_geometry::SurfaceMesher::Config mesh;
   gpatlas_core::CollisionMapConfig collision_map;
-  gpatlas_core::ApproachConfig approach;
+  gpatlas_motion::ApproachConfig approach;
   gpatlas_geometry::ObjectSegmenter::Config segmentation;
 };
 void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c);

@@ -4,7 +4,7 @@
 
 #include <gpatlas_motion/arm.h>
 
-#include <gpatlas_core/config/approach_config.h>
+#include <gpatlas_motion/approach_config.h>
 #include <gpatlas_core/exploration/prober.h>
 #include <gpatlas_core/common/types.h>
 
@@ -195,7 +195,7 @@ struct SimulatedProberConfig {
   // approach/ in the YAML) moved along the touch's approach and retreat paths, or in a straight
   // line between the rest and the approach pose where the touch has none, pointing along the
   // target's -normal, checked against the true scene every motion_check_step_m.
-  gpatlas_core::ProbeGeometry body;
+  gpatlas_motion::ProbeGeometry body;
   Eigen::Vector3d rest_tip_position{0.7, 0.3, 0.4};
   double motion_check_step_m = 0.004;  // below the shaft's diameter: no crossing is missed
 };
@@ -203,14 +203,14 @@ struct SimulatedProberConfig {
 // Where the probe's body (a tip sphere and the shaft behind it, pointing along `direction`)
 // penetrates the scene along a polyline of tip positions sampled every `step_m`: the number of
 // separate contacts (a run of colliding samples counts once).
-int countPathContacts(const Scene& scene, const gpatlas_core::ProbeGeometry& body,
+int countPathContacts(const Scene& scene, const gpatlas_motion::ProbeGeometry& body,
                       const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m);
 
 // Where the arm (its link capsules, ArmConfig) or the probe's body at its tip frame penetrates
 // the scene along a joint-space polyline, sampled so that no point of the arm moves more than
 // step_m between samples: the number of separate contacts (a run of colliding samples counts
 // once).
-int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_core::ProbeGeometry& body,
+int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_motion::ProbeGeometry& body,
                          const std::vector<Eigen::VectorXd>& joint_path, double step_m);
 
 // gpatlas_core::Prober on the simulated scene: a poke probes the last waypoint of the touch, a

@@ -5,7 +5,7 @@
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
 
-#include <gpatlas_core/config/approach_config.h>
+#include <gpatlas_motion/approach_config.h>
 #include <gpatlas_core/config/parameters.h>
 
 #include <Eigen/Core>
@@ -17,13 +17,15 @@
 
 namespace probe_sim {
 
-// The simulated scene, probe, arm and camera, with the defaults: config/pipeline.yaml's
-// `simulation` section, which probe_sim_node and gpatlas_bench read alike (readSimulation).
+// The simulated scene, probe, arm and camera, with the defaults: probe_sim's
+// config/simulation.yaml, which probe_sim_node and gpatlas_bench read alike (readSimulation).
 struct SimulationSettings {
   std::string object = "procedural:mug";  // mesh file (.stl/.ply/.obj) or procedural:NAME
   double object_scale = 1.0;                 // mesh file units -> metres (0.001 for mm)
   double procedural_size_m = 0.15;
   Eigen::Vector2d object_position_xy_m{0.7, 0.0};
+  // The pipeline's world frame (config/pipeline.yaml's world_frame, gpatlas_core::PipelineFrames),
+  // set by the caller: the scene's, the arm's base and the camera's reference.
   std::string world_frame = "world";
 
   // The table the object stands on (false: the object alone, as in the paper's simulated
@@ -60,7 +62,7 @@ struct SimulationSettings {
   double publish_cloud_rate_hz = 0.0;  // 0: only on ~capture
 };
 
-// Reads simulation/... (and world_frame); every problem goes to the reader.
+// Reads simulation/... (all but world_frame); every problem goes to the reader.
 void readSimulation(gpatlas_core::ParamReader& reader, SimulationSettings* settings);
 // Empty when the settings are usable; otherwise every problem, by parameter name.
 std::string validate(const SimulationSettings& settings);
@@ -74,7 +76,7 @@ SceneConfig sceneConfig(const SimulationSettings& settings);
 // planner's probe body and rest (`approach`). Throws std::runtime_error for an unknown probe.
 std::unique_ptr<SimulatedProber> makeSimulatedProber(std::shared_ptr<const Scene> scene,
                                                      const SimulationSettings& settings,
-                                                     const gpatlas_core::ApproachConfig& approach);
+                                                     const gpatlas_motion::ApproachConfig& approach);
 // The camera's intrinsics and noise; `seed` draws its noise.
 DepthCamera::Config cameraConfig(const SimulationSettings& settings, std::uint32_t seed);
 // The camera's pose: camera_eye_m looking at camera_target_m when given, otherwise the fixed

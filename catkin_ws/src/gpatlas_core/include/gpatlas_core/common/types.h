@@ -77,7 +77,7 @@ struct Contact {
 
 // A touch to execute: an ordered path on the predicted surface with the direction each waypoint
 // is approached from (the probe moves along -normal: the predicted outward normal, or one
-// tilted from it where the approach along the normal is blocked, ApproachConfig::max_tilt_deg)
+// tilted from it where the approach along the normal is blocked, approach/max_tilt_deg)
 // and the predicted variance at each waypoint.
 struct Touch {
   enum class Kind : std::uint8_t { kPoke = 0, kSlide = 1 };

@@ -5,7 +5,6 @@
 // nothing else. The nodelets read them from the ROS parameter server, gpatlas_bench from the
 // file itself.
 
-#include "gpatlas_core/config/approach_config.h"
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/model/surface_model_factory.h"
@@ -30,10 +29,10 @@ struct PipelineFrames {
   double tf_timeout_s{0.5};
 };
 
-// The collision map's settings (paper section 4.1).
+// The collision map's settings (paper section 4.1). Its obstacle threshold is the approach
+// planner's (approach/occupied_probability), which plans on it.
 struct CollisionMapConfig {
   OccupancyGridBuilder::Config grid;
-  double occupied_probability{0.5};
 };
 
 // The tuning step after each new view.
@@ -63,9 +62,11 @@ bool readUseSupportPlane(ParamReader& r);
 void readTouchObservations(ParamReader& r, TouchObservationConfig* c);
 void readEvidence(ParamReader& r, EvidenceRule* c);
 void readExplorer(ParamReader& r, Explorer::Config* c);
+// The variance threshold V_max (exploration/v_max), for the loop (readExplorer) and for whoever
+// else needs it alone (the planner's default, the displayed colour scale).
+double readVMax(ParamReader& r, double fallback = Explorer::Config().v_max);
 void readStrategyChoice(ParamReader& r, StrategyChoice* c);
 void readStrategy(ParamReader& r, StrategyConfig* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);
-void readApproach(ParamReader& r, ApproachConfig* c);
 
 }  // namespace gpatlas_core

@@ -1,22 +1,23 @@
 #pragma once
 
-#include "gpatlas_core/common/types.h"
+#include <Eigen/Core>
 
 #include <string>
 #include <vector>
 
-namespace gpatlas_core {
+namespace gpatlas_motion {
 
-// The probe as the approach planner (gpatlas_motion) sees it: a spherical tip and a shaft
-// behind it (a capsule: a cylinder with round ends) along the direction the probe points; the
-// tip's centre is the probe's position.
+// The probe as the approach planner sees it: a spherical tip and a shaft behind it (a capsule:
+// a cylinder with round ends) along the direction the probe points; the tip's centre is the
+// probe's position.
 struct ProbeGeometry {
   double tip_radius_m{0.02};  // simulation/probe_radius_m's sphere
   double shaft_radius_m{0.006};
   double shaft_length_m{0.15};
 };
 
-// Paper Algorithm 2's APPROACHTO and MOVEAWAY (gpatlas_motion::ProbeApproachPlanner).
+// Paper Algorithm 2's APPROACHTO and MOVEAWAY (ProbeApproachPlanner, ArmApproachPlanner):
+// config/pipeline.yaml's approach/ (readApproach, config_readers.h).
 struct ApproachConfig {
   // Whether the exploration plans every touch's approach and retreat (and skips the touches it
   // finds no safe way to). Off: the probe moves in a straight line from its rest to each
@@ -27,7 +28,7 @@ struct ApproachConfig {
   // default lies 0.4 m above the table and 0.3 m to the left of an object standing at
   // simulation/object_position_xy_m, within the Vito left arm's reach. The robot's own body is
   // not an obstacle yet.
-  Vector3 rest_tip_position_m{0.7, 0.3, 0.4};
+  Eigen::Vector3d rest_tip_position_m{0.7, 0.3, 0.4};
   // A collision-map voxel with P(occupied) above this is an obstacle.
   double occupied_probability{0.5};
   double approach_distance_m{0.1};  // the approach pose's distance from the touch along its normal
@@ -75,6 +76,7 @@ std::string validate(const ApproachConfig& config);
 // tilt_step_deg, 2 tilt_step_deg, ... up to max_tilt_deg from the normal), each ring starting
 // with the direction turned toward `up` and alternating to either side of it. The probe moves
 // along minus the direction. Throws std::invalid_argument for a zero or non-finite normal.
-std::vector<Vector3> approachDirections(const Vector3& outward_normal, const Vector3& up, const ApproachConfig& config);
+std::vector<Eigen::Vector3d> approachDirections(const Eigen::Vector3d& outward_normal, const Eigen::Vector3d& up,
+                                                const ApproachConfig& config);
 
-}  // namespace gpatlas_core
+}  // namespace gpatlas_motion

@@ -1,4 +1,4 @@
-#include "gpatlas_core/config/approach_config.h"
+#include "gpatlas_motion/approach_config.h"
 
 #include <Eigen/Geometry>
 
@@ -6,7 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace gpatlas_core {
+namespace gpatlas_motion {
 
 std::string validate(const ApproachConfig& c) {
   std::ostringstream problem;
@@ -35,17 +35,18 @@ std::string validate(const ApproachConfig& c) {
   return problem.str();
 }
 
-std::vector<Vector3> approachDirections(const Vector3& outward_normal, const Vector3& up, const ApproachConfig& config) {
+std::vector<Eigen::Vector3d> approachDirections(const Eigen::Vector3d& outward_normal, const Eigen::Vector3d& up,
+                                                const ApproachConfig& config) {
   if (!outward_normal.allFinite() || !(outward_normal.norm() > 1e-12))
     throw std::invalid_argument("approachDirections needs a finite, non-zero normal");
-  const Vector3 n = outward_normal.normalized();
-  std::vector<Vector3> directions{n};
+  const Eigen::Vector3d n = outward_normal.normalized();
+  std::vector<Eigen::Vector3d> directions{n};
   if (!(config.max_tilt_deg > 0.0) || !(config.tilt_step_deg > 0.0) || config.tilt_azimuths < 1) return directions;
   // The tangent toward up; any tangent when the normal is (anti)parallel to it.
-  Vector3 toward_up = up.allFinite() ? Vector3(up - up.dot(n) * n) : Vector3::Zero();
+  Eigen::Vector3d toward_up = up.allFinite() ? Eigen::Vector3d(up - up.dot(n) * n) : Eigen::Vector3d::Zero();
   if (toward_up.norm() < 1e-9) toward_up = n.unitOrthogonal();
-  const Vector3 e1 = toward_up.normalized();
-  const Vector3 e2 = n.cross(e1);
+  const Eigen::Vector3d e1 = toward_up.normalized();
+  const Eigen::Vector3d e2 = n.cross(e1);
   const double step = 2.0 * M_PI / config.tilt_azimuths;
   const int rings = static_cast<int>(std::floor(config.max_tilt_deg / config.tilt_step_deg + 1e-9));
   for (int ring = 1; ring <= rings; ++ring) {
@@ -60,4 +61,4 @@ std::vector<Vector3> approachDirections(const Vector3& outward_normal, const Vec
   return directions;
 }
 
-}  // namespace gpatlas_core
+}  // namespace gpatlas_motion
