@@ -136,7 +136,7 @@ std::unique_ptr<probe_sim::SimulatedProber> makeProber(std::shared_ptr<probe_sim
 bool makeApproacher(const gpatlas_core::SurfaceModel& model, const std::optional<gpatlas_core::SupportPlane>& support,
                     const Options& o, std::unique_ptr<gpatlas_motion::ModelTouchApproacher>* approacher,
                     std::string* why) {
-  const gpatlas_core::ApproachConfig& approach = o.pipeline.approach;
+  const gpatlas_motion::ApproachConfig& approach = o.pipeline.approach;
   if (!approach.enabled) return true;
   try {
     std::shared_ptr<const gpatlas_motion::Arm> planned_arm;
