@@ -1,6 +1,7 @@
 #include "gpatlas_core/model/gpis_model.h"
 
 #include "gpatlas_core/common/dense_solve.h"
+#include "gpatlas_core/model/observation_screen.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
@@ -24,9 +25,6 @@ double gpisTarget(const TrainingPoint& p, double scale) {
 namespace {
 
 constexpr double kLog2Pi = 1.8378770664093453;
-
-bool isFinite(const Vector3& v) { return v.allFinite(); }
-
 
 // Covariance between two observations at normalised positions a and b: of f itself where the
 // direction is zero, else of f's slope along that unit direction. With d = a - b and k' = dk/dr:
@@ -457,38 +455,9 @@ GpisModel::~GpisModel() = default;
 
 namespace {
 
-// Validates and deduplicates incoming points against `existing` (normalised with the given
-// frame when the frame is known). Rejected points are counted and explained in warnings.
-std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
-  std::vector<TrainingPoint> accepted;
-  accepted.reserve(points.size());
-  std::size_t non_finite = 0, bad_noise = 0, bad_direction = 0;
-  for (const auto& p : points) {
-    if (!isFinite(p.position) || !isFinite(p.slope_direction)) {
-      ++non_finite;
-      continue;
-    }
-    if (observesSlope(p) && !(p.slope_direction.norm() > 1e-9)) {
-      ++bad_direction;
-      continue;
-    }
-    if (!std::isfinite(p.noise_sigma) || p.noise_sigma < 0.0) {
-      ++bad_noise;
-      continue;
-    }
-    accepted.push_back(p);
-    // A unit direction is kept as given (bit for bit), so that callers can find their points.
-    if (observesSlope(p) && std::abs(p.slope_direction.norm() - 1.0) > 1e-12) accepted.back().slope_direction.normalize();
-  }
-  if (non_finite > 0)
-    report->warnings.push_back(std::to_string(non_finite) + " point(s) with NaN/Inf coordinates dropped");
-  if (bad_noise > 0)
-    report->warnings.push_back(std::to_string(bad_noise) + " point(s) with a negative or NaN noise sigma dropped");
-  if (bad_direction > 0)
-    report->warnings.push_back(std::to_string(bad_direction) + " slope observation(s) with a near-zero direction dropped");
-  report->num_rejected += non_finite + bad_noise + bad_direction;
-  return accepted;
-}
+// Slope directions are made unit: the covariance of a slope observation (observationCovariance)
+// is that of the slope along a unit direction.
+const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/true};
 
 }  // namespace
 
@@ -505,7 +474,7 @@ FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const 
 
 FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale) {
   FitReport report;
-  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &report);
   if (centroid && report.num_rejected == 0) {
     FitReport updated;
     if (updateInFrame(accepted, *centroid, scale, &updated)) return updated;
@@ -688,7 +657,7 @@ FitReport GpisModel::refitWith(const std::vector<TrainingPoint>& added, bool ren
 FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   if (!isFitted()) return fit(points);
   FitReport report;
-  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &report);
   Impl& m = *impl_;
   const Config& c = m.config;
   if (accepted.empty()) {

@@ -4,6 +4,7 @@
 
 #include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/kernel.h"
+#include "gpatlas_core/model/observation_screen.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
@@ -102,24 +103,10 @@ std::vector<std::size_t> mergeSorted(std::vector<std::size_t> a, const std::vect
   return a;
 }
 
-std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
-  std::vector<TrainingPoint> accepted;
-  accepted.reserve(points.size());
-  std::size_t rejected = 0;
-  for (const TrainingPoint& p : points) {
-    if (!p.position.allFinite() || !p.slope_direction.allFinite() || !std::isfinite(p.noise_sigma) ||
-        p.noise_sigma < 0.0 || (observesSlope(p) && !(p.slope_direction.norm() > 1e-9))) {
-      ++rejected;
-      continue;
-    }
-    accepted.push_back(p);
-  }
-  if (rejected > 0)
-    report->warnings.push_back(std::to_string(rejected) +
-                               " point(s) with NaN/Inf coordinates, a bad noise sigma or a zero slope direction dropped");
-  report->num_rejected += rejected;
-  return accepted;
-}
+// The points are kept as the caller gave them, slope directions too: nothing here needs them unit
+// (the coarse GpisModel makes its own copies' directions unit, the cells take no slopes), and
+// observations() and state() report the caller's points.
+const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/false};
 
 // Matern 5/2 in metres, k = s2 (1 + a + a^2/3) e^-a with a = sqrt(5) r / l (Matern52Kernel's
 // formula), and (dk/dr) / r = -s2 (5 / (3 l^2)) (1 + a) e^-a.
@@ -765,7 +752,7 @@ FitReport MultiscaleGpisModel::fit(const std::vector<TrainingPoint>& points) {
   Impl trial(impl_->config, impl_->coarse_config);
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
-  trial.observations = screenPoints(points, &screen);
+  trial.observations = screenObservations(points, kScreenOptions, &screen);
   trial.fine_tune = impl_->fine_tune;
   FitReport report = trial.build(nullptr, 0.0, trial.config.tune_on_fit);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
@@ -784,7 +771,7 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
   Impl trial(impl_->config, impl_->coarse_config);
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
-  trial.observations = screenPoints(points, &screen);
+  trial.observations = screenObservations(points, kScreenOptions, &screen);
   trial.fine_tune = impl_->fine_tune;
   const bool same_frame = impl_->fitted && centroid == impl_->coarse.centroid() && scale == impl_->coarse.scale();
   // From the current coarse level (a touch retracting guesses).
@@ -909,7 +896,7 @@ void MultiscaleGpisModel::Impl::commit(Impl&& stage, CellUpdate& update, const s
 FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   if (!impl_->fitted) return fit(points);
   FitReport screen;
-  std::vector<TrainingPoint> accepted = screenPoints(points, &screen);
+  std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &screen);
   if (accepted.empty()) {
     screen.ok = true;
     screen.message = "no valid point to add";
@@ -1191,7 +1178,7 @@ FitReport MultiscaleGpisModel::restore(const SurfaceModelState& state) {
   Impl trial(impl_->config, impl_->coarse_config);
   if (!impl_->withHyperparameters(params, &trial, &report)) return report;
   FitReport screen;
-  trial.observations = screenPoints(state.observations, &screen);
+  trial.observations = screenObservations(state.observations, kScreenOptions, &screen);
   report = trial.build(&state.centroid, state.scale, false);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
   if (report.ok) *impl_ = std::move(trial);
