@@ -3,6 +3,7 @@
 // truth is the mesh the scene is built from.
 #include "probe_sim/depth_camera.h"
 #include "probe_sim/object_mesh.h"
+#include "probe_sim/procedural_objects.h"
 #include "probe_sim/probe.h"
 #include "probe_sim/scene.h"
 

@@ -23,6 +23,7 @@
 #include <gpatlas_core/observations/view_training.h>
 #include <probe_sim/depth_camera.h>
 #include <probe_sim/object_mesh.h>
+#include <probe_sim/procedural_objects.h>
 #include <probe_sim/probe.h>
 #include <probe_sim/reachability.h>
 #include <probe_sim/scene.h>
