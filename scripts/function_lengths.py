@@ -83,11 +83,16 @@ def cxx_functions(path):
     line = 1
     header_line = None  # line of the header's first non-blank character
     function_start = None
+    paren_depth = 0  # in a header: braces within parentheses (default arguments) open no scope
     for i, c in enumerate(text):
         if c == '\n':
             line += 1
             continue
         inside_function = any(kind == 'function' for kind, _, _ in stack)
+        if not inside_function and c in '()':
+            paren_depth = max(0, paren_depth + (1 if c == '(' else -1))
+        if c in '{}' and not inside_function and paren_depth > 0:
+            continue
         if c in ';{}' and not inside_function:
             if c == '{':
                 header = text[header_start:i]
