@@ -28,7 +28,11 @@ struct TriangleMesh : gpatlas_core::TriangleMesh {
   void append(const TriangleMesh& other);
 };
 
-// The mesh files. Every function here reports a problem by throwing std::runtime_error with a
+// Moves the mesh so that its bounding box is centred on (x, y) and its bottom is on z = 0,
+// i.e. standing on the table. Scanned meshes come in their scanner's coordinates.
+void placeOnTable(TriangleMesh& mesh, const Eigen::Vector2d& xy = Eigen::Vector2d::Zero());
+
+// The mesh files. Every function below reports a problem by throwing std::runtime_error with a
 // message "mesh file '<path>': <problem>".
 
 // Loaders: the problems are a missing, empty, truncated or unparsable file, no triangles,
@@ -42,10 +46,6 @@ TriangleMesh loadObj(const std::string& path);  // v / f records, polygons fan-t
 // (which must be finite and > 0: meshes in millimetres need 0.001) and then applies pose.
 TriangleMesh loadMesh(const std::string& path, double scale = 1.0,
                       const Eigen::Isometry3d& pose = Eigen::Isometry3d::Identity());
-
-// Moves the mesh so that its bounding box is centred on (x, y) and its bottom is on z = 0,
-// i.e. standing on the table. Scanned meshes come in their scanner's coordinates.
-void placeOnTable(TriangleMesh& mesh, const Eigen::Vector2d& xy = Eigen::Vector2d::Zero());
 
 // Writes a binary STL with per-facet normals from the winding.
 void saveStl(const TriangleMesh& mesh, const std::string& path);
