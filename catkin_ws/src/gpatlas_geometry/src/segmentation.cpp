@@ -40,155 +40,172 @@ std::string validate(const ObjectSegmenter::Config& c) {
   return {};
 }
 
-SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_points) const {
-  SegmentationResult result;
-  const Config& c = config_;
-  const std::string invalid = validate(c);
-  if (!invalid.empty()) {
-    result.message = "invalid segmentation config: " + invalid;
-    return result;
-  }
-  result.stats.input = world_points.size();
+namespace {
+
+// The finite points, as PCL's floats.
+Cloud::Ptr finitePoints(const std::vector<Vector3>& world_points) {
   Cloud::Ptr cloud(new Cloud);
   cloud->reserve(world_points.size());
   for (const auto& p : world_points)
     if (p.allFinite()) cloud->push_back(pcl::PointXYZ(static_cast<float>(p.x()), static_cast<float>(p.y()), static_cast<float>(p.z())));
-  result.stats.finite = cloud->size();
-  if (cloud->empty()) {
-    result.message = world_points.empty() ? "empty cloud" : "cloud has no finite point";
-    return result;
-  }
+  return cloud;
+}
 
+Cloud::Ptr cropToBox(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) {
   Cloud::Ptr cropped(new Cloud);
   pcl::CropBox<pcl::PointXYZ> crop;
   crop.setMin(Eigen::Vector4f(c.crop_min_m.x(), c.crop_min_m.y(), c.crop_min_m.z(), 1.0f));
   crop.setMax(Eigen::Vector4f(c.crop_max_m.x(), c.crop_max_m.y(), c.crop_max_m.z(), 1.0f));
   crop.setInputCloud(cloud);
   crop.filter(*cropped);
-  result.stats.after_crop = cropped->size();
-  if (cropped->empty()) {
-    result.message = "no point inside the crop box";
-    return result;
-  }
+  return cropped;
+}
 
-  Cloud::Ptr downsampled = cropped;
-  if (c.voxel_leaf_m > 0.0) {
-    downsampled.reset(new Cloud);
-    pcl::VoxelGrid<pcl::PointXYZ> voxel;
-    const float leaf = static_cast<float>(c.voxel_leaf_m);
-    voxel.setLeafSize(leaf, leaf, leaf);
-    voxel.setInputCloud(cropped);
-    voxel.filter(*downsampled);
-  }
-  result.stats.after_voxel = downsampled->size();
+// One point per voxel_leaf_m voxel (the cloud itself when the voxel grid is off).
+Cloud::Ptr downsample(const Cloud::Ptr& cropped, const ObjectSegmenter::Config& c) {
+  if (!(c.voxel_leaf_m > 0.0)) return cropped;
+  Cloud::Ptr downsampled(new Cloud);
+  pcl::VoxelGrid<pcl::PointXYZ> voxel;
+  const float leaf = static_cast<float>(c.voxel_leaf_m);
+  voxel.setLeafSize(leaf, leaf, leaf);
+  voxel.setInputCloud(cropped);
+  voxel.filter(*downsampled);
+  return downsampled;
+}
 
-  Cloud::Ptr without_plane = downsampled;
-  if (c.remove_plane && downsampled->size() >= 3) {
-    pcl::SACSegmentation<pcl::PointXYZ> sac;
-    sac.setOptimizeCoefficients(true);
-    sac.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
-    sac.setAxis(Eigen::Vector3f::UnitZ());
-    sac.setEpsAngle(c.plane_max_tilt_deg * M_PI / 180.0);
-    sac.setMethodType(pcl::SAC_RANSAC);
-    sac.setDistanceThreshold(c.plane_distance_m);
-    sac.setMaxIterations(c.plane_max_iterations);
-    sac.setInputCloud(downsampled);
-    pcl::PointIndices::Ptr inliers(new pcl::PointIndices);
-    pcl::ModelCoefficients coefficients;
-    sac.segment(*inliers, coefficients);
-    result.stats.plane_inliers = inliers->indices.size();
-    if (inliers->indices.size() >= c.plane_min_inliers && coefficients.values.size() == 4) {
-      Vector3 n(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
-      double d = coefficients.values[3];
-      if (n.z() < 0.0) {
-        n = -n;
-        d = -d;
-      }
-      const double norm = n.norm();
-      n /= norm;
-      d /= norm;
-      // The inliers' footprint in the plane. A table's own side faces, seen at its edge, lie
-      // below it but project onto the footprint's border: they do not count against it. What
-      // lies below it elsewhere (an object under a flat face of its own) does.
-      // Box axes: the world's x (else y) projected onto the plane, so that a table aligned with
-      // the world has its sides on the box's border whatever the fitted normal's small tilt (an
-      // arbitrary orthogonal, e.g. Eigen's unitOrthogonal, turns with the tilt's direction).
-      Vector3 u = Vector3::UnitX() - n.x() * n;
-      if (u.norm() < 0.5) u = Vector3::UnitY() - n.y() * n;
-      u.normalize();
-      const Vector3 v = n.cross(u);
-      Eigen::AlignedBox2d footprint;
-      for (int index : inliers->indices) {
-        const auto& p = downsampled->points[static_cast<std::size_t>(index)];
-        const Vector3 x(p.x, p.y, p.z);
-        footprint.extend(Eigen::Vector2d(u.dot(x), v.dot(x)));
-      }
-      const Eigen::Vector2d band = Eigen::Vector2d::Constant(c.cluster_tolerance_m);
-      const Eigen::AlignedBox2d outer(footprint.min() - band, footprint.max() + band);
-      const Eigen::AlignedBox2d inner(footprint.min() + band, footprint.max() - band);
-      const auto onBorder = [&](const Vector3& x) {
-        const Eigen::Vector2d q(u.dot(x), v.dot(x));
-        return outer.contains(q) && !inner.contains(q);
-      };
-      Cloud::Ptr above(new Cloud);
-      std::size_t below = 0, below_on_border = 0;
-      for (const auto& p : downsampled->points) {
-        const Vector3 x(p.x, p.y, p.z);
-        const double height = n.dot(x) + d;
-        if (height > c.plane_distance_m) above->push_back(p);
-        else if (height < -c.plane_distance_m) ++(onBorder(x) ? below_on_border : below);
-      }
-      // A support plane has (almost) nothing under it. A horizontal face of the object itself,
-      // e.g. a mug's rim in an object-only cloud, has the object below: keep everything then.
-      // Nor is a plane with nothing on it and faces hanging from its border: the top of a box
-      // seen alone has its sides there, as a table has its own. (A bare plane is an empty table:
-      // removed, it leaves nothing, which is the error to report.)
-      const bool box_top = above->size() < c.cluster_min_points && below_on_border > 0;
-      if (!box_top &&
-          static_cast<double>(below) <= c.plane_max_fraction_below * static_cast<double>(downsampled->size())) {
-        result.plane_found = true;
-        result.plane_normal = n;
-        result.plane_offset = d;
-        without_plane = above;
-      }
-    }
-  }
-  result.stats.after_plane = without_plane->size();
-  if (without_plane->empty()) {
-    result.message = "nothing left above the support plane";
-    return result;
-  }
+// The support plane n . x + d = 0 that RANSAC finds (n pointing up, unit length), with its inliers.
+struct PlaneFit {
+  bool found{false};
+  Vector3 normal{Vector3::UnitZ()};
+  double offset{0.0};
+  std::vector<int> inliers;
+};
 
-  Cloud::Ptr filtered = without_plane;
-  if (c.outlier_mean_k > 0 && without_plane->size() > static_cast<std::size_t>(c.outlier_mean_k)) {
-    filtered.reset(new Cloud);
-    pcl::StatisticalOutlierRemoval<pcl::PointXYZ> sor;
-    sor.setMeanK(c.outlier_mean_k);
-    sor.setStddevMulThresh(c.outlier_stddev_multiplier);
-    sor.setInputCloud(without_plane);
-    sor.filter(*filtered);
+PlaneFit fitSupportPlane(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) {
+  pcl::SACSegmentation<pcl::PointXYZ> sac;
+  sac.setOptimizeCoefficients(true);
+  sac.setModelType(pcl::SACMODEL_PERPENDICULAR_PLANE);
+  sac.setAxis(Eigen::Vector3f::UnitZ());
+  sac.setEpsAngle(c.plane_max_tilt_deg * M_PI / 180.0);
+  sac.setMethodType(pcl::SAC_RANSAC);
+  sac.setDistanceThreshold(c.plane_distance_m);
+  sac.setMaxIterations(c.plane_max_iterations);
+  sac.setInputCloud(cloud);
+  pcl::PointIndices::Ptr inliers(new pcl::PointIndices);
+  pcl::ModelCoefficients coefficients;
+  sac.segment(*inliers, coefficients);
+  PlaneFit plane;
+  plane.inliers = inliers->indices;
+  if (inliers->indices.size() < c.plane_min_inliers || coefficients.values.size() != 4) return plane;
+  Vector3 n(coefficients.values[0], coefficients.values[1], coefficients.values[2]);
+  double d = coefficients.values[3];
+  if (n.z() < 0.0) {
+    n = -n;
+    d = -d;
   }
-  result.stats.after_outliers = filtered->size();
+  const double norm = n.norm();
+  n /= norm;
+  d /= norm;
+  plane.found = true;
+  plane.normal = n;
+  plane.offset = d;
+  return plane;
+}
 
+// The points above the plane, counting those below it, apart (below_on_border) from those that
+// project onto the border of the inliers' footprint in the plane. A table's own side faces, seen
+// at its edge, lie below it but project onto the footprint's border: they do not count against
+// it. What lies below it elsewhere (an object under a flat face of its own) does.
+struct PlaneSides {
+  Cloud::Ptr above{new Cloud};
+  std::size_t below{0}, below_on_border{0};
+};
+
+PlaneSides splitAtPlane(const Cloud& cloud, const PlaneFit& plane, const ObjectSegmenter::Config& c) {
+  const Vector3& n = plane.normal;
+  const double d = plane.offset;
+  // Box axes: the world's x (else y) projected onto the plane, so that a table aligned with
+  // the world has its sides on the box's border whatever the fitted normal's small tilt (an
+  // arbitrary orthogonal, e.g. Eigen's unitOrthogonal, turns with the tilt's direction).
+  Vector3 u = Vector3::UnitX() - n.x() * n;
+  if (u.norm() < 0.5) u = Vector3::UnitY() - n.y() * n;
+  u.normalize();
+  const Vector3 v = n.cross(u);
+  Eigen::AlignedBox2d footprint;
+  for (int index : plane.inliers) {
+    const auto& p = cloud.points[static_cast<std::size_t>(index)];
+    const Vector3 x(p.x, p.y, p.z);
+    footprint.extend(Eigen::Vector2d(u.dot(x), v.dot(x)));
+  }
+  const Eigen::Vector2d band = Eigen::Vector2d::Constant(c.cluster_tolerance_m);
+  const Eigen::AlignedBox2d outer(footprint.min() - band, footprint.max() + band);
+  const Eigen::AlignedBox2d inner(footprint.min() + band, footprint.max() - band);
+  const auto onBorder = [&](const Vector3& x) {
+    const Eigen::Vector2d q(u.dot(x), v.dot(x));
+    return outer.contains(q) && !inner.contains(q);
+  };
+  PlaneSides sides;
+  for (const auto& p : cloud.points) {
+    const Vector3 x(p.x, p.y, p.z);
+    const double height = n.dot(x) + d;
+    if (height > c.plane_distance_m) sides.above->push_back(p);
+    else if (height < -c.plane_distance_m) ++(onBorder(x) ? sides.below_on_border : sides.below);
+  }
+  return sides;
+}
+
+// The cloud without its support plane, recording the plane in `result`; the cloud itself when
+// no plane qualifies as a support.
+Cloud::Ptr removeSupportPlane(const Cloud::Ptr& downsampled, const ObjectSegmenter::Config& c,
+                              SegmentationResult& result) {
+  if (!c.remove_plane || downsampled->size() < 3) return downsampled;
+  const PlaneFit plane = fitSupportPlane(downsampled, c);
+  result.stats.plane_inliers = plane.inliers.size();
+  if (!plane.found) return downsampled;
+  const PlaneSides sides = splitAtPlane(*downsampled, plane, c);
+  // A support plane has (almost) nothing under it. A horizontal face of the object itself,
+  // e.g. a mug's rim in an object-only cloud, has the object below: keep everything then.
+  // Nor is a plane with nothing on it and faces hanging from its border: the top of a box
+  // seen alone has its sides there, as a table has its own. (A bare plane is an empty table:
+  // removed, it leaves nothing, which is the error to report.)
+  const bool box_top = sides.above->size() < c.cluster_min_points && sides.below_on_border > 0;
+  if (box_top ||
+      !(static_cast<double>(sides.below) <= c.plane_max_fraction_below * static_cast<double>(downsampled->size())))
+    return downsampled;
+  result.plane_found = true;
+  result.plane_normal = plane.normal;
+  result.plane_offset = plane.offset;
+  return sides.above;
+}
+
+Cloud::Ptr removeOutliers(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) {
+  if (!(c.outlier_mean_k > 0 && cloud->size() > static_cast<std::size_t>(c.outlier_mean_k))) return cloud;
+  Cloud::Ptr filtered(new Cloud);
+  pcl::StatisticalOutlierRemoval<pcl::PointXYZ> sor;
+  sor.setMeanK(c.outlier_mean_k);
+  sor.setStddevMulThresh(c.outlier_stddev_multiplier);
+  sor.setInputCloud(cloud);
+  sor.filter(*filtered);
+  return filtered;
+}
+
+std::vector<pcl::PointIndices> euclideanClusters(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) {
   pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
-  tree->setInputCloud(filtered);
+  tree->setInputCloud(cloud);
   std::vector<pcl::PointIndices> clusters;
   pcl::EuclideanClusterExtraction<pcl::PointXYZ> extraction;
   extraction.setClusterTolerance(c.cluster_tolerance_m);
   extraction.setMinClusterSize(static_cast<int>(c.cluster_min_points));
   extraction.setMaxClusterSize(static_cast<int>(std::min<std::size_t>(c.cluster_max_points, std::numeric_limits<int>::max())));
   extraction.setSearchMethod(tree);
-  extraction.setInputCloud(filtered);
+  extraction.setInputCloud(cloud);
   extraction.extract(clusters);
-  result.stats.clusters = clusters.size();
-  if (clusters.empty()) {
-    std::ostringstream msg;
-    msg << "no object cluster: " << filtered->size() << " points left after filtering, none in a cluster of at least "
-        << c.cluster_min_points << " points within " << c.cluster_tolerance_m << " m";
-    result.message = msg.str();
-    return result;
-  }
+  return clusters;
+}
 
+// The largest cluster, or the one whose centroid is closest to the hint (the first on a tie).
+std::size_t chooseCluster(const Cloud& cloud, const std::vector<pcl::PointIndices>& clusters,
+                          const ObjectSegmenter::Config& c) {
   std::size_t best = 0;
   double best_score = -std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < clusters.size(); ++i) {
@@ -196,7 +213,7 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
     if (c.object_hint_m) {
       Vector3 centroid = Vector3::Zero();
       for (int idx : clusters[i].indices) {
-        const auto& p = filtered->points[static_cast<std::size_t>(idx)];
+        const auto& p = cloud.points[static_cast<std::size_t>(idx)];
         centroid += Vector3(p.x, p.y, p.z);
       }
       centroid /= static_cast<double>(clusters[i].indices.size());
@@ -207,6 +224,53 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
       best = i;
     }
   }
+  return best;
+}
+
+}  // namespace
+
+SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_points) const {
+  SegmentationResult result;
+  const Config& c = config_;
+  const std::string invalid = validate(c);
+  if (!invalid.empty()) {
+    result.message = "invalid segmentation config: " + invalid;
+    return result;
+  }
+  result.stats.input = world_points.size();
+  const Cloud::Ptr cloud = finitePoints(world_points);
+  result.stats.finite = cloud->size();
+  if (cloud->empty()) {
+    result.message = world_points.empty() ? "empty cloud" : "cloud has no finite point";
+    return result;
+  }
+  const Cloud::Ptr cropped = cropToBox(cloud, c);
+  result.stats.after_crop = cropped->size();
+  if (cropped->empty()) {
+    result.message = "no point inside the crop box";
+    return result;
+  }
+  const Cloud::Ptr downsampled = downsample(cropped, c);
+  result.stats.after_voxel = downsampled->size();
+  const Cloud::Ptr without_plane = removeSupportPlane(downsampled, c, result);
+  result.stats.after_plane = without_plane->size();
+  if (without_plane->empty()) {
+    result.message = "nothing left above the support plane";
+    return result;
+  }
+  const Cloud::Ptr filtered = removeOutliers(without_plane, c);
+  result.stats.after_outliers = filtered->size();
+
+  const std::vector<pcl::PointIndices> clusters = euclideanClusters(filtered, c);
+  result.stats.clusters = clusters.size();
+  if (clusters.empty()) {
+    std::ostringstream msg;
+    msg << "no object cluster: " << filtered->size() << " points left after filtering, none in a cluster of at least "
+        << c.cluster_min_points << " points within " << c.cluster_tolerance_m << " m";
+    result.message = msg.str();
+    return result;
+  }
+  const std::size_t best = chooseCluster(*filtered, clusters, c);
   for (int idx : clusters[best].indices) {
     const auto& p = filtered->points[static_cast<std::size_t>(idx)];
     result.object_points.emplace_back(p.x, p.y, p.z);

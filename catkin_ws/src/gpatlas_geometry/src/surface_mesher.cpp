@@ -164,112 +164,86 @@ std::string tooManyNodes(double nodes, std::size_t max_nodes, const std::string&
   return message.str();
 }
 
-}  // namespace
+// Empty when the config is usable, else what is wrong with it.
+std::string configProblem(const SurfaceMesher::Config& config) {
+  const double resolution = config.resolution_m;
+  if (!(resolution > 0.0) || !std::isfinite(resolution) || config.batch_size < 1 || config.coarse_stride < 1)
+    return "resolution_m must be positive and finite, batch_size and coarse_stride >= 1";
+  if (!(config.margin_fraction_of_data_radius >= 0.0) || !std::isfinite(config.margin_fraction_of_data_radius))
+    return "margin_fraction_of_data_radius must be finite and >= 0";
+  return {};
+}
 
-SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
-  SurfaceMeshResult result;
-  if (!model.isFitted()) {
-    result.message = "no model: the GP is not fitted";
-    return result;
-  }
-  const double resolution = config_.resolution_m;
-  if (!(resolution > 0.0) || !std::isfinite(resolution) || config_.batch_size < 1 || config_.coarse_stride < 1) {
-    result.message = "resolution_m must be positive and finite, batch_size and coarse_stride >= 1";
-    return result;
-  }
-  if (!(config_.margin_fraction_of_data_radius >= 0.0) || !std::isfinite(config_.margin_fraction_of_data_radius)) {
-    result.message = "margin_fraction_of_data_radius must be finite and >= 0";
-    return result;
-  }
+// The domain cube's grid, in whose lattice the automatic bounds lie, and the automatic bounds'
+// first and last nodes in it: the surface observations' box grown by the margin, on the coarse
+// lattice of the domain cube so that a grid grown later keeps its blocks (the whole cube
+// without surface observations).
+struct DomainLattice {
+  Vector3 lower{Vector3::Zero()};
+  int nodes_per_axis{0};
+  Eigen::Vector3i first{Eigen::Vector3i::Zero()}, last{Eigen::Vector3i::Zero()};
+};
 
-  // The domain cube's grid, in whose lattice the automatic bounds lie: [first, last] nodes.
-  const Vector3 domain_lower = model.centroid() - Vector3::Constant(model.domainRadiusWorld());
-  const double domain_nodes_per_axis = std::floor(2.0 * model.domainRadiusWorld() / resolution) + 1.0;
-  if (!(domain_nodes_per_axis < 1e9)) {
-    result.message = "resolution_m is too fine for the model's domain";
-    return result;
-  }
-  const int domain_nodes = static_cast<int>(domain_nodes_per_axis);
-  Eigen::Vector3i first = Eigen::Vector3i::Zero();
-  Eigen::Vector3i last = Eigen::Vector3i::Constant(domain_nodes - 1);
+DomainLattice domainLattice(const SurfaceModel& model, const SurfaceMesher::Config& config, int domain_nodes) {
+  const double resolution = config.resolution_m;
+  DomainLattice lattice;
+  lattice.lower = model.centroid() - Vector3::Constant(model.domainRadiusWorld());
+  lattice.nodes_per_axis = domain_nodes;
+  lattice.last = Eigen::Vector3i::Constant(domain_nodes - 1);
   Eigen::AlignedBox<double, 3> surface_box;
   for (const TrainingPoint& point : model.observations())
     if (isSurfaceValue(point)) surface_box.extend(point.position);
-  if (!surface_box.isEmpty()) {
-    const double margin = config_.margin_fraction_of_data_radius * model.dataRadiusWorld();
-    const Eigen::Array3d low = ((surface_box.min().array() - margin) - domain_lower.array()) / resolution;
-    const Eigen::Array3d high = ((surface_box.max().array() + margin) - domain_lower.array()) / resolution;
-    for (int axis = 0; axis < 3; ++axis) {
-      first[axis] = static_cast<int>(std::clamp(std::floor(low[axis]), 0.0, domain_nodes - 1.0));
-      last[axis] = static_cast<int>(std::clamp(std::ceil(high[axis]), 0.0, domain_nodes - 1.0));
-      // On the coarse lattice of the domain cube: a grid grown later keeps its blocks.
-      const int stride = std::max(1, config_.coarse_stride);
-      first[axis] = first[axis] / stride * stride;
-      last[axis] = std::min(domain_nodes - 1, (last[axis] + stride - 1) / stride * stride);
-    }
+  if (surface_box.isEmpty()) return lattice;
+  const double margin = config.margin_fraction_of_data_radius * model.dataRadiusWorld();
+  const Eigen::Array3d low = ((surface_box.min().array() - margin) - lattice.lower.array()) / resolution;
+  const Eigen::Array3d high = ((surface_box.max().array() + margin) - lattice.lower.array()) / resolution;
+  for (int axis = 0; axis < 3; ++axis) {
+    lattice.first[axis] = static_cast<int>(std::clamp(std::floor(low[axis]), 0.0, domain_nodes - 1.0));
+    lattice.last[axis] = static_cast<int>(std::clamp(std::ceil(high[axis]), 0.0, domain_nodes - 1.0));
+    const int stride = std::max(1, config.coarse_stride);
+    lattice.first[axis] = lattice.first[axis] / stride * stride;
+    lattice.last[axis] = std::min(domain_nodes - 1, (lattice.last[axis] + stride - 1) / stride * stride);
   }
-  const bool automatic = !config_.min_corner && !config_.max_corner;
-  const Vector3 lower = config_.min_corner.value_or(domain_lower + resolution * first.cast<double>());
-  const Vector3 upper = config_.max_corner.value_or(domain_lower + resolution * last.cast<double>());
-  if (!lower.allFinite() || !upper.allFinite() || (upper.array() <= lower.array()).any()) {
-    result.message = "grid bounds must be finite with max_corner > min_corner on every axis";
-    return result;
-  }
-  // Automatic bounds count their lattice nodes exactly, not from the corners' rounded difference.
-  const Eigen::Array3d nodes_per_axis =
-      automatic ? Eigen::Array3d((last - first + Eigen::Vector3i::Ones()).cast<double>().array())
-                : Eigen::Array3d(((upper - lower) / resolution).array().floor() + 1.0);
-  if (nodes_per_axis.prod() > static_cast<double>(config_.max_nodes)) {
-    result.message = tooManyNodes(nodes_per_axis.prod(), config_.max_nodes,
-                                  automatic ? "the surface observations' box grown by the margin" : "the given bounds");
-    return result;
-  }
-  Grid grid;
-  grid.lower = lower;
-  grid.size = nodes_per_axis.cast<int>().matrix();
-  result.grid_size = grid.size;
-  if ((grid.size.array() < 2).any()) {
-    result.message = "the grid needs at least two nodes per axis";
-    return result;
-  }
-  grid.values.assign(static_cast<std::size_t>(nodeCount(grid.size)), std::numeric_limits<float>::quiet_NaN());
-  if (!evaluateMissingNodes(model, resolution, config_.batch_size, config_.coarse_stride, grid)) {
-    result.message = "the model returned a non-finite mean";
-    return result;
-  }
+  return lattice;
+}
 
-  // Automatic bounds: move each side that the predicted solid reaches out to the domain cube,
-  // keeping the nodes already evaluated, until the solid reaches no movable side.
-  while (automatic) {
+// Automatic bounds: moves each side that the predicted solid reaches out to the domain cube,
+// keeping the nodes already evaluated, until the solid reaches no movable side. Empty when done,
+// else why the grid could not grow.
+std::string growToSolid(const SurfaceModel& model, const SurfaceMesher::Config& config, DomainLattice& lattice,
+                        Grid& grid) {
+  const double resolution = config.resolution_m;
+  const int domain_nodes = lattice.nodes_per_axis;
+  Eigen::Vector3i &first = lattice.first, &last = lattice.last;
+  for (;;) {
     Eigen::Vector3i grown_first = first, grown_last = last;
     for (int axis = 0; axis < 3; ++axis) {
       if (first[axis] > 0 && solidTouchesFace(grid, axis, false)) grown_first[axis] = 0;
       if (last[axis] < domain_nodes - 1 && solidTouchesFace(grid, axis, true)) grown_last[axis] = domain_nodes - 1;
     }
-    if (grown_first == first && grown_last == last) break;
+    if (grown_first == first && grown_last == last) return {};
     Grid grown;
-    grown.lower = domain_lower + resolution * grown_first.cast<double>();
+    grown.lower = lattice.lower + resolution * grown_first.cast<double>();
     grown.size = grown_last - grown_first + Eigen::Vector3i::Ones();
-    if (nodeCount(grown.size) > static_cast<double>(config_.max_nodes)) {
-      result.message = tooManyNodes(nodeCount(grown.size), config_.max_nodes,
-                                    "grown to the domain where the predicted solid reaches the margin's box");
-      return result;
-    }
+    if (nodeCount(grown.size) > static_cast<double>(config.max_nodes))
+      return tooManyNodes(nodeCount(grown.size), config.max_nodes,
+                          "grown to the domain where the predicted solid reaches the margin's box");
     grown.values.assign(static_cast<std::size_t>(nodeCount(grown.size)), std::numeric_limits<float>::quiet_NaN());
     const Eigen::Vector3i offset = first - grown_first;
     for (int k = 0; k < grid.size.z(); ++k)
       for (int j = 0; j < grid.size.y(); ++j)
         for (int i = 0; i < grid.size.x(); ++i)
           grown.values[grown.index(Eigen::Vector3i(i, j, k) + offset)] = grid.values[grid.index({i, j, k})];
-    if (!evaluateMissingNodes(model, resolution, config_.batch_size, config_.coarse_stride, grown)) {
-      result.message = "the model returned a non-finite mean";
-      return result;
-    }
+    if (!evaluateMissingNodes(model, resolution, config.batch_size, config.coarse_stride, grown))
+      return "the model returned a non-finite mean";
     grid = std::move(grown);
     first = grown_first;
     last = grown_last;
-    result.grid_size = grid.size;
   }
+}
+
+// The zero level set of the grid's values (VTK's flying edges): vertices and triangles.
+TriangleMesh zeroLevelSet(const Grid& grid, double resolution) {
   const Eigen::Vector3i size = grid.size;
   const std::size_t num_nodes = grid.values.size();
   const std::vector<float>& values = grid.values;
@@ -295,7 +269,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
   contour->Update();
   vtkPolyData* surface = contour->GetOutput();
 
-  TriangleMesh& mesh = result.mesh;
+  TriangleMesh mesh;
   vtkPoints* points = surface->GetPoints();
   const vtkIdType num_points = points ? points->GetNumberOfPoints() : 0;
   mesh.vertices.reserve(static_cast<std::size_t>(num_points));
@@ -312,6 +286,62 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
     while (polygons->GetNextCell(count, ids))
       if (count == 3) mesh.triangles.emplace_back(static_cast<int>(ids[0]), static_cast<int>(ids[1]), static_cast<int>(ids[2]));
   }
+  return mesh;
+}
+
+}  // namespace
+
+SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
+  SurfaceMeshResult result;
+  if (!model.isFitted()) {
+    result.message = "no model: the GP is not fitted";
+    return result;
+  }
+  result.message = configProblem(config_);
+  if (!result.message.empty()) return result;
+  const double resolution = config_.resolution_m;
+  const double domain_nodes_per_axis = std::floor(2.0 * model.domainRadiusWorld() / resolution) + 1.0;
+  if (!(domain_nodes_per_axis < 1e9)) {
+    result.message = "resolution_m is too fine for the model's domain";
+    return result;
+  }
+  DomainLattice lattice = domainLattice(model, config_, static_cast<int>(domain_nodes_per_axis));
+  const bool automatic = !config_.min_corner && !config_.max_corner;
+  const Vector3 lower = config_.min_corner.value_or(lattice.lower + resolution * lattice.first.cast<double>());
+  const Vector3 upper = config_.max_corner.value_or(lattice.lower + resolution * lattice.last.cast<double>());
+  if (!lower.allFinite() || !upper.allFinite() || (upper.array() <= lower.array()).any()) {
+    result.message = "grid bounds must be finite with max_corner > min_corner on every axis";
+    return result;
+  }
+  // Automatic bounds count their lattice nodes exactly, not from the corners' rounded difference.
+  const Eigen::Array3d nodes_per_axis =
+      automatic ? Eigen::Array3d((lattice.last - lattice.first + Eigen::Vector3i::Ones()).cast<double>().array())
+                : Eigen::Array3d(((upper - lower) / resolution).array().floor() + 1.0);
+  if (nodes_per_axis.prod() > static_cast<double>(config_.max_nodes)) {
+    result.message = tooManyNodes(nodes_per_axis.prod(), config_.max_nodes,
+                                  automatic ? "the surface observations' box grown by the margin" : "the given bounds");
+    return result;
+  }
+  Grid grid;
+  grid.lower = lower;
+  grid.size = nodes_per_axis.cast<int>().matrix();
+  result.grid_size = grid.size;
+  if ((grid.size.array() < 2).any()) {
+    result.message = "the grid needs at least two nodes per axis";
+    return result;
+  }
+  grid.values.assign(static_cast<std::size_t>(nodeCount(grid.size)), std::numeric_limits<float>::quiet_NaN());
+  if (!evaluateMissingNodes(model, resolution, config_.batch_size, config_.coarse_stride, grid)) {
+    result.message = "the model returned a non-finite mean";
+    return result;
+  }
+  if (automatic) {
+    result.message = growToSolid(model, config_, lattice, grid);
+    result.grid_size = grid.size;
+    if (!result.message.empty()) return result;
+  }
+  result.mesh = zeroLevelSet(grid, resolution);
+  TriangleMesh& mesh = result.mesh;
   if (mesh.triangles.empty()) {
     result.message = "the GP mean has no zero crossing inside the grid";
     return result;
@@ -323,7 +353,6 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
                    [&](std::size_t n, const BatchPrediction& prediction, Eigen::Index row) {
                      mesh.vertex_variances[n] = prediction.variance(row);
                    });
-  result.ok = true;
   return result;
 }
 

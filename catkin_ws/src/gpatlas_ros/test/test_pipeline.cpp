@@ -145,9 +145,8 @@ TEST(Pipeline, AnswersBeforeTheModelExists) {
   EXPECT_NE(approach.response.message.find("no collision map"), std::string::npos) << approach.response.message;
 }
 
-TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
-  ros::NodeHandle nh;
-  tf2_ros::StaticTransformBroadcaster broadcaster;
+// The static transform of the synthetic cloud's camera frame, test_camera.
+geometry_msgs::TransformStamped cameraTransform() {
   geometry_msgs::TransformStamped tf;
   tf.header.stamp = ros::Time::now();
   tf.header.frame_id = "world";
@@ -161,89 +160,131 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   tf.transform.rotation.y = q.y();
   tf.transform.rotation.z = q.z();
   tf.transform.rotation.w = q.w();
+  return tf;
+}
 
-  std::mutex training_mutex;
-  gpatlas_msgs::TrainingSet::ConstPtr latest_training;
-  ros::Subscriber training_sub = nh.subscribe<gpatlas_msgs::TrainingSet>(
-      "/gpatlas/gp_model/training_set", 1, [&](const gpatlas_msgs::TrainingSet::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(training_mutex);
-        latest_training = m;
-      });
+// A model fitted with segmentation's support plane has outside points under the table top.
+bool withSupportPlane(const gpatlas_msgs::TrainingSet::ConstPtr& m) {
+  if (!m) return false;
+  for (const auto& p : m->points)
+    if (p.z < -0.002) return true;
+  return false;
+}
+
+bool hasPointAt(const gpatlas_msgs::TrainingSet& set, const Eigen::Vector3d& x) {
+  for (const auto& p : set.points)
+    if ((gpatlas_conversions::fromMsg(p) - x).norm() < 1e-6) return true;
+  return false;
+}
+
+// What the pipeline publishes, as the test last received it: the GP's training sets, the atlas,
+// the display mesh, the collision map and its status.
+class PipelineOutputs {
+ public:
+  explicit PipelineOutputs(ros::NodeHandle& nh) {
+    training_sub_ = nh.subscribe<gpatlas_msgs::TrainingSet>(
+        "/gpatlas/gp_model/training_set", 1, [this](const gpatlas_msgs::TrainingSet::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          training_ = m;
+        });
+    atlas_sub_ = nh.subscribe<visualization_msgs::MarkerArray>(
+        "/gpatlas/atlas_planner/atlas", 1, [this](const visualization_msgs::MarkerArray::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          atlas_ = m;
+        });
+    // The display mesh, made in the GP nodelet's own thread when someone listens.
+    shape_sub_ = nh.subscribe<shape_msgs::Mesh>("/gpatlas/gp_model/surface_shape", 1,
+                                                [this](const shape_msgs::Mesh::ConstPtr& m) {
+                                                  std::lock_guard<std::mutex> lock(mutex_);
+                                                  shape_ = m;
+                                                });
+    octomap_sub_ = nh.subscribe<gpatlas_msgs::OctomapBinary>(
+        "/gpatlas/collision_map/octomap_binary", 1, [this](const gpatlas_msgs::OctomapBinary::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          octomap_ = m;
+        });
+  }
+
+  // Starts listening to the collision map's status.
+  void listenToMapStatus(ros::NodeHandle& nh) {
+    status_sub_ = nh.subscribe<gpatlas_msgs::CollisionMapStatus>(
+        "/gpatlas/collision_map/status", 5, [this](const gpatlas_msgs::CollisionMapStatus::ConstPtr& m) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          status_ = m;
+        });
+  }
+
+  gpatlas_msgs::TrainingSet::ConstPtr training() const { return get(training_); }
+  visualization_msgs::MarkerArray::ConstPtr atlas() const { return get(atlas_); }
+  shape_msgs::Mesh::ConstPtr shape() const { return get(shape_); }
+  gpatlas_msgs::OctomapBinary::ConstPtr octomap() const { return get(octomap_); }
+  gpatlas_msgs::CollisionMapStatus::ConstPtr status() const { return get(status_); }
+
   // The first training set the GP publishes at or after `since` (null after 5 s).
-  const auto trainingSince = [&](const ros::Time& since) {
+  gpatlas_msgs::TrainingSet::ConstPtr trainingSince(const ros::Time& since) const {
     for (int i = 0; i < 50; ++i) {
       {
-        std::lock_guard<std::mutex> lock(training_mutex);
-        if (latest_training && latest_training->header.stamp >= since) return latest_training;
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (training_ && training_->header.stamp >= since) return training_;
       }
       ros::Duration(0.1).sleep();
     }
     return gpatlas_msgs::TrainingSet::ConstPtr();
-  };
-  // A model fitted with segmentation's support plane has outside points under the table top.
-  const auto withSupportPlane = [](const gpatlas_msgs::TrainingSet::ConstPtr& m) {
-    if (!m) return false;
-    for (const auto& p : m->points)
-      if (p.z < -0.002) return true;
-    return false;
-  };
-  gpatlas_msgs::TrainingSet::ConstPtr training;
-  visualization_msgs::MarkerArray::ConstPtr atlas;
-  ros::Subscriber atlas_sub = nh.subscribe<visualization_msgs::MarkerArray>(
-      "/gpatlas/atlas_planner/atlas", 1, [&](const visualization_msgs::MarkerArray::ConstPtr& m) { atlas = m; });
-  // The display mesh, made in the GP nodelet's own thread when someone listens.
-  std::mutex shape_mutex;
-  shape_msgs::Mesh::ConstPtr shape;
-  ros::Subscriber shape_sub = nh.subscribe<shape_msgs::Mesh>(
-      "/gpatlas/gp_model/surface_shape", 1, [&](const shape_msgs::Mesh::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(shape_mutex);
-        shape = m;
-      });
-  gpatlas_msgs::OctomapBinary::ConstPtr octomap;
-  ros::Subscriber octomap_sub = nh.subscribe<gpatlas_msgs::OctomapBinary>(
-      "/gpatlas/collision_map/octomap_binary", 1, [&](const gpatlas_msgs::OctomapBinary::ConstPtr& m) { octomap = m; });
-  ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("/test/camera_points", 1, true);
-
-  // One capture, published before the camera's transform exists (as when the camera driver
-  // starts before robot_state_publisher): the pipeline must wait for tf, not drop the cloud
-  // after tf_timeout_s (0.5 s).
-  sensor_msgs::PointCloud2 cloud = syntheticView();
-  cloud.header.stamp = ros::Time::now();
-  cloud_pub.publish(cloud);
-  ros::Duration(2.0).sleep();
-  broadcaster.sendTransform(tf);
-  const ros::Time deadline = ros::Time::now() + ros::Duration(60.0);
-  while (ros::ok() && !withSupportPlane(training) && ros::Time::now() < deadline) {
-    ros::Duration(0.2).sleep();
-    std::lock_guard<std::mutex> lock(training_mutex);
-    training = latest_training;
   }
-  ASSERT_TRUE(training) << "the GP never published a training set";
-  ASSERT_TRUE(withSupportPlane(training)) << "no training set used segmentation's support plane";
-  // Only object points reach the GP: every surface point is on the sphere, none on or under
-  // the table top (z = 0). The camera's free space (sensor_frame test_camera, see
-  // pipeline.test) adds outside points in front of the sphere, each labelled with a distance to
-  // the view that is at least its true distance to the sphere, inside points behind it, and
-  // outside points under the table.
-  ASSERT_EQ(training->labels.size(), training->points.size());
-  ASSERT_EQ(training->surface_distances_m.size(), training->points.size());
+
+  // The map's status once it is in `state`, else after 30 s the latest (null before any).
+  gpatlas_msgs::CollisionMapStatus::ConstPtr waitForState(std::uint8_t state) const {
+    for (int i = 0; i < 300; ++i) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (status_ && status_->state == state) return status_;
+      }
+      ros::Duration(0.1).sleep();
+    }
+    return status();
+  }
+
+ private:
+  template <typename Ptr>
+  Ptr get(const Ptr& member) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return member;
+  }
+
+  mutable std::mutex mutex_;
+  gpatlas_msgs::TrainingSet::ConstPtr training_;
+  visualization_msgs::MarkerArray::ConstPtr atlas_;
+  shape_msgs::Mesh::ConstPtr shape_;
+  gpatlas_msgs::OctomapBinary::ConstPtr octomap_;
+  gpatlas_msgs::CollisionMapStatus::ConstPtr status_;
+  ros::Subscriber training_sub_, atlas_sub_, shape_sub_, octomap_sub_, status_sub_;
+};
+
+// Only object points reach the GP: every surface point is on the sphere, none on or under
+// the table top (z = 0). The camera's free space (sensor_frame test_camera, see
+// pipeline.test) adds outside points in front of the sphere, each labelled with a distance to
+// the view that is at least its true distance to the sphere, inside points behind it, and
+// outside points under the table.
+void expectTrainingFromTheView(const gpatlas_msgs::TrainingSet& training) {
+  ASSERT_EQ(training.labels.size(), training.points.size());
+  ASSERT_EQ(training.surface_distances_m.size(), training.points.size());
   std::size_t view_free_space = 0, occluded_interior = 0, below_table = 0;
-  for (std::size_t i = 0; i < training->points.size(); ++i) {
-    const auto& p = training->points[i];
+  for (std::size_t i = 0; i < training.points.size(); ++i) {
+    const auto& p = training.points[i];
     if (p.z < -0.002) {
       // Segmentation's support plane (the table top, z = 0): outside points under it, labelled
       // with their depth.
-      EXPECT_EQ(training->labels[i], 1);
-      EXPECT_NEAR(training->surface_distances_m[i], -p.z, 0.003);
+      EXPECT_EQ(training.labels[i], 1);
+      EXPECT_NEAR(training.surface_distances_m[i], -p.z, 0.003);
       ++below_table;
       continue;
     }
-    if (training->labels[i] == 0) {
+    if (training.labels[i] == 0) {
       EXPECT_LT(sphereError(p), 0.004);
-    } else if (training->labels[i] == 1) {
+    } else if (training.labels[i] == 1) {
       const double distance = (gpatlas_conversions::fromMsg(p) - kCentre).norm() - kRadius;
       EXPECT_GT(distance, 0.0);
-      EXPECT_GE(training->surface_distances_m[i] + 0.004, distance);
+      EXPECT_GE(training.surface_distances_m[i] + 0.004, distance);
       ++view_free_space;
     } else {
       // The view's occluded interior (occluded_interior/*): inside the sphere, labelled with a
@@ -251,7 +292,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
       EXPECT_GE(p.z, 0.005 - 0.002);
       const double depth = kRadius - (gpatlas_conversions::fromMsg(p) - kCentre).norm();
       EXPECT_GT(depth, 0.0);
-      EXPECT_GE(training->surface_distances_m[i] + 0.004, depth);
+      EXPECT_GE(training.surface_distances_m[i] + 0.004, depth);
       ++occluded_interior;
     }
   }
@@ -259,9 +300,11 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_GT(occluded_interior, 10u);
   // Two layers (below_support/depth_fractions) of the 8 x 8 grid, each cut to the sphere's disc.
   EXPECT_GE(below_table, 2u * 40u);
+}
 
+// The first touch, planned on the model of the view.
+void planTheFirstTouch(gpatlas_msgs::GetNextTouch& touch) {
   // The planner needs the latched training set too; retry while it reports no model.
-  gpatlas_msgs::GetNextTouch touch;
   for (int attempt = 0; attempt < 20; ++attempt) {
     touch.request.v_max = 0.1;
     touch.request.strategy = "atlas_poke";
@@ -288,30 +331,31 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   for (const auto& v : syntheticViewInWorld()) view_distance = std::min(view_distance, (v - touch_end).norm());
   EXPECT_TRUE(touch.response.touch.variances.back() > 0.1 || view_distance > 0.2 * kRadius - 0.0035)
       << "variance " << touch.response.touch.variances.back() << ", " << view_distance << " m from the view";
+}
 
+// The atlas, the collision map and the predicted surface are published.
+void expectAtlasMapAndShape(const PipelineOutputs& outputs) {
   // The map is built in the collision map's own thread: allow for a loaded machine.
-  for (int i = 0; i < 300 && !(atlas && octomap); ++i) {
+  for (int i = 0; i < 300 && !(outputs.atlas() && outputs.octomap()); ++i) {
     ros::Duration(0.1).sleep();
   }
+  const visualization_msgs::MarkerArray::ConstPtr atlas = outputs.atlas();
+  const gpatlas_msgs::OctomapBinary::ConstPtr octomap = outputs.octomap();
   ASSERT_TRUE(atlas);
   EXPECT_GT(atlas->markers.size(), 2u);
   ASSERT_TRUE(octomap);
   EXPECT_FALSE(octomap->data.empty());
-  for (int i = 0; i < 100; ++i) {
-    {
-      std::lock_guard<std::mutex> lock(shape_mutex);
-      if (shape) break;
-    }
-    ros::Duration(0.1).sleep();
-  }
-  {
-    std::lock_guard<std::mutex> lock(shape_mutex);
-    ASSERT_TRUE(shape) << "no predicted surface on ~surface_shape";
-    EXPECT_GT(shape->triangles.size(), 100u);
-    for (const auto& v : shape->vertices) EXPECT_LT(sphereError(v), 0.5 * kRadius);
-  }
+  for (int i = 0; i < 100 && !outputs.shape(); ++i) ros::Duration(0.1).sleep();
+  const shape_msgs::Mesh::ConstPtr shape = outputs.shape();
+  ASSERT_TRUE(shape) << "no predicted surface on ~surface_shape";
+  EXPECT_GT(shape->triangles.size(), 100u);
+  for (const auto& v : shape->vertices) EXPECT_LT(sphereError(v), 0.5 * kRadius);
   EXPECT_EQ(octomap->id, "OcTree");
+}
 
+// A strategy of one's own, bad requests, a request for a newer model, and earlier touches'
+// targets as evidence.
+void expectPlannerAnswers() {
   // A strategy from a library named in strategy_libraries answers like the built-in ones.
   gpatlas_msgs::GetNextTouch own;
   own.request.v_max = 0.1;
@@ -358,7 +402,11 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", evidence_only));
   EXPECT_EQ(evidence_only.response.status, gpatlas_msgs::GetNextTouch::Response::CONVERGED)
       << evidence_only.response.message;
+}
 
+// Touch results go into the model; bad ones are refused with the reason. `mixed`: the last
+// request, a good contact next to a NaN one.
+void addTouchResults(gpatlas_msgs::AddObservations& mixed) {
   // A touch result goes back into the model.
   gpatlas_msgs::AddObservations add;
   add.request.observations.header.frame_id = "world";
@@ -388,7 +436,6 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_FALSE(outlier.response.success);
   EXPECT_NE(outlier.response.message.find("frame_id is empty"), std::string::npos) << outlier.response.message;
   // A NaN contact next to a good one: the good one is added and the NaN counted.
-  gpatlas_msgs::AddObservations mixed;
   mixed.request.observations.header.frame_id = "world";
   mixed.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(kCentre + kRadius * Eigen::Vector3d(1, 0, 0)));
   mixed.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(Eigen::Vector3d(std::nan(""), 0.0, 0.0)));
@@ -398,28 +445,25 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_EQ(mixed.response.num_refused, 1u);
   EXPECT_NE(mixed.response.message.find("1 not finite"), std::string::npos) << mixed.response.message;
   EXPECT_GT(mixed.response.batch_id, 0u);
+}
 
-  // A wrong touch, its contact 2 cm inside the sphere, is taken back out by its batch id: the
-  // training set no longer has it, and the other touches stay.
+// A wrong touch, its contact 2 cm inside the sphere, is taken back out by its batch id: the
+// training set no longer has it, and the other touches stay.
+void removeAWrongTouch(const PipelineOutputs& outputs, std::uint32_t last_batch_id) {
   const Eigen::Vector3d wrong_contact = kCentre + (kRadius - 0.02) * Eigen::Vector3d(0, -1, 0);
   gpatlas_msgs::AddObservations wrong;
   wrong.request.observations.header.frame_id = "world";
   wrong.request.observations.contacts.push_back(gpatlas_conversions::toPointMsg(wrong_contact));
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", wrong));
   ASSERT_TRUE(wrong.response.success) << wrong.response.message;
-  ASSERT_GT(wrong.response.batch_id, mixed.response.batch_id);
-  const auto hasPointAt = [](const gpatlas_msgs::TrainingSet& set, const Eigen::Vector3d& x) {
-    for (const auto& p : set.points)
-      if ((gpatlas_conversions::fromMsg(p) - x).norm() < 1e-6) return true;
-    return false;
-  };
+  ASSERT_GT(wrong.response.batch_id, last_batch_id);
   gpatlas_msgs::RemoveObservations remove;
   remove.request.batch_ids.push_back(wrong.response.batch_id);
   const ros::Time before_remove = ros::Time::now();
   ASSERT_TRUE(call("/gpatlas/gp_model/remove_observations", remove));
   ASSERT_TRUE(remove.response.success) << remove.response.message;
   EXPECT_EQ(remove.response.removed_batch_ids, std::vector<std::uint32_t>{wrong.response.batch_id});
-  const gpatlas_msgs::TrainingSet::ConstPtr after_remove = trainingSince(before_remove);
+  const gpatlas_msgs::TrainingSet::ConstPtr after_remove = outputs.trainingSince(before_remove);
   ASSERT_TRUE(after_remove) << "no training set after remove_observations";
   EXPECT_FALSE(hasPointAt(*after_remove, wrong_contact)) << "the removed contact is still there";
   EXPECT_TRUE(hasPointAt(*after_remove, kCentre + kRadius * Eigen::Vector3d(1, 0, 0))) << "a kept touch was lost";
@@ -430,10 +474,13 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   gpatlas_msgs::RemoveObservations nothing;
   ASSERT_TRUE(call("/gpatlas/gp_model/remove_observations", nothing));
   EXPECT_FALSE(nothing.response.success);
+}
 
-  // A contact with its normal, in the camera's frame: the model adds it, an inside point 3 mm
-  // behind it (touch/contact_inside_depth_m) and two slopes across the normal
-  // (touch/contact_tangent_noise_sigma), all moved to the world frame.
+// A contact with its normal, in the camera's frame: the model adds it, an inside point 3 mm
+// behind it (touch/contact_inside_depth_m) and two slopes across the normal
+// (touch/contact_tangent_noise_sigma), all moved to the world frame. `updated`: the training set
+// after it.
+void addAContactWithItsNormal(const PipelineOutputs& outputs, gpatlas_msgs::TrainingSet::ConstPtr& updated) {
   const Eigen::Vector3d side_normal = Eigen::Vector3d(0.0, 1.0, 1.0).normalized();
   const Eigen::Vector3d side_contact = kCentre + kRadius * side_normal;
   const Eigen::Isometry3d world_to_camera = cameraPose().inverse();
@@ -446,7 +493,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", with_normal));
   EXPECT_TRUE(with_normal.response.success) << with_normal.response.message;
   EXPECT_EQ(with_normal.response.num_added, 4u);
-  const gpatlas_msgs::TrainingSet::ConstPtr updated = trainingSince(before_add);
+  updated = outputs.trainingSince(before_add);
   ASSERT_TRUE(updated) << "no training set after add_observations";
   for (std::size_t i = 0; i < updated->points.size(); ++i)
     if (updated->labels[i] == 0) EXPECT_LT(sphereError(updated->points[i]), 0.01) << "a surface point off the sphere";
@@ -467,15 +514,18 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
     ++tangents;
   }
   EXPECT_EQ(tangents, 2);
+}
 
-  // Free space 1 mm from the deepest occluded-interior guess contradicts its claim (a solid
-  // ball of its depth around it): the model drops it (occluded_interior/retract_on_touch).
+// Free space 1 mm from the deepest occluded-interior guess contradicts its claim (a solid
+// ball of its depth around it): the model drops it (occluded_interior/retract_on_touch).
+void contradictTheDeepestGuess(const PipelineOutputs& outputs, const gpatlas_msgs::TrainingSet& training,
+                               const gpatlas_msgs::TrainingSet& updated) {
   Eigen::Vector3d deepest_guess = Eigen::Vector3d::Zero();
   double deepest = 0.0;
-  for (std::size_t i = 0; i < training->points.size(); ++i)
-    if (training->labels[i] == -1 && training->surface_distances_m[i] > deepest) {
-      deepest = training->surface_distances_m[i];
-      deepest_guess = gpatlas_conversions::fromMsg(training->points[i]);
+  for (std::size_t i = 0; i < training.points.size(); ++i)
+    if (training.labels[i] == -1 && training.surface_distances_m[i] > deepest) {
+      deepest = training.surface_distances_m[i];
+      deepest_guess = gpatlas_conversions::fromMsg(training.points[i]);
     }
   ASSERT_GT(deepest, 0.01);
   gpatlas_msgs::AddObservations contradicting;
@@ -486,48 +536,28 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", contradicting));
   EXPECT_TRUE(contradicting.response.success) << contradicting.response.message;
   EXPECT_NE(contradicting.response.message.find("(1 dropped"), std::string::npos) << contradicting.response.message;
-  const gpatlas_msgs::TrainingSet::ConstPtr retracted = trainingSince(before_contradiction);
+  const gpatlas_msgs::TrainingSet::ConstPtr retracted = outputs.trainingSince(before_contradiction);
   ASSERT_TRUE(retracted) << "no training set after the contradicting observation";
-  EXPECT_EQ(retracted->points.size(), updated->points.size());  // one guess out, one free point in
+  EXPECT_EQ(retracted->points.size(), updated.points.size());  // one guess out, one free point in
   for (std::size_t i = 0; i < retracted->points.size(); ++i)
     EXPECT_GT((gpatlas_conversions::fromMsg(retracted->points[i]) - deepest_guess).norm(), 1e-6) << "the guess is still there";
+}
 
-  gpatlas_msgs::CollisionMapStatus::ConstPtr status;
-  std::mutex status_mutex;
-  ros::Subscriber status_sub = nh.subscribe<gpatlas_msgs::CollisionMapStatus>(
-      "/gpatlas/collision_map/status", 5, [&](const gpatlas_msgs::CollisionMapStatus::ConstPtr& m) {
-        std::lock_guard<std::mutex> lock(status_mutex);
-        status = m;
-      });
-  const auto waitForState = [&](std::uint8_t state) {
-    for (int i = 0; i < 300; ++i) {
-      {
-        std::lock_guard<std::mutex> lock(status_mutex);
-        if (status && status->state == state) return status;
-      }
-      ros::Duration(0.1).sleep();
-    }
-    std::lock_guard<std::mutex> lock(status_mutex);
-    return status;
-  };
-  // A map of the model as it is now, before it is saved (pipeline.test makes rebuilds slow).
-  const auto first_map = waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
-  ASSERT_TRUE(first_map && first_map->state == gpatlas_msgs::CollisionMapStatus::CURRENT);
-
-  // The probe's way to the planned touch on that map and the table, from the far side of the
-  // sphere, so that the straight line runs through it: the path ends at the approach pose 10 cm
-  // out along the touch's normal, and the tip's centre stays out of the true sphere and above
-  // the table.
+// The probe's way to the planned touch on that map and the table, from the far side of the
+// sphere, so that the straight line runs through it: the path ends at the approach pose 10 cm
+// out along the touch's normal, and the tip's centre stays out of the true sphere and above
+// the table. Bad requests are refused with the reason. `approach`: the good request.
+void planTheApproach(const gpatlas_msgs::GetNextTouch& touch, const gpatlas_msgs::CollisionMapStatus& first_map,
+                     gpatlas_msgs::PlanApproach& approach) {
   const Eigen::Vector3d target = gpatlas_conversions::fromMsg(touch.response.touch.points.front());
   const Eigen::Vector3d target_normal = gpatlas_conversions::fromMsg(touch.response.touch.normals.front()).normalized();
   const Eigen::Vector3d across = Eigen::Vector3d(target_normal.x(), target_normal.y(), 0.0).normalized();
   ASSERT_TRUE(across.allFinite()) << "the touch is on top of the sphere";
-  gpatlas_msgs::PlanApproach approach;
   approach.request.touch = touch.response.touch;
   approach.request.start = gpatlas_conversions::toPointMsg(kCentre - 0.25 * across + Eigen::Vector3d(0.0, 0.0, 0.03));
   ASSERT_TRUE(call("/gpatlas/collision_map/plan_approach", approach));
   ASSERT_TRUE(approach.response.success) << approach.response.message;
-  EXPECT_EQ(approach.response.map_training_sequence, first_map->map_training_sequence);
+  EXPECT_EQ(approach.response.map_training_sequence, first_map.map_training_sequence);
   EXPECT_GE(approach.response.approach.size(), 3u);  // a detour around the sphere
   EXPECT_LT((gpatlas_conversions::fromMsg(approach.response.approach.back()) - (target + 0.1 * target_normal)).norm(), 1e-6);
   ASSERT_EQ(approach.response.probing.size(), 2u);
@@ -570,6 +600,11 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/collision_map_without_urdf/plan_approach", bad_approach));
   EXPECT_FALSE(bad_approach.response.success);
   EXPECT_NE(bad_approach.response.message.find("robot_description"), std::string::npos) << bad_approach.response.message;
+}
+
+// save_map writes the map, to an absolute path, to a relative one (answered with the absolute
+// path it became), and refuses an unwritable one with the reason.
+void saveTheMap() {
   gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
@@ -591,26 +626,30 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
   EXPECT_FALSE(save.response.success);
   EXPECT_NE(save.response.message.find("No such file or directory"), std::string::npos) << save.response.message;
+}
 
-  // The map says which training set it shows. Once it is current, a training set whose map
-  // cannot be built (here a malformed one) leaves the old map published, reported STALE with the
-  // reason, and save_map says so.
-  const auto current = waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
+// The map says which training set it shows. Once it is current, a training set whose map
+// cannot be built (here a malformed one) leaves the old map published, reported STALE with the
+// reason, and save_map says so.
+void keepTheMapOfABadTrainingSet(ros::NodeHandle& nh, const PipelineOutputs& outputs,
+                                 const gpatlas_msgs::TrainingSet& updated) {
+  const auto current = outputs.waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
   ASSERT_TRUE(current);
   ASSERT_EQ(current->state, gpatlas_msgs::CollisionMapStatus::CURRENT) << current->message;
   EXPECT_EQ(current->map_training_sequence, current->latest_training_sequence);
   ros::Publisher bad_training = nh.advertise<gpatlas_msgs::TrainingSet>("/gpatlas/gp_model/training_set", 1, true);
   for (int i = 0; i < 50 && bad_training.getNumSubscribers() < 3; ++i) ros::Duration(0.1).sleep();  // planner, map, this test
-  gpatlas_msgs::TrainingSet malformed = *updated;
+  gpatlas_msgs::TrainingSet malformed = updated;
   malformed.sequence = current->latest_training_sequence + 100;
   malformed.labels.resize(3);
   bad_training.publish(malformed);
-  const auto stale = waitForState(gpatlas_msgs::CollisionMapStatus::STALE);
+  const auto stale = outputs.waitForState(gpatlas_msgs::CollisionMapStatus::STALE);
   ASSERT_TRUE(stale);
   ASSERT_EQ(stale->state, gpatlas_msgs::CollisionMapStatus::STALE) << stale->message;
   EXPECT_EQ(stale->latest_training_sequence, malformed.sequence);
   EXPECT_EQ(stale->map_training_sequence, current->map_training_sequence);
   EXPECT_NE(stale->message.find("failed"), std::string::npos) << stale->message;
+  gpatlas_msgs::SaveMap save;
   save.request.path = "/tmp/gpatlas_pipeline_test_stale.bt";
   ASSERT_TRUE(call("/gpatlas/collision_map/save_map", save));
   EXPECT_TRUE(save.response.success) << save.response.message;
@@ -618,9 +657,11 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   EXPECT_EQ(save.response.training_sequence, current->map_training_sequence);
   EXPECT_NE(save.response.message.find("STALE"), std::string::npos) << save.response.message;
   std::remove(save.request.path.c_str());
+}
 
-  // add_observations does not wait for the map: a touch is answered within a second while the
-  // map of the touch before it is still being built (pipeline.test makes a rebuild take seconds).
+// add_observations does not wait for the map: a touch is answered within a second while the
+// map of the touch before it is still being built (pipeline.test makes a rebuild take seconds).
+void addWhileTheMapIsBuilt(const PipelineOutputs& outputs) {
   const auto touchAt = [](const Eigen::Vector3d& direction) {
     gpatlas_msgs::AddObservations touch;
     touch.request.observations.header.frame_id = "world";
@@ -631,7 +672,7 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const ros::Time before_first_touch = ros::Time::now();
   ASSERT_TRUE(call("/gpatlas/gp_model/add_observations", first_touch));
   ASSERT_TRUE(first_touch.response.success) << first_touch.response.message;
-  const gpatlas_msgs::TrainingSet::ConstPtr first_set = trainingSince(before_first_touch);
+  const gpatlas_msgs::TrainingSet::ConstPtr first_set = outputs.trainingSince(before_first_touch);
   ASSERT_TRUE(first_set);
   gpatlas_msgs::AddObservations second_touch = touchAt(Eigen::Vector3d(-0.3, 0.9, 0.2));
   const ros::WallTime asked = ros::WallTime::now();
@@ -639,12 +680,57 @@ TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
   const double answered_s = (ros::WallTime::now() - asked).toSec();
   EXPECT_TRUE(second_touch.response.success) << second_touch.response.message;
   EXPECT_LT(answered_s, 1.0);
-  {
-    std::lock_guard<std::mutex> lock(status_mutex);
-    ASSERT_TRUE(status);
-    EXPECT_LT(status->map_training_sequence, first_set->sequence)
-        << "the first touch's map was done before the second touch was answered: the rebuild was too quick to tell";
+  const gpatlas_msgs::CollisionMapStatus::ConstPtr status = outputs.status();
+  ASSERT_TRUE(status);
+  EXPECT_LT(status->map_training_sequence, first_set->sequence)
+      << "the first touch's map was done before the second touch was answered: the rebuild was too quick to tell";
+}
+
+TEST(Pipeline, PlansATouchOnTheSphereFromACameraCloud) {
+  ros::NodeHandle nh;
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  PipelineOutputs outputs(nh);
+  ros::Publisher cloud_pub = nh.advertise<sensor_msgs::PointCloud2>("/test/camera_points", 1, true);
+
+  // One capture, published before the camera's transform exists (as when the camera driver
+  // starts before robot_state_publisher): the pipeline must wait for tf, not drop the cloud
+  // after tf_timeout_s (0.5 s).
+  sensor_msgs::PointCloud2 cloud = syntheticView();
+  cloud.header.stamp = ros::Time::now();
+  cloud_pub.publish(cloud);
+  ros::Duration(2.0).sleep();
+  broadcaster.sendTransform(cameraTransform());
+  gpatlas_msgs::TrainingSet::ConstPtr training;
+  const ros::Time deadline = ros::Time::now() + ros::Duration(60.0);
+  while (ros::ok() && !withSupportPlane(training) && ros::Time::now() < deadline) {
+    ros::Duration(0.2).sleep();
+    training = outputs.training();
   }
+  ASSERT_TRUE(training) << "the GP never published a training set";
+  ASSERT_TRUE(withSupportPlane(training)) << "no training set used segmentation's support plane";
+  ASSERT_NO_FATAL_FAILURE(expectTrainingFromTheView(*training));
+
+  gpatlas_msgs::GetNextTouch touch;
+  ASSERT_NO_FATAL_FAILURE(planTheFirstTouch(touch));
+  ASSERT_NO_FATAL_FAILURE(expectAtlasMapAndShape(outputs));
+  ASSERT_NO_FATAL_FAILURE(expectPlannerAnswers());
+
+  gpatlas_msgs::AddObservations mixed;
+  ASSERT_NO_FATAL_FAILURE(addTouchResults(mixed));
+  ASSERT_NO_FATAL_FAILURE(removeAWrongTouch(outputs, mixed.response.batch_id));
+  gpatlas_msgs::TrainingSet::ConstPtr updated;
+  ASSERT_NO_FATAL_FAILURE(addAContactWithItsNormal(outputs, updated));
+  ASSERT_NO_FATAL_FAILURE(contradictTheDeepestGuess(outputs, *training, *updated));
+
+  outputs.listenToMapStatus(nh);
+  // A map of the model as it is now, before it is saved (pipeline.test makes rebuilds slow).
+  const auto first_map = outputs.waitForState(gpatlas_msgs::CollisionMapStatus::CURRENT);
+  ASSERT_TRUE(first_map && first_map->state == gpatlas_msgs::CollisionMapStatus::CURRENT);
+  gpatlas_msgs::PlanApproach approach;
+  ASSERT_NO_FATAL_FAILURE(planTheApproach(touch, *first_map, approach));
+  ASSERT_NO_FATAL_FAILURE(saveTheMap());
+  ASSERT_NO_FATAL_FAILURE(keepTheMapOfABadTrainingSet(nh, outputs, *updated));
+  ASSERT_NO_FATAL_FAILURE(addWhileTheMapIsBuilt(outputs));
 
   // After all of this the manager still runs every nodelet.
   nodelet::NodeletList list;

@@ -180,18 +180,172 @@ double PatchProbe::padBoundingRadius() const {
   return std::hypot(h, padRecess(h));
 }
 
+namespace {
+
+// The pad's square grid of m x m pixels of side `pitch`, in its frame: u and v across the pad, n
+// out of it.
+struct PadPixels {
+  Eigen::Vector3d u, v, n;
+  int m;
+  double pitch, size;
+  PadPixels(const Eigen::Vector3d& normal, double size_m, double resolution_m)
+      : u(normal.unitOrthogonal()), v(normal.cross(u)), n(normal),
+        m(std::max(1, static_cast<int>(std::lround(size_m / resolution_m)))), pitch(size_m / m), size(size_m) {}
+  // Pixel i's centre along u (or v), from the pad's centre.
+  double coordinate(int i) const { return (i + 0.5) * pitch - 0.5 * size; }
+  std::size_t index(int i, int j) const { return static_cast<std::size_t>(i * m + j); }
+};
+
+// The pixel whose ray meets the scene first within `search` (the lowest on a tie), -1 for none.
+int firstContactPixel(const std::vector<RayHit>& hits, double search) {
+  double first = std::numeric_limits<double>::infinity();
+  int first_pixel = -1;
+  for (std::size_t k = 0; k < hits.size(); ++k)
+    if (hits[k].hit && hits[k].distance <= search && hits[k].distance < first) {
+      first = hits[k].distance;
+      first_pixel = static_cast<int>(k);
+    }
+  return first_pixel;
+}
+
+// The pressed pad's depth image: the pixels the pad reaches at its final travel on the object,
+// their height along n above the waypoint (with the sensor's depth noise), and the other surfaces
+// the pad reaches.
+struct DepthImage {
+  std::vector<char> on_object;
+  std::vector<double> height;
+  unsigned other_kinds{0};
+};
+
+// Adds the object's surface normals under the contact to *mean_contact_normal (normalised), when given.
+DepthImage renderDepthImage(const PadPixels& pad, const std::vector<RayHit>& hits, const Eigen::Vector3d& waypoint,
+                            double pressed, double depth_noise_m, std::normal_distribution<double>& gauss,
+                            std::mt19937& rng, Eigen::Vector3d* mean_contact_normal) {
+  const int m = pad.m;
+  DepthImage image;
+  image.on_object.assign(static_cast<std::size_t>(m * m), 0);
+  image.height.assign(static_cast<std::size_t>(m * m), 0.0);
+  for (int k = 0; k < m * m; ++k) {
+    const RayHit& hit = hits[static_cast<std::size_t>(k)];
+    if (!hit.hit || hit.distance > pressed) continue;
+    if (hit.kind != SurfaceKind::kObject) {
+      image.other_kinds |= static_cast<unsigned>(hit.kind);
+      continue;
+    }
+    image.on_object[static_cast<std::size_t>(k)] = 1;
+    if (mean_contact_normal) *mean_contact_normal += hit.normal;
+    image.height[static_cast<std::size_t>(k)] =
+        (hit.point - waypoint).dot(pad.n) + (depth_noise_m > 0.0 ? depth_noise_m * gauss(rng) : 0.0);
+  }
+  if (mean_contact_normal && !mean_contact_normal->isZero()) mean_contact_normal->normalize();
+  return image;
+}
+
+// The contact points and normals a depth image gives, with the sensor's normal noise (a tilt of
+// sd tilt_sigma rad), drawn in the order the points are read.
+class PatchReader {
+ public:
+  PatchReader(const PadPixels& pad, const DepthImage& image, const Eigen::Vector3d& waypoint, double tilt_sigma,
+              std::normal_distribution<double>& gauss, std::mt19937& rng)
+      : pad_(pad), image_(image), waypoint_(waypoint), tilt_sigma_(tilt_sigma), gauss_(gauss), rng_(rng) {}
+
+  bool contactAt(int i, int j) const { return image_.on_object[pad_.index(i, j)] != 0; }
+
+  // The reported points: in each block of block x block pixels, its contact pixel nearest the
+  // block's centre (a grazing contact of a few pixels still gives its points).
+  std::vector<gpatlas_core::Contact> patch(int block) {
+    const int m = pad_.m;
+    std::vector<gpatlas_core::Contact> points;
+    for (int bi = 0; bi < m; bi += block)
+      for (int bj = 0; bj < m; bj += block) {
+        const double ci = bi + 0.5 * (std::min(m, bi + block) - bi) - 0.5, cj = bj + 0.5 * (std::min(m, bj + block) - bj) - 0.5;
+        int best_i = -1, best_j = -1;
+        double best = std::numeric_limits<double>::infinity();
+        for (int i = bi; i < std::min(m, bi + block); ++i)
+          for (int j = bj; j < std::min(m, bj + block); ++j) {
+            const double dist = (i - ci) * (i - ci) + (j - cj) * (j - cj);
+            if (contactAt(i, j) && dist < best) {
+              best = dist;
+              best_i = i;
+              best_j = j;
+            }
+          }
+        if (best_i >= 0) points.push_back(contactOf(best_i, best_j));
+      }
+    return points;
+  }
+
+  gpatlas_core::Contact contactOf(int i, int j) {
+    const Eigen::Vector3d &u = pad_.u, &v = pad_.v, &n = pad_.n;
+    gpatlas_core::Contact contact;
+    const double a = pad_.coordinate(i), b = pad_.coordinate(j);
+    contact.position = waypoint_ + a * u + b * v + image_.height[pad_.index(i, j)] * n;
+    double h_a = 0.0, h_b = 0.0;
+    if (slope(i, j, true, &h_a) && slope(i, j, false, &h_b)) {
+      // The height field's normal, (u + h_a n) x (v + h_b n).
+      Eigen::Vector3d normal = (n - h_a * u - h_b * v).normalized();
+      if (tilt_sigma_ > 0.0) {
+        const Eigen::Vector3d t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
+        normal = (normal + tilt_sigma_ * (gauss_(rng_) * t1 + gauss_(rng_) * t2)).normalized();
+      }
+      contact.normal = normal;
+    } else {
+      contact.normal = Eigen::Vector3d::Zero();
+    }
+    return contact;
+  }
+
+ private:
+  // The surface's slope across the pad: central differences of the height where both neighbours
+  // are in contact, one-sided where one is; a pixel with no neighbour in contact along an axis
+  // has no measurable normal (reported as zero: the model then takes the point alone).
+  bool slope(int i, int j, bool along_a, double* out) const {
+    const int m = pad_.m;
+    const double pitch = pad_.pitch;
+    const auto h = [&](int ii, int jj) { return image_.height[pad_.index(ii, jj)]; };
+    const int pi = along_a ? i - 1 : i, pj = along_a ? j : j - 1, ni = along_a ? i + 1 : i, nj = along_a ? j : j + 1;
+    const bool has_prev = pi >= 0 && pj >= 0 && contactAt(pi, pj);
+    const bool has_next = ni < m && nj < m && contactAt(ni, nj);
+    if (has_prev && has_next) *out = (h(ni, nj) - h(pi, pj)) / (2.0 * pitch);
+    else if (has_next) *out = (h(ni, nj) - h(i, j)) / pitch;
+    else if (has_prev) *out = (h(i, j) - h(pi, pj)) / pitch;
+    else return false;
+    return true;
+  }
+
+  const PadPixels& pad_;
+  const DepthImage& image_;
+  const Eigen::Vector3d& waypoint_;
+  const double tilt_sigma_;
+  std::normal_distribution<double>& gauss_;
+  std::mt19937& rng_;
+};
+
+// Free space over the pressed pad (at travel `pressed` from the pixels' origins `from`), on a grid
+// of free_space_spacing_m, where nothing lies within the margin in front of it.
+void appendFreeSpaceOverPad(const PadPixels& pad, const std::vector<RayHit>& hits, const Eigen::Matrix3Xd& from,
+                            double pressed, const PatchProbeConfig& c, std::vector<Eigen::Vector3d>& free_space) {
+  const int m = pad.m;
+  const int free_block = std::max(1, static_cast<int>(std::lround(c.free_space_spacing_m / pad.pitch)));
+  // A free-space spacing wider than the pad still gives the pad's centre.
+  const int free_first = std::min(free_block, m) / 2;
+  for (int i = free_first; i < m; i += free_block)
+    for (int j = free_first; j < m; j += free_block) {
+      const RayHit& hit = hits[static_cast<std::size_t>(i * m + j)];
+      if (hit.hit && hit.distance < pressed + c.free_space_margin_m) continue;
+      free_space.push_back(from.col(i * m + j) - pressed * pad.n);
+    }
+}
+
+}  // namespace
+
 ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoint, const Eigen::Vector3d& n,
                               const PressOptions& options) {
   ProbeStroke result;
   const Config& c = config_;
-  Eigen::Vector3d* mean_contact_normal = options.mean_contact_normal;
-  const Eigen::Vector3d u = n.unitOrthogonal();
-  const Eigen::Vector3d v = n.cross(u);
+  const PadPixels pad(n, c.pad_size_m, c.resolution_m);
+  const int m = pad.m;
   const double d = options.start_offset_m;
-  const int m = std::max(1, static_cast<int>(std::lround(c.pad_size_m / c.resolution_m)));
-  const double pitch = c.pad_size_m / m;
-  const auto coordinate = [&](int i) { return (i + 0.5) * pitch - 0.5 * c.pad_size_m; };
-
   const Eigen::Vector3d start = waypoint + d * n;
   // A pad that starts in contact has no meaningful first contact, and a real sensor could not
   // have got there. The sphere encloses the pad, curved or flat.
@@ -207,20 +361,13 @@ ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoin
   Eigen::Matrix3Xd from(3, m * m), to(3, m * m);
   for (int i = 0; i < m; ++i)
     for (int j = 0; j < m; ++j) {
-      const double a = coordinate(i), b = coordinate(j);
-      const Eigen::Vector3d origin = waypoint + (d + padRecess(std::hypot(a, b))) * n + a * u + b * v;
+      const double a = pad.coordinate(i), b = pad.coordinate(j);
+      const Eigen::Vector3d origin = waypoint + (d + padRecess(std::hypot(a, b))) * n + a * pad.u + b * pad.v;
       from.col(i * m + j) = origin;
       to.col(i * m + j) = origin - reach * n;
     }
   const std::vector<RayHit> hits = scene.castRays(from, to);
-  double first = std::numeric_limits<double>::infinity();
-  int first_pixel = -1;
-  for (int k = 0; k < m * m; ++k)
-    if (hits[static_cast<std::size_t>(k)].hit && hits[static_cast<std::size_t>(k)].distance <= search &&
-        hits[static_cast<std::size_t>(k)].distance < first) {
-      first = hits[static_cast<std::size_t>(k)].distance;
-      first_pixel = k;
-    }
+  const int first_pixel = firstContactPixel(hits, search);
   if (first_pixel < 0) {
     // Nothing within the search; something just beyond it still keeps the margin.
     double nearest = search + c.free_space_margin_m;
@@ -229,116 +376,40 @@ ProbeStroke PatchProbe::press(const Scene& scene, const Eigen::Vector3d& waypoin
     appendSamples(start, -n, nearest - c.free_space_margin_m, c.free_space_spacing_m, result.free_space);
     return result;
   }
+  const double first = hits[static_cast<std::size_t>(first_pixel)].distance;
   if (options.first_travel_m) *options.first_travel_m = first;
   appendSamples(start, -n, first - c.free_space_margin_m, c.free_space_spacing_m, result.free_space);
 
-  // Pressed: the pixels the pad reaches at its final travel are in contact. Their height along n
-  // (with the sensor's depth noise) is the depth image.
+  // Pressed: the pixels the pad reaches at its final travel are in contact.
   const double pressed = first + c.indentation_m;
   std::normal_distribution<double> gauss(0.0, 1.0);
-  std::vector<char> on_object(static_cast<std::size_t>(m * m), 0);
-  std::vector<double> height(static_cast<std::size_t>(m * m), 0.0);
-  unsigned other_kinds = 0;
-  for (int k = 0; k < m * m; ++k) {
-    const RayHit& hit = hits[static_cast<std::size_t>(k)];
-    if (!hit.hit || hit.distance > pressed) continue;
-    if (hit.kind != SurfaceKind::kObject) {
-      other_kinds |= static_cast<unsigned>(hit.kind);
-      continue;
-    }
-    on_object[static_cast<std::size_t>(k)] = 1;
-    if (mean_contact_normal) *mean_contact_normal += hit.normal;
-    height[static_cast<std::size_t>(k)] =
-        (hit.point - waypoint).dot(n) + (c.depth_noise_m > 0.0 ? c.depth_noise_m * gauss(rng_) : 0.0);
-  }
-  if (mean_contact_normal && !mean_contact_normal->isZero()) mean_contact_normal->normalize();
-  const auto contactAt = [&](int i, int j) { return on_object[static_cast<std::size_t>(i * m + j)] != 0; };
-  // The surface's slope across the pad: central differences of the height where both neighbours
-  // are in contact, one-sided where one is; a pixel with no neighbour in contact along an axis
-  // has no measurable normal (reported as zero: the model then takes the point alone).
-  const auto slope = [&](int i, int j, bool along_a, double* out) {
-    const auto h = [&](int ii, int jj) { return height[static_cast<std::size_t>(ii * m + jj)]; };
-    const int pi = along_a ? i - 1 : i, pj = along_a ? j : j - 1, ni = along_a ? i + 1 : i, nj = along_a ? j : j + 1;
-    const bool has_prev = pi >= 0 && pj >= 0 && contactAt(pi, pj);
-    const bool has_next = ni < m && nj < m && contactAt(ni, nj);
-    if (has_prev && has_next) *out = (h(ni, nj) - h(pi, pj)) / (2.0 * pitch);
-    else if (has_next) *out = (h(ni, nj) - h(i, j)) / pitch;
-    else if (has_prev) *out = (h(i, j) - h(pi, pj)) / pitch;
-    else return false;
-    return true;
-  };
-  const double tilt_sigma = c.normal_noise_deg * kPi / 180.0;
-  const auto contactOf = [&](int i, int j) {
-    gpatlas_core::Contact contact;
-    const double a = coordinate(i), b = coordinate(j);
-    contact.position = waypoint + a * u + b * v + height[static_cast<std::size_t>(i * m + j)] * n;
-    double h_a = 0.0, h_b = 0.0;
-    if (slope(i, j, true, &h_a) && slope(i, j, false, &h_b)) {
-      // The height field's normal, (u + h_a n) x (v + h_b n).
-      Eigen::Vector3d normal = (n - h_a * u - h_b * v).normalized();
-      if (tilt_sigma > 0.0) {
-        const Eigen::Vector3d t1 = normal.unitOrthogonal(), t2 = normal.cross(t1);
-        normal = (normal + tilt_sigma * (gauss(rng_) * t1 + gauss(rng_) * t2)).normalized();
-      }
-      contact.normal = normal;
-    } else {
-      contact.normal = Eigen::Vector3d::Zero();
-    }
-    return contact;
-  };
-
-  // The reported points: in each block of the output grid, its contact pixel nearest the block's
-  // centre (a grazing contact of a few pixels still gives its points).
-  const int block = c.point_spacing_m > 0.0 ? std::max(1, static_cast<int>(std::lround(c.point_spacing_m / pitch))) : 1;
-  for (int bi = 0; bi < m; bi += block)
-    for (int bj = 0; bj < m; bj += block) {
-      const double ci = bi + 0.5 * (std::min(m, bi + block) - bi) - 0.5, cj = bj + 0.5 * (std::min(m, bj + block) - bj) - 0.5;
-      int best_i = -1, best_j = -1;
-      double best = std::numeric_limits<double>::infinity();
-      for (int i = bi; i < std::min(m, bi + block); ++i)
-        for (int j = bj; j < std::min(m, bj + block); ++j) {
-          const double dist = (i - ci) * (i - ci) + (j - cj) * (j - cj);
-          if (contactAt(i, j) && dist < best) {
-            best = dist;
-            best_i = i;
-            best_j = j;
-          }
-        }
-      if (best_i >= 0) result.patch.push_back(contactOf(best_i, best_j));
-    }
-
+  const DepthImage image =
+      renderDepthImage(pad, hits, waypoint, pressed, c.depth_noise_m, gauss, rng_, options.mean_contact_normal);
+  PatchReader reader(pad, image, waypoint, c.normal_noise_deg * kPi / 180.0, gauss, rng_);
+  const int block = c.point_spacing_m > 0.0 ? std::max(1, static_cast<int>(std::lround(c.point_spacing_m / pad.pitch))) : 1;
+  result.patch = reader.patch(block);
   const int first_i = first_pixel / m, first_j = first_pixel % m;
   if (!result.patch.empty()) {
     result.touched = SurfaceKind::kObject;
     // The first pixel to touch, if it touched the object; else the patch's first point.
-    result.contact = contactAt(first_i, first_j) ? contactOf(first_i, first_j) : result.patch.front();
+    result.contact = reader.contactAt(first_i, first_j) ? reader.contactOf(first_i, first_j) : result.patch.front();
   } else {
     result.touched = hits[static_cast<std::size_t>(first_pixel)].kind;
   }
-  if (other_kinds != 0)
+  if (image.other_kinds != 0)
     result.note = result.patch.empty()
-                      ? "the pressed pad reached only the " + kindsToText(other_kinds)
-                      : "the pressed pad also reached the " + kindsToText(other_kinds) +
+                      ? "the pressed pad reached only the " + kindsToText(image.other_kinds)
+                      : "the pressed pad also reached the " + kindsToText(image.other_kinds) +
                             " (indentation_m deeper than the object stands above it there)";
 
-  gpatlas_core::PadPress pad;
-  pad.centre = waypoint + (d - pressed) * n;
+  gpatlas_core::PadPress pad_press;
+  pad_press.centre = waypoint + (d - pressed) * n;
   Eigen::Matrix3d axes;
-  axes << u, v, n;
-  pad.orientation = Eigen::Quaterniond(axes);
-  pad.size_m = c.pad_size_m;
-  result.pad.push_back(pad);
-
-  // Free space over the pressed pad, where nothing lies within the margin in front of it.
-  const int free_block = std::max(1, static_cast<int>(std::lround(c.free_space_spacing_m / pitch)));
-  // A free-space spacing wider than the pad still gives the pad's centre.
-  const int free_first = std::min(free_block, m) / 2;
-  for (int i = free_first; i < m; i += free_block)
-    for (int j = free_first; j < m; j += free_block) {
-      const RayHit& hit = hits[static_cast<std::size_t>(i * m + j)];
-      if (hit.hit && hit.distance < pressed + c.free_space_margin_m) continue;
-      result.free_space.push_back(from.col(i * m + j) - pressed * n);
-    }
+  axes << pad.u, pad.v, n;
+  pad_press.orientation = Eigen::Quaterniond(axes);
+  pad_press.size_m = c.pad_size_m;
+  result.pad.push_back(pad_press);
+  appendFreeSpaceOverPad(pad, hits, from, pressed, c, result.free_space);
   return result;
 }
 

@@ -1,6 +1,7 @@
 #include "probe_sim/simulation_settings.h"
 
 #include "probe_sim/probe.h"
+#include "probe_sim/procedural_objects.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,5 @@
 #include "probe_sim/probe.h"
+#include "probe_sim/procedural_objects.h"
 
 #include "tessellated_sphere.h"
 

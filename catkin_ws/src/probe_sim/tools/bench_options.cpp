@@ -4,6 +4,7 @@
 #include <gpatlas_core/planning/strategy_library.h>
 #include <gpatlas_core/planning/strategy_registry.h>
 #include <probe_sim/object_mesh.h>
+#include <probe_sim/procedural_objects.h>
 
 #include <algorithm>
 #include <cmath>

@@ -1,6 +1,7 @@
 #include "gpatlas_core/model/gpis_model.h"
 
 #include "gpatlas_core/common/dense_solve.h"
+#include "gpatlas_core/model/observation_screen.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
@@ -24,9 +25,6 @@ double gpisTarget(const TrainingPoint& p, double scale) {
 namespace {
 
 constexpr double kLog2Pi = 1.8378770664093453;
-
-bool isFinite(const Vector3& v) { return v.allFinite(); }
-
 
 // Covariance between two observations at normalised positions a and b: of f itself where the
 // direction is zero, else of f's slope along that unit direction. With d = a - b and k' = dk/dr:
@@ -224,7 +222,203 @@ struct GpisModel::Impl {
     *message = msg.str();
     return false;
   }
+
+  // The frame of a refit: the current one, or with `renormalise` the surface points' centroid and
+  // a scale that puts them within data_radius. False when the surface points coincide.
+  bool refitFrame(bool renormalise, Vector3* centroid, double* scale) const;
+
+  // Starts the training rows over with the pseudo-points of the current frame: outside points on
+  // the domain sphere and, when it is surely inside, one inside point at the centroid. Returns
+  // their count.
+  Eigen::Index placePseudoPoints();
+
+  // Observations that become training rows, and those dropped by cause.
+  struct ObservationRows {
+    std::vector<TrainingPoint> kept;
+    std::vector<Vector3> x;         // normalised positions of `kept`
+    std::vector<double> targets;    // of `kept`
+    std::size_t out_of_domain{0}, duplicates{0}, bad_target{0};
+  };
+  // Appends the observations to the rows after the first num_pseudo: outside points beyond the
+  // domain, non-finite targets and duplicates are dropped.
+  ObservationRows appendObservationRows(Eigen::Index num_pseudo);
+  // The points that would extend the current rows: the same tests, duplicates also against the
+  // rows held. Nothing is changed.
+  ObservationRows screenNewRows(const std::vector<TrainingPoint>& points) const;
+  // Extends the factor by the rows (block Cholesky); false, with n and the factor as they were,
+  // when the new block does not factorise with the current jitter.
+  bool extendFactor(const ObservationRows& rows);
 };
+
+bool GpisModel::Impl::refitFrame(bool renormalise, Vector3* centroid, double* scale) const {
+  *centroid = this->centroid;
+  *scale = this->scale;
+  if (!renormalise) return true;
+  std::size_t num_surface = 0;
+  Vector3 sum = Vector3::Zero();
+  for (const auto& p : observations) {
+    if (isSurfaceValue(p)) {
+      ++num_surface;
+      sum += p.position;
+    }
+  }
+  *centroid = sum / static_cast<double>(num_surface);
+  double max_dist = 0.0;
+  for (const auto& p : observations)
+    if (isSurfaceValue(p)) max_dist = std::max(max_dist, (p.position - *centroid).norm());
+  if (!(max_dist > 1e-9)) return false;
+  *scale = max_dist / config.data_radius;
+  return true;
+}
+
+Eigen::Index GpisModel::Impl::placePseudoPoints() {
+  const Config& c = config;
+  const std::vector<Vector3> outside = fibonacciSphere(c.num_outside_points);
+  // The inside point goes at the centroid only when that is surely inside the object: no
+  // surface or free-space observation within inside_point_min_clearance (normalised) of it. The
+  // centroid of a partial view of a cup or bowl lies in its cavity, a few centimetres from the
+  // wall, where the camera saw free space; a -1 there tells the model the air is material.
+  bool use_inside_point = c.inside_point_at_centroid;
+  if (use_inside_point && c.inside_point_min_clearance > 0.0) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const auto& p : observations)
+      if (p.label != PointLabel::kInside) nearest = std::min(nearest, ((p.position - centroid) / scale).norm());
+    use_inside_point = nearest >= c.inside_point_min_clearance;
+  }
+  const Eigen::Index pseudo = static_cast<Eigen::Index>(outside.size()) + (use_inside_point ? 1 : 0);
+  n = 0;
+  num_pseudo = pseudo;
+  chol.resize(0, 0);
+  x.resize(3, 0);
+  slope_dir.resize(3, 0);
+  y.resize(0);
+  noise_var.resize(0);
+  reserve(pseudo + static_cast<Eigen::Index>(observations.size()));
+
+  const double pseudo_var = c.pseudo_point_sigma * c.pseudo_point_sigma;
+  for (const auto& dir : outside) {
+    x.col(n) = dir * c.domain_radius;
+    slope_dir.col(n).setZero();
+    y[n] = 1.0;
+    noise_var[n] = pseudo_var;
+    ++n;
+  }
+  if (use_inside_point) {
+    x.col(n).setZero();
+    slope_dir.col(n).setZero();
+    y[n] = -1.0;
+    noise_var[n] = pseudo_var;
+    ++n;
+  }
+  return pseudo;
+}
+
+GpisModel::Impl::ObservationRows GpisModel::Impl::appendObservationRows(Eigen::Index pseudo) {
+  const Config& c = config;
+  ObservationRows rows;
+  std::vector<TrainingPoint>& kept = rows.kept;
+  kept.reserve(observations.size());
+  const double dup2 = c.duplicate_distance * c.duplicate_distance;
+  for (const auto& p : observations) {
+    const Vector3 xn = normalise(p.position);
+    if (xn.norm() > c.domain_radius) {
+      ++rows.out_of_domain;
+      continue;
+    }
+    const double target = gpisTarget(p, scale);
+    if (!std::isfinite(target)) {
+      ++rows.bad_target;
+      continue;
+    }
+    // Duplicates: the same label's value (or the same slope) at (nearly) the same place; kept
+    // observations are in the order of x after the pseudo-points.
+    bool duplicate = false;
+    const double value = target;
+    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
+      duplicate = rows.targets[j] == value && sameSlopeDirection(kept[j], p) &&
+                  (x.col(pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
+    if (duplicate) {
+      ++rows.duplicates;
+      continue;
+    }
+    rows.targets.push_back(value);
+    x.col(n) = xn;
+    slope_dir.col(n) = p.slope_direction;
+    y[n] = target;
+    noise_var[n] = p.noise_sigma * p.noise_sigma;
+    ++n;
+    kept.push_back(p);
+  }
+  return rows;
+}
+
+GpisModel::Impl::ObservationRows GpisModel::Impl::screenNewRows(const std::vector<TrainingPoint>& points) const {
+  const Config& c = config;
+  ObservationRows rows;
+  std::vector<double> observation_values;
+  observation_values.reserve(observations.size());
+  for (const auto& o : observations) observation_values.push_back(gpisTarget(o, scale));
+  const double dup2 = c.duplicate_distance * c.duplicate_distance;
+  for (const auto& p : points) {
+    const Vector3 xn = normalise(p.position);
+    if (xn.norm() > c.domain_radius) {
+      ++rows.out_of_domain;
+      continue;
+    }
+    const double residual = gpisTarget(p, scale);
+    if (!std::isfinite(residual)) {
+      ++rows.bad_target;
+      continue;
+    }
+    const double value = gpisTarget(p, scale);
+    bool duplicate = false;
+    for (std::size_t j = 0; j < observations.size() && !duplicate; ++j)
+      duplicate = observation_values[j] == value && sameSlopeDirection(observations[j], p) &&
+                  (x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
+    for (std::size_t j = 0; j < rows.kept.size() && !duplicate; ++j)
+      duplicate = rows.targets[j] == value && sameSlopeDirection(rows.kept[j], p) &&
+                  (rows.x[j] - xn).squaredNorm() <= dup2;
+    if (duplicate) {
+      ++rows.duplicates;
+      continue;
+    }
+    rows.targets.push_back(residual);
+    rows.kept.push_back(p);
+    rows.x.push_back(xn);
+  }
+  return rows;
+}
+
+bool GpisModel::Impl::extendFactor(const ObservationRows& rows) {
+  const Eigen::Index old_n = n;
+  const Eigen::Index k = static_cast<Eigen::Index>(rows.kept.size());
+  reserve(old_n + k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    x.col(old_n + j) = rows.x[static_cast<std::size_t>(j)];
+    slope_dir.col(old_n + j) = rows.kept[static_cast<std::size_t>(j)].slope_direction;
+    y[old_n + j] = rows.targets[static_cast<std::size_t>(j)];
+    const double s = rows.kept[static_cast<std::size_t>(j)].noise_sigma;
+    noise_var[old_n + j] = s * s;
+  }
+  // Block Cholesky extension: [L11 0; L21 L22] with L21^T = L11^-1 K12 and
+  // L22 L22^T = K22 - L21 L21^T. Cost O(n^2 k) for the triangular solve.
+  Eigen::MatrixXd cross(old_n, k);
+  for (Eigen::Index j = 0; j < k; ++j)
+    for (Eigen::Index i = 0; i < old_n; ++i) cross(i, j) = covariance(i, old_n + j);
+  solveLowerInPlace(chol, old_n, cross);
+  Eigen::MatrixXd schur(k, k);
+  for (Eigen::Index j = 0; j < k; ++j) {
+    for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = covariance(old_n + i, old_n + j);
+    schur(j, j) = diagonal(old_n + j);
+  }
+  schur.triangularView<Eigen::Lower>() -= cross.transpose() * cross;
+  Eigen::LLT<Eigen::MatrixXd> llt(schur.selfadjointView<Eigen::Lower>());
+  if (!(llt.info() == Eigen::Success && wellConditioned(Eigen::MatrixXd(llt.matrixL()).diagonal()))) return false;
+  chol.block(old_n, 0, k, old_n) = cross.transpose();
+  chol.block(old_n, old_n, k, k) = llt.matrixL();
+  n = old_n + k;
+  return true;
+}
 
 GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
   impl_->config = std::move(config);
@@ -261,38 +455,9 @@ GpisModel::~GpisModel() = default;
 
 namespace {
 
-// Validates and deduplicates incoming points against `existing` (normalised with the given
-// frame when the frame is known). Rejected points are counted and explained in warnings.
-std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
-  std::vector<TrainingPoint> accepted;
-  accepted.reserve(points.size());
-  std::size_t non_finite = 0, bad_noise = 0, bad_direction = 0;
-  for (const auto& p : points) {
-    if (!isFinite(p.position) || !isFinite(p.slope_direction)) {
-      ++non_finite;
-      continue;
-    }
-    if (observesSlope(p) && !(p.slope_direction.norm() > 1e-9)) {
-      ++bad_direction;
-      continue;
-    }
-    if (!std::isfinite(p.noise_sigma) || p.noise_sigma < 0.0) {
-      ++bad_noise;
-      continue;
-    }
-    accepted.push_back(p);
-    // A unit direction is kept as given (bit for bit), so that callers can find their points.
-    if (observesSlope(p) && std::abs(p.slope_direction.norm() - 1.0) > 1e-12) accepted.back().slope_direction.normalize();
-  }
-  if (non_finite > 0)
-    report->warnings.push_back(std::to_string(non_finite) + " point(s) with NaN/Inf coordinates dropped");
-  if (bad_noise > 0)
-    report->warnings.push_back(std::to_string(bad_noise) + " point(s) with a negative or NaN noise sigma dropped");
-  if (bad_direction > 0)
-    report->warnings.push_back(std::to_string(bad_direction) + " slope observation(s) with a near-zero direction dropped");
-  report->num_rejected += non_finite + bad_noise + bad_direction;
-  return accepted;
-}
+// Slope directions are made unit: the covariance of a slope observation (observationCovariance)
+// is that of the slope along a unit direction.
+const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/true};
 
 }  // namespace
 
@@ -309,7 +474,7 @@ FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const 
 
 FitReport GpisModel::fitFrom(const std::vector<TrainingPoint>& points, const Vector3* centroid, double scale) {
   FitReport report;
-  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &report);
   if (centroid && report.num_rejected == 0) {
     FitReport updated;
     if (updateInFrame(accepted, *centroid, scale, &updated)) return updated;
@@ -422,13 +587,8 @@ FitReport GpisModel::refit(bool renormalise) {
   const Config& c = m.config;
 
   std::size_t num_surface = 0;
-  Vector3 sum = Vector3::Zero();
-  for (const auto& p : m.observations) {
-    if (isSurfaceValue(p)) {
-      ++num_surface;
-      sum += p.position;
-    }
-  }
+  for (const auto& p : m.observations)
+    if (isSurfaceValue(p)) ++num_surface;
   if (num_surface < 4) {
     report.message = "need at least 4 valid surface points to fit, got " + std::to_string(num_surface);
     return report;
@@ -439,112 +599,31 @@ FitReport GpisModel::refit(bool renormalise) {
   }
   renormalise = renormalise || !(m.fitted || m.frame_preset);
   m.frame_preset = false;
-  Vector3 centroid = m.centroid;
-  double scale = m.scale;
-  if (renormalise) {
-    centroid = sum / static_cast<double>(num_surface);
-    double max_dist = 0.0;
-    for (const auto& p : m.observations)
-      if (isSurfaceValue(p)) max_dist = std::max(max_dist, (p.position - centroid).norm());
-    if (!(max_dist > 1e-9)) {
-      report.message = "degenerate surface data: all surface points coincide";
-      return report;
-    }
-    scale = max_dist / c.data_radius;
+  Vector3 centroid;
+  double scale = 0.0;
+  if (!m.refitFrame(renormalise, &centroid, &scale)) {
+    report.message = "degenerate surface data: all surface points coincide";
+    return report;
   }
   report.renormalised = renormalise;
 
   // Keep the old state so that a failed factorisation leaves the model untouched.
   Impl backup(m);
-
   m.centroid = centroid;
   m.scale = scale;
-
-  const std::vector<Vector3> outside = fibonacciSphere(c.num_outside_points);
-  // The inside point goes at the centroid only when that is surely inside the object: no
-  // surface or free-space observation within inside_point_min_clearance (normalised) of it. The
-  // centroid of a partial view of a cup or bowl lies in its cavity, a few centimetres from the
-  // wall, where the camera saw free space; a -1 there tells the model the air is material.
-  bool use_inside_point = c.inside_point_at_centroid;
-  if (use_inside_point && c.inside_point_min_clearance > 0.0) {
-    double nearest = std::numeric_limits<double>::infinity();
-    for (const auto& p : m.observations)
-      if (p.label != PointLabel::kInside) nearest = std::min(nearest, ((p.position - centroid) / scale).norm());
-    use_inside_point = nearest >= c.inside_point_min_clearance;
-  }
-  const Eigen::Index num_pseudo = static_cast<Eigen::Index>(outside.size()) + (use_inside_point ? 1 : 0);
-  m.n = 0;
-  m.num_pseudo = num_pseudo;
-  m.chol.resize(0, 0);
-  m.x.resize(3, 0);
-  m.slope_dir.resize(3, 0);
-  m.y.resize(0);
-  m.noise_var.resize(0);
-  m.reserve(num_pseudo + static_cast<Eigen::Index>(m.observations.size()));
-
-  const double pseudo_var = c.pseudo_point_sigma * c.pseudo_point_sigma;
-  for (const auto& dir : outside) {
-    m.x.col(m.n) = dir * c.domain_radius;
-    m.slope_dir.col(m.n).setZero();
-    m.y[m.n] = 1.0;
-    m.noise_var[m.n] = pseudo_var;
-    ++m.n;
-  }
-  if (use_inside_point) {
-    m.x.col(m.n).setZero();
-    m.slope_dir.col(m.n).setZero();
-    m.y[m.n] = -1.0;
-    m.noise_var[m.n] = pseudo_var;
-    ++m.n;
-  }
-
-  // Observations: drop out-of-domain outside points and duplicates.
-  std::vector<TrainingPoint> kept;
-  std::vector<double> kept_values;  // their targets
-  kept.reserve(m.observations.size());
-  std::size_t out_of_domain = 0, duplicates = 0, bad_target = 0;
-  const double dup2 = c.duplicate_distance * c.duplicate_distance;
-  for (const auto& p : m.observations) {
-    const Vector3 xn = m.normalise(p.position);
-    if (xn.norm() > c.domain_radius) {
-      ++out_of_domain;
-      continue;
-    }
-    const double target = gpisTarget(p, m.scale);
-    if (!std::isfinite(target)) {
-      ++bad_target;
-      continue;
-    }
-    // Duplicates: the same label's value (or the same slope) at (nearly) the same place; kept
-    // observations are in the order of m.x after the pseudo-points.
-    bool duplicate = false;
-    const double value = target;
-    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
-                  (m.x.col(num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
-    if (duplicate) {
-      ++duplicates;
-      continue;
-    }
-    kept_values.push_back(value);
-    m.x.col(m.n) = xn;
-    m.slope_dir.col(m.n) = p.slope_direction;
-    m.y[m.n] = target;
-    m.noise_var[m.n] = p.noise_sigma * p.noise_sigma;
-    ++m.n;
-    kept.push_back(p);
-  }
-  if (out_of_domain > 0)
-    report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
-  if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
-  if (bad_target > 0) {
+  const Eigen::Index num_pseudo = m.placePseudoPoints();
+  Impl::ObservationRows rows = m.appendObservationRows(num_pseudo);
+  if (rows.out_of_domain > 0)
+    report.warnings.push_back(std::to_string(rows.out_of_domain) + " outside point(s) beyond the model domain dropped");
+  if (rows.duplicates > 0) report.warnings.push_back(std::to_string(rows.duplicates) + " duplicate point(s) dropped");
+  if (rows.bad_target > 0) {
     // Never drop accepted data silently: refuse the fit instead.
     m = std::move(backup);
-    report.message = "the target is not finite at " + std::to_string(bad_target) + " observation(s)";
+    report.message = "the target is not finite at " + std::to_string(rows.bad_target) + " observation(s)";
     return report;
   }
-  report.num_rejected = out_of_domain + duplicates;
-  m.observations = std::move(kept);
+  report.num_rejected = rows.out_of_domain + rows.duplicates;
+  m.observations = std::move(rows.kept);
   m.collectSlopeRows();
 
   std::string error;
@@ -565,10 +644,20 @@ FitReport GpisModel::refit(bool renormalise) {
   return report;
 }
 
+FitReport GpisModel::refitWith(const std::vector<TrainingPoint>& added, bool renormalise) {
+  Impl& m = *impl_;
+  const auto previous = m.observations;
+  m.observations.insert(m.observations.end(), added.begin(), added.end());
+  FitReport report = refit(renormalise);
+  if (!report.ok) m.observations = previous;
+  report.num_added = report.ok ? added.size() : 0;
+  return report;
+}
+
 FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   if (!isFitted()) return fit(points);
   FitReport report;
-  std::vector<TrainingPoint> accepted = screenPoints(points, &report);
+  std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &report);
   Impl& m = *impl_;
   const Config& c = m.config;
   if (accepted.empty()) {
@@ -583,60 +672,21 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   for (const auto& p : accepted)
     if (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius) needs_renormalise = true;
   if (needs_renormalise) {
-    const auto previous = m.observations;
-    m.observations.insert(m.observations.end(), accepted.begin(), accepted.end());
-    FitReport refit_report = refit(true);
-    if (!refit_report.ok) m.observations = previous;  // refit() restored the derived state
-    refit_report.num_added = refit_report.ok ? accepted.size() : 0;
+    FitReport refit_report = refitWith(accepted, true);
     refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
     if (refit_report.ok) refit_report.message = "renormalised and refitted: " + refit_report.message;
     return refit_report;
   }
 
   // Screen against the domain and duplicates in the current frame.
-  std::vector<TrainingPoint> kept;
-  std::vector<Vector3> kept_x;
-  std::vector<double> kept_residuals;  // their targets for the GP
-  std::vector<double> kept_values;  // their label values, as for the model's
-  std::vector<double> observation_values;
-  observation_values.reserve(m.observations.size());
-  for (const auto& o : m.observations) observation_values.push_back(gpisTarget(o, m.scale));
-  std::size_t out_of_domain = 0, duplicates = 0, bad_target = 0;
-  const double dup2 = c.duplicate_distance * c.duplicate_distance;
-  for (const auto& p : accepted) {
-    const Vector3 xn = m.normalise(p.position);
-    if (xn.norm() > c.domain_radius) {
-      ++out_of_domain;
-      continue;
-    }
-    const double residual = gpisTarget(p, m.scale);
-    if (!std::isfinite(residual)) {
-      ++bad_target;
-      continue;
-    }
-    const double value = gpisTarget(p, m.scale);
-    bool duplicate = false;
-    for (std::size_t j = 0; j < m.observations.size() && !duplicate; ++j)
-      duplicate = observation_values[j] == value && sameSlopeDirection(m.observations[j], p) &&
-                  (m.x.col(m.num_pseudo + static_cast<Eigen::Index>(j)) - xn).squaredNorm() <= dup2;
-    for (std::size_t j = 0; j < kept.size() && !duplicate; ++j)
-      duplicate = kept_values[j] == value && sameSlopeDirection(kept[j], p) &&
-                  (kept_x[j] - xn).squaredNorm() <= dup2;
-    if (duplicate) {
-      ++duplicates;
-      continue;
-    }
-    kept_values.push_back(value);
-    kept_residuals.push_back(residual);
-    kept.push_back(p);
-    kept_x.push_back(xn);
-  }
-  if (out_of_domain > 0)
-    report.warnings.push_back(std::to_string(out_of_domain) + " outside point(s) beyond the model domain dropped");
-  if (duplicates > 0) report.warnings.push_back(std::to_string(duplicates) + " duplicate point(s) dropped");
-  if (bad_target > 0)
-    report.warnings.push_back(std::to_string(bad_target) + " point(s) dropped: their target is not finite");
-  report.num_rejected += out_of_domain + duplicates + bad_target;
+  const Impl::ObservationRows rows = m.screenNewRows(accepted);
+  if (rows.out_of_domain > 0)
+    report.warnings.push_back(std::to_string(rows.out_of_domain) + " outside point(s) beyond the model domain dropped");
+  if (rows.duplicates > 0) report.warnings.push_back(std::to_string(rows.duplicates) + " duplicate point(s) dropped");
+  if (rows.bad_target > 0)
+    report.warnings.push_back(std::to_string(rows.bad_target) + " point(s) dropped: their target is not finite");
+  report.num_rejected += rows.out_of_domain + rows.duplicates + rows.bad_target;
+  const std::vector<TrainingPoint>& kept = rows.kept;
   if (kept.empty()) {
     report.ok = true;
     report.message = "no new point to add";
@@ -646,11 +696,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   // Where extending the factor would not give the model a refit builds, the points go in by a
   // full refit of all the data; on failure the observations are restored.
   const auto refitWithKept = [&]() {
-    const auto previous = m.observations;
-    m.observations.insert(m.observations.end(), kept.begin(), kept.end());
-    FitReport refit_report = refit(false);
-    if (!refit_report.ok) m.observations = previous;
-    refit_report.num_added = refit_report.ok ? kept.size() : 0;
+    FitReport refit_report = refitWith(kept, false);
     refit_report.num_rejected += report.num_rejected;
     refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
     return refit_report;
@@ -661,37 +707,11 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
   if (has_inside_point && c.inside_point_min_clearance > 0.0)
     for (std::size_t j = 0; j < kept.size(); ++j)
-      if (kept[j].label != PointLabel::kInside && kept_x[j].norm() < c.inside_point_min_clearance)
+      if (kept[j].label != PointLabel::kInside && rows.x[j].norm() < c.inside_point_min_clearance)
         return refitWithKept();
 
-  const Eigen::Index n = m.n;
   const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
-  m.reserve(n + k);
-  for (Eigen::Index j = 0; j < k; ++j) {
-    m.x.col(n + j) = kept_x[static_cast<std::size_t>(j)];
-    m.slope_dir.col(n + j) = kept[static_cast<std::size_t>(j)].slope_direction;
-    m.y[n + j] = kept_residuals[static_cast<std::size_t>(j)];
-    const double s = kept[static_cast<std::size_t>(j)].noise_sigma;
-    m.noise_var[n + j] = s * s;
-  }
-
-  // Block Cholesky extension: [L11 0; L21 L22] with L21^T = L11^-1 K12 and
-  // L22 L22^T = K22 - L21 L21^T. Cost O(n^2 k) for the triangular solve.
-  Eigen::MatrixXd cross(n, k);
-  for (Eigen::Index j = 0; j < k; ++j)
-    for (Eigen::Index i = 0; i < n; ++i) cross(i, j) = m.covariance(i, n + j);
-  solveLowerInPlace(m.chol, n, cross);
-  Eigen::MatrixXd schur(k, k);
-  for (Eigen::Index j = 0; j < k; ++j) {
-    for (Eigen::Index i = j + 1; i < k; ++i) schur(i, j) = m.covariance(n + i, n + j);
-    schur(j, j) = m.diagonal(n + j);
-  }
-  schur.triangularView<Eigen::Lower>() -= cross.transpose() * cross;
-  Eigen::LLT<Eigen::MatrixXd> llt(schur.selfadjointView<Eigen::Lower>());
-  auto factored = [&] {
-    return llt.info() == Eigen::Success && m.wellConditioned(Eigen::MatrixXd(llt.matrixL()).diagonal());
-  };
-  if (!factored()) {
+  if (!m.extendFactor(rows)) {
     // The new block needs more jitter than the model has: a full refit escalates the jitter on
     // every point alike (a larger jitter on the new block only would not be what a refit builds).
     FitReport refit_report = refitWithKept();
@@ -702,9 +722,6 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
                              refit_report.message;
     return refit_report;
   }
-  m.chol.block(n, 0, k, n) = cross.transpose();
-  m.chol.block(n, n, k, k) = llt.matrixL();
-  m.n = n + k;
   m.observations.insert(m.observations.end(), kept.begin(), kept.end());
   m.collectSlopeRows();
   m.solveAlpha();

@@ -4,6 +4,7 @@
 
 #include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/kernel.h"
+#include "gpatlas_core/model/observation_screen.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
@@ -102,24 +103,10 @@ std::vector<std::size_t> mergeSorted(std::vector<std::size_t> a, const std::vect
   return a;
 }
 
-std::vector<TrainingPoint> screenPoints(const std::vector<TrainingPoint>& points, FitReport* report) {
-  std::vector<TrainingPoint> accepted;
-  accepted.reserve(points.size());
-  std::size_t rejected = 0;
-  for (const TrainingPoint& p : points) {
-    if (!p.position.allFinite() || !p.slope_direction.allFinite() || !std::isfinite(p.noise_sigma) ||
-        p.noise_sigma < 0.0 || (observesSlope(p) && !(p.slope_direction.norm() > 1e-9))) {
-      ++rejected;
-      continue;
-    }
-    accepted.push_back(p);
-  }
-  if (rejected > 0)
-    report->warnings.push_back(std::to_string(rejected) +
-                               " point(s) with NaN/Inf coordinates, a bad noise sigma or a zero slope direction dropped");
-  report->num_rejected += rejected;
-  return accepted;
-}
+// The points are kept as the caller gave them, slope directions too: nothing here needs them unit
+// (the coarse GpisModel makes its own copies' directions unit, the cells take no slopes), and
+// observations() and state() report the caller's points.
+const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/false};
 
 // Matern 5/2 in metres, k = s2 (1 + a + a^2/3) e^-a with a = sqrt(5) r / l (Matern52Kernel's
 // formula), and (dk/dr) / r = -s2 (5 / (3 l^2)) (1 + a) e^-a.
@@ -142,6 +129,112 @@ struct FineParams {
     return {std::exp(log_params[0]), std::exp(log_params[1]), std::exp(log_params[2])};
   }
 };
+
+// What a batch of queries asks for; `slope`: the kernel's derivative, for either gradient.
+struct BatchNeeds {
+  bool gradient, variance_gradient, variance, slope;
+};
+
+// A query's cells (at most 2 per axis, so 8), with their blending weights and gradients.
+constexpr int kMaxSlots = 8;
+struct Slot {
+  std::size_t cell;
+  double weight;
+  Vector3 weight_gradient;
+};
+struct QuerySlots {
+  std::vector<std::array<Slot, kMaxSlots>> slots;
+  std::vector<int> count;
+};
+
+// Queries grouped by cell: cell c's (query * kMaxSlots + slot) entries are
+// entries[offset[c] .. offset[c + 1]).
+struct CellGroups {
+  std::vector<std::size_t> offset, entries;
+};
+
+// Per (query * kMaxSlots + slot): the cell's residual mean and variance and their gradients.
+struct CellPredictions {
+  std::vector<double> mean, variance;
+  std::vector<Vector3> gradient, variance_gradient;
+};
+
+// Queries grouped by cell, so that each cell's factor is used once per batch (a triangular
+// solve with many right-hand sides instead of one per query).
+CellGroups groupByCell(const QuerySlots& query_slots, std::size_t num_cells) {
+  const std::size_t q = query_slots.count.size();
+  CellGroups groups;
+  std::vector<std::size_t>& offset = groups.offset;
+  offset.assign(num_cells + 1, 0);
+  for (std::size_t col = 0; col < q; ++col)
+    for (int k = 0; k < query_slots.count[col]; ++k) ++offset[query_slots.slots[col][static_cast<std::size_t>(k)].cell + 1];
+  for (std::size_t c = 0; c < num_cells; ++c) offset[c + 1] += offset[c];
+  std::vector<std::size_t> fill(offset.begin(), offset.end() - 1);
+  groups.entries.resize(offset.back());
+  for (std::size_t col = 0; col < q; ++col)
+    for (int k = 0; k < query_slots.count[col]; ++k)
+      groups.entries[fill[query_slots.slots[col][static_cast<std::size_t>(k)].cell]++] =
+          col * kMaxSlots + static_cast<std::size_t>(k);
+  return groups;
+}
+
+// The coarse level at every query, in parallel chunks.
+BatchPrediction coarseBatch(const GpisModel& coarse_model, const Points3& x_world, const BatchNeeds& needs) {
+  const Eigen::Index q = x_world.cols();
+  BatchPrediction coarse;
+  coarse.mean.resize(q);
+  coarse.variance.resize(q);
+  coarse.in_domain.resize(q);
+  if (needs.gradient) coarse.gradient.resize(3, q);
+  if (needs.variance_gradient) coarse.variance_gradient.resize(3, q);
+  constexpr Eigen::Index chunk = 128;
+  tbb::parallel_for(Eigen::Index{0}, (q + chunk - 1) / chunk, [&](Eigen::Index b) {
+    const Eigen::Index begin = b * chunk, count = std::min(q, begin + chunk) - begin;
+    const BatchPrediction part = coarse_model.predictBatch(x_world.middleCols(begin, count), needs.gradient,
+                                                           needs.variance_gradient, needs.variance);
+    coarse.mean.segment(begin, count) = part.mean;
+    coarse.variance.segment(begin, count) = part.variance;
+    coarse.in_domain.segment(begin, count) = part.in_domain;
+    if (needs.gradient) coarse.gradient.middleCols(begin, count) = part.gradient;
+    if (needs.variance_gradient) coarse.variance_gradient.middleCols(begin, count) = part.variance_gradient;
+  });
+  return coarse;
+}
+
+// Blend: r = sum w r_c / (sum w + w0), v = (sum w v_c + w0 sigma^2) / (sum w + w0), with their
+// gradients by the quotient rule (the zero expert's weight is constant), added to the coarse
+// level's mean and variance (the latter in reported units, x unit).
+void blendLevels(const BatchPrediction& coarse, const QuerySlots& query_slots, const CellPredictions& cells,
+                 const LocalKernel& kernel, double w0, double unit, const BatchNeeds& needs, BatchPrediction& out) {
+  tbb::parallel_for(Eigen::Index{0}, coarse.mean.size(), [&](Eigen::Index col) {
+    const std::size_t jq = static_cast<std::size_t>(col);
+    double sum_w = w0, sum_wr = 0.0, sum_wv = w0 * kernel.s2;
+    Vector3 sum_gw = Vector3::Zero(), sum_g_wr = Vector3::Zero(), sum_g_wv = Vector3::Zero();
+    for (int k = 0; k < query_slots.count[jq]; ++k) {
+      const Slot& slot = query_slots.slots[jq][static_cast<std::size_t>(k)];
+      const std::size_t e = jq * kMaxSlots + static_cast<std::size_t>(k);
+      sum_w += slot.weight;
+      sum_gw += slot.weight_gradient;
+      sum_wr += slot.weight * cells.mean[e];
+      if (needs.gradient) sum_g_wr += slot.weight_gradient * cells.mean[e] + slot.weight * cells.gradient[e];
+      if (needs.variance) sum_wv += slot.weight * cells.variance[e];
+      if (needs.variance_gradient)
+        sum_g_wv += slot.weight_gradient * cells.variance[e] + slot.weight * cells.variance_gradient[e];
+    }
+    const double r = sum_wr / sum_w;
+    out.mean[col] = coarse.mean[col] + r;
+    out.in_domain[col] = coarse.in_domain[col];
+    if (needs.gradient) out.gradient.col(col) = coarse.gradient.col(col) + (sum_g_wr - r * sum_gw) / sum_w;
+    if (needs.variance) {
+      const double v = sum_wv / sum_w;
+      out.variance[col] = coarse.variance[col] + unit * v;
+      if (needs.variance_gradient)
+        out.variance_gradient.col(col) = coarse.variance_gradient.col(col) + unit * (sum_g_wv - v * sum_gw) / sum_w;
+    } else {
+      out.variance[col] = kNaN;
+    }
+  });
+}
 
 struct Cell {
   Eigen::Vector3i coords{Eigen::Vector3i::Zero()};
@@ -214,6 +307,29 @@ double cellLogLikelihood(const Cell& cell, const FineParams& p, double scale, Ei
   return lml;
 }
 
+
+}  // namespace
+
+namespace {
+
+// The coarse level after an update: extended, or refitted in its frame (`grows` false).
+struct CoarseUpdate {
+  GpisModel model;
+  std::vector<std::size_t> selection;  // the observations it holds
+  bool grows{false};
+  FitReport report;
+};
+
+// The cells an update changes: those whose extended region holds a new value observation
+// (`rebuilt_index`, refactored with their new members, then the new cells at new surface data,
+// `created`), and the others (`resolved_index`), whose factor is kept and only the targets and
+// weights follow the coarse level. `rebuilt` and `resolved` in the order of the indices.
+struct CellUpdate {
+  std::vector<std::size_t> rebuilt_index, resolved_index;
+  std::vector<Cell> rebuilt, resolved;
+  std::size_t created{0};
+  FitReport report;
+};
 
 }  // namespace
 
@@ -415,6 +531,23 @@ struct MultiscaleGpisModel::Impl {
   // `trial` (a fresh Impl of the same configs) with these log-hyperparameters (the coarse GPIS's,
   // then the fine level's) and this model's last fine tuning; false with the reason in `report`.
   bool withHyperparameters(const Eigen::VectorXd& log_params, Impl* trial, FitReport* report) const;
+
+  // A fit from scratch in the current frame of the observations and `added`; replaces this
+  // model when it succeeds. `why` opens the message.
+  FitReport refitWithAdded(const std::vector<TrainingPoint>& added, const FitReport& screen, const std::string& why);
+  // The coarse level for all observations (the first old_count of which it holds now).
+  CoarseUpdate updateCoarse(const std::vector<TrainingPoint>& all, std::size_t old_count) const;
+  // The cells that `stage` (this model's index structures with the observations from old_count on
+  // added) changes, refactored or re-solved; nothing is committed.
+  CellUpdate updateCells(const Impl& stage, std::size_t old_count) const;
+  // Takes the staged coarse level, observations and buckets and the updated cells.
+  void commit(Impl&& stage, CellUpdate& update, const std::vector<std::size_t>& coarse_selection);
+
+  // Each query's cells and blending weights.
+  QuerySlots querySlots(const Points3& x_world) const;
+  // Each cell's residual mean and variance (and gradients) at the queries that fall in it.
+  CellPredictions predictCells(const Points3& x_world, const CellGroups& groups, const LocalKernel& kernel,
+                               const BatchNeeds& needs) const;
 
   FitReport factorCells(std::vector<Cell*> targets) const {
     FitReport report;
@@ -619,7 +752,7 @@ FitReport MultiscaleGpisModel::fit(const std::vector<TrainingPoint>& points) {
   Impl trial(impl_->config, impl_->coarse_config);
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
-  trial.observations = screenPoints(points, &screen);
+  trial.observations = screenObservations(points, kScreenOptions, &screen);
   trial.fine_tune = impl_->fine_tune;
   FitReport report = trial.build(nullptr, 0.0, trial.config.tune_on_fit);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
@@ -638,7 +771,7 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
   Impl trial(impl_->config, impl_->coarse_config);
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
-  trial.observations = screenPoints(points, &screen);
+  trial.observations = screenObservations(points, kScreenOptions, &screen);
   trial.fine_tune = impl_->fine_tune;
   const bool same_frame = impl_->fitted && centroid == impl_->coarse.centroid() && scale == impl_->coarse.scale();
   // From the current coarse level (a touch retracting guesses).
@@ -650,10 +783,120 @@ FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& poin
   return report;
 }
 
+FitReport MultiscaleGpisModel::Impl::refitWithAdded(const std::vector<TrainingPoint>& added, const FitReport& screen,
+                                                    const std::string& why) {
+  Impl trial(config, coarse_config);
+  trial.coarse.setHyperparameters(coarse.hyperparameters());
+  trial.log_fine = log_fine;
+  trial.fine_tune = fine_tune;
+  trial.observations = observations;
+  trial.observations.insert(trial.observations.end(), added.begin(), added.end());
+  const Vector3 centroid = coarse.centroid();
+  FitReport report = trial.build(&centroid, coarse.scale(), false);
+  report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
+  report.num_rejected += screen.num_rejected;
+  report.renormalised = report.renormalised || trial.coarse.scale() != coarse.scale() ||
+                        trial.coarse.centroid() != coarse.centroid();
+  if (report.ok) {
+    report.message = why + ": " + report.message;
+    report.num_added = added.size();
+    *this = std::move(trial);
+  }
+  return report;
+}
+
+// Extended when the thinned selection only grows by new points, refitted in its frame when the
+// new free space changes which old points the thinning keeps.
+CoarseUpdate MultiscaleGpisModel::Impl::updateCoarse(const std::vector<TrainingPoint>& all, std::size_t old_count) const {
+  const std::vector<std::size_t> selection = coarseSelection(all);
+  CoarseUpdate update{GpisModel(coarse, selection.size()), selection, false, {}};
+  std::vector<std::size_t> extra;
+  update.grows = std::includes(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end());
+  std::set_difference(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end(),
+                      std::back_inserter(extra));
+  if (update.grows && (extra.empty() || extra.front() >= old_count)) {
+    std::vector<TrainingPoint> extra_points;
+    for (std::size_t i : extra) extra_points.push_back(all[i]);
+    update.report = extra_points.empty() ? FitReport{} : update.model.addPoints(extra_points);
+    if (extra_points.empty()) update.report.ok = true;
+  } else {
+    std::vector<TrainingPoint> selected;
+    for (std::size_t i : selection) selected.push_back(all[i]);
+    update.report = update.model.fitInFrame(selected, coarse.centroid(), coarse.scale());
+  }
+  return update;
+}
+
+CellUpdate MultiscaleGpisModel::Impl::updateCells(const Impl& stage, std::size_t old_count) const {
+  std::unordered_set<CellKey> dirty;
+  std::vector<Eigen::Vector3i> fresh_coords, keys;
+  std::unordered_set<CellKey> fresh_seen;
+  for (std::size_t i = old_count; i < stage.observations.size(); ++i) {
+    const TrainingPoint& p = stage.observations[i];
+    if (!isValueObservation(p)) continue;
+    cellsContaining(p.position, &keys);
+    for (const Eigen::Vector3i& k : keys) dirty.insert(packKey(k));
+    if (isSurfaceValue(p)) {
+      const Eigen::Vector3i core = coreOf(p.position);
+      const CellKey key = packKey(core);
+      if (!cell_index.count(key) && fresh_seen.insert(key).second) fresh_coords.push_back(core);
+    }
+  }
+  CellUpdate update;
+  std::vector<std::size_t>& rebuilt_index = update.rebuilt_index;
+  std::vector<std::size_t>& resolved_index = update.resolved_index;
+  for (std::size_t i = 0; i < cells.size(); ++i)
+    (dirty.count(packKey(cells[i].coords)) ? rebuilt_index : resolved_index).push_back(i);
+  update.created = fresh_coords.size();
+  std::vector<Cell>& rebuilt = update.rebuilt;
+  rebuilt.resize(rebuilt_index.size() + fresh_coords.size());
+  tbb::parallel_for(std::size_t{0}, rebuilt.size(), [&](std::size_t i) {
+    rebuilt[i] = stage.makeCell(i < rebuilt_index.size() ? cells[rebuilt_index[i]].coords
+                                                         : fresh_coords[i - rebuilt_index.size()]);
+  });
+  // Unchanged members: only their targets change (m0 moved), so the factor is kept.
+  std::vector<Cell>& resolved = update.resolved;
+  resolved.resize(resolved_index.size());
+  for (std::size_t i = 0; i < resolved.size(); ++i) resolved[i].members = cells[resolved_index[i]].members;
+  std::vector<Cell*> targets;
+  for (Cell& c : rebuilt) targets.push_back(&c);
+  for (Cell& c : resolved) targets.push_back(&c);
+  stage.setTargets(targets);
+  std::vector<Cell*> to_factor;
+  for (Cell& c : rebuilt) to_factor.push_back(&c);
+  update.report = stage.factorCells(to_factor);
+  if (!update.report.ok) return update;
+  tbb::parallel_for(std::size_t{0}, resolved.size(), [&](std::size_t i) {
+    resolved[i].alpha = resolved[i].y;
+    const auto lower = cells[resolved_index[i]].chol.triangularView<Eigen::Lower>();
+    lower.solveInPlace(resolved[i].alpha);
+    lower.transpose().solveInPlace(resolved[i].alpha);
+  });
+  return update;
+}
+
+void MultiscaleGpisModel::Impl::commit(Impl&& stage, CellUpdate& update, const std::vector<std::size_t>& coarse_selection) {
+  for (std::size_t i = 0; i < update.resolved.size(); ++i) {
+    Cell& c = cells[update.resolved_index[i]];
+    c.y = std::move(update.resolved[i].y);
+    c.alpha = std::move(update.resolved[i].alpha);
+  }
+  const std::size_t num_rebuilt = update.rebuilt_index.size();
+  for (std::size_t i = 0; i < num_rebuilt; ++i) cells[update.rebuilt_index[i]] = std::move(update.rebuilt[i]);
+  for (std::size_t i = num_rebuilt; i < update.rebuilt.size(); ++i) {
+    cell_index[packKey(update.rebuilt[i].coords)] = cells.size();
+    cells.push_back(std::move(update.rebuilt[i]));
+  }
+  coarse = std::move(stage.coarse);
+  coarse_members = coarse_selection;
+  observations = std::move(stage.observations);
+  buckets = std::move(stage.buckets);
+}
+
 FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   if (!impl_->fitted) return fit(points);
   FitReport screen;
-  std::vector<TrainingPoint> accepted = screenPoints(points, &screen);
+  std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &screen);
   if (accepted.empty()) {
     screen.ok = true;
     screen.message = "no valid point to add";
@@ -661,132 +904,36 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
   }
   const Impl& m = *impl_;
   const std::size_t old_count = m.observations.size();
-
-  const auto fullRefit = [&](const std::string& why) {
-    Impl trial(m.config, m.coarse_config);
-    trial.coarse.setHyperparameters(m.coarse.hyperparameters());
-    trial.log_fine = m.log_fine;
-    trial.fine_tune = m.fine_tune;
-    trial.observations = m.observations;
-    trial.observations.insert(trial.observations.end(), accepted.begin(), accepted.end());
-    const Vector3 centroid = m.coarse.centroid();
-    FitReport report = trial.build(&centroid, m.coarse.scale(), false);
-    report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
-    report.num_rejected += screen.num_rejected;
-    report.renormalised = report.renormalised || trial.coarse.scale() != m.coarse.scale() ||
-                          trial.coarse.centroid() != m.coarse.centroid();
-    if (report.ok) {
-      report.message = why + ": " + report.message;
-      report.num_added = accepted.size();
-      *impl_ = std::move(trial);
-    }
-    return report;
-  };
-
   for (const TrainingPoint& p : accepted) {
     if (!isSurfaceValue(p)) continue;
-    if (fromView(p.source)) return fullRefit("new surface data from a view, refitted");
+    if (fromView(p.source)) return impl_->refitWithAdded(accepted, screen, "new surface data from a view, refitted");
     if (((p.position - m.coarse.centroid()) / m.coarse.scale()).norm() > m.coarse_config.renormalise_radius)
-      return fullRefit("a contact beyond the frame's radius, renormalised and refitted");
+      return impl_->refitWithAdded(accepted, screen, "a contact beyond the frame's radius, renormalised and refitted");
   }
 
   std::vector<TrainingPoint> all = m.observations;
   all.insert(all.end(), accepted.begin(), accepted.end());
-
-  // Coarse level: extended when the thinned selection only grows by new points, refitted in its
-  // frame when the new free space changes which old points the thinning keeps.
-  const std::vector<std::size_t> selection = m.coarseSelection(all);
-  GpisModel coarse(m.coarse, selection.size());
-  std::vector<std::size_t> extra;
-  const bool grows = std::includes(selection.begin(), selection.end(), m.coarse_members.begin(), m.coarse_members.end());
-  std::set_difference(selection.begin(), selection.end(), m.coarse_members.begin(), m.coarse_members.end(),
-                      std::back_inserter(extra));
-  FitReport coarse_report;
-  if (grows && (extra.empty() || extra.front() >= old_count)) {
-    std::vector<TrainingPoint> extra_points;
-    for (std::size_t i : extra) extra_points.push_back(all[i]);
-    coarse_report = extra_points.empty() ? FitReport{} : coarse.addPoints(extra_points);
-    if (extra_points.empty()) coarse_report.ok = true;
-  } else {
-    std::vector<TrainingPoint> selected;
-    for (std::size_t i : selection) selected.push_back(all[i]);
-    coarse_report = coarse.fitInFrame(selected, m.coarse.centroid(), m.coarse.scale());
+  CoarseUpdate coarse = m.updateCoarse(all, old_count);
+  if (!coarse.report.ok) {
+    coarse.report.message = "coarse GPIS update failed, model unchanged: " + coarse.report.message;
+    return coarse.report;
   }
-  if (!coarse_report.ok) {
-    coarse_report.message = "coarse GPIS update failed, model unchanged: " + coarse_report.message;
-    return coarse_report;
-  }
-  if (coarse.scale() != m.coarse.scale() || coarse.centroid() != m.coarse.centroid())
-    return fullRefit("the coarse frame moved, refitted");
+  if (coarse.model.scale() != m.coarse.scale() || coarse.model.centroid() != m.coarse.centroid())
+    return impl_->refitWithAdded(accepted, screen, "the coarse frame moved, refitted");
 
   // Fine level: on a staging copy of the index structures (cells are moved in at the end).
   Impl stage(m.config, m.coarse_config);
-  stage.coarse = std::move(coarse);
+  stage.coarse = std::move(coarse.model);
   stage.observations = std::move(all);
   stage.buckets = m.buckets;
   stage.addToBuckets(old_count);
   stage.log_fine = m.log_fine;
-
-  std::unordered_set<CellKey> dirty;
-  std::vector<Eigen::Vector3i> fresh_coords, keys;
-  std::unordered_set<CellKey> fresh_seen;
-  for (std::size_t i = old_count; i < stage.observations.size(); ++i) {
-    const TrainingPoint& p = stage.observations[i];
-    if (!isValueObservation(p)) continue;
-    m.cellsContaining(p.position, &keys);
-    for (const Eigen::Vector3i& k : keys) dirty.insert(packKey(k));
-    if (isSurfaceValue(p)) {
-      const Eigen::Vector3i core = m.coreOf(p.position);
-      const CellKey key = packKey(core);
-      if (!m.cell_index.count(key) && fresh_seen.insert(key).second) fresh_coords.push_back(core);
-    }
+  CellUpdate cells = m.updateCells(stage, old_count);
+  if (!cells.report.ok) {
+    cells.report.message = "update failed, model unchanged: " + cells.report.message;
+    return cells.report;
   }
-  // Rebuilt cells (new members), in the order of m.cells, then the new ones.
-  std::vector<std::size_t> rebuilt_index, resolved_index;
-  for (std::size_t i = 0; i < m.cells.size(); ++i)
-    (dirty.count(packKey(m.cells[i].coords)) ? rebuilt_index : resolved_index).push_back(i);
-  std::vector<Cell> rebuilt(rebuilt_index.size() + fresh_coords.size());
-  tbb::parallel_for(std::size_t{0}, rebuilt.size(), [&](std::size_t i) {
-    rebuilt[i] = stage.makeCell(i < rebuilt_index.size() ? m.cells[rebuilt_index[i]].coords
-                                                         : fresh_coords[i - rebuilt_index.size()]);
-  });
-  // Unchanged members: only their targets change (m0 moved), so the factor is kept.
-  std::vector<Cell> resolved(resolved_index.size());
-  for (std::size_t i = 0; i < resolved.size(); ++i) resolved[i].members = m.cells[resolved_index[i]].members;
-  std::vector<Cell*> targets;
-  for (Cell& c : rebuilt) targets.push_back(&c);
-  for (Cell& c : resolved) targets.push_back(&c);
-  stage.setTargets(targets);
-  std::vector<Cell*> to_factor;
-  for (Cell& c : rebuilt) to_factor.push_back(&c);
-  FitReport fine_report = stage.factorCells(to_factor);
-  if (!fine_report.ok) {
-    fine_report.message = "update failed, model unchanged: " + fine_report.message;
-    return fine_report;
-  }
-  tbb::parallel_for(std::size_t{0}, resolved.size(), [&](std::size_t i) {
-    resolved[i].alpha = resolved[i].y;
-    const auto lower = m.cells[resolved_index[i]].chol.triangularView<Eigen::Lower>();
-    lower.solveInPlace(resolved[i].alpha);
-    lower.transpose().solveInPlace(resolved[i].alpha);
-  });
-
-  // Commit (nothing below can fail).
-  Impl& w = *impl_;
-  for (std::size_t i = 0; i < resolved.size(); ++i) {
-    Cell& c = w.cells[resolved_index[i]];
-    c.y = std::move(resolved[i].y);
-    c.alpha = std::move(resolved[i].alpha);
-  }
-  for (std::size_t i = 0; i < rebuilt_index.size(); ++i) w.cells[rebuilt_index[i]] = std::move(rebuilt[i]);
-  for (std::size_t i = rebuilt_index.size(); i < rebuilt.size(); ++i) {
-    w.cell_index[packKey(rebuilt[i].coords)] = w.cells.size();
-    w.cells.push_back(std::move(rebuilt[i]));
-  }
-  w.coarse = std::move(stage.coarse);
-  w.coarse_members = selection;
-  w.observations = std::move(stage.observations);
-  w.buckets = std::move(stage.buckets);
+  impl_->commit(std::move(stage), cells, coarse.selection);  // nothing below can fail
 
   FitReport report;
   report.ok = true;
@@ -794,12 +941,12 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
   report.num_added = accepted.size();
   report.num_rejected = screen.num_rejected;
   report.warnings = screen.warnings;
-  report.warnings.insert(report.warnings.end(), coarse_report.warnings.begin(), coarse_report.warnings.end());
-  report.warnings.insert(report.warnings.end(), fine_report.warnings.begin(), fine_report.warnings.end());
+  report.warnings.insert(report.warnings.end(), coarse.report.warnings.begin(), coarse.report.warnings.end());
+  report.warnings.insert(report.warnings.end(), cells.report.warnings.begin(), cells.report.warnings.end());
   std::ostringstream msg;
-  msg << "added " << accepted.size() << " point(s): coarse " << (grows ? "extended" : "refitted in its frame") << " ("
-      << coarse_report.message << "); " << rebuilt_index.size() << " cell(s) refactored, " << fresh_coords.size()
-      << " created, " << resolved.size() << " re-solved";
+  msg << "added " << accepted.size() << " point(s): coarse " << (coarse.grows ? "extended" : "refitted in its frame")
+      << " (" << coarse.report.message << "); " << cells.rebuilt_index.size() << " cell(s) refactored, " << cells.created
+      << " created, " << cells.resolved.size() << " re-solved";
   report.message = msg.str();
   return report;
 }
@@ -826,54 +973,12 @@ double MultiscaleGpisModel::fineLogMarginalLikelihood(const Eigen::Vector3d& log
   return impl_->sampleLogLikelihood(impl_->tuningSample(), log_params, gradient);
 }
 
-BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool with_gradient, bool with_variance_gradient,
-                                                  bool with_variance) const {
-  const Impl& m = *impl_;
-  if (!m.fitted) throw std::logic_error("MultiscaleGpisModel: query before the model was fitted");
+QuerySlots MultiscaleGpisModel::Impl::querySlots(const Points3& x_world) const {
   const Eigen::Index q = x_world.cols();
-  const bool need_variance = with_variance || with_variance_gradient;
-  const bool need_slope = with_gradient || with_variance_gradient;
-  BatchPrediction out;
-  out.mean.resize(q);
-  out.variance.resize(q);
-  out.in_domain.resize(q);
-  if (with_gradient) out.gradient.resize(3, q);
-  if (with_variance_gradient) out.variance_gradient.resize(3, q);
-  if (q == 0) return out;
-
-  const FineParams p = m.fine();
-  const LocalKernel kernel{p.sigma * p.sigma, p.length_m};
-  const double s = m.config.cell_size_m, h = m.halfWidth(), w0 = m.config.zero_expert_weight;
-  const double unit = m.coarse.varianceUnitFactor();
-
-  // The coarse level, in parallel chunks.
-  BatchPrediction coarse;
-  coarse.mean.resize(q);
-  coarse.variance.resize(q);
-  coarse.in_domain.resize(q);
-  if (with_gradient) coarse.gradient.resize(3, q);
-  if (with_variance_gradient) coarse.variance_gradient.resize(3, q);
-  constexpr Eigen::Index chunk = 128;
-  tbb::parallel_for(Eigen::Index{0}, (q + chunk - 1) / chunk, [&](Eigen::Index b) {
-    const Eigen::Index begin = b * chunk, count = std::min(q, begin + chunk) - begin;
-    const BatchPrediction part =
-        m.coarse.predictBatch(x_world.middleCols(begin, count), with_gradient, with_variance_gradient, need_variance);
-    coarse.mean.segment(begin, count) = part.mean;
-    coarse.variance.segment(begin, count) = part.variance;
-    coarse.in_domain.segment(begin, count) = part.in_domain;
-    if (with_gradient) coarse.gradient.middleCols(begin, count) = part.gradient;
-    if (with_variance_gradient) coarse.variance_gradient.middleCols(begin, count) = part.variance_gradient;
-  });
-
-  // Each query's cells (at most 2 per axis, so 8), with their blending weights and gradients.
-  constexpr int kMaxSlots = 8;
-  struct Slot {
-    std::size_t cell;
-    double weight;
-    Vector3 weight_gradient;
-  };
-  std::vector<std::array<Slot, kMaxSlots>> slots(static_cast<std::size_t>(q));
-  std::vector<int> num_slots(static_cast<std::size_t>(q), 0);
+  const double s = config.cell_size_m, h = halfWidth();
+  QuerySlots query_slots;
+  query_slots.slots.resize(static_cast<std::size_t>(q));
+  query_slots.count.assign(static_cast<std::size_t>(q), 0);
   tbb::parallel_for(Eigen::Index{0}, q, [&](Eigen::Index col) {
     const Vector3 x = x_world.col(col);
     if (!x.allFinite()) return;
@@ -891,55 +996,50 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
         ++n_axis[d];
       }
     }
-    int& n = num_slots[static_cast<std::size_t>(col)];
+    int& n = query_slots.count[static_cast<std::size_t>(col)];
     for (int a = 0; a < n_axis[0]; ++a)
       for (int bb = 0; bb < n_axis[1]; ++bb)
         for (int c = 0; c < n_axis[2]; ++c) {
-          const auto found = m.cell_index.find(packKey(Eigen::Vector3i(axis[0][a], axis[1][bb], axis[2][c])));
-          if (found == m.cell_index.end()) continue;
+          const auto found = cell_index.find(packKey(Eigen::Vector3i(axis[0][a], axis[1][bb], axis[2][c])));
+          if (found == cell_index.end()) continue;
           const double wx = weight[0][a], wy = weight[1][bb], wz = weight[2][c];
           const double w = wx * wy * wz;
           if (!(w > 0.0)) continue;
-          slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(n++)] =
+          query_slots.slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(n++)] =
               Slot{found->second, w,
                    Vector3(weight_gradient[0][a] * wy * wz, wx * weight_gradient[1][bb] * wz, wx * wy * weight_gradient[2][c])};
         }
   });
+  return query_slots;
+}
 
-  // Queries grouped by cell, so that each cell's factor is used once per batch (a triangular
-  // solve with many right-hand sides instead of one per query).
-  std::vector<std::size_t> offset(m.cells.size() + 1, 0);
-  for (Eigen::Index col = 0; col < q; ++col)
-    for (int k = 0; k < num_slots[static_cast<std::size_t>(col)]; ++k) ++offset[slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(k)].cell + 1];
-  for (std::size_t c = 0; c < m.cells.size(); ++c) offset[c + 1] += offset[c];
-  std::vector<std::size_t> fill(offset.begin(), offset.end() - 1);
-  std::vector<std::size_t> entries(offset.back());  // query * kMaxSlots + slot
-  for (Eigen::Index col = 0; col < q; ++col)
-    for (int k = 0; k < num_slots[static_cast<std::size_t>(col)]; ++k)
-      entries[fill[slots[static_cast<std::size_t>(col)][static_cast<std::size_t>(k)].cell]++] =
-          static_cast<std::size_t>(col) * kMaxSlots + static_cast<std::size_t>(k);
-
-  // Per (query, slot): the cell's residual mean and variance and their gradients.
-  const std::size_t num_entries = static_cast<std::size_t>(q) * kMaxSlots;
-  std::vector<double> cell_mean(num_entries), cell_variance(need_variance ? num_entries : 0);
-  std::vector<Vector3> cell_gradient(with_gradient ? num_entries : 0), cell_variance_gradient(with_variance_gradient ? num_entries : 0);
+CellPredictions MultiscaleGpisModel::Impl::predictCells(const Points3& x_world, const CellGroups& groups,
+                                                        const LocalKernel& kernel, const BatchNeeds& needs) const {
+  const std::size_t num_entries = static_cast<std::size_t>(x_world.cols()) * kMaxSlots;
+  CellPredictions out;
+  out.mean.resize(num_entries);
+  out.variance.resize(needs.variance ? num_entries : 0);
+  out.gradient.resize(needs.gradient ? num_entries : 0);
+  out.variance_gradient.resize(needs.variance_gradient ? num_entries : 0);
+  const std::vector<std::size_t>& offset = groups.offset;
+  const std::vector<std::size_t>& entries = groups.entries;
   // Only the cells some query falls in (a single query must not pay for a pass over every cell).
   std::vector<std::size_t> active;
-  for (std::size_t c = 0; c < m.cells.size(); ++c)
+  for (std::size_t c = 0; c < cells.size(); ++c)
     if (offset[c + 1] > offset[c]) active.push_back(c);
   tbb::parallel_for(std::size_t{0}, active.size(), [&](std::size_t a) {
     const std::size_t c = active[a];
     const std::size_t begin = offset[c], count = offset[c + 1] - begin;
-    const Cell& cell = m.cells[c];
+    const Cell& cell = cells[c];
     const Eigen::Index n = cell.x.cols(), mq = static_cast<Eigen::Index>(count);
-    Eigen::MatrixXd k(n, mq), slope(need_slope ? n : 0, need_slope ? mq : 0);
+    Eigen::MatrixXd k(n, mq), slope(needs.slope ? n : 0, needs.slope ? mq : 0);
     Points3 xr(3, mq);
     for (Eigen::Index j = 0; j < mq; ++j) {
       xr.col(j) = x_world.col(static_cast<Eigen::Index>(entries[begin + static_cast<std::size_t>(j)] / kMaxSlots)) - cell.centre;
       for (Eigen::Index i = 0; i < n; ++i) {
         const double r = (xr.col(j) - cell.x.col(i)).norm();
         k(i, j) = kernel.value(r);
-        if (need_slope) slope(i, j) = kernel.derivativeOverDistance(r);
+        if (needs.slope) slope(i, j) = kernel.derivativeOverDistance(r);
       }
     }
     // Gradient of sum_i a_i k(|x - x_i|): sum_i a_i (dk/dr / r)_i (x - x_i).
@@ -950,50 +1050,43 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
     };
     for (Eigen::Index j = 0; j < mq; ++j) {
       const std::size_t e = entries[begin + static_cast<std::size_t>(j)];
-      cell_mean[e] = k.col(j).dot(cell.alpha);
-      if (with_gradient) cell_gradient[e] = weighted(j, cell.alpha);
+      out.mean[e] = k.col(j).dot(cell.alpha);
+      if (needs.gradient) out.gradient[e] = weighted(j, cell.alpha);
     }
-    if (!need_variance) return;
+    if (!needs.variance) return;
     const auto lower = cell.chol.triangularView<Eigen::Lower>();
     lower.solveInPlace(k);  // L^-1 k*
     for (Eigen::Index j = 0; j < mq; ++j)
-      cell_variance[entries[begin + static_cast<std::size_t>(j)]] = std::max(0.0, kernel.s2 - k.col(j).squaredNorm());
-    if (!with_variance_gradient) return;
+      out.variance[entries[begin + static_cast<std::size_t>(j)]] = std::max(0.0, kernel.s2 - k.col(j).squaredNorm());
+    if (!needs.variance_gradient) return;
     lower.transpose().solveInPlace(k);  // K^-1 k*
     for (Eigen::Index j = 0; j < mq; ++j)
-      cell_variance_gradient[entries[begin + static_cast<std::size_t>(j)]] = -2.0 * weighted(j, k.col(j));
+      out.variance_gradient[entries[begin + static_cast<std::size_t>(j)]] = -2.0 * weighted(j, k.col(j));
   });
+  return out;
+}
 
-  // Blend: r = sum w r_c / (sum w + w0), v = (sum w v_c + w0 sigma^2) / (sum w + w0), with their
-  // gradients by the quotient rule (the zero expert's weight is constant).
-  tbb::parallel_for(Eigen::Index{0}, q, [&](Eigen::Index col) {
-    const std::size_t jq = static_cast<std::size_t>(col);
-    double sum_w = w0, sum_wr = 0.0, sum_wv = w0 * kernel.s2;
-    Vector3 sum_gw = Vector3::Zero(), sum_g_wr = Vector3::Zero(), sum_g_wv = Vector3::Zero();
-    for (int k = 0; k < num_slots[jq]; ++k) {
-      const Slot& slot = slots[jq][static_cast<std::size_t>(k)];
-      const std::size_t e = jq * kMaxSlots + static_cast<std::size_t>(k);
-      sum_w += slot.weight;
-      sum_gw += slot.weight_gradient;
-      sum_wr += slot.weight * cell_mean[e];
-      if (with_gradient) sum_g_wr += slot.weight_gradient * cell_mean[e] + slot.weight * cell_gradient[e];
-      if (need_variance) sum_wv += slot.weight * cell_variance[e];
-      if (with_variance_gradient)
-        sum_g_wv += slot.weight_gradient * cell_variance[e] + slot.weight * cell_variance_gradient[e];
-    }
-    const double r = sum_wr / sum_w;
-    out.mean[col] = coarse.mean[col] + r;
-    out.in_domain[col] = coarse.in_domain[col];
-    if (with_gradient) out.gradient.col(col) = coarse.gradient.col(col) + (sum_g_wr - r * sum_gw) / sum_w;
-    if (need_variance) {
-      const double v = sum_wv / sum_w;
-      out.variance[col] = coarse.variance[col] + unit * v;
-      if (with_variance_gradient)
-        out.variance_gradient.col(col) = coarse.variance_gradient.col(col) + unit * (sum_g_wv - v * sum_gw) / sum_w;
-    } else {
-      out.variance[col] = kNaN;
-    }
-  });
+BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool with_gradient, bool with_variance_gradient,
+                                                  bool with_variance) const {
+  const Impl& m = *impl_;
+  if (!m.fitted) throw std::logic_error("MultiscaleGpisModel: query before the model was fitted");
+  const Eigen::Index q = x_world.cols();
+  const BatchNeeds needs{with_gradient, with_variance_gradient, with_variance || with_variance_gradient,
+                         with_gradient || with_variance_gradient};
+  BatchPrediction out;
+  out.mean.resize(q);
+  out.variance.resize(q);
+  out.in_domain.resize(q);
+  if (with_gradient) out.gradient.resize(3, q);
+  if (with_variance_gradient) out.variance_gradient.resize(3, q);
+  if (q == 0) return out;
+
+  const FineParams p = m.fine();
+  const LocalKernel kernel{p.sigma * p.sigma, p.length_m};
+  const BatchPrediction coarse = coarseBatch(m.coarse, x_world, needs);
+  const QuerySlots query_slots = m.querySlots(x_world);
+  const CellPredictions cells = m.predictCells(x_world, groupByCell(query_slots, m.cells.size()), kernel, needs);
+  blendLevels(coarse, query_slots, cells, kernel, m.config.zero_expert_weight, m.coarse.varianceUnitFactor(), needs, out);
   return out;
 }
 
@@ -1085,7 +1178,7 @@ FitReport MultiscaleGpisModel::restore(const SurfaceModelState& state) {
   Impl trial(impl_->config, impl_->coarse_config);
   if (!impl_->withHyperparameters(params, &trial, &report)) return report;
   FitReport screen;
-  trial.observations = screenPoints(state.observations, &screen);
+  trial.observations = screenObservations(state.observations, kScreenOptions, &screen);
   report = trial.build(&state.centroid, state.scale, false);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
   if (report.ok) *impl_ = std::move(trial);

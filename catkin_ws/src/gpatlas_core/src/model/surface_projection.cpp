@@ -33,20 +33,15 @@ const char* toString(ProjectionFailure failure) {
   return "unknown";
 }
 
-std::vector<SurfacePoint> projectOntoSurface(const SurfaceModel& model, const Points3& starts,
-                                             const Points3& directions,
-                                             const ProjectionConfig& config) {
-  const Eigen::Index count = starts.cols();
-  std::vector<SurfacePoint> results(static_cast<std::size_t>(count));
-  if (count == 0) return results;
-  if (!model.isFitted() || directions.cols() != count) return results;  // all kInvalidInput
+namespace {
 
-  const double max_step = config.max_step_fraction * model.domainRadiusWorld();
-  Points3 unit_directions(3, count);
-  Points3 current = starts;
+// The points whose start and direction are usable, their unit directions in `unit_directions`;
+// the others' results get their failure.
+std::vector<Eigen::Index> usableStarts(const SurfaceModel& model, const Points3& starts, const Points3& directions,
+                                       Points3& unit_directions, std::vector<SurfacePoint>& results) {
   std::vector<Eigen::Index> active;
-  active.reserve(static_cast<std::size_t>(count));
-  for (Eigen::Index i = 0; i < count; ++i) {
+  active.reserve(static_cast<std::size_t>(starts.cols()));
+  for (Eigen::Index i = 0; i < starts.cols(); ++i) {
     SurfacePoint& result = results[static_cast<std::size_t>(i)];
     const double direction_norm = directions.col(i).norm();
     if (!starts.col(i).allFinite() || !directions.col(i).allFinite() || !(direction_norm > 0.0)) {
@@ -60,6 +55,45 @@ std::vector<SurfacePoint> projectOntoSurface(const SurfaceModel& model, const Po
     unit_directions.col(i) = directions.col(i) / direction_norm;
     active.push_back(i);
   }
+  return active;
+}
+
+// The variance at the converged points (it costs O(n^2) per point: evaluated once, for them
+// only); a point whose variance is not finite fails after all.
+void addSurfaceVariance(const SurfaceModel& model, std::vector<SurfacePoint>& results) {
+  std::vector<std::size_t> converged;
+  for (std::size_t i = 0; i < results.size(); ++i)
+    if (results[i].ok) converged.push_back(i);
+  if (converged.empty()) return;
+  Points3 positions(3, static_cast<Eigen::Index>(converged.size()));
+  for (std::size_t k = 0; k < converged.size(); ++k)
+    positions.col(static_cast<Eigen::Index>(k)) = results[converged[k]].position;
+  const BatchPrediction at_surface = model.predictBatch(positions, false, false, true);
+  for (std::size_t k = 0; k < converged.size(); ++k) {
+    const double variance = at_surface.variance(static_cast<Eigen::Index>(k));
+    if (std::isfinite(variance)) {
+      results[converged[k]].variance = variance;
+    } else {
+      results[converged[k]].ok = false;
+      results[converged[k]].failure = ProjectionFailure::kInvalidPrediction;
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<SurfacePoint> projectOntoSurface(const SurfaceModel& model, const Points3& starts,
+                                             const Points3& directions,
+                                             const ProjectionConfig& config) {
+  const Eigen::Index count = starts.cols();
+  std::vector<SurfacePoint> results(static_cast<std::size_t>(count));
+  if (count == 0) return results;
+  if (!model.isFitted() || directions.cols() != count) return results;  // all kInvalidInput
+
+  const double max_step = config.max_step_fraction * model.domainRadiusWorld();
+  Points3 unit_directions(3, count);
+  Points3 current = starts;
+  std::vector<Eigen::Index> active = usableStarts(model, starts, directions, unit_directions, results);
 
   // The constraint Phi^T (x - x0) = 0 is linear, so once satisfied (it is at x0) every Newton
   // step of the 3x3 system [grad f^T; Phi^T] dx = -[f; 0] stays on the line x0 + s n and
@@ -114,25 +148,7 @@ std::vector<SurfacePoint> projectOntoSurface(const SurfaceModel& model, const Po
     }
     active.swap(still_active);
   }
-  // The variance costs O(n^2) per point: evaluate it once, for the converged points only.
-  std::vector<std::size_t> converged;
-  for (std::size_t i = 0; i < results.size(); ++i)
-    if (results[i].ok) converged.push_back(i);
-  if (!converged.empty()) {
-    Points3 positions(3, static_cast<Eigen::Index>(converged.size()));
-    for (std::size_t k = 0; k < converged.size(); ++k)
-      positions.col(static_cast<Eigen::Index>(k)) = results[converged[k]].position;
-    const BatchPrediction at_surface = model.predictBatch(positions, false, false, true);
-    for (std::size_t k = 0; k < converged.size(); ++k) {
-      const double variance = at_surface.variance(static_cast<Eigen::Index>(k));
-      if (std::isfinite(variance)) {
-        results[converged[k]].variance = variance;
-      } else {
-        results[converged[k]].ok = false;
-        results[converged[k]].failure = ProjectionFailure::kInvalidPrediction;
-      }
-    }
-  }
+  addSurfaceVariance(model, results);
   return results;
 }
 

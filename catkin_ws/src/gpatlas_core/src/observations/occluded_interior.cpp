@@ -17,6 +17,107 @@ namespace gpatlas_core {
 using detail::finiteView;
 using detail::View;
 
+namespace {
+
+// A coarse range image in the sensor's frame: per pixel, the range of the farthest hit. The
+// farthest, not the nearest: a pixel on a depth edge (a rim in front of a cavity's far wall)
+// would otherwise call the air just past the rim occluded, though the camera saw through it.
+// Every view point must lie in front of the sensor.
+class FarthestRangeImage {
+ public:
+  FarthestRangeImage(const std::vector<Vector3>& points, const Vector3& sensor_origin, const Vector3& forward_raw)
+      : sensor_origin_(sensor_origin), forward_(forward_raw.normalized()), right_(forward_.unitOrthogonal()),
+        up_(forward_.cross(right_)) {
+    for (const auto& p : points) {
+      double a = 0.0, b = 0.0;
+      imageOf(p, &a, &b);
+      a_min_ = std::min(a_min_, a);
+      a_max_ = std::max(a_max_, a);
+      b_min_ = std::min(b_min_, b);
+      b_max_ = std::max(b_max_, b);
+    }
+    // About 4 points per pixel on average, so that a pixel inside the silhouette is rarely empty
+    // (an empty pixel is unknown, never occluded: the background seen through a handle).
+    pixels_ = std::clamp(static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 4.0)), 4, 128);
+    a_step_ = std::max(a_max_ - a_min_, 1e-12) / pixels_;
+    b_step_ = std::max(b_max_ - b_min_, 1e-12) / pixels_;
+    farthest_range_.assign(static_cast<std::size_t>(pixels_ * pixels_), -1.0);
+    for (const auto& p : points) {
+      double a = 0.0, b = 0.0;
+      imageOf(p, &a, &b);
+      const int px = pixelOf(a, b);
+      auto& r = farthest_range_[static_cast<std::size_t>(px)];
+      r = std::max(r, (p - sensor_origin_).norm());
+    }
+  }
+
+  // Whether x lies at least `margin` behind the farthest hit in its pixel (false in an empty
+  // pixel, outside the image or behind the sensor).
+  bool occludes(const Vector3& x, double margin) const {
+    double a = 0.0, b = 0.0;
+    if (!imageOf(x, &a, &b)) return false;
+    const int px = pixelOf(a, b);
+    if (px < 0) return false;
+    const double hit = farthest_range_[static_cast<std::size_t>(px)];
+    return !(hit < 0.0 || (x - sensor_origin_).norm() < hit + margin);
+  }
+
+ private:
+  bool imageOf(const Vector3& p, double* a, double* b) const {
+    const Vector3 v = p - sensor_origin_;
+    const double depth = v.dot(forward_);
+    if (!(depth > 0.0)) return false;
+    *a = v.dot(right_) / depth;
+    *b = v.dot(up_) / depth;
+    return true;
+  }
+  // Outside the image: -1. The image's far edges (a == a_max) belong to its last pixels.
+  int pixelOf(double a, double b) const {
+    if (a < a_min_ || a > a_max_ || b < b_min_ || b > b_max_) return -1;
+    const int i = std::min(static_cast<int>(std::floor((a - a_min_) / a_step_)), pixels_ - 1);
+    const int j = std::min(static_cast<int>(std::floor((b - b_min_) / b_step_)), pixels_ - 1);
+    return i * pixels_ + j;
+  }
+
+  const Vector3 sensor_origin_, forward_, right_, up_;
+  double a_min_{std::numeric_limits<double>::infinity()}, a_max_{-std::numeric_limits<double>::infinity()};
+  double b_min_{std::numeric_limits<double>::infinity()}, b_max_{-std::numeric_limits<double>::infinity()};
+  int pixels_{0};
+  double a_step_{0.0}, b_step_{0.0};
+  std::vector<double> farthest_range_;
+};
+
+// The convex hull, approximated from outside by its support planes in evenly spread directions
+// (Fibonacci lattice), shrunk by the margin.
+class ShrunkHull {
+ public:
+  ShrunkHull(const std::vector<Vector3>& points, int num_directions, double margin)
+      : directions_(fibonacciSphere(num_directions)) {
+    for (const Vector3& u : directions_) {
+      double h = -std::numeric_limits<double>::infinity();
+      for (const auto& p : points) h = std::max(h, u.dot(p));
+      support_.push_back(h - margin);
+    }
+  }
+  bool contains(const Vector3& x) const {
+    bool in_hull = true;
+    for (std::size_t k = 0; k < directions_.size() && in_hull; ++k) in_hull = directions_[k].dot(x) <= support_[k];
+    return in_hull;
+  }
+
+ private:
+  const std::vector<Vector3> directions_;
+  std::vector<double> support_;
+};
+
+bool validConfig(const OccludedInteriorConfig& config) {
+  return !(config.grid_cells < 2 || config.grid_cells > 100 || config.max_points < 0 || config.hull_directions < 4 ||
+           !(config.margin_fraction >= 0.0) || !std::isfinite(config.margin_fraction) || !(config.noise_sigma > 0.0) ||
+           !std::isfinite(config.noise_sigma));
+}
+
+}  // namespace
+
 ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
                                      const OccludedInteriorConfig& config) {
   ViewSamples out;
@@ -24,9 +125,7 @@ ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, c
     out.message = "the sensor origin is not finite";
     return out;
   }
-  if (config.grid_cells < 2 || config.grid_cells > 100 || config.max_points < 0 || config.hull_directions < 4 ||
-      !(config.margin_fraction >= 0.0) || !std::isfinite(config.margin_fraction) || !(config.noise_sigma > 0.0) ||
-      !std::isfinite(config.noise_sigma)) {
+  if (!validConfig(config)) {
     out.message =
         "invalid occluded-interior settings (2 <= grid_cells <= 100, max_points >= 0, hull_directions >= 4, "
         "margin_fraction >= 0, noise_sigma > 0)";
@@ -43,60 +142,8 @@ ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, c
     return out;
   }
   const double margin = config.margin_fraction * radius;
-
-  // A coarse range image in the sensor's frame: per pixel, the range of the farthest hit. The
-  // farthest, not the nearest: a pixel on a depth edge (a rim in front of a cavity's far wall)
-  // would otherwise call the air just past the rim occluded, though the camera saw through it.
-  // Every view point lies in front of the sensor (forward_raw.norm() > radius).
-  const Vector3 forward = forward_raw.normalized();
-  const Vector3 right = forward.unitOrthogonal();
-  const Vector3 up = forward.cross(right);
-  const auto imageOf = [&](const Vector3& p, double* a, double* b) {
-    const Vector3 v = p - sensor_origin;
-    const double depth = v.dot(forward);
-    if (!(depth > 0.0)) return false;
-    *a = v.dot(right) / depth;
-    *b = v.dot(up) / depth;
-    return true;
-  };
-  double a_min = std::numeric_limits<double>::infinity(), a_max = -a_min, b_min = a_min, b_max = -a_min;
-  for (const auto& p : points) {
-    double a = 0.0, b = 0.0;
-    imageOf(p, &a, &b);
-    a_min = std::min(a_min, a);
-    a_max = std::max(a_max, a);
-    b_min = std::min(b_min, b);
-    b_max = std::max(b_max, b);
-  }
-  // About 4 points per pixel on average, so that a pixel inside the silhouette is rarely empty
-  // (an empty pixel is unknown, never occluded: the background seen through a handle).
-  const int pixels = std::clamp(static_cast<int>(std::sqrt(static_cast<double>(points.size()) / 4.0)), 4, 128);
-  const double a_step = std::max(a_max - a_min, 1e-12) / pixels, b_step = std::max(b_max - b_min, 1e-12) / pixels;
-  std::vector<double> farthest_range(static_cast<std::size_t>(pixels * pixels), -1.0);
-  // Outside the image: -1. The image's far edges (a == a_max) belong to its last pixels.
-  const auto pixelOf = [&](double a, double b) -> int {
-    if (a < a_min || a > a_max || b < b_min || b > b_max) return -1;
-    const int i = std::min(static_cast<int>(std::floor((a - a_min) / a_step)), pixels - 1);
-    const int j = std::min(static_cast<int>(std::floor((b - b_min) / b_step)), pixels - 1);
-    return i * pixels + j;
-  };
-  for (const auto& p : points) {
-    double a = 0.0, b = 0.0;
-    imageOf(p, &a, &b);
-    const int px = pixelOf(a, b);
-    auto& r = farthest_range[static_cast<std::size_t>(px)];
-    r = std::max(r, (p - sensor_origin).norm());
-  }
-
-  // The convex hull, approximated from outside by its support planes in evenly spread
-  // directions (Fibonacci lattice), shrunk by the margin.
-  const std::vector<Vector3> directions = fibonacciSphere(config.hull_directions);
-  std::vector<double> support;
-  for (const Vector3& u : directions) {
-    double h = -std::numeric_limits<double>::infinity();
-    for (const auto& p : points) h = std::max(h, u.dot(p));
-    support.push_back(h - margin);
-  }
+  const FarthestRangeImage range_image(points, sensor_origin, forward_raw);
+  const ShrunkHull hull(points, config.hull_directions, margin);
   const Vector3& lo = view.lo;
   const Vector3& hi = view.hi;
 
@@ -109,16 +156,7 @@ ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, c
       for (int iz = 0; iz < n; ++iz) {
         const Vector3 t((ix + 0.5) / n, (iy + 0.5) / n, (iz + 0.5) / n);
         const Vector3 x = lo + (hi - lo).cwiseProduct(t);
-        bool in_hull = true;
-        for (std::size_t k = 0; k < directions.size() && in_hull; ++k) in_hull = directions[k].dot(x) <= support[k];
-        if (!in_hull) continue;
-        double a = 0.0, b = 0.0;
-        if (!imageOf(x, &a, &b)) continue;
-        const int px = pixelOf(a, b);
-        if (px < 0) continue;
-        const double hit = farthest_range[static_cast<std::size_t>(px)];
-        if (hit < 0.0 || (x - sensor_origin).norm() < hit + margin) continue;
-        candidates.push_back(x);
+        if (hull.contains(x) && range_image.occludes(x, margin)) candidates.push_back(x);
       }
   std::mt19937_64 rng(config.seed);
   std::shuffle(candidates.begin(), candidates.end(), rng);

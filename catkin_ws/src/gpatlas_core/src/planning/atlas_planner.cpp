@@ -95,27 +95,224 @@ SurfacePoint selectSurfacePoint(const SurfaceModel& model, const std::optional<V
   return {};
 }
 
+// The end of a plan, before finishPlan adds its summary.
+struct PlanEnd {
+  PlanStatus status;
+  std::string message;
+};
+
+// The result with its status, message, time and the atlas's highest chart variance; the
+// message also says how many charts that need a touch were passed over.
+AtlasPlanResult finishPlan(AtlasPlanResult& result, PlanStatus status, std::string message,
+                           Clock::time_point started) {
+  result.status = status;
+  result.message = std::move(message);
+  result.elapsed_s = secondsSince(started);
+  for (const Chart& chart : result.atlas.charts())
+    result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
+  if (result.retouch_skipped > 0)
+    result.message += "; " + std::to_string(result.retouch_skipped) +
+                      " chart(s) that would need a touch lie right at a measurement or an earlier target";
+  if (result.unreachable_skipped > 0)
+    result.message += "; " + std::to_string(result.unreachable_skipped) +
+                      " chart(s) that need a touch passed over: no safe approach";
+  return result;
+}
+
+// One plan's growth of the atlas (Algorithm 1's loop): the atlas and the counters live in the
+// result, every random choice comes from `rng`, in the order of the algorithm's steps.
+class AtlasGrowth {
+ public:
+  AtlasGrowth(const SurfaceModel& model, double v_max, const AtlasPlanner::Config& config,
+              const SurfaceEvidence& evidence, const AtlasPlanner::Progress& progress,
+              const TouchFilter& reachable, std::mt19937_64& rng, Clock::time_point started,
+              AtlasPlanResult& result)
+      : model_(model), v_max_(v_max), config_(config), evidence_(evidence), progress_(progress),
+        reachable_(reachable), rng_(rng), started_(started), result_(result), atlas_(result.atlas) {}
+
+  ChartCreation makeChart(const SurfacePoint& point, int parent) {
+    return createChart(model_, point, parent, config_.chart, rng_,
+                       evidence_.radiusCap(point.position, config_.chart.rho_min_m));
+  }
+
+  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart right at
+  // a measurement or an earlier touch's target needs none (EvidenceRule::retouch_radius_m): a
+  // touch there would find what was found. `counted`: a chart passed over is reported in the
+  // plan's message (not for the aim's charts, past the one already found).
+  bool needsTouch(Chart& chart, bool counted = true) {
+    if (!(chart.variance > v_max_) && !evidence_.isUnsupported(chart.centre, chart.normal)) return false;
+    if (evidence_.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
+      if (counted) ++result_.retouch_skipped;
+      return false;
+    }
+    if (!takeApproach(chart)) {
+      if (counted) ++result_.unreachable_skipped;
+      return false;
+    }
+    return true;
+  }
+
+  // Adds the chart and reports progress; returns its index.
+  int addChart(Chart chart) {
+    const int index = atlas_.addChart(std::move(chart));
+    if (progress_) progress_(atlas_);
+    return index;
+  }
+
+  // Surface observations in random order: when the tree runs out of candidates, a new tree
+  // starts from one that no chart covers, so that a predicted surface in several pieces (or a
+  // piece the first tree cannot reach) is explored too before "converged" is declared. The
+  // paper notes that, in theory, the atlas could start from all surface points.
+  void collectUncoveredCandidates() {
+    if (!config_.cover_all_observations) return;
+    for (const TrainingPoint& point : model_.observations())
+      if (isSurfaceValue(point) && point.position.allFinite()) uncovered_candidates_.push_back(point.position);
+    std::shuffle(uncovered_candidates_.begin(), uncovered_candidates_.end(), rng_);
+  }
+
+  // Expands the tree from `continuation` until it has no candidate left (nullopt) or the plan
+  // ends (a touch, or a cap).
+  std::optional<PlanEnd> growTree(int& continuation) {
+    while (atlas_.isExpandable()) {
+      if (static_cast<int>(atlas_.size()) >= config_.max_charts)
+        return PlanEnd{PlanStatus::kCapReached, "chart cap reached without finding variance above V_max"};
+      if (secondsSince(started_) > config_.max_time_s)
+        return PlanEnd{PlanStatus::kCapReached, "time cap reached without finding variance above V_max"};
+      ChartCreation created = expand(selectChart(continuation));
+      if (!created.ok) continue;
+      const bool new_needs_touch = needsTouch(created.chart);
+      continuation = addChart(std::move(created.chart));
+      if (new_needs_touch) {
+        result_.path = atlas_.pathTo(extendPath(continuation));
+        return PlanEnd{PlanStatus::kTouch, "found a chart that needs a touch (variance above V_max or no evidence nearby)"};
+      }
+    }
+    return std::nullopt;
+  }
+
+  // The current tree is exhausted: roots a new one at an uncovered surface observation.
+  // `rooted` false: none is left. Returns the plan's end when the new root needs a touch or a cap
+  // is reached.
+  std::optional<PlanEnd> rootNewTree(int& continuation, bool& rooted) {
+    rooted = false;
+    while (!rooted && next_candidate_ < uncovered_candidates_.size()) {
+      if (capReached())
+        return PlanEnd{PlanStatus::kCapReached, "cap reached while covering the remaining surface observations"};
+      const Vector3& observation = uncovered_candidates_[next_candidate_++];
+      if (atlas_.coveredByOtherChart(observation, -1)) continue;
+      const SurfacePoint projected = projectFreePoint(model_, observation, config_.projection);
+      if (!projected.ok || atlas_.coveredByOtherChart(projected.position, -1)) continue;
+      ChartCreation created = makeChart(projected, -1);
+      if (!created.ok) continue;
+      const bool new_needs_touch = needsTouch(created.chart);
+      continuation = atlas_.addChart(std::move(created.chart));
+      ++trees_;
+      if (progress_) progress_(atlas_);
+      if (new_needs_touch) {
+        result_.path = atlas_.pathTo(continuation);
+        return PlanEnd{PlanStatus::kTouch, "a new tree's root needs a touch (variance above V_max or no evidence nearby)"};
+      }
+      rooted = true;
+    }
+    return std::nullopt;
+  }
+
+  int trees() const { return trees_; }
+
+ private:
+  bool capReached() const {
+    return static_cast<int>(atlas_.size()) >= config_.max_charts || secondsSince(started_) > config_.max_time_s;
+  }
+
+  // The touch filter's direction for the chart, kept in it; false when it has none.
+  bool takeApproach(Chart& chart) const {
+    if (!reachable_) return true;
+    const std::optional<Vector3> direction = reachable_(chart.centre, chart.normal);
+    if (direction) chart.approach_direction = *direction;
+    return direction.has_value();
+  }
+
+  // SELECTCHART.
+  int selectChart(int continuation) {
+    int selected = continuation;
+    const bool continue_depth_first = unit_(rng_) < config_.depth_first_probability;
+    if (!continue_depth_first || !atlas_.chart(selected).expandable()) {
+      const std::vector<int> expandable = atlas_.expandableCharts();
+      selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng_)];
+    }
+    return selected;
+  }
+
+  // EXPANDCHART toward the chart's highest-variance candidate (eq. 16): the new chart, not yet
+  // added (ok false when the projection or the chart failed). The candidate is consumed
+  // whatever happens, which bounds the search by the total number of candidates.
+  ChartCreation expand(int parent_index) {
+    const Chart& parent = atlas_.chart(parent_index);
+    const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
+                                       [](const ChartCandidate& a, const ChartCandidate& b) {
+                                         return a.variance < b.variance;
+                                       });
+    Points3 start_point(3, 1), direction(3, 1);
+    start_point.col(0) = best->ambient;
+    direction.col(0) = parent.normal;
+    atlas_.removeCandidate(parent_index, static_cast<std::size_t>(best - parent.candidates.begin()));
+    ++result_.expansions;
+    const SurfacePoint projected = projectOntoSurface(model_, start_point, direction, config_.projection).front();
+    ChartCreation created;
+    if (projected.ok) created = makeChart(projected, parent_index);
+    if (!created.ok) ++result_.failed_projections;
+    return created;
+  }
+
+  // The path's last chart, past the first chart that needs a touch (extend_path_charts, aim_past_m).
+  int extendPath(int last) {
+    for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
+      if (capReached()) break;
+      if (atlas_.chart(last).candidates.empty()) break;
+      ChartCreation extension = expand(last);
+      if (!extension.ok) break;
+      // A slide ends where the probe can still leave the surface.
+      if (!takeApproach(extension.chart)) break;
+      last = atlas_.addChart(std::move(extension.chart));
+    }
+    // Until the path has gone at least that far: in unsupported surface the charts are
+    // rho_min_m wide, so the last step overshoots by less than that.
+    for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < config_.aim_past_m;) {
+      if (capReached()) break;
+      if (atlas_.chart(last).candidates.empty()) break;
+      ChartCreation extension = expand(last);
+      if (!extension.ok || !needsTouch(extension.chart, false)) break;
+      aimed += (extension.chart.centre - atlas_.chart(last).centre).norm();
+      last = atlas_.addChart(std::move(extension.chart));
+    }
+    return last;
+  }
+
+  const SurfaceModel& model_;
+  const double v_max_;
+  const AtlasPlanner::Config& config_;
+  const SurfaceEvidence& evidence_;
+  const AtlasPlanner::Progress& progress_;
+  const TouchFilter& reachable_;
+  std::mt19937_64& rng_;
+  const Clock::time_point started_;
+  AtlasPlanResult& result_;
+  Atlas& atlas_;
+  std::uniform_real_distribution<double> unit_{0.0, 1.0};
+  std::vector<Vector3> uncovered_candidates_;
+  std::size_t next_candidate_{0};
+  int trees_{1};
+};
+
 }  // namespace
 
 AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, const std::optional<Vector3>& start,
                                    const Progress& progress, const TouchFilter& reachable) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
-  auto finish = [&](PlanStatus status, std::string message) {
-    result.status = status;
-    result.message = std::move(message);
-    result.elapsed_s = secondsSince(started);
-    for (const Chart& chart : result.atlas.charts())
-      result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
-    if (result.retouch_skipped > 0)
-      result.message += "; " + std::to_string(result.retouch_skipped) +
-                        " chart(s) that would need a touch lie right at a measurement or an earlier target";
-    if (result.unreachable_skipped > 0)
-      result.message += "; " + std::to_string(result.unreachable_skipped) +
-                        " chart(s) that need a touch passed over: no safe approach";
-    return result;
+  const auto finish = [&](PlanStatus status, std::string message) {
+    return finishPlan(result, status, std::move(message), started);
   };
-
   if (!model.isFitted()) return finish(PlanStatus::kError, "no model: the GP is not fitted");
   if (!(v_max > 0.0) || !std::isfinite(v_max))
     return finish(PlanStatus::kError, "V_max must be a positive finite number");
@@ -127,152 +324,26 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
   const SurfaceEvidence evidence(model, config_.evidence);
-  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart right at
-  // a measurement or an earlier touch's target needs none (EvidenceRule::retouch_radius_m): a
-  // touch there would find what was found.
-  // The touch filter's direction for the chart, kept in it; false when it has none.
-  const auto takeApproach = [&](Chart& chart) {
-    if (!reachable) return true;
-    const std::optional<Vector3> direction = reachable(chart.centre, chart.normal);
-    if (direction) chart.approach_direction = *direction;
-    return direction.has_value();
-  };
-  // `counted`: a chart passed over is reported in the plan's message (not for the aim's charts,
-  // past the one already found).
-  const auto needsTouch = [&](Chart& chart, bool counted = true) {
-    if (!(chart.variance > v_max) && !evidence.isUnsupported(chart.centre, chart.normal)) return false;
-    if (evidence.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
-      if (counted) ++result.retouch_skipped;
-      return false;
-    }
-    if (!takeApproach(chart)) {
-      if (counted) ++result.unreachable_skipped;
-      return false;
-    }
-    return true;
-  };
-  const auto makeChart = [&](const SurfacePoint& point, int parent) {
-    return createChart(model, point, parent, config_.chart, rng,
-                       evidence.radiusCap(point.position, config_.chart.rho_min_m));
-  };
-  ChartCreation root = makeChart(root_point, -1);
+  AtlasGrowth growth(model, v_max, config_, evidence, progress, reachable, rng, started, result);
+  ChartCreation root = growth.makeChart(root_point, -1);
   if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
-  Atlas& atlas = result.atlas;
-  const bool root_needs_touch = needsTouch(root.chart);
-  int continuation = atlas.addChart(std::move(root.chart));
-  if (progress) progress(atlas);
+  const bool root_needs_touch = growth.needsTouch(root.chart);
+  int continuation = growth.addChart(std::move(root.chart));
   // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
   // (its candidates may all be covered or out of the domain).
   if (root_needs_touch) {
-    result.path = atlas.pathTo(continuation);
+    result.path = result.atlas.pathTo(continuation);
     return finish(PlanStatus::kTouch, "the root chart needs a touch (variance above V_max or no evidence nearby)");
   }
-
-  // Surface observations in random order: when the tree runs out of candidates, a new tree
-  // starts from one that no chart covers, so that a predicted surface in several pieces (or a
-  // piece the first tree cannot reach) is explored too before "converged" is declared. The
-  // paper notes that, in theory, the atlas could start from all surface points.
-  std::vector<Vector3> uncovered_candidates;
-  if (config_.cover_all_observations) {
-    for (const TrainingPoint& point : model.observations())
-      if (isSurfaceValue(point) && point.position.allFinite())
-        uncovered_candidates.push_back(point.position);
-    std::shuffle(uncovered_candidates.begin(), uncovered_candidates.end(), rng);
-  }
-  std::size_t next_candidate = 0;
-  int trees = 1;
-
-  // EXPANDCHART toward the chart's highest-variance candidate (eq. 16): the new chart, not yet
-  // added (ok false when the projection or the chart failed). The candidate is consumed
-  // whatever happens, which bounds the search by the total number of candidates.
-  const auto expand = [&](int parent_index) {
-    const Chart& parent = atlas.chart(parent_index);
-    const auto best = std::max_element(parent.candidates.begin(), parent.candidates.end(),
-                                       [](const ChartCandidate& a, const ChartCandidate& b) {
-                                         return a.variance < b.variance;
-                                       });
-    Points3 start_point(3, 1), direction(3, 1);
-    start_point.col(0) = best->ambient;
-    direction.col(0) = parent.normal;
-    atlas.removeCandidate(parent_index, static_cast<std::size_t>(best - parent.candidates.begin()));
-    ++result.expansions;
-    const SurfacePoint projected = projectOntoSurface(model, start_point, direction, config_.projection).front();
-    ChartCreation created;
-    if (projected.ok) created = makeChart(projected, parent_index);
-    if (!created.ok) ++result.failed_projections;
-    return created;
-  };
-
-  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  growth.collectUncoveredCandidates();
   for (;;) {
-    while (atlas.isExpandable()) {
-      if (static_cast<int>(atlas.size()) >= config_.max_charts)
-        return finish(PlanStatus::kCapReached, "chart cap reached without finding variance above V_max");
-      if (secondsSince(started) > config_.max_time_s)
-        return finish(PlanStatus::kCapReached, "time cap reached without finding variance above V_max");
-
-      // SELECTCHART.
-      int selected = continuation;
-      const bool continue_depth_first = unit(rng) < config_.depth_first_probability;
-      if (!continue_depth_first || !atlas.chart(selected).expandable()) {
-        const std::vector<int> expandable = atlas.expandableCharts();
-        selected = expandable[std::uniform_int_distribution<std::size_t>(0, expandable.size() - 1)(rng)];
-      }
-
-      ChartCreation created = expand(selected);
-      if (!created.ok) continue;
-      const bool new_needs_touch = needsTouch(created.chart);
-      continuation = atlas.addChart(std::move(created.chart));
-      if (progress) progress(atlas);
-      if (new_needs_touch) {
-        int last = continuation;
-        for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
-          if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
-          if (atlas.chart(last).candidates.empty()) break;
-          ChartCreation extension = expand(last);
-          if (!extension.ok) break;
-          // A slide ends where the probe can still leave the surface.
-          if (!takeApproach(extension.chart)) break;
-          last = atlas.addChart(std::move(extension.chart));
-        }
-        // Until the path has gone at least that far: in unsupported surface the charts are
-        // rho_min_m wide, so the last step overshoots by less than that.
-        for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < config_.aim_past_m;) {
-          if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s) break;
-          if (atlas.chart(last).candidates.empty()) break;
-          ChartCreation extension = expand(last);
-          if (!extension.ok || !needsTouch(extension.chart, false)) break;
-          aimed += (extension.chart.centre - atlas.chart(last).centre).norm();
-          last = atlas.addChart(std::move(extension.chart));
-        }
-        result.path = atlas.pathTo(last);
-        return finish(PlanStatus::kTouch, "found a chart that needs a touch (variance above V_max or no evidence nearby)");
-      }
-    }
-    // The current tree is exhausted: root a new one at an uncovered surface observation.
+    if (std::optional<PlanEnd> end = growth.growTree(continuation)) return finish(end->status, std::move(end->message));
     bool rooted = false;
-    while (!rooted && next_candidate < uncovered_candidates.size()) {
-      if (static_cast<int>(atlas.size()) >= config_.max_charts || secondsSince(started) > config_.max_time_s)
-        return finish(PlanStatus::kCapReached, "cap reached while covering the remaining surface observations");
-      const Vector3& observation = uncovered_candidates[next_candidate++];
-      if (atlas.coveredByOtherChart(observation, -1)) continue;
-      const SurfacePoint projected = projectFreePoint(model, observation, config_.projection);
-      if (!projected.ok || atlas.coveredByOtherChart(projected.position, -1)) continue;
-      ChartCreation created = makeChart(projected, -1);
-      if (!created.ok) continue;
-      const bool new_needs_touch = needsTouch(created.chart);
-      continuation = atlas.addChart(std::move(created.chart));
-      ++trees;
-      if (progress) progress(atlas);
-      if (new_needs_touch) {
-        result.path = atlas.pathTo(continuation);
-        return finish(PlanStatus::kTouch, "a new tree's root needs a touch (variance above V_max or no evidence nearby)");
-      }
-      rooted = true;
-    }
+    if (std::optional<PlanEnd> end = growth.rootNewTree(continuation, rooted))
+      return finish(end->status, std::move(end->message));
     if (!rooted) break;
   }
-  return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(trees) +
+  return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(growth.trees()) +
                                             " tree(s) covering the surface observations: the predicted surface is below V_max and near evidence");
 }
 

@@ -4,6 +4,7 @@
 #include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_core/planning/strategy_registry.h>
 #include <gpatlas_motion/arm_approach_planner.h>
+#include <gpatlas_motion/touch_approach.h>
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/TrainingSet.h>
@@ -12,6 +13,7 @@
 #include <gpatlas_ros/world_frame.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <std_msgs/Header.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
@@ -35,6 +37,16 @@ class AtlasPlannerServer {
  private:
   void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
   bool onNextTouch(gpatlas_msgs::GetNextTouch::Request& req, gpatlas_msgs::GetNextTouch::Response& res);
+  // onNextTouch's steps. True when there is no model, or not the one asked for: `res` says why.
+  bool refuseForModel(const gpatlas_msgs::GetNextTouch::Request& req, gpatlas_msgs::GetNextTouch::Response& res) const;
+  // reachable_only: the approach planner's cheap test on the collision map of this model, as
+  // request->reachable (using *approach_check), or a note that every candidate is taken. False
+  // when the map is not built yet or there is no arm: `res` says why.
+  bool addReachabilityTest(gpatlas_core::PlanRequest* request,
+                           std::unique_ptr<gpatlas_motion::TouchMotionPlanner>* approach_check,
+                           std::string* note, gpatlas_msgs::GetNextTouch::Response& res);
+  // The grown atlas on `~atlas` (markers) and `~atlas_charts`.
+  void publishAtlas(const gpatlas_core::PlanResult& plan, double v_max, const std_msgs::Header& header);
   const gpatlas_core::ExplorationStrategy* strategy(const std::string& name, std::string* error);
 
   ros::NodeHandle nh_, pnh_;

@@ -102,12 +102,35 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
   }
 }
 
-bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
-                                     gpatlas_msgs::GetNextTouch::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime start = ros::WallTime::now();
-  res.touch.header.frame_id = world_frame_;
-  res.touch.header.stamp = ros::Time::now();
+namespace {
+
+// The strategy's plan; an exception or a touch without matching points and normals becomes an
+// error plan (a strategy from a library of the user's own, strategy_libraries, may throw: an
+// answer, not an exception out of the service callback).
+gpatlas_core::PlanResult planSafely(const gpatlas_core::ExplorationStrategy& strategy, const std::string& name,
+                                    const gpatlas_core::SurfaceModel& model, const gpatlas_core::PlanRequest& request) {
+  gpatlas_core::PlanResult plan;
+  try {
+    plan = strategy.plan(model, request);
+  } catch (const std::exception& e) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' failed: " + e.what();
+  } catch (...) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' failed with an exception that is not a std::exception";
+  }
+  if (plan.status == gpatlas_core::PlanStatus::kTouch &&
+      (plan.touch.points.empty() || plan.touch.points.size() != plan.touch.normals.size())) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' returned a touch without matching points and normals";
+  }
+  return plan;
+}
+
+}  // namespace
+
+bool AtlasPlannerServer::refuseForModel(const gpatlas_msgs::GetNextTouch::Request& req,
+                                        gpatlas_msgs::GetNextTouch::Response& res) const {
   if (!model_) {
     res.status = gpatlas_msgs::GetNextTouch::Response::NO_MODEL;
     res.message = model_error_.empty() ? "no model yet: the GP has not published a training set"
@@ -122,6 +145,66 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
     res.message = message.str();
     return true;
   }
+  return false;
+}
+
+bool AtlasPlannerServer::addReachabilityTest(gpatlas_core::PlanRequest* request,
+                                             std::unique_ptr<gpatlas_motion::TouchMotionPlanner>* approach_check,
+                                             std::string* note, gpatlas_msgs::GetNextTouch::Response& res) {
+  const std::string& topic = training_sub_.getTopic();
+  bool offered = false;
+  const std::shared_ptr<const octomap::OcTree> map =
+      SharedCollisionMaps::find(topic, model_sequence_, model_stamp_, &offered);
+  if (SharedCollisionMaps::attended(topic) && !offered) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::STALE_MODEL;
+    res.message = "the collision map of training set " + std::to_string(model_sequence_) +
+                  " is not built yet (reachable_only)";
+    return false;
+  }
+  if (approach_config_.use_arm && !approach_arm_) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+    res.message = "reachable_only with approach/use_arm, but there is no arm: " + approach_arm_error_;
+    return false;
+  }
+  if (map) {
+    *approach_check =
+        std::make_unique<gpatlas_motion::TouchMotionPlanner>(approach_config_, map, support_plane_, approach_arm_, arm_reach_);
+    gpatlas_motion::TouchMotionPlanner* check = approach_check->get();
+    request->reachable = [check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
+      return check->approachDirection(point, normal);
+    };
+  } else {
+    *note = offered ? "; every candidate taken: the collision map of this model failed"
+                    : "; every candidate taken: no collision map in this process";
+  }
+  return true;
+}
+
+void AtlasPlannerServer::publishAtlas(const gpatlas_core::PlanResult& plan, double v_max, const std_msgs::Header& header) {
+  visualization_msgs::MarkerArray markers = atlasMarkers(plan.atlas->atlas, plan.atlas->path, v_max, world_frame_);
+  atlas_marker_pub_.publish(markers);
+  gpatlas_msgs::Atlas atlas;
+  atlas.header = header;
+  for (const auto& chart : plan.atlas->atlas.charts()) {
+    gpatlas_msgs::Chart c;
+    c.centre = toPointMsg(chart.centre);
+    c.normal = toVectorMsg(chart.normal);
+    c.radius_m = chart.radius;
+    c.variance = chart.variance;
+    c.parent = chart.parent;
+    atlas.charts.push_back(c);
+  }
+  atlas.path = plan.atlas->path;
+  atlas_pub_.publish(atlas);
+}
+
+bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
+                                     gpatlas_msgs::GetNextTouch::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime start = ros::WallTime::now();
+  res.touch.header.frame_id = world_frame_;
+  res.touch.header.stamp = ros::Time::now();
+  if (refuseForModel(req, res)) return true;
   const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
   if (!(v_max > 0.0) || !std::isfinite(v_max)) {
     res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
@@ -144,56 +227,13 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
   request.evidence.attempted_target_errors_m = req.attempted_target_errors_m;
   request.footprint_radius_m = req.footprint_radius_m;
-  // reachable_only: the approach planner's cheap test on the collision map of this model.
   std::unique_ptr<gpatlas_motion::TouchMotionPlanner> approach_check;
   std::string reachability_note;
-  if (req.reachable_only) {
-    const std::string& topic = training_sub_.getTopic();
-    bool offered = false;
-    const std::shared_ptr<const octomap::OcTree> map =
-        SharedCollisionMaps::find(topic, model_sequence_, model_stamp_, &offered);
-    if (SharedCollisionMaps::attended(topic) && !offered) {
-      res.status = gpatlas_msgs::GetNextTouch::Response::STALE_MODEL;
-      res.message = "the collision map of training set " + std::to_string(model_sequence_) +
-                    " is not built yet (reachable_only)";
-      return true;
-    }
-    if (approach_config_.use_arm && !approach_arm_) {
-      res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-      res.message = "reachable_only with approach/use_arm, but there is no arm: " + approach_arm_error_;
-      return true;
-    }
-    if (map) {
-      approach_check =
-          std::make_unique<gpatlas_motion::TouchMotionPlanner>(approach_config_, map, support_plane_, approach_arm_, arm_reach_);
-      request.reachable = [&approach_check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
-        return approach_check->approachDirection(point, normal);
-      };
-    } else {
-      reachability_note = offered ? "; every candidate taken: the collision map of this model failed"
-                                  : "; every candidate taken: no collision map in this process";
-    }
-  }
+  if (req.reachable_only && !addReachabilityTest(&request, &approach_check, &reachability_note, res)) return true;
   // The exploration loop numbers its plans; a call by hand gets the planner's own count.
   ++plan_count_;
   request.seed = req.seed != 0 ? req.seed : plan_count_;
-  gpatlas_core::PlanResult plan;
-  try {
-    plan = chosen->plan(*model_, request);
-  } catch (const std::exception& e) {
-    // A strategy from a library of the user's own (strategy_libraries) may throw: an answer, not
-    // an exception out of the service callback.
-    plan.status = gpatlas_core::PlanStatus::kError;
-    plan.message = "strategy '" + name + "' failed: " + e.what();
-  } catch (...) {
-    plan.status = gpatlas_core::PlanStatus::kError;
-    plan.message = "strategy '" + name + "' failed with an exception that is not a std::exception";
-  }
-  if (plan.status == gpatlas_core::PlanStatus::kTouch &&
-      (plan.touch.points.empty() || plan.touch.points.size() != plan.touch.normals.size())) {
-    plan.status = gpatlas_core::PlanStatus::kError;
-    plan.message = "strategy '" + name + "' returned a touch without matching points and normals";
-  }
+  const gpatlas_core::PlanResult plan = planSafely(*chosen, name, *model_, request);
   res.plan_time_s = (ros::WallTime::now() - start).toSec();
   res.message = plan.message + reachability_note;
   res.max_evaluated_variance = plan.max_evaluated_variance;
@@ -220,23 +260,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
     res.touch.header = header;
     touch_pub_.publish(res.touch);
   }
-  if (plan.atlas) {
-    visualization_msgs::MarkerArray markers = atlasMarkers(plan.atlas->atlas, plan.atlas->path, v_max, world_frame_);
-    atlas_marker_pub_.publish(markers);
-    gpatlas_msgs::Atlas atlas;
-    atlas.header = res.touch.header;
-    for (const auto& chart : plan.atlas->atlas.charts()) {
-      gpatlas_msgs::Chart c;
-      c.centre = toPointMsg(chart.centre);
-      c.normal = toVectorMsg(chart.normal);
-      c.radius_m = chart.radius;
-      c.variance = chart.variance;
-      c.parent = chart.parent;
-      atlas.charts.push_back(c);
-    }
-    atlas.path = plan.atlas->path;
-    atlas_pub_.publish(atlas);
-  }
+  if (plan.atlas) publishAtlas(plan, v_max, res.touch.header);
   ROS_INFO_STREAM("atlas_planner: " << name << " -> " << gpatlas_core::toString(plan.status) << " in "
                                     << res.plan_time_s * 1000.0 << " ms (" << plan.message << ")");
   return true;

@@ -185,6 +185,9 @@ class GpisModel : public SurfaceModel {
   // the new points extend it (addPoints), instead of a refit's O(n^3). False, with the model as
   // it was, when that does not hold, when more than a third would go, or when the extension fails.
   bool updateInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale, FitReport* report);
+  // refit() with `added` appended to the observations; on failure the observations are as they
+  // were (refit() restores the rest). num_added: the added points' count, 0 on failure.
+  FitReport refitWith(const std::vector<TrainingPoint>& added, bool renormalise);
 
   struct Impl;
   std::unique_ptr<Impl> impl_;
