@@ -6,8 +6,6 @@
 #include <cstdint>
 #include <fstream>
 #include <iterator>
-#include <map>
-#include <optional>
 #include <sstream>
 #include <stdexcept>
 
