@@ -20,6 +20,8 @@ PACKAGES=(
   ros-robot-state-publisher joint-state-publisher joint-state-publisher-gui
   # tests and benchmarks
   librostest-dev python3-rostest libgtest-dev googletest libbenchmark-dev python3-nose python3-yaml
+  # a single-node Slurm for the test of scripts/slurm_bench.sh
+  slurmd slurmctld slurm-client munge
   # messages (the .msg definitions are needed by message generation)
   ros-std-msgs ros-geometry-msgs ros-sensor-msgs ros-visualization-msgs ros-shape-msgs
   ros-pcl-msgs ros-tf2-msgs ros-std-srvs ros-trajectory-msgs libstd-msgs-dev libgeometry-msgs-dev

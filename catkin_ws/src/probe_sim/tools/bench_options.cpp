@@ -57,6 +57,13 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
                                  and each object as OBJECT_truth.ply
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
+  --shard K/N                    run share K of N of the (object, strategy, seed) job list: the jobs
+                                 j (0-based, in that order) with j % N == K - 1; writes its outputs
+                                 and shard.txt (the job list, the settings) into --out
+  --merge DIR...                 merge the folders of shards of one sweep into --out (runs.csv,
+                                 history.csv, reachability.csv, summary.md, plots) in the job order
+                                 of a one-process run; besides --out and --no-plot it takes no
+                                 setting (the shards' shard.txt hold them)
 )";
 }
 
@@ -82,6 +89,27 @@ int parseInt(const std::string& flag, const std::string& value) {
   return static_cast<int>(v);
 }
 
+Shard parseShard(const std::string& value) {
+  const std::string usage = "--shard needs K/N with 1 <= K <= N (e.g. --shard 2/8), got '" + value + "'";
+  const std::size_t slash = value.find('/');
+  if (slash == std::string::npos) throw std::invalid_argument(usage);
+  auto positive = [&](const std::string& digits) {
+    if (digits.empty() || digits.size() > 9 || digits.find_first_not_of("0123456789") != std::string::npos)
+      throw std::invalid_argument(usage);
+    return std::stoi(digits);
+  };
+  Shard shard{positive(value.substr(0, slash)), positive(value.substr(slash + 1))};
+  if (shard.index < 1 || shard.count < 1 || shard.index > shard.count) throw std::invalid_argument(usage);
+  return shard;
+}
+
+// Flags that do not change what a run computes (where it goes, how many workers, what it prints).
+bool leavesResultsAlone(const std::string& flag) {
+  for (const char* f : {"--shard", "--out", "--jobs", "--verbose", "--no-plot", "--save-meshes"})
+    if (flag == f) return true;
+  return false;
+}
+
 void loadStrategyLibraryAnnounced(const std::string& file) {
   const auto load = gpatlas_core::loadStrategyLibrary(file);
   if (!load.ok) throw std::invalid_argument(load.message);
@@ -95,6 +123,7 @@ bool parseFlags(int argc, char** argv, Options& o) {
   bool seeds_given = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
+    const int first = i;
     auto next = [&]() -> std::string {
       if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
       return argv[++i];
@@ -133,7 +162,13 @@ bool parseFlags(int argc, char** argv, Options& o) {
     else if (a == "--verbose") o.verbose = true;
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
+    else if (a == "--shard") o.shard = parseShard(next());
+    else if (a == "--merge") {
+      while (i + 1 < argc && std::string(argv[i + 1]).rfind("--", 0) != 0) o.merge_folders.push_back(argv[++i]);
+      if (o.merge_folders.empty()) throw std::invalid_argument("--merge needs the shards' folders");
+    }
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
+    if (!leavesResultsAlone(a)) o.result_args.insert(o.result_args.end(), argv + first, argv + i + 1);
   }
   return seeds_given;
 }
@@ -205,6 +240,14 @@ void completeAndCheck(Options& o, bool seeds_given) {
 Options parseArgs(int argc, char** argv, Options defaults) {
   Options o = std::move(defaults);
   const bool seeds_given = parseFlags(argc, argv, o);
+  if (!o.merge_folders.empty()) {
+    // A merge takes its settings from the shards' folders.
+    for (const std::string& arg : o.result_args)
+      if (arg.rfind("--", 0) == 0 && arg != "--merge")
+        throw std::invalid_argument("--merge runs nothing, so it takes no run setting (the shards' folders hold them): " + arg);
+    if (o.shard) throw std::invalid_argument("--merge and --shard exclude each other");
+    return o;
+  }
   readConfiguration(o);
   completeAndCheck(o, seeds_given);
   return o;

@@ -12,6 +12,12 @@
 
 namespace gpatlas_bench {
 
+// Share `index` (1-based) of `count`: the jobs j of the job list with j % count == index - 1.
+struct Shard {
+  int index{1};
+  int count{1};
+};
+
 struct Options {
   struct ObjectSpec {
     std::string spec;
@@ -38,6 +44,11 @@ struct Options {
   bool verbose{false};
   bool plot{true};
   bool save_meshes{false};
+  std::optional<Shard> shard;  // --shard K/N
+  std::vector<std::string> merge_folders;  // --merge DIR...: merge shards' outputs, run nothing
+  // The command line's arguments that decide what the runs compute (all but --shard, --out,
+  // --jobs, --verbose, --no-plot, --save-meshes): the shards of one sweep must agree on them.
+  std::vector<std::string> result_args;
   // Everything else comes from the config file: the pipeline's own Configs and the simulated
   // scene that probe_sim_node builds from the same file.
   probe_sim::PipelineConfig pipeline;
@@ -46,7 +57,8 @@ struct Options {
 
 // The options of a command line over `defaults` (which give this build's config and URDF
 // paths), with the configuration read and checked. Throws std::invalid_argument with the
-// reason; --help prints the usage and exits.
+// reason; --help prints the usage and exits. With --merge only --out and --no-plot may be given,
+// and no configuration is read.
 Options parseArgs(int argc, char** argv, Options defaults);
 
 }  // namespace gpatlas_bench

@@ -1,5 +1,7 @@
 #include "bench_outputs.h"
 
+#include "bench_tables.h"
+
 #include <algorithm>
 #include <cmath>
 #include <fstream>
@@ -79,14 +81,9 @@ struct CellSums {
   }
 };
 
-void writeSummaryHeader(std::ostream& f, const Options& o) {
+void writeSummaryHeader(std::ostream& f, const std::string& settings) {
   f << "# gpatlas_bench summary\n\n";
-  f << "config `" << o.config_path << "`";
-  for (const auto& overlay : o.overlays) f << " --overlay " << overlay;
-  for (const auto& assignment : o.overrides) f << " --set " << assignment;
-  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
-  for (int s : o.seeds) f << ' ' << s;
-  f << ", max actions " << o.pipeline.exploration.max_actions << (o.simulation.table ? ", on a table" : ", no table") << ".\n";
+  f << settings << "\n";
   f << "Per cell, over the runs that left a predicted surface: mean actions, mean RMSE predicted->truth / "
        "truth->predicted (m), the mean nearest-neighbour distance over both directions (chamfer_l1_m, the "
        "paper's kind of number; m), the F-score at 5 mm, the calibration (the share of true-surface samples whose "
@@ -167,6 +164,17 @@ void writeReachabilityTable(std::ostream& f, const std::vector<RunResult>& runs,
 }
 
 }  // namespace
+
+std::string summarySettings(const Options& o) {
+  std::ostringstream f;
+  f << "config `" << o.config_path << "`";
+  for (const auto& overlay : o.overlays) f << " --overlay " << overlay;
+  for (const auto& assignment : o.overrides) f << " --set " << assignment;
+  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
+  for (int s : o.seeds) f << ' ' << s;
+  f << ", max actions " << o.pipeline.exploration.max_actions << (o.simulation.table ? ", on a table" : ", no table") << ".";
+  return f.str();
+}
 
 void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
@@ -250,7 +258,7 @@ std::string describePlanTimes(const PlanTimes& p) {
 
 
 void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths,
-                  const std::vector<PlanTimes>& plan_times, const Options& o, const fs::path& path) {
+                  const std::vector<PlanTimes>& plan_times, const std::string& settings, const fs::path& path) {
   std::vector<std::string> objects, strategies;
   for (const auto& r : runs) {
     if (std::find(objects.begin(), objects.end(), r.object) == objects.end()) objects.push_back(r.object);
@@ -258,12 +266,21 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
       strategies.push_back(r.strategy);
   }
   std::ofstream f(path);
-  writeSummaryHeader(f, o);
+  writeSummaryHeader(f, settings);
   writeShapeTable(f, runs, objects, strategies);
   f << "\nPlanning time per touch (history.csv: plan_ms, and n_train, the model size each plan saw):\n\n";
   for (const auto& p : plan_times) f << "- " << describePlanTimes(p) << '\n';
   if (std::any_of(truths.begin(), truths.end(), [](const GroundTruth& g) { return g.reachability_measured; }))
     writeReachabilityTable(f, runs, truths, strategies);
+}
+
+std::vector<PlanTimes> writeSummaryOfFolder(const fs::path& folder, const std::string& settings) {
+  std::vector<RunResult> runs;
+  std::vector<GroundTruth> truths;
+  runsFromTables(readBenchTables(folder), &runs, &truths);
+  const std::vector<PlanTimes> plan_times = planTimesByStrategy(runs);
+  writeSummary(runs, truths, plan_times, settings, folder / "summary.md");
+  return plan_times;
 }
 
 }  // namespace gpatlas_bench

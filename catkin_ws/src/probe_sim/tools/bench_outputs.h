@@ -27,9 +27,18 @@ struct PlanTimes {
 std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs);
 std::string describePlanTimes(const PlanTimes& p);
 
+// The settings summary.md names: config, overlays, --set, probe, V_max, seeds, max actions, table.
+std::string summarySettings(const Options& o);
+
 // Per object and strategy, the means over the runs that left a predicted surface; the planning
 // times; and the reachable truth, when it was measured.
 void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths,
-                  const std::vector<PlanTimes>& plan_times, const Options& o, const std::filesystem::path& path);
+                  const std::vector<PlanTimes>& plan_times, const std::string& settings,
+                  const std::filesystem::path& path);
+
+// summary.md of the folder, from its runs.csv, history.csv and reachability.csv as written (the
+// one path for a run and for a merge of shards, so that both give the same summary); returns
+// the planning times it lists. Throws std::runtime_error when a file is missing or malformed.
+std::vector<PlanTimes> writeSummaryOfFolder(const std::filesystem::path& folder, const std::string& settings);
 
 }  // namespace gpatlas_bench

@@ -5,12 +5,15 @@
 // fit the GPIS, then run the exploration loop (Algorithm 2) with the chosen strategy against the
 // simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
 // Writes runs.csv, history.csv, reachability.csv, summary.md and one PNG per object into --out.
+// With --shard K/N it runs a share of the runs, and --merge joins the shards' folders (for a
+// cluster's job array: scripts/slurm_bench.sh).
 // The command line: bench_options.h; the objects: bench_truth.h; one run: bench_run.h; the
-// files: bench_outputs.h.
+// files: bench_outputs.h; shards and their merge: bench_shards.h.
 
 #include "bench_options.h"
 #include "bench_outputs.h"
 #include "bench_run.h"
+#include "bench_shards.h"
 #include "bench_truth.h"
 
 #include <gpatlas_core/common/triangle_mesh.h>
@@ -46,11 +49,17 @@ void forEachOnWorkers(std::size_t count, int workers, const Work& work) {
   for (auto& t : threads) t.join();
 }
 
-// Once per object, before the runs, on the same workers (40-60 s per 40k-triangle scan).
-void measureReachabilityOfAll(std::vector<GroundTruth>& objects, const Options& o) {
+// Once per object that `jobs` runs, before the runs, on the same workers (40-60 s per
+// 40k-triangle scan, so a shard skips the objects it does not run; an object's numbers do not
+// depend on the others).
+void measureReachabilityOfObjectsRun(std::vector<GroundTruth>& objects, const std::vector<Job>& jobs,
+                                     const Options& o) {
+  std::vector<std::size_t> needed;
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    if (std::any_of(jobs.begin(), jobs.end(), [&](const Job& job) { return job.object == i; })) needed.push_back(i);
   std::mutex print_mutex;
-  forEachOnWorkers(objects.size(), o.jobs, [&](std::size_t i) {
-    GroundTruth& gt = objects[i];
+  forEachOnWorkers(needed.size(), o.jobs, [&](std::size_t n) {
+    GroundTruth& gt = objects[needed[n]];
     const auto started = std::chrono::steady_clock::now();
     try {
       measureReachability(gt, o.simulation, o.reach_directions);
@@ -92,17 +101,8 @@ void printRun(const RunResult& r, std::size_t finished, std::size_t total) {
   std::cout << std::defaultfloat << std::endl;
 }
 
-// Every (object, strategy, seed) on o.jobs workers, in that order in the result.
-std::vector<RunResult> runAll(const std::vector<GroundTruth>& objects, const Options& o) {
-  struct Job {
-    std::size_t object;
-    std::string strategy;
-    int seed;
-  };
-  std::vector<Job> jobs;
-  for (std::size_t i = 0; i < objects.size(); ++i)
-    for (const auto& s : o.strategies)
-      for (int seed : o.seeds) jobs.push_back({i, s, seed});
+// The jobs on o.jobs workers, in their order in the result.
+std::vector<RunResult> runAll(const std::vector<GroundTruth>& objects, const std::vector<Job>& jobs, const Options& o) {
   std::vector<RunResult> runs(jobs.size());
   std::atomic<std::size_t> done{0};
   std::mutex print_mutex;
@@ -148,25 +148,55 @@ void saveTruths(const std::vector<GroundTruth>& objects, const Options& o) {
   }
 }
 
+// summary.md from the CSV files of `out`, the planning times on the console, and the plots.
+void summarizeFolder(const fs::path& out, const std::string& settings, bool plot) {
+  for (const auto& p : writeSummaryOfFolder(out, settings))
+    std::cout << "planning time, " << describePlanTimes(p) << std::endl;
+#ifdef GPATLAS_PLOT_SCRIPT
+  if (plot) {
+    const std::string cmd = "/usr/bin/python3 \"" GPATLAS_PLOT_SCRIPT "\" \"" + out.string() + "\"";
+    if (std::system(cmd.c_str()) != 0) std::cerr << "gpatlas_bench: plotting failed (" << cmd << ")" << std::endl;
+  }
+#else
+  (void)plot;
+#endif
+}
+
 void writeOutputs(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& objects, const Options& o,
                   std::chrono::steady_clock::time_point bench_start) {
   const fs::path out(o.out);
   writeRunsCsv(runs, out / "runs.csv");
   writeHistoryCsv(runs, out / "history.csv");
   writeReachabilityCsv(runs, objects, out / "reachability.csv");
-  const std::vector<PlanTimes> plan_times = planTimesByStrategy(runs);
-  writeSummary(runs, objects, plan_times, o, out / "summary.md");
-  for (const auto& p : plan_times) std::cout << "planning time, " << describePlanTimes(p) << std::endl;
+  summarizeFolder(out, summarySettings(o), o.plot);
   const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count();
   std::cout << "gpatlas_bench: done in " << std::setprecision(4) << total_s << " s; wrote " << (out / "runs.csv").string()
             << ", " << (out / "history.csv").string() << ", " << (out / "reachability.csv").string() << ", "
             << (out / "summary.md").string() << std::endl;
-#ifdef GPATLAS_PLOT_SCRIPT
-  if (o.plot) {
-    const std::string cmd = "/usr/bin/python3 \"" GPATLAS_PLOT_SCRIPT "\" \"" + out.string() + "\"";
-    if (std::system(cmd.c_str()) != 0) std::cerr << "gpatlas_bench: plotting failed (" << cmd << ")" << std::endl;
+}
+
+// --merge: the shards' folders into o.out; 2 when refused, 1 when jobs are missing or runs
+// ended in an error (as a one-process run), else 0.
+int mergeMain(const Options& o) {
+  MergeResult merged;
+  try {
+    merged = mergeShards(o.merge_folders, o.out);
+    summarizeFolder(o.out, merged.summary_settings, o.plot);
+  } catch (const std::exception& e) {
+    std::cerr << "gpatlas_bench: --merge: " << e.what() << std::endl;
+    return 2;
   }
-#endif
+  std::cout << "gpatlas_bench: merged " << merged.merged_runs << " run(s) of " << o.merge_folders.size()
+            << " shard folder(s) into " << o.out << std::endl;
+  if (!merged.missing_jobs.empty()) {
+    std::cerr << "gpatlas_bench: --merge: " << merged.missing_jobs.size() << " of "
+              << merged.missing_jobs.size() + merged.merged_runs << " jobs are missing (no shard folder given ran them):";
+    for (const std::string& job : merged.missing_jobs) std::cerr << "\n  " << job;
+    std::cerr << std::endl;
+  }
+  if (merged.error_runs > 0)
+    std::cerr << "gpatlas_bench: " << merged.error_runs << " run(s) ended in an error (runs.csv: status)" << std::endl;
+  return merged.missing_jobs.empty() && merged.error_runs == 0 ? 0 : 1;
 }
 
 }  // namespace
@@ -186,19 +216,33 @@ int main(int argc, char** argv) {
     std::cerr << "gpatlas_bench: " << e.what() << std::endl;
     return 2;
   }
+  if (!o.merge_folders.empty()) return mergeMain(o);
   std::vector<GroundTruth> objects;
   if (!loadObjects(o, &objects)) return 2;
+  const std::vector<Job> all_jobs = jobList(objects.size(), o);
+  std::vector<Job> jobs;
+  for (std::size_t j = 0; j < all_jobs.size(); ++j)
+    if (!o.shard || inShard(j, *o.shard)) jobs.push_back(all_jobs[j]);
   std::error_code ec;
   fs::create_directories(o.out, ec);
   if (ec) {
     std::cerr << "gpatlas_bench: cannot create output folder '" << o.out << "': " << ec.message() << std::endl;
     return 2;
   }
+  // A shard.txt says the folder holds a finished shard: not while this one runs.
+  if (o.shard) fs::remove(fs::path(o.out) / "shard.txt", ec);
   if (o.save_meshes) saveTruths(objects, o);
-  if (o.reachability) measureReachabilityOfAll(objects, o);
+  if (o.reachability) measureReachabilityOfObjectsRun(objects, jobs, o);
   const auto bench_start = std::chrono::steady_clock::now();
-  const std::vector<RunResult> runs = runAll(objects, o);
-  writeOutputs(runs, objects, o, bench_start);
+  const std::vector<RunResult> runs = runAll(objects, jobs, o);
+  try {
+    writeOutputs(runs, objects, o, bench_start);
+    // Last: a shard's folder with a shard.txt holds all of its runs.
+    if (o.shard) writeShardFile(o.out, *o.shard, all_jobs, objects, o);
+  } catch (const std::exception& e) {
+    std::cerr << "gpatlas_bench: " << e.what() << std::endl;
+    return 2;
+  }
   int errors = 0;
   for (const auto& r : runs) errors += r.status.rfind("error", 0) == 0 ? 1 : 0;
   if (errors > 0) std::cerr << "gpatlas_bench: " << errors << " run(s) ended in an error (runs.csv: status)" << std::endl;
