@@ -312,4 +312,116 @@ TEST(Conversions, VarianceColourGoesFromBlueToRed) {
   EXPECT_FLOAT_EQ(r, 1.0f);
 }
 
+// The plan request of next_touch: everything the loop fills travels (the reachable test and the
+// support plane are the planner nodelet's own).
+TEST(Conversions, PlanRequestRoundTrip) {
+  gpatlas_core::PlanRequest request;
+  request.v_max = 0.05;
+  request.start = gpatlas_core::Vector3(0.4, -0.1, 0.2);
+  request.evidence_state.attempted_targets = {{0.1, 0.2, 0.3}, {0.5, 0.0, -0.25}};
+  request.evidence_state.attempted_target_errors_m = {0.004, std::numeric_limits<double>::quiet_NaN()};
+  request.footprint_radius_m = 0.01;
+  request.seed = 0x9e3779b97f4a7c15ull;
+  const gpatlas_msgs::GetNextTouch::Request msg = toMsg(request);
+  EXPECT_TRUE(msg.use_start);
+  const gpatlas_core::PlanRequest back = fromMsg(msg);
+  EXPECT_EQ(back.v_max, request.v_max);
+  ASSERT_TRUE(back.start.has_value());
+  EXPECT_EQ(*back.start, *request.start);
+  EXPECT_EQ(back.evidence_state.attempted_targets, request.evidence_state.attempted_targets);
+  ASSERT_EQ(back.evidence_state.attempted_target_errors_m.size(), 2u);
+  EXPECT_EQ(back.evidence_state.attempted_target_errors_m[0], 0.004);
+  EXPECT_TRUE(std::isnan(back.evidence_state.attempted_target_errors_m[1]));
+  EXPECT_EQ(back.footprint_radius_m, request.footprint_radius_m);
+  EXPECT_EQ(back.seed, request.seed);
+
+  request.start.reset();
+  EXPECT_FALSE(toMsg(request).use_start);
+  EXPECT_FALSE(fromMsg(toMsg(request)).start.has_value());
+}
+
+// The planner's answer, for every status: the cap reached stays the cap reached (the exploration
+// then stops as planner_cap_reached, as the bench's does), not an error.
+TEST(Conversions, PlanResultRoundTripForEveryStatus) {
+  using gpatlas_core::PlanStatus;
+  for (const PlanStatus status : {PlanStatus::kTouch, PlanStatus::kConverged, PlanStatus::kCapReached, PlanStatus::kError}) {
+    SCOPED_TRACE(gpatlas_core::toString(status));
+    gpatlas_core::PlanResult result;
+    result.status = status;
+    result.message = "why";
+    result.max_evaluated_variance = 0.25;
+    result.elapsed_s = 1.5;
+    result.unreachable_candidates = 7;
+    if (status == PlanStatus::kTouch) {
+      result.touch.kind = gpatlas_core::Touch::Kind::kSlide;
+      result.touch.points = {{0.1, 0.2, 0.3}, {0.1, 0.25, 0.3}};
+      result.touch.normals = {{0.0, 0.0, 1.0}, {0.0, 1.0, 0.0}};
+      result.touch.variances = {0.3, 0.4};
+      result.touch.strategy = "atlas_slide";
+    }
+    const gpatlas_msgs::GetNextTouch::Response msg = toMsg(result);
+    const gpatlas_core::PlanResult back = fromMsg(msg);
+    EXPECT_EQ(back.status, status);
+    EXPECT_EQ(back.message, "why");
+    EXPECT_EQ(back.max_evaluated_variance, 0.25);
+    EXPECT_EQ(back.elapsed_s, 1.5);
+    EXPECT_EQ(back.unreachable_candidates, 7);
+    EXPECT_EQ(back.touch.points, result.touch.points);
+    EXPECT_EQ(back.touch.normals, result.touch.normals);
+    EXPECT_EQ(back.touch.variances, result.touch.variances);
+    EXPECT_EQ(back.touch.kind, result.touch.kind);
+  }
+  gpatlas_core::PlanResult capped;
+  capped.status = PlanStatus::kCapReached;
+  EXPECT_EQ(toMsg(capped).status, gpatlas_msgs::GetNextTouch::Response::CAP_REACHED);
+}
+
+// The nodelet's own answers (no model, a stale one) and a malformed touch are errors to the loop.
+TEST(Conversions, PlanAnswersWithoutAPlanAreErrors) {
+  gpatlas_msgs::GetNextTouch::Response msg;
+  const std::vector<std::uint8_t> statuses{gpatlas_msgs::GetNextTouch::Response::NO_MODEL,
+                                           gpatlas_msgs::GetNextTouch::Response::STALE_MODEL, 200};
+  for (const std::uint8_t status : statuses) {
+    msg.status = status;
+    msg.message = "no";
+    const gpatlas_core::PlanResult result = fromMsg(msg);
+    EXPECT_EQ(result.status, gpatlas_core::PlanStatus::kError) << int(status);
+    EXPECT_EQ(result.message, "no");
+  }
+  msg.status = gpatlas_msgs::GetNextTouch::Response::TOUCH;
+  msg.touch.points.resize(2);
+  msg.touch.normals.resize(1);
+  const gpatlas_core::PlanResult malformed = fromMsg(msg);
+  EXPECT_EQ(malformed.status, gpatlas_core::PlanStatus::kError);
+  EXPECT_NE(malformed.message.find("malformed touch"), std::string::npos) << malformed.message;
+}
+
+TEST(Conversions, AtlasKeepsItsChartsAndPath) {
+  gpatlas_core::Atlas atlas;
+  gpatlas_core::Chart root;
+  root.centre = {0.1, 0.2, 0.3};
+  root.normal = {0.0, 0.0, 1.0};
+  root.radius = 0.02;
+  root.variance = 0.05;
+  gpatlas_core::Chart child = root;
+  child.centre = {0.12, 0.2, 0.3};
+  child.normal = {0.0, 1.0, 0.0};
+  child.radius = 0.01;
+  child.variance = 0.3;
+  child.parent = 0;
+  atlas.addChart(root);
+  atlas.addChart(child);
+  const gpatlas_msgs::Atlas msg = toMsg(atlas, {0, 1});
+  ASSERT_EQ(msg.charts.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const gpatlas_core::Chart& chart = atlas.chart(static_cast<int>(i));
+    EXPECT_EQ(fromMsg(msg.charts[i].centre), chart.centre);
+    EXPECT_EQ(fromMsg(msg.charts[i].normal), chart.normal);
+    EXPECT_EQ(msg.charts[i].radius_m, chart.radius);
+    EXPECT_EQ(msg.charts[i].variance, chart.variance);
+    EXPECT_EQ(msg.charts[i].parent, chart.parent);
+  }
+  EXPECT_EQ(msg.path, (std::vector<int>{0, 1}));
+}
+
 }  // namespace

@@ -535,8 +535,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   }
   gpatlas_core::Explorer::Config loop = pipeline.exploration;
   loop.seed = static_cast<std::uint64_t>(seed);
-  gpatlas_core::EvidenceRule evidence = pipeline.evidence;
-  evidence.support_plane = support;
+  gpatlas_core::EvidenceState known;  // the planner's own: the table
+  known.support_plane = support;
   const gpatlas_core::Explorer explorer(loop);
 
   const auto measureInto = [&](const gpatlas_core::SurfaceModel& m, gpatlas_core::ExplorationRecord& record) {
@@ -586,7 +586,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     }
   }
   gpatlas_core::ExplorationResult result =
-      explorer.run(model, *strategy, prober, pipeline.touch, evidence, progress, approacher.get());
+      explorer.run(model, *strategy, prober, pipeline.touch, known, progress, approacher.get());
 
   r.actions = result.actions;
   r.contacts = result.contacts;

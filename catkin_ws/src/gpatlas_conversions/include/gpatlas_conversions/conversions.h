@@ -7,11 +7,15 @@
 
 #include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_core/exploration/prober.h>
+#include <gpatlas_core/planning/atlas.h>
+#include <gpatlas_core/planning/exploration_strategy.h>
 #include <gpatlas_core/common/types.h>
 #include <gpatlas_core/observations/support_plane.h>
 
 #include <geometry_msgs/Point.h>
 #include <geometry_msgs/Vector3.h>
+#include <gpatlas_msgs/Atlas.h>
+#include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/Observations.h>
 #include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/Touch.h>
@@ -63,6 +67,22 @@ bool fromJointTrajectoryMsg(const trajectory_msgs::JointTrajectory& msg, const s
 gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result);
 // Contacts (with normals when given) and free-space points; success/reason are not part of it.
 bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* result, std::string* error);
+
+// The next_touch service (GetNextTouch): a plan request and the planner's answer. The request's
+// strategy, model_stamp and reachable_only are the caller's to fill; the plan request's
+// reachable test and support plane do not travel (the planner nodelet has its own). v_max 0
+// in a message means the nodelet's own, which the caller puts in.
+gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& request);
+gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg);
+// The touch's header is the caller's; the atlas travels on its own topic.
+gpatlas_msgs::GetNextTouch::Response toMsg(const gpatlas_core::PlanResult& result);
+// NO_MODEL, STALE_MODEL, ERROR and an unknown status are kError, and so is a TOUCH whose touch
+// is malformed (the message says why).
+gpatlas_core::PlanResult fromMsg(const gpatlas_msgs::GetNextTouch::Response& msg);
+
+// The grown atlas as data (the planner's `~atlas_charts`): its charts and the path to the touch
+// (chart indices, root first); the header is the caller's.
+gpatlas_msgs::Atlas toMsg(const gpatlas_core::Atlas& atlas, const std::vector<int>& path);
 
 // The model's state: name, hyperparameters, frame and observations (not the pseudo-points,
 // which the model adds).

@@ -21,14 +21,10 @@ gpatlas_msgs::Touch ExplorationServices::touchMsg(const gpatlas_core::Touch& tou
 
 gpatlas_core::PlanResult ServicePlanner::plan(const gpatlas_core::PlanRequest& request) {
   gpatlas_msgs::GetNextTouch srv;
-  srv.request.v_max = request.v_max;
+  srv.request = toMsg(request);
   srv.request.strategy = services_.strategy;
-  srv.request.seed = request.seed;
   // The planner's side of the loop's reachability test (PlanRequest::reachable).
   srv.request.reachable_only = services_.approach.enabled;
-  for (const auto& p : request.evidence.attempted_targets) srv.request.attempted_targets.push_back(toPointMsg(p));
-  srv.request.attempted_target_errors_m = request.evidence.attempted_target_errors_m;
-  srv.request.footprint_radius_m = request.footprint_radius_m;
   // Plan on the model that holds the last update: the planner rebuilds its replica from the
   // training set this node has seen, which can take it longer than this node took to see it.
   if (const auto training = services_.watch.latestTraining()) srv.request.model_stamp = training->header.stamp;
@@ -40,28 +36,7 @@ gpatlas_core::PlanResult ServicePlanner::plan(const gpatlas_core::PlanRequest& r
       throw std::runtime_error("next_touch: " + srv.response.message);
     ros::WallDuration(0.02).sleep();
   }
-  gpatlas_core::PlanResult plan;
-  plan.message = srv.response.message;
-  plan.max_evaluated_variance = srv.response.max_evaluated_variance;
-  plan.elapsed_s = srv.response.plan_time_s;
-  plan.unreachable_candidates = static_cast<int>(srv.response.unreachable_candidates);
-  switch (srv.response.status) {
-    case gpatlas_msgs::GetNextTouch::Response::TOUCH: {
-      plan.status = gpatlas_core::PlanStatus::kTouch;
-      std::string malformed;
-      if (!fromMsg(srv.response.touch, &plan.touch, &malformed)) {
-        plan.status = gpatlas_core::PlanStatus::kError;
-        plan.message = "malformed touch: " + malformed;
-      }
-      break;
-    }
-    case gpatlas_msgs::GetNextTouch::Response::CONVERGED:
-      plan.status = gpatlas_core::PlanStatus::kConverged;
-      break;
-    default:
-      plan.status = gpatlas_core::PlanStatus::kError;
-  }
-  return plan;
+  return fromMsg(srv.response);
 }
 
 std::size_t ServicePlanner::modelSize() const {
