@@ -424,4 +424,112 @@ TEST(Conversions, AtlasKeepsItsChartsAndPath) {
   EXPECT_EQ(msg.path, (std::vector<int>{0, 1}));
 }
 
+TEST(Conversions, ProbeAnswerRoundTrip) {
+  gpatlas_core::ProbeResult result;
+  result.success = true;
+  result.reason = "pressed";
+  result.contacts = {{{0.1, 0.2, 0.3}, {0.0, 0.0, 1.0}}, {{0.1, 0.21, 0.3}, {0.0, 1.0, 0.0}}};
+  result.free_space = {{0.1, 0.2, 0.35}};
+  result.approach_collisions = 2;
+  result.retreat_collisions = 1;
+  const gpatlas_core::ProbeResult back = fromMsg(toProbeResponseMsg(result));
+  EXPECT_TRUE(back.success);
+  EXPECT_EQ(back.reason, "pressed");
+  ASSERT_EQ(back.contacts.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back.contacts[i].position, result.contacts[i].position);
+    EXPECT_EQ(back.contacts[i].normal, result.contacts[i].normal);
+  }
+  EXPECT_EQ(back.free_space, result.free_space);
+  EXPECT_EQ(back.approach_collisions, 2);
+  EXPECT_EQ(back.retreat_collisions, 1);
+
+  gpatlas_msgs::Probe::Response malformed = toProbeResponseMsg(result);
+  malformed.observations.contact_normals.pop_back();
+  const gpatlas_core::ProbeResult refused = fromMsg(malformed);
+  EXPECT_FALSE(refused.success);
+  EXPECT_TRUE(refused.contacts.empty());
+  EXPECT_NE(refused.reason.find("malformed observations"), std::string::npos) << refused.reason;
+}
+
+// The counts the loop records travel as the model counted them: free space is its own count, not
+// every point but the contacts (points behind contacts and slopes are neither).
+TEST(Conversions, TouchUpdateRoundTrip) {
+  gpatlas_core::TouchUpdate update;
+  update.ok = true;
+  update.message = "added";
+  update.contacts_added = 3;
+  update.free_points_added = 5;
+  update.points_added = 11;
+  update.contacts_refused.outside_workspace = 2;
+  update.free_space_refused.non_finite = 1;
+  update.budget_full = true;
+  const gpatlas_msgs::AddObservations::Response msg = toMsg(update);
+  EXPECT_EQ(msg.num_refused, 3u);
+  const gpatlas_core::TouchUpdate back = fromMsg(msg);
+  EXPECT_TRUE(back.ok);
+  EXPECT_EQ(back.message, "added");
+  EXPECT_EQ(back.contacts_added, 3);
+  EXPECT_EQ(back.free_points_added, 5);
+  EXPECT_EQ(back.points_added, 11);
+  EXPECT_TRUE(back.budget_full);
+}
+
+TEST(Conversions, ApproachAnswerGivesThePathsAndTheArmsJointPaths) {
+  gpatlas_msgs::PlanApproach::Response msg;
+  msg.success = true;
+  msg.message = "planned";
+  msg.planning_time_s = 0.25;
+  const std::vector<Eigen::Vector3d> there{{0.5, 0.0, 0.5}, {0.3, 0.0, 0.4}}, back{{0.3, 0.0, 0.4}, {0.5, 0.0, 0.5}};
+  for (const auto& p : there) msg.approach.push_back(toPointMsg(p));
+  for (const auto& p : back) msg.retreat.push_back(toPointMsg(p));
+  Eigen::VectorXd rest(2), above(2);
+  rest << 0.1, -0.2;
+  above << 0.4, 0.3;
+  const std::vector<std::string> names{"shoulder", "elbow"};
+  msg.approach_trajectory = toJointTrajectoryMsg({rest, above}, names, 0.5);
+  msg.retreat_trajectory = toJointTrajectoryMsg({above, rest}, names, 0.5);
+  gpatlas_core::ApproachResult result;
+  std::vector<std::string> joint_names;
+  std::string error;
+  ASSERT_TRUE(fromMsg(msg, &result, &joint_names, &error)) << error;
+  EXPECT_TRUE(result.ok);
+  EXPECT_EQ(result.message, "planned");
+  EXPECT_DOUBLE_EQ(result.planning_ms, 250.0);
+  EXPECT_EQ(result.approach_path, there);
+  EXPECT_EQ(result.retreat_path, back);
+  EXPECT_EQ(result.approach_joints, (std::vector<Eigen::VectorXd>{rest, above}));
+  EXPECT_EQ(result.retreat_joints, (std::vector<Eigen::VectorXd>{above, rest}));
+  EXPECT_EQ(joint_names, names);
+
+  msg.map_stale = true;
+  ASSERT_TRUE(fromMsg(msg, &result, &joint_names, &error)) << error;
+  EXPECT_NE(result.message.find("older model"), std::string::npos) << result.message;
+  msg.retreat_trajectory.points[0].positions.pop_back();
+  EXPECT_FALSE(fromMsg(msg, &result, &joint_names, &error));
+  // Without the arm: the probe's paths alone.
+  gpatlas_msgs::PlanApproach::Response probe_only;
+  probe_only.success = true;
+  for (const auto& p : there) probe_only.approach.push_back(toPointMsg(p));
+  joint_names.clear();
+  ASSERT_TRUE(fromMsg(probe_only, &result, &joint_names, &error)) << error;
+  EXPECT_TRUE(result.approach_joints.empty());
+  EXPECT_TRUE(joint_names.empty());
+}
+
+TEST(Conversions, MeshRoundTrip) {
+  gpatlas_core::TriangleMesh mesh;
+  mesh.vertices = {{0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
+  mesh.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  gpatlas_core::TriangleMesh back;
+  std::string error;
+  ASSERT_TRUE(fromMsg(toMsg(mesh), &back, &error)) << error;
+  EXPECT_EQ(back.vertices, mesh.vertices);
+  EXPECT_EQ(back.triangles, mesh.triangles);
+  shape_msgs::Mesh broken = toMsg(mesh);
+  broken.triangles[2].vertex_indices[1] = 4;
+  EXPECT_FALSE(fromMsg(broken, &back, &error));
+  EXPECT_NE(error.find("triangle 2"), std::string::npos) << error;
+}
+
 }  // namespace

@@ -145,10 +145,11 @@ class ExplorationNode {
       return;
     }
     gpatlas_core::TriangleMesh mesh;
-    for (const auto& v : srv.response.mesh.vertices) mesh.vertices.push_back(fromMsg(v));
-    for (const auto& t : srv.response.mesh.triangles)
-      mesh.triangles.emplace_back(static_cast<int>(t.vertex_indices[0]), static_cast<int>(t.vertex_indices[1]),
-                                  static_cast<int>(t.vertex_indices[2]));
+    std::string malformed;
+    if (!fromMsg(srv.response.mesh, &mesh, &malformed)) {
+      ROS_WARN_STREAM("exploration: ground truth unusable: " << malformed);
+      return;
+    }
     ROS_INFO_STREAM("exploration: ground truth with " << mesh.triangles.size() << " triangles");
     measurement_.setGroundTruth(std::move(mesh));
   }

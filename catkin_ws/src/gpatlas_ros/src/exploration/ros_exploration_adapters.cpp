@@ -48,19 +48,8 @@ gpatlas_core::ProbeResult ServiceProber::probe(const gpatlas_core::Touch& touch)
   gpatlas_msgs::Probe srv;
   srv.request.touch = services_.touchMsg(touch);
   if (!services_.client.call("probe", srv)) throw std::runtime_error("probe did not answer");
-  gpatlas_core::ProbeResult result;
-  std::string error;
-  if (!fromMsg(srv.response.observations, &result, &error)) {
-    result = gpatlas_core::ProbeResult();
-    result.reason = "malformed observations: " + error;
-    return result;
-  }
-  result.success = srv.response.success;
-  result.reason = srv.response.reason;
-  result.approach_collisions = srv.response.approach_collisions;
-  result.retreat_collisions = srv.response.retreat_collisions;
   services_.observations_header = srv.response.observations.header;
-  return result;
+  return fromMsg(srv.response);
 }
 
 gpatlas_core::TouchUpdate ServiceUpdater::update(const gpatlas_core::ProbeResult& probed) {
@@ -69,12 +58,7 @@ gpatlas_core::TouchUpdate ServiceUpdater::update(const gpatlas_core::ProbeResult
   srv.request.observations.header = services_.observations_header;
   const ros::WallTime started = ros::WallTime::now();
   if (!services_.client.call("add_observations", srv)) throw std::runtime_error("add_observations did not answer");
-  gpatlas_core::TouchUpdate update;
-  update.ok = srv.response.success;
-  update.message = srv.response.message;
-  update.contacts_added = static_cast<int>(srv.response.num_contacts_added);
-  update.free_points_added = static_cast<int>(srv.response.num_added) - update.contacts_added;
-  update.budget_full = srv.response.observation_budget_full;
+  const gpatlas_core::TouchUpdate update = fromMsg(srv.response);
   if (update.ok) services_.watch.waitForTrainingSetNewerThan(started);
   return update;
 }
@@ -95,20 +79,9 @@ gpatlas_core::ApproachResult ServiceApproacher::plan(const gpatlas_core::Touch& 
   // then the answer comes from the older map and says so (map_stale).
   if (!services_.client.call("plan_approach", srv)) throw std::runtime_error("plan_approach did not answer");
   gpatlas_core::ApproachResult result;
-  result.ok = srv.response.success;
-  result.message = srv.response.message;
-  if (srv.response.map_stale) result.message += " (on the map of an older model: its rebuild failed)";
-  result.planning_ms = 1000.0 * srv.response.planning_time_s;
-  for (const auto& p : srv.response.approach) result.approach_path.push_back(fromMsg(p));
-  for (const auto& p : srv.response.retreat) result.retreat_path.push_back(fromMsg(p));
-  const auto& approach = srv.response.approach_trajectory;
-  if (result.ok && !approach.points.empty()) {
-    services_.arm_joint_names = approach.joint_names;
-    std::string why;
-    if (!fromJointTrajectoryMsg(approach, approach.joint_names, &result.approach_joints, &why) ||
-        !fromJointTrajectoryMsg(srv.response.retreat_trajectory, approach.joint_names, &result.retreat_joints, &why))
-      throw std::runtime_error("plan_approach answered a malformed joint trajectory: " + why);
-  }
+  std::string why;
+  if (!fromMsg(srv.response, &result, &services_.arm_joint_names, &why))
+    throw std::runtime_error("plan_approach answered a malformed joint trajectory: " + why);
   return result;
 }
 
