@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <stdexcept>
+#include <string>
+#include <utility>
 
 namespace gpatlas_conversions {
 
@@ -386,6 +389,37 @@ sensor_msgs::PointCloud2 pointsToCloud(const std::vector<Eigen::Vector3d>& point
     rgb[3] = 0;
   }
   return cloud;
+}
+
+shape_msgs::Mesh toMsg(const gpatlas_core::TriangleMesh& mesh) {
+  shape_msgs::Mesh msg;
+  msg.vertices.reserve(mesh.vertices.size());
+  for (const auto& v : mesh.vertices) msg.vertices.push_back(toPointMsg(v));
+  msg.triangles.reserve(mesh.triangles.size());
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    shape_msgs::MeshTriangle triangle;
+    for (int k = 0; k < 3; ++k) triangle.vertex_indices[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(t[k]);
+    msg.triangles.push_back(triangle);
+  }
+  return msg;
+}
+
+bool fromMsg(const shape_msgs::Mesh& msg, gpatlas_core::TriangleMesh* mesh, std::string* error) {
+  gpatlas_core::TriangleMesh out;
+  out.vertices.reserve(msg.vertices.size());
+  for (const auto& v : msg.vertices) out.vertices.push_back(fromMsg(v));
+  out.triangles.reserve(msg.triangles.size());
+  for (std::size_t i = 0; i < msg.triangles.size(); ++i) {
+    const auto& t = msg.triangles[i].vertex_indices;
+    if (t[0] >= msg.vertices.size() || t[1] >= msg.vertices.size() || t[2] >= msg.vertices.size()) {
+      *error = "triangle " + std::to_string(i) + " indexes a vertex past the " + std::to_string(msg.vertices.size()) +
+               " of the mesh";
+      return false;
+    }
+    out.triangles.emplace_back(static_cast<int>(t[0]), static_cast<int>(t[1]), static_cast<int>(t[2]));
+  }
+  *mesh = std::move(out);
+  return true;
 }
 
 }  // namespace gpatlas_conversions

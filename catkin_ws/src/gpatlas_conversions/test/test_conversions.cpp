@@ -312,4 +312,224 @@ TEST(Conversions, VarianceColourGoesFromBlueToRed) {
   EXPECT_FLOAT_EQ(r, 1.0f);
 }
 
+// The plan request of next_touch: everything the loop fills travels (the reachable test and the
+// support plane are the planner nodelet's own).
+TEST(Conversions, PlanRequestRoundTrip) {
+  gpatlas_core::PlanRequest request;
+  request.v_max = 0.05;
+  request.start = gpatlas_core::Vector3(0.4, -0.1, 0.2);
+  request.evidence_state.attempted_targets = {{0.1, 0.2, 0.3}, {0.5, 0.0, -0.25}};
+  request.evidence_state.attempted_target_errors_m = {0.004, std::numeric_limits<double>::quiet_NaN()};
+  request.footprint_radius_m = 0.01;
+  request.seed = 0x9e3779b97f4a7c15ull;
+  const gpatlas_msgs::GetNextTouch::Request msg = toMsg(request);
+  EXPECT_TRUE(msg.use_start);
+  const gpatlas_core::PlanRequest back = fromMsg(msg);
+  EXPECT_EQ(back.v_max, request.v_max);
+  ASSERT_TRUE(back.start.has_value());
+  EXPECT_EQ(*back.start, *request.start);
+  EXPECT_EQ(back.evidence_state.attempted_targets, request.evidence_state.attempted_targets);
+  ASSERT_EQ(back.evidence_state.attempted_target_errors_m.size(), 2u);
+  EXPECT_EQ(back.evidence_state.attempted_target_errors_m[0], 0.004);
+  EXPECT_TRUE(std::isnan(back.evidence_state.attempted_target_errors_m[1]));
+  EXPECT_EQ(back.footprint_radius_m, request.footprint_radius_m);
+  EXPECT_EQ(back.seed, request.seed);
+
+  request.start.reset();
+  EXPECT_FALSE(toMsg(request).use_start);
+  EXPECT_FALSE(fromMsg(toMsg(request)).start.has_value());
+}
+
+// The planner's answer, for every status: the cap reached stays the cap reached (the exploration
+// then stops as planner_cap_reached, as the bench's does), not an error.
+TEST(Conversions, PlanResultRoundTripForEveryStatus) {
+  using gpatlas_core::PlanStatus;
+  for (const PlanStatus status : {PlanStatus::kTouch, PlanStatus::kConverged, PlanStatus::kCapReached, PlanStatus::kError}) {
+    SCOPED_TRACE(gpatlas_core::toString(status));
+    gpatlas_core::PlanResult result;
+    result.status = status;
+    result.message = "why";
+    result.max_evaluated_variance = 0.25;
+    result.elapsed_s = 1.5;
+    result.unreachable_candidates = 7;
+    if (status == PlanStatus::kTouch) {
+      result.touch.kind = gpatlas_core::Touch::Kind::kSlide;
+      result.touch.points = {{0.1, 0.2, 0.3}, {0.1, 0.25, 0.3}};
+      result.touch.normals = {{0.0, 0.0, 1.0}, {0.0, 1.0, 0.0}};
+      result.touch.variances = {0.3, 0.4};
+      result.touch.strategy = "atlas_slide";
+    }
+    const gpatlas_msgs::GetNextTouch::Response msg = toMsg(result);
+    const gpatlas_core::PlanResult back = fromMsg(msg);
+    EXPECT_EQ(back.status, status);
+    EXPECT_EQ(back.message, "why");
+    EXPECT_EQ(back.max_evaluated_variance, 0.25);
+    EXPECT_EQ(back.elapsed_s, 1.5);
+    EXPECT_EQ(back.unreachable_candidates, 7);
+    EXPECT_EQ(back.touch.points, result.touch.points);
+    EXPECT_EQ(back.touch.normals, result.touch.normals);
+    EXPECT_EQ(back.touch.variances, result.touch.variances);
+    EXPECT_EQ(back.touch.kind, result.touch.kind);
+  }
+  gpatlas_core::PlanResult capped;
+  capped.status = PlanStatus::kCapReached;
+  EXPECT_EQ(toMsg(capped).status, gpatlas_msgs::GetNextTouch::Response::CAP_REACHED);
+}
+
+// The nodelet's own answers (no model, a stale one) and a malformed touch are errors to the loop.
+TEST(Conversions, PlanAnswersWithoutAPlanAreErrors) {
+  gpatlas_msgs::GetNextTouch::Response msg;
+  const std::vector<std::uint8_t> statuses{gpatlas_msgs::GetNextTouch::Response::NO_MODEL,
+                                           gpatlas_msgs::GetNextTouch::Response::STALE_MODEL, 200};
+  for (const std::uint8_t status : statuses) {
+    msg.status = status;
+    msg.message = "no";
+    const gpatlas_core::PlanResult result = fromMsg(msg);
+    EXPECT_EQ(result.status, gpatlas_core::PlanStatus::kError) << int(status);
+    EXPECT_EQ(result.message, "no");
+  }
+  msg.status = gpatlas_msgs::GetNextTouch::Response::TOUCH;
+  msg.touch.points.resize(2);
+  msg.touch.normals.resize(1);
+  const gpatlas_core::PlanResult malformed = fromMsg(msg);
+  EXPECT_EQ(malformed.status, gpatlas_core::PlanStatus::kError);
+  EXPECT_NE(malformed.message.find("malformed touch"), std::string::npos) << malformed.message;
+}
+
+TEST(Conversions, AtlasKeepsItsChartsAndPath) {
+  gpatlas_core::Atlas atlas;
+  gpatlas_core::Chart root;
+  root.centre = {0.1, 0.2, 0.3};
+  root.normal = {0.0, 0.0, 1.0};
+  root.radius = 0.02;
+  root.variance = 0.05;
+  gpatlas_core::Chart child = root;
+  child.centre = {0.12, 0.2, 0.3};
+  child.normal = {0.0, 1.0, 0.0};
+  child.radius = 0.01;
+  child.variance = 0.3;
+  child.parent = 0;
+  atlas.addChart(root);
+  atlas.addChart(child);
+  const gpatlas_msgs::Atlas msg = toMsg(atlas, {0, 1});
+  ASSERT_EQ(msg.charts.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    const gpatlas_core::Chart& chart = atlas.chart(static_cast<int>(i));
+    EXPECT_EQ(fromMsg(msg.charts[i].centre), chart.centre);
+    EXPECT_EQ(fromMsg(msg.charts[i].normal), chart.normal);
+    EXPECT_EQ(msg.charts[i].radius_m, chart.radius);
+    EXPECT_EQ(msg.charts[i].variance, chart.variance);
+    EXPECT_EQ(msg.charts[i].parent, chart.parent);
+  }
+  EXPECT_EQ(msg.path, (std::vector<int>{0, 1}));
+}
+
+TEST(Conversions, ProbeAnswerRoundTrip) {
+  gpatlas_core::ProbeResult result;
+  result.success = true;
+  result.reason = "pressed";
+  result.contacts = {{{0.1, 0.2, 0.3}, {0.0, 0.0, 1.0}}, {{0.1, 0.21, 0.3}, {0.0, 1.0, 0.0}}};
+  result.free_space = {{0.1, 0.2, 0.35}};
+  result.approach_collisions = 2;
+  result.retreat_collisions = 1;
+  const gpatlas_core::ProbeResult back = fromMsg(toProbeResponseMsg(result));
+  EXPECT_TRUE(back.success);
+  EXPECT_EQ(back.reason, "pressed");
+  ASSERT_EQ(back.contacts.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(back.contacts[i].position, result.contacts[i].position);
+    EXPECT_EQ(back.contacts[i].normal, result.contacts[i].normal);
+  }
+  EXPECT_EQ(back.free_space, result.free_space);
+  EXPECT_EQ(back.approach_collisions, 2);
+  EXPECT_EQ(back.retreat_collisions, 1);
+
+  gpatlas_msgs::Probe::Response malformed = toProbeResponseMsg(result);
+  malformed.observations.contact_normals.pop_back();
+  const gpatlas_core::ProbeResult refused = fromMsg(malformed);
+  EXPECT_FALSE(refused.success);
+  EXPECT_TRUE(refused.contacts.empty());
+  EXPECT_NE(refused.reason.find("malformed observations"), std::string::npos) << refused.reason;
+}
+
+// The counts the loop records travel as the model counted them: free space is its own count, not
+// every point but the contacts (points behind contacts and slopes are neither).
+TEST(Conversions, TouchUpdateRoundTrip) {
+  gpatlas_core::TouchUpdate update;
+  update.ok = true;
+  update.message = "added";
+  update.contacts_added = 3;
+  update.free_points_added = 5;
+  update.points_added = 11;
+  update.contacts_refused.outside_workspace = 2;
+  update.free_space_refused.non_finite = 1;
+  update.budget_full = true;
+  const gpatlas_msgs::AddObservations::Response msg = toMsg(update);
+  EXPECT_EQ(msg.num_refused, 3u);
+  const gpatlas_core::TouchUpdate back = fromMsg(msg);
+  EXPECT_TRUE(back.ok);
+  EXPECT_EQ(back.message, "added");
+  EXPECT_EQ(back.contacts_added, 3);
+  EXPECT_EQ(back.free_points_added, 5);
+  EXPECT_EQ(back.points_added, 11);
+  EXPECT_TRUE(back.budget_full);
+}
+
+TEST(Conversions, ApproachAnswerGivesThePathsAndTheArmsJointPaths) {
+  gpatlas_msgs::PlanApproach::Response msg;
+  msg.success = true;
+  msg.message = "planned";
+  msg.planning_time_s = 0.25;
+  const std::vector<Eigen::Vector3d> there{{0.5, 0.0, 0.5}, {0.3, 0.0, 0.4}}, back{{0.3, 0.0, 0.4}, {0.5, 0.0, 0.5}};
+  for (const auto& p : there) msg.approach.push_back(toPointMsg(p));
+  for (const auto& p : back) msg.retreat.push_back(toPointMsg(p));
+  Eigen::VectorXd rest(2), above(2);
+  rest << 0.1, -0.2;
+  above << 0.4, 0.3;
+  const std::vector<std::string> names{"shoulder", "elbow"};
+  msg.approach_trajectory = toJointTrajectoryMsg({rest, above}, names, 0.5);
+  msg.retreat_trajectory = toJointTrajectoryMsg({above, rest}, names, 0.5);
+  gpatlas_core::ApproachResult result;
+  std::vector<std::string> joint_names;
+  std::string error;
+  ASSERT_TRUE(fromMsg(msg, &result, &joint_names, &error)) << error;
+  EXPECT_TRUE(result.ok);
+  EXPECT_EQ(result.message, "planned");
+  EXPECT_DOUBLE_EQ(result.planning_ms, 250.0);
+  EXPECT_EQ(result.approach_path, there);
+  EXPECT_EQ(result.retreat_path, back);
+  EXPECT_EQ(result.approach_joints, (std::vector<Eigen::VectorXd>{rest, above}));
+  EXPECT_EQ(result.retreat_joints, (std::vector<Eigen::VectorXd>{above, rest}));
+  EXPECT_EQ(joint_names, names);
+
+  msg.map_stale = true;
+  ASSERT_TRUE(fromMsg(msg, &result, &joint_names, &error)) << error;
+  EXPECT_NE(result.message.find("older model"), std::string::npos) << result.message;
+  msg.retreat_trajectory.points[0].positions.pop_back();
+  EXPECT_FALSE(fromMsg(msg, &result, &joint_names, &error));
+  // Without the arm: the probe's paths alone.
+  gpatlas_msgs::PlanApproach::Response probe_only;
+  probe_only.success = true;
+  for (const auto& p : there) probe_only.approach.push_back(toPointMsg(p));
+  joint_names.clear();
+  ASSERT_TRUE(fromMsg(probe_only, &result, &joint_names, &error)) << error;
+  EXPECT_TRUE(result.approach_joints.empty());
+  EXPECT_TRUE(joint_names.empty());
+}
+
+TEST(Conversions, MeshRoundTrip) {
+  gpatlas_core::TriangleMesh mesh;
+  mesh.vertices = {{0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {0.0, 1.0, 0.0}, {0.0, 0.0, 1.0}};
+  mesh.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  gpatlas_core::TriangleMesh back;
+  std::string error;
+  ASSERT_TRUE(fromMsg(toMsg(mesh), &back, &error)) << error;
+  EXPECT_EQ(back.vertices, mesh.vertices);
+  EXPECT_EQ(back.triangles, mesh.triangles);
+  shape_msgs::Mesh broken = toMsg(mesh);
+  broken.triangles[2].vertex_indices[1] = 4;
+  EXPECT_FALSE(fromMsg(broken, &back, &error));
+  EXPECT_NE(error.find("triangle 2"), std::string::npos) << error;
+}
+
 }  // namespace

@@ -25,7 +25,7 @@ using gpatlas_core::Vector3;
 class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
  public:
   explicit FarthestFromEvidenceStrategy(const gpatlas_core::StrategyConfig& config)
-      : sampler_config_(config.sampler), seed_(config.seed) {}
+      : sampler_config_(config.sampler), evidence_(config.evidence), seed_(config.seed) {}
 
   std::string name() const override { return "farthest_from_evidence"; }
 
@@ -54,7 +54,12 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
     std::vector<Vector3> measured;
     for (const auto& point : model.observations())
       if (gpatlas_core::isSurfaceValue(point)) measured.push_back(point.position);
-    const gpatlas_core::SurfaceEvidence evidence(model, request.evidence);
+    if (const std::string problem = gpatlas_core::validate(evidence_); !problem.empty()) {
+      result.status = PlanStatus::kError;
+      result.message = problem;
+      return result;
+    }
+    const gpatlas_core::SurfaceEvidence evidence(model, evidence_, request.evidence_state);
 
     double farthest = -1.0;
     std::size_t chosen = 0;
@@ -85,6 +90,7 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
   }
 
   gpatlas_core::SurfaceSampler::Config sampler_config_;
+  gpatlas_core::EvidenceRule evidence_;
   std::uint64_t seed_;
 };
 

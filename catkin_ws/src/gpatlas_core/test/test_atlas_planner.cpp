@@ -175,10 +175,10 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   }
   EXPECT_GT(highest.z() - lowest.z(), 1.5 * sphere.radius);
   // The strategies agree, and a converged plan carries no touch.
-  PlanRequest request;
-  request.evidence = config.evidence;
+  StrategyConfig strategy_config;
+  strategy_config.evidence = config.evidence;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
-    const PlanResult plan = makeStrategy(name)->plan(model, request);
+    const PlanResult plan = makeStrategy(name, strategy_config)->plan(model, PlanRequest());
     EXPECT_EQ(plan.status, PlanStatus::kConverged) << name << ": " << plan.message;
     EXPECT_TRUE(plan.touch.points.empty());
   }

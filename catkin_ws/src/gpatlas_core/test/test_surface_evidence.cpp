@@ -219,11 +219,66 @@ TEST(SurfaceEvidence, ASurprisingTouchSupportsLessAroundIt) {
   rule.surprise_distance_m = -1.0;
   EXPECT_FALSE(validate(rule).empty());
   rule.surprise_distance_m = 0.005;
-  rule.attempted_targets = attempted;
-  rule.attempted_target_errors_m = {0.01};
-  EXPECT_FALSE(validate(rule).empty());
-  rule.attempted_target_errors_m = attempted_errors;
   EXPECT_TRUE(validate(rule).empty());
+  EvidenceState state;
+  state.attempted_targets = attempted;
+  state.attempted_target_errors_m = {0.01};
+  EXPECT_FALSE(validate(state).empty());
+  state.attempted_target_errors_m = attempted_errors;
+  EXPECT_TRUE(validate(state).empty());
+}
+
+// The planner's own state and a request's: the targets one after the other, the errors one per
+// target (NaN for a side that gave none), the planner's table first. The bench's planner and
+// the ROS planner nodelet both plan through this merge.
+TEST(SurfaceEvidence, APlannersStateAndARequestsMergeTargetByTarget) {
+  const Vector3 a(0.1, 0.0, 0.0), b(0.2, 0.0, 0.0), c(0.3, 0.0, 0.0);
+  SupportPlane table;
+  table.offset = 0.05;
+  EvidenceState own;
+  own.support_plane = table;
+  own.attempted_targets = {a};
+  EvidenceState requested;
+  requested.attempted_targets = {b, c};
+  EvidenceState merged;
+  std::string error;
+  ASSERT_TRUE(mergeEvidenceState(own, requested, &merged, &error)) << error;
+  EXPECT_EQ(merged.attempted_targets, (std::vector<Vector3>{a, b, c}));
+  EXPECT_TRUE(merged.attempted_target_errors_m.empty());  // neither side gave errors
+  ASSERT_TRUE(merged.support_plane.has_value());
+  EXPECT_EQ(merged.support_plane->offset, 0.05);
+
+  // Errors on one side: NaN for the other's targets, in place.
+  requested.attempted_target_errors_m = {0.004, std::nan("")};
+  ASSERT_TRUE(mergeEvidenceState(own, requested, &merged, &error)) << error;
+  ASSERT_EQ(merged.attempted_target_errors_m.size(), 3u);
+  EXPECT_TRUE(std::isnan(merged.attempted_target_errors_m[0]));
+  EXPECT_EQ(merged.attempted_target_errors_m[1], 0.004);
+  EXPECT_TRUE(std::isnan(merged.attempted_target_errors_m[2]));
+  own.attempted_target_errors_m = {0.02};
+  requested.attempted_target_errors_m.clear();
+  ASSERT_TRUE(mergeEvidenceState(own, requested, &merged, &error)) << error;
+  ASSERT_EQ(merged.attempted_target_errors_m.size(), 3u);
+  EXPECT_EQ(merged.attempted_target_errors_m[0], 0.02);
+  EXPECT_TRUE(std::isnan(merged.attempted_target_errors_m[1]));
+
+  // A planner without a table takes the request's; with one, its own.
+  EvidenceState bare;
+  SupportPlane other;
+  other.offset = -0.3;
+  requested.support_plane = other;
+  ASSERT_TRUE(mergeEvidenceState(bare, requested, &merged, &error)) << error;
+  EXPECT_EQ(merged.support_plane->offset, -0.3);
+  ASSERT_TRUE(mergeEvidenceState(own, requested, &merged, &error)) << error;
+  EXPECT_EQ(merged.support_plane->offset, 0.05);
+
+  // Errors that do not match their targets, on either side: refused, with why.
+  requested.attempted_target_errors_m = {0.01};
+  EXPECT_FALSE(mergeEvidenceState(own, requested, &merged, &error));
+  EXPECT_NE(error.find("one value per attempted target"), std::string::npos) << error;
+  requested.attempted_target_errors_m.clear();
+  own.attempted_target_errors_m = {0.01, 0.02};
+  EXPECT_FALSE(mergeEvidenceState(own, requested, &merged, &error));
 }
 
 // A hole in the data that the variance does not flag (V_max is out of reach): the planners
@@ -325,14 +380,15 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
 TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);
+  StrategyConfig config;
+  config.evidence.max_distance = 0.3;
+  config.evidence.view_max_distance = 0.3;
   PlanRequest request;
   request.v_max = kHugeVMax;
-  request.evidence.max_distance = 0.3;
-  request.evidence.view_max_distance = 0.3;
   request.seed = 5;
   PlanRequest with_pad = request;
   with_pad.footprint_radius_m = 0.01;
-  const auto poke = makeStrategy("atlas_poke", StrategyConfig());
+  const auto poke = makeStrategy("atlas_poke", config);
   const PlanResult point = poke->plan(model, request), pad = poke->plan(model, with_pad);
   ASSERT_EQ(point.status, PlanStatus::kTouch) << point.message;
   ASSERT_EQ(pad.status, PlanStatus::kTouch) << pad.message;
@@ -340,7 +396,7 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   EXPECT_GT(bruteForceDistance(model, pad.touch.points.front()), bruteForceDistance(model, point.touch.points.front()));
   EXPECT_GT(pad.atlas->path.size(), point.atlas->path.size());
   // A slide's path runs on into the unknown by itself: the footprint changes nothing.
-  const auto slide = makeStrategy("atlas_slide", StrategyConfig());
+  const auto slide = makeStrategy("atlas_slide", config);
   const PlanResult slid = slide->plan(model, request), slid_with_pad = slide->plan(model, with_pad);
   ASSERT_EQ(slid.status, PlanStatus::kTouch) << slid.message;
   ASSERT_EQ(slid.touch.points.size(), slid_with_pad.touch.points.size());
@@ -348,27 +404,30 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
     EXPECT_EQ(slid.touch.points[k], slid_with_pad.touch.points[k]);
 }
 
-TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceFromTheRequest) {
+TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceOfItsRule) {
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);
   PlanRequest request;
   request.v_max = kHugeVMax;
   for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"}) {
-    request.evidence.max_distance = 0.0;
-    const PlanResult converged = makeStrategy(name)->plan(model, request);
+    StrategyConfig config;
+    config.evidence.max_distance = 0.0;
+    const PlanResult converged = makeStrategy(name, config)->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
 
-    request.evidence.max_distance = 0.3;
-    request.evidence.view_max_distance = 0.3;
-    const PlanResult touch = makeStrategy(name)->plan(model, request);
+    config.evidence.max_distance = 0.3;
+    config.evidence.view_max_distance = 0.3;
+    const PlanResult touch = makeStrategy(name, config)->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     ASSERT_FALSE(touch.touch.points.empty());
     // The poke (or the slide's end) lies in the hole; random pokes anywhere.
     if (name != "random")
       EXPECT_GT(bruteForceDistance(model, touch.touch.points.back()), 0.3 * model.scale()) << name;
   }
-  request.evidence.max_distance = -1.0;
-  EXPECT_EQ(makeStrategy("max_variance")->plan(model, request).status, PlanStatus::kError);
+  StrategyConfig invalid;
+  invalid.evidence.max_distance = -1.0;
+  for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"})
+    EXPECT_EQ(makeStrategy(name, invalid)->plan(model, request).status, PlanStatus::kError) << name;
 }
 
 // Touches whose approach is blocked: every poke lands on the (measured) bottom of the sphere,
@@ -390,23 +449,23 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
       return result;
     }
   };
-  const auto strategy = makeStrategy("atlas_poke");
+  StrategyConfig strategy_config;
+  strategy_config.evidence.max_distance = 0.3;
+  strategy_config.evidence.view_max_distance = 0.3;
+  // The prober's contacts lie beyond the targets: a surprise the rule would answer with more
+  // touches (ATouchThatWentThroughTheTargetSupportsLess); this test is about the aim alone.
+  strategy_config.evidence.surprise_distance_m = 0.0;
+  const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
   config.v_max = kHugeVMax;
   config.max_actions = 40;
-  EvidenceRule evidence;
-  evidence.max_distance = 0.3;
-  evidence.view_max_distance = 0.3;
-  // The prober's contacts lie beyond the targets: a surprise the rule would answer with more
-  // touches (ATouchThatWentThroughTheTargetSupportsLess); this test is about the aim alone.
-  evidence.surprise_distance_m = 0.0;
   // The loop passes where earlier touches aimed; a planner that drops them shows what they buy.
   struct ForgetfulPlanner : TouchPlanner {
     ModelTouchPlanner* inner{nullptr};
     PlanResult plan(const PlanRequest& request) override {
       PlanRequest forgetful = request;
-      forgetful.evidence.attempted_targets.clear();
-      forgetful.evidence.attempted_target_errors_m.clear();
+      forgetful.evidence_state.attempted_targets.clear();
+      forgetful.evidence_state.attempted_target_errors_m.clear();
       return inner->plan(forgetful);
     }
     std::size_t modelSize() const override { return inner->modelSize(); }
@@ -417,7 +476,7 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
     BlockedProber prober;
     prober.centre = sphere.centre;
     prober.radius = sphere.radius;
-    ModelTouchPlanner planner(model, *strategy, evidence);
+    ModelTouchPlanner planner(model, *strategy, EvidenceState());
     ForgetfulPlanner forgetful;
     forgetful.inner = &planner;
     ModelTouchUpdater updater(model, TouchObservationConfig());
@@ -468,21 +527,22 @@ TEST(SurfaceEvidence, TheTableIsEvidenceForTheUnderside) {
   // Only 1 cm of approach: it starts above the table.
   EXPECT_TRUE(SurfaceEvidence(model, max_distance_m, table, 0.01).isUnsupported(side_point, -Vector3::UnitZ()));
 
+  StrategyConfig config;
+  config.evidence.max_distance = 0.3;
+  config.evidence.view_max_distance = 0.3;
   PlanRequest request;
   request.v_max = kHugeVMax;
-  request.evidence.max_distance = 0.3;
-  request.evidence.view_max_distance = 0.3;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
-    request.evidence.support_plane.reset();
-    const PlanResult touch = makeStrategy(name)->plan(model, request);
+    request.evidence_state.support_plane.reset();
+    const PlanResult touch = makeStrategy(name, config)->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     EXPECT_LT((touch.touch.points.back() - sphere.centre).normalized().z(), -0.6) << name;
-    request.evidence.support_plane = table;
-    const PlanResult converged = makeStrategy(name)->plan(model, request);
+    request.evidence_state.support_plane = table;
+    const PlanResult converged = makeStrategy(name, config)->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
   }
-  request.evidence.approach_distance_m = std::nan("");
-  EXPECT_EQ(makeStrategy("atlas_poke")->plan(model, request).status, PlanStatus::kError);
+  config.evidence.approach_distance_m = std::nan("");
+  EXPECT_EQ(makeStrategy("atlas_poke", config)->plan(model, request).status, PlanStatus::kError);
 }
 
 }  // namespace

@@ -61,16 +61,15 @@ ExplorationResult explore(const std::string& strategy_name, std::uint64_t seed, 
   AnalyticSphereProber prober(sphere);
   StrategyConfig strategy_config;
   strategy_config.seed = seed;
+  // The paper's loop: V_max alone decides (no evidence distance), so that every touch is planned
+  // above V_max.
+  strategy_config.evidence.max_distance = 0.0;
   const auto strategy = makeStrategy(strategy_name, strategy_config);
   Explorer::Config config;
   config.v_max = 0.1;
   config.max_actions = 60;
   config.seed = seed;
-  // The paper's loop: V_max alone decides (no evidence distance), so that every touch is planned
-  // above V_max.
-  EvidenceRule variance_alone;
-  variance_alone.max_distance = 0.0;
-  return Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), variance_alone, progress);
+  return Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), EvidenceState(), progress);
 }
 
 TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
@@ -493,16 +492,17 @@ TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
     AnalyticSphereProber prober(sphere);
     StrategyConfig strategy_config;
     strategy_config.seed = 3;
+    strategy_config.evidence = sparseViewEvidence();
+    // The rule under test is the retouch radius. With the surprise rule a slide's extension past
+    // its target (the touch's last point checked below) can run back over the view.
+    strategy_config.evidence.surprise_distance_m = 0.0;
+    const EvidenceRule& evidence = strategy_config.evidence;
     const auto strategy = makeStrategy(strategy_name, strategy_config);
     Explorer::Config config;
     config.v_max = 1e-4;
     config.max_actions = 10;
     config.seed = 3;
-    EvidenceRule evidence = sparseViewEvidence();
-    // The rule under test is the retouch radius. With the surprise rule a slide's extension past
-    // its target (the touch's last point checked below) can run back over the view.
-    evidence.surprise_distance_m = 0.0;
-    const ExplorationResult result = Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), evidence);
+    const ExplorationResult result = Explorer(config).run(model, *strategy, prober, TouchObservationConfig());
     EXPECT_EQ(result.stop_reason, "max_actions") << strategy_name;
     ASSERT_EQ(result.records.size(), 10u) << strategy_name;
     for (std::size_t a = 0; a < result.records.size(); ++a) {
@@ -516,7 +516,6 @@ TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
     }
     PlanRequest request;
     request.v_max = config.v_max;
-    request.evidence = evidence;
     EXPECT_NE(strategy->plan(model, request).message.find("more than ten times"), std::string::npos) << strategy_name;
   }
 }
@@ -625,7 +624,7 @@ TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration
   Explorer::Config loop;
   loop.max_actions = 10;
   loop.v_max = 0.001;  // below the noise: a touch is always planned
-  const ExplorationResult result = Explorer(loop).run(model, *strategy, prober, config, EvidenceRule());
+  const ExplorationResult result = Explorer(loop).run(model, *strategy, prober, config);
   EXPECT_EQ(result.stop_reason, "observation_budget_full");
   EXPECT_EQ(result.records.size(), 1u);
   EXPECT_EQ(model.observations().size(), held);
@@ -707,7 +706,7 @@ class PadProber : public Prober {
 // atlas_poke, with every request it was given.
 class RequestRecorder : public ExplorationStrategy {
  public:
-  RequestRecorder() : inner_(makeStrategy("atlas_poke", StrategyConfig())) {}
+  explicit RequestRecorder(const StrategyConfig& config) : inner_(makeStrategy("atlas_poke", config)) {}
   std::string name() const override { return inner_->name(); }
   PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override {
     requests.push_back(request);
@@ -727,12 +726,13 @@ TEST(Explorer, ThePadsFootprintReachesThePlanAfterThePadReportsIt) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 3);
   PadProber prober(sphere);
-  RequestRecorder strategy;
+  StrategyConfig strategy_config;
+  strategy_config.evidence = sparseViewEvidence();
+  RequestRecorder strategy(strategy_config);
   Explorer::Config config;
   config.max_actions = 4;
   config.seed = 3;
-  const ExplorationResult result =
-      Explorer(config).run(model, strategy, prober, TouchObservationConfig(), sparseViewEvidence());
+  const ExplorationResult result = Explorer(config).run(model, strategy, prober, TouchObservationConfig());
   ASSERT_GE(strategy.requests.size(), 3u) << result.stop_reason;
   EXPECT_EQ(strategy.requests[0].footprint_radius_m, 0.0);
   EXPECT_EQ(strategy.requests[1].footprint_radius_m, 0.0);  // the first touch reported no pad
@@ -754,16 +754,16 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   RecordingProber prober(sphere);
   StrategyConfig strategy_config;
   strategy_config.seed = 2;
+  // Without the surprise rule the atlas reaches under the sphere within these actions; with it,
+  // it first goes back to where the touches surprised it.
+  strategy_config.evidence.surprise_distance_m = 0.0;
+  const EvidenceRule& evidence = strategy_config.evidence;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
   config.max_actions = 25;
   config.seed = 2;
-  EvidenceRule evidence;
-  // Without the surprise rule the atlas reaches under the sphere within these actions; with it,
-  // it first goes back to where the touches surprised it.
-  evidence.surprise_distance_m = 0.0;
   const ExplorationResult result =
-      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), evidence, {}, &approacher);
+      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), {}, {}, &approacher);
   ASSERT_FALSE(prober.executed.empty()) << result.stop_reason;
   ASSERT_FALSE(approacher.refused.empty()) << "the strategy never aimed under the sphere";
   int refusals = 0, updates = 0;
@@ -806,12 +806,13 @@ TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   RecordingProber prober(sphere);
   StrategyConfig strategy_config;
   strategy_config.seed = 2;
+  strategy_config.evidence = sparseViewEvidence();
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
   config.max_actions = 40;
   config.seed = 2;
   const ExplorationResult result =
-      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), sparseViewEvidence(), {}, &approacher);
+      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), {}, {}, &approacher);
   ASSERT_TRUE(result.converged) << result.stop_reason;
   EXPECT_GT(result.final_unreachable_candidates, 0);
   EXPECT_GE(result.unreachable_candidates, result.final_unreachable_candidates);

@@ -77,17 +77,6 @@ visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, do
   return m;
 }
 
-shape_msgs::Mesh toShapeMsg(const gpatlas_core::TriangleMesh& mesh) {
-  shape_msgs::Mesh out;
-  for (const auto& v : mesh.vertices) out.vertices.push_back(toPointMsg(v));
-  for (const auto& t : mesh.triangles) {
-    shape_msgs::MeshTriangle tri;
-    for (int k = 0; k < 3; ++k) tri.vertex_indices[static_cast<std::size_t>(k)] = static_cast<uint32_t>(t[k]);
-    out.triangles.push_back(tri);
-  }
-  return out;
-}
-
 visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, const std::vector<int>& path,
                                              double v_max, const std::string& frame) {
   visualization_msgs::MarkerArray array;

@@ -13,7 +13,7 @@ void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
   readViewTraining(r, &c->view);
   c->use_support_plane = readUseSupportPlane(r);
   readTouchObservations(r, &c->touch);
-  readEvidence(r, &c->evidence);
+  readEvidence(r, &c->strategy.evidence);
   readExplorer(r, &c->exploration);
   readStrategyChoice(r, &c->strategy_choice);
   readStrategy(r, &c->strategy);

@@ -316,8 +316,8 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   if (!prober) return failedRun(r, why);
   gpatlas_core::Explorer::Config loop = pipeline.exploration;
   loop.seed = static_cast<std::uint64_t>(seed);
-  gpatlas_core::EvidenceRule evidence = pipeline.evidence;
-  evidence.support_plane = view.support;
+  gpatlas_core::EvidenceState known;  // the planner's own: the table
+  known.support_plane = view.support;
 
   gpatlas_core::ExplorationRecord initial;
   initial.index = -1;
@@ -326,7 +326,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
   if (!makeApproacher(*model, view.support, o, &approacher, &why)) return failedRun(r, why);
   gpatlas_core::ExplorationResult result =
-      gpatlas_core::Explorer(loop).run(*model, *strategy, *prober, pipeline.touch, evidence,
+      gpatlas_core::Explorer(loop).run(*model, *strategy, *prober, pipeline.touch, known,
                                        progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());
 
   recordLoop(result, *model, r);

@@ -352,17 +352,13 @@ bool SimulationServer::onProbe(gpatlas_msgs::Probe::Request& request,
       result = prober_->probe(touch);
       arm_solutions = prober_->lastArmSolutions();
     }
-    response.success = result.success;
-    response.reason = result.reason;
-    response.approach_collisions = result.approach_collisions;
-    response.retreat_collisions = result.retreat_collisions;
+    response = gpatlas_conversions::toProbeResponseMsg(result);
+    response.observations.header.frame_id = settings_.world_frame;
+    response.observations.header.stamp = ros::Time::now();
     if (result.approach_collisions + result.retreat_collisions > 0)
       ROS_WARN_STREAM("probe_sim: the probe hit the scene " << result.approach_collisions << " time(s) on the way to the touch and "
                       << result.retreat_collisions << " on the way back"
                       << (touch.approach_path.empty() ? " (no planned approach: a straight motion from the rest)" : ""));
-    response.observations = gpatlas_conversions::toMsg(result);
-    response.observations.header.frame_id = settings_.world_frame;
-    response.observations.header.stamp = ros::Time::now();
     if (!arm_solutions.empty()) animateArm(arm_solutions);
     patch_publisher_.publish(padMarkers(result, response.observations));
     ROS_DEBUG_STREAM("probe_sim: touch with " << touch.points.size() << " waypoint(s): "
@@ -386,14 +382,7 @@ bool SimulationServer::onGroundTruth(gpatlas_msgs::GetMesh::Request& /*request*/
   const TriangleMesh& mesh = scene_->objectMesh();
   response.header.frame_id = settings_.world_frame;
   response.header.stamp = ros::Time::now();
-  response.mesh.vertices.reserve(mesh.vertices.size());
-  for (const auto& v : mesh.vertices) response.mesh.vertices.push_back(gpatlas_conversions::toPointMsg(v));
-  response.mesh.triangles.reserve(mesh.triangles.size());
-  for (const Eigen::Vector3i& t : mesh.triangles) {
-    shape_msgs::MeshTriangle triangle;
-    for (int k = 0; k < 3; ++k) triangle.vertex_indices[static_cast<std::size_t>(k)] = static_cast<uint32_t>(t[k]);
-    response.mesh.triangles.push_back(triangle);
-  }
+  response.mesh = gpatlas_conversions::toMsg(mesh);
   response.success = true;
   response.message = std::to_string(mesh.triangles.size()) + " triangles in " + settings_.world_frame;
   return true;

@@ -5,18 +5,28 @@
 // Its own package (so that probe_sim_ros and other nodes can use it without the pipeline's
 // nodelets).
 
+#include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_core/model/surface_model_factory.h>
+#include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_core/exploration/prober.h>
+#include <gpatlas_core/planning/atlas.h>
+#include <gpatlas_core/planning/exploration_strategy.h>
 #include <gpatlas_core/common/types.h>
 #include <gpatlas_core/observations/support_plane.h>
 
 #include <geometry_msgs/Point.h>
 #include <geometry_msgs/Vector3.h>
+#include <gpatlas_msgs/AddObservations.h>
+#include <gpatlas_msgs/Atlas.h>
+#include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/Observations.h>
+#include <gpatlas_msgs/PlanApproach.h>
+#include <gpatlas_msgs/Probe.h>
 #include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/Touch.h>
 #include <gpatlas_msgs/TrainingSet.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <shape_msgs/Mesh.h>
 #include <trajectory_msgs/JointTrajectory.h>
 
 #include <Eigen/Geometry>
@@ -63,6 +73,44 @@ bool fromJointTrajectoryMsg(const trajectory_msgs::JointTrajectory& msg, const s
 gpatlas_msgs::Observations toMsg(const gpatlas_core::ProbeResult& result);
 // Contacts (with normals when given) and free-space points; success/reason are not part of it.
 bool fromMsg(const gpatlas_msgs::Observations& msg, gpatlas_core::ProbeResult* result, std::string* error);
+
+// The probe service's answer (Probe): the touch's outcome and its observations, whose header is
+// the caller's. Malformed observations give a failed probe that says why.
+gpatlas_msgs::Probe::Response toProbeResponseMsg(const gpatlas_core::ProbeResult& result);
+gpatlas_core::ProbeResult fromMsg(const gpatlas_msgs::Probe::Response& msg);
+
+// The model's answer to a touch (AddObservations): what it accepted and refused. The batch id
+// is the caller's; the message says why a touch was refused.
+gpatlas_msgs::AddObservations::Response toMsg(const gpatlas_core::TouchUpdate& update);
+gpatlas_core::TouchUpdate fromMsg(const gpatlas_msgs::AddObservations::Response& msg);
+
+// plan_approach's answer (PlanApproach) as the loop's ApproachResult: the probe's way there and
+// back and, planned for the arm, its joint paths in the order of the trajectory's joint names
+// (*joint_names, which the probe's touch then names them by). A map that was not the newest
+// model's is said in the message. False, with why, on a malformed joint trajectory.
+bool fromMsg(const gpatlas_msgs::PlanApproach::Response& msg, gpatlas_core::ApproachResult* result,
+             std::vector<std::string>* joint_names, std::string* error);
+
+// A triangle mesh (the ground truth, the predicted surface). fromMsg fails on a triangle that
+// indexes no vertex.
+shape_msgs::Mesh toMsg(const gpatlas_core::TriangleMesh& mesh);
+bool fromMsg(const shape_msgs::Mesh& msg, gpatlas_core::TriangleMesh* mesh, std::string* error);
+
+// The next_touch service (GetNextTouch): a plan request and the planner's answer. The request's
+// strategy, model_stamp and reachable_only are the caller's to fill; the plan request's
+// reachable test and support plane do not travel (the planner nodelet has its own). v_max 0
+// in a message means the nodelet's own, which the caller puts in.
+gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& request);
+gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg);
+// The touch's header is the caller's; the atlas travels on its own topic.
+gpatlas_msgs::GetNextTouch::Response toMsg(const gpatlas_core::PlanResult& result);
+// NO_MODEL, STALE_MODEL, ERROR and an unknown status are kError, and so is a TOUCH whose touch
+// is malformed (the message says why).
+gpatlas_core::PlanResult fromMsg(const gpatlas_msgs::GetNextTouch::Response& msg);
+
+// The grown atlas as data (the planner's `~atlas_charts`): its charts and the path to the touch
+// (chart indices, root first); the header is the caller's.
+gpatlas_msgs::Atlas toMsg(const gpatlas_core::Atlas& atlas, const std::vector<int>& path);
 
 // The model's state: name, hyperparameters, frame and observations (not the pseudo-points,
 // which the model adds).

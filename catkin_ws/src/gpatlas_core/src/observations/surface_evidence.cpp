@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <utility>
 
 namespace gpatlas_core {
 
@@ -48,9 +50,9 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
   }
 }
 
-SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule)
-    : SurfaceEvidence(model, rule.max_distance * model.scale(), rule.support_plane, rule.approach_distance_m,
-                      rule.attempted_targets, rule.view_max_distance * model.scale(), rule.attempted_target_errors_m,
+SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule, const EvidenceState& state)
+    : SurfaceEvidence(model, rule.max_distance * model.scale(), state.support_plane, rule.approach_distance_m,
+                      state.attempted_targets, rule.view_max_distance * model.scale(), state.attempted_target_errors_m,
                       rule.surprise_distance_m, rule.min_surprise_fraction) {}
 
 double SurfaceEvidence::surpriseFraction(double error_m) const {
@@ -96,9 +98,35 @@ std::string validate(const EvidenceRule& rule) {
     return "surprise_distance_m must be finite and >= 0";
   if (!(rule.min_surprise_fraction > 0.0 && rule.min_surprise_fraction <= 1.0))
     return "min_surprise_fraction must be in (0, 1]";
-  if (!rule.attempted_target_errors_m.empty() && rule.attempted_target_errors_m.size() != rule.attempted_targets.size())
+  return "";
+}
+
+std::string validate(const EvidenceState& state) {
+  if (!state.attempted_target_errors_m.empty() && state.attempted_target_errors_m.size() != state.attempted_targets.size())
     return "attempted_target_errors_m must be empty or hold one value per attempted target";
   return "";
+}
+
+bool mergeEvidenceState(const EvidenceState& own, const EvidenceState& requested, EvidenceState* merged,
+                        std::string* error) {
+  for (const EvidenceState* side : {&own, &requested})
+    if (std::string problem = validate(*side); !problem.empty()) {
+      *error = problem;
+      return false;
+    }
+  EvidenceState result = own;
+  if (!result.support_plane) result.support_plane = requested.support_plane;
+  std::vector<double>& errors = result.attempted_target_errors_m;
+  if (!errors.empty() || !requested.attempted_target_errors_m.empty()) {
+    const double unknown = std::numeric_limits<double>::quiet_NaN();
+    errors.resize(own.attempted_targets.size(), unknown);
+    errors.insert(errors.end(), requested.attempted_target_errors_m.begin(), requested.attempted_target_errors_m.end());
+    errors.resize(own.attempted_targets.size() + requested.attempted_targets.size(), unknown);
+  }
+  result.attempted_targets.insert(result.attempted_targets.end(), requested.attempted_targets.begin(),
+                                  requested.attempted_targets.end());
+  *merged = std::move(result);
+  return true;
 }
 
 bool SurfaceEvidence::isUnsupported(const Vector3& x, const Vector3& normal) const {

@@ -33,6 +33,7 @@ std::string validate(const AtlasPlanner::Config& config) {
   if (!(config.projection.f_tolerance > 0.0) || config.projection.max_iterations < 1 ||
       !(config.projection.max_step_fraction > 0.0))
     problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
+  if (const std::string evidence = validate(config.evidence); !evidence.empty()) problem << "evidence: " << evidence << "; ";
   return problem.str();
 }
 
@@ -307,7 +308,8 @@ class AtlasGrowth {
 }  // namespace
 
 AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, const std::optional<Vector3>& start,
-                                   const Progress& progress, const TouchFilter& reachable) const {
+                                   const Progress& progress, const TouchFilter& reachable,
+                                   const EvidenceState& evidence_state) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
   const auto finish = [&](PlanStatus status, std::string message) {
@@ -323,7 +325,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   std::string error;
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
-  const SurfaceEvidence evidence(model, config_.evidence);
+  const SurfaceEvidence evidence(model, config_.evidence, evidence_state);
   AtlasGrowth growth(model, v_max, config_, evidence, progress, reachable, rng, started, result);
   ChartCreation root = growth.makeChart(root_point, -1);
   if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);

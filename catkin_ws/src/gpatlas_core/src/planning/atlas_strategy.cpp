@@ -11,9 +11,9 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
-  config.evidence = request.evidence;
   if (mode_ == Mode::kPoke) config.aim_past_m = request.footprint_radius_m;
-  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start, {}, request.reachable);
+  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start, {}, request.reachable,
+                                                              request.evidence_state);
 
   PlanResult result;
   result.status = planned.status;

@@ -12,7 +12,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 // A sampled surface and, per point, whether it needs a touch: variance above V_max or no
-// measured surface point within the request's evidence distance, and no measurement or earlier
+// measured surface point within the rule's evidence distance, and no measurement or earlier
 // touch's target right there (EvidenceRule::retouch_radius_m): a touch would find what was found.
 struct NeedySample {
   SurfaceSample sample;
@@ -31,8 +31,15 @@ struct NeedySample {
 // Samples the surface and handles the shared outcomes: errors and the convergence rule.
 // Returns nullopt when a touch must be chosen from `needy`.
 std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRequest& request,
-                                         SurfaceSampler::Config config, std::uint64_t seed, NeedySample* needy) {
+                                         SurfaceSampler::Config config, const EvidenceRule& rule, std::uint64_t seed,
+                                         NeedySample* needy) {
   if (auto error = checkPlanInput(model, request)) return error;
+  if (std::string problem = validate(rule); !problem.empty()) {
+    PlanResult error;
+    error.status = PlanStatus::kError;
+    error.message = problem;
+    return error;
+  }
   config.seed = seed;
   needy->sample = SurfaceSampler(config).sample(model);
   PlanResult result;
@@ -41,12 +48,12 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
     result.message = "surface sampling failed: " + needy->sample.message;
     return result;
   }
-  const SurfaceEvidence evidence(model, request.evidence);
+  const SurfaceEvidence evidence(model, rule, request.evidence_state);
   needy->unsupported.clear();
   needy->retouched.clear();
   for (std::size_t i = 0; i < needy->sample.points.size(); ++i) {
     needy->unsupported.push_back(evidence.isUnsupported(needy->sample.points[i], needy->sample.normals[i]));
-    needy->retouched.push_back(evidence.measuredNear(needy->sample.points[i], request.evidence.retouch_radius_m));
+    needy->retouched.push_back(evidence.measuredNear(needy->sample.points[i], rule.retouch_radius_m));
   }
   result.max_evaluated_variance = needy->sample.maxVariance();
   if (!needy->anyNeedsTouch(request.v_max)) {
@@ -80,7 +87,7 @@ double secondsSince(Clock::time_point start) { return std::chrono::duration<doub
 // The baselines share everything but the choice of the sampled point they poke.
 template <typename Pick>
 PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
-                        std::uint64_t seed, const std::string& name, Pick pick) {
+                        const EvidenceRule& rule, std::uint64_t seed, const std::string& name, Pick pick) {
   const Clock::time_point started = Clock::now();
   NeedySample needy;
   const auto noted = [&](PlanResult result) {
@@ -89,28 +96,28 @@ PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, c
     result.elapsed_s = secondsSince(started);
     return result;
   };
-  if (auto finished = sampleOrFinish(model, request, config, seed, &needy)) return noted(*finished);
+  if (auto finished = sampleOrFinish(model, request, config, rule, seed, &needy)) return noted(*finished);
   return noted(pokeAt(needy.sample, pick(needy, request, seed), name));
 }
 
 }  // namespace
 
-RandomStrategy::RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed)
-    : config_(std::move(config)), seed_(seed) {}
+RandomStrategy::RandomStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed)
+    : config_(std::move(config)), evidence_(std::move(evidence)), seed_(seed) {}
 
 PlanResult RandomStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
-  return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+  return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [](const NeedySample& needy, const PlanRequest&, std::uint64_t seed) {
                         std::mt19937_64 rng(mixSeeds(seed, 1));
                         return std::uniform_int_distribution<std::size_t>(0, needy.sample.points.size() - 1)(rng);
                       });
 }
 
-MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed)
-    : config_(std::move(config)), seed_(seed) {}
+MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed)
+    : config_(std::move(config)), evidence_(std::move(evidence)), seed_(seed) {}
 
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
-  return planOnSample(model, request, config_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+  return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
                         // The largest variance among the points that need a touch (one does).
                         const std::vector<double>& variances = needy.sample.variances;

@@ -34,7 +34,7 @@ std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRe
     error.message = "V_max must be a positive finite number";
     return error;
   }
-  if (std::string problem = validate(request.evidence); !problem.empty()) {
+  if (std::string problem = validate(request.evidence_state); !problem.empty()) {
     error.message = problem;
     return error;
   }

@@ -19,14 +19,19 @@ struct Registry {
     factories["atlas_poke"] = [](const StrategyConfig& c) {
       AtlasPlanner::Config atlas = c.atlas;
       atlas.extend_path_charts = 0;
+      atlas.evidence = c.evidence;
       return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kPoke, atlas, c.seed);
     };
     factories["atlas_slide"] = [](const StrategyConfig& c) {
-      return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kSlide, c.atlas, c.seed);
+      AtlasPlanner::Config atlas = c.atlas;
+      atlas.evidence = c.evidence;
+      return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kSlide, atlas, c.seed);
     };
-    factories["random"] = [](const StrategyConfig& c) { return std::make_unique<RandomStrategy>(c.sampler, c.seed); };
+    factories["random"] = [](const StrategyConfig& c) {
+      return std::make_unique<RandomStrategy>(c.sampler, c.evidence, c.seed);
+    };
     factories["max_variance"] = [](const StrategyConfig& c) {
-      return std::make_unique<MaxVarianceStrategy>(c.sampler, c.seed);
+      return std::make_unique<MaxVarianceStrategy>(c.sampler, c.evidence, c.seed);
     };
   }
 };

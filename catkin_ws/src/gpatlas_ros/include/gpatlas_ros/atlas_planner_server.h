@@ -13,7 +13,6 @@
 #include <gpatlas_ros/world_frame.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
-#include <std_msgs/Header.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
@@ -37,26 +36,27 @@ class AtlasPlannerServer {
  private:
   void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
   bool onNextTouch(gpatlas_msgs::GetNextTouch::Request& req, gpatlas_msgs::GetNextTouch::Response& res);
-  // onNextTouch's steps. True when there is no model, or not the one asked for: `res` says why.
-  bool refuseForModel(const gpatlas_msgs::GetNextTouch::Request& req, gpatlas_msgs::GetNextTouch::Response& res) const;
-  // reachable_only: the approach planner's cheap test on the collision map of this model, as
-  // request->reachable (using *approach_check), or a note that every candidate is taken. False
-  // when the map is not built yet or there is no arm: `res` says why.
-  bool addReachabilityTest(gpatlas_core::PlanRequest* request,
-                           std::unique_ptr<gpatlas_motion::TouchMotionPlanner>* approach_check,
-                           std::string* note, gpatlas_msgs::GetNextTouch::Response& res);
-  // The grown atlas on `~atlas` (markers) and `~atlas_charts`.
-  void publishAtlas(const gpatlas_core::PlanResult& plan, double v_max, const std_msgs::Header& header);
+  // The answers without a plan: no model, a model older than asked for, an invalid V_max.
+  bool answeredWithoutAPlan(const gpatlas_msgs::GetNextTouch::Request& req,
+                            gpatlas_msgs::GetNextTouch::Response& res) const;
+  // reachable_only: the approach planner's cheap test on the collision map of this model, in
+  // request->reachable (it calls *approach_check), or a note that every candidate is taken.
+  // False when the answer is given instead (the map is not built yet, there is no arm).
+  bool addReachability(gpatlas_core::PlanRequest* request,
+                       std::unique_ptr<gpatlas_motion::TouchMotionPlanner>* approach_check, std::string* note,
+                       gpatlas_msgs::GetNextTouch::Response& res);
+  // The strategy's plan, or an error plan for a strategy that throws or returns a malformed touch.
+  gpatlas_core::PlanResult planWith(const gpatlas_core::ExplorationStrategy& chosen, const std::string& name,
+                                    const gpatlas_core::PlanRequest& request) const;
+  void publishAtlas(const gpatlas_core::AtlasPlanResult& planned, double v_max, const std_msgs::Header& header);
   const gpatlas_core::ExplorationStrategy* strategy(const std::string& name, std::string* error);
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
   std::string default_strategy_;
   double default_v_max_{0.1};
-  // The evidence test of every plan (its support plane from `support_plane`).
-  gpatlas_core::EvidenceRule evidence_;
   gpatlas_core::SurfaceModelConfig model_config_;
-  gpatlas_core::StrategyConfig strategy_config_;
+  gpatlas_core::StrategyConfig strategy_config_;  // with the evidence rule of every plan
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   double tf_timeout_s_{0.5};
   tf2_ros::Buffer tf_buffer_;

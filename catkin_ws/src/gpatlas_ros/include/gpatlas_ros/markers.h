@@ -6,7 +6,6 @@
 #include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_motion/arm.h>
 
-#include <shape_msgs/Mesh.h>
 #include <visualization_msgs/Marker.h>
 #include <visualization_msgs/MarkerArray.h>
 
@@ -17,7 +16,6 @@ namespace gpatlas_ros {
 
 // Triangle list with per-vertex colours from the vertex variances (blue low, red >= v_max).
 visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame);
-shape_msgs::Mesh toShapeMsg(const gpatlas_core::TriangleMesh& mesh);
 // The probe's planned approach: its tip's path as a green line.
 visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector3>& tip_path, const std::string& frame);
 // The arm along a planned joint path: its links' axes at configurations sampled along it (one

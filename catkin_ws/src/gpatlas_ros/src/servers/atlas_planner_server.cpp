@@ -28,7 +28,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   default_strategy_ = preamble.strategy_choice.name;
   model_config_ = preamble.model;
   default_v_max_ = readVMax(reader);
-  readEvidence(reader, &evidence_);
+  readEvidence(reader, &strategy_config_.evidence);
   readStrategy(reader, &strategy_config_);
   readApproach(reader, &approach_config_);
   approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
@@ -102,35 +102,49 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
   }
 }
 
-namespace {
-
-// The strategy's plan; an exception or a touch without matching points and normals becomes an
-// error plan (a strategy from a library of the user's own, strategy_libraries, may throw: an
-// answer, not an exception out of the service callback).
-gpatlas_core::PlanResult planSafely(const gpatlas_core::ExplorationStrategy& strategy, const std::string& name,
-                                    const gpatlas_core::SurfaceModel& model, const gpatlas_core::PlanRequest& request) {
-  gpatlas_core::PlanResult plan;
-  try {
-    plan = strategy.plan(model, request);
-  } catch (const std::exception& e) {
-    plan.status = gpatlas_core::PlanStatus::kError;
-    plan.message = "strategy '" + name + "' failed: " + e.what();
-  } catch (...) {
-    plan.status = gpatlas_core::PlanStatus::kError;
-    plan.message = "strategy '" + name + "' failed with an exception that is not a std::exception";
+bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
+                                     gpatlas_msgs::GetNextTouch::Response& res) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const ros::WallTime start = ros::WallTime::now();
+  std_msgs::Header header;
+  header.frame_id = world_frame_;
+  header.stamp = ros::Time::now();
+  res.touch.header = header;
+  if (answeredWithoutAPlan(req, res)) return true;
+  const std::string name = req.strategy.empty() ? default_strategy_ : req.strategy;
+  std::string error;
+  const gpatlas_core::ExplorationStrategy* chosen = strategy(name, &error);
+  const gpatlas_core::PlanRequest asked = fromMsg(req);
+  gpatlas_core::PlanRequest request = asked;
+  request.v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
+  // What the loop asks, merged as the bench's planner merges it, with the table this nodelet knows.
+  gpatlas_core::EvidenceState own;
+  own.support_plane = support_plane_;
+  if (!chosen || !gpatlas_core::mergeEvidenceState(own, asked.evidence_state, &request.evidence_state, &error)) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+    res.message = error;
+    return true;
   }
-  if (plan.status == gpatlas_core::PlanStatus::kTouch &&
-      (plan.touch.points.empty() || plan.touch.points.size() != plan.touch.normals.size())) {
-    plan.status = gpatlas_core::PlanStatus::kError;
-    plan.message = "strategy '" + name + "' returned a touch without matching points and normals";
-  }
-  return plan;
+  std::unique_ptr<gpatlas_motion::TouchMotionPlanner> approach_check;
+  std::string reachability_note;
+  if (req.reachable_only && !addReachability(&request, &approach_check, &reachability_note, res)) return true;
+  // The exploration loop numbers its plans; a call by hand gets the planner's own count.
+  ++plan_count_;
+  request.seed = req.seed != 0 ? req.seed : plan_count_;
+  const gpatlas_core::PlanResult plan = planWith(*chosen, name, request);
+  res = toMsg(plan);
+  res.touch.header = header;
+  res.plan_time_s = (ros::WallTime::now() - start).toSec();
+  res.message += reachability_note;
+  if (plan.status == gpatlas_core::PlanStatus::kTouch) touch_pub_.publish(res.touch);
+  if (plan.atlas) publishAtlas(*plan.atlas, request.v_max, header);
+  ROS_INFO_STREAM("atlas_planner: " << name << " -> " << gpatlas_core::toString(plan.status) << " in "
+                                    << res.plan_time_s * 1000.0 << " ms (" << plan.message << ")");
+  return true;
 }
 
-}  // namespace
-
-bool AtlasPlannerServer::refuseForModel(const gpatlas_msgs::GetNextTouch::Request& req,
-                                        gpatlas_msgs::GetNextTouch::Response& res) const {
+bool AtlasPlannerServer::answeredWithoutAPlan(const gpatlas_msgs::GetNextTouch::Request& req,
+                                              gpatlas_msgs::GetNextTouch::Response& res) const {
   if (!model_) {
     res.status = gpatlas_msgs::GetNextTouch::Response::NO_MODEL;
     res.message = model_error_.empty() ? "no model yet: the GP has not published a training set"
@@ -145,12 +159,18 @@ bool AtlasPlannerServer::refuseForModel(const gpatlas_msgs::GetNextTouch::Reques
     res.message = message.str();
     return true;
   }
+  const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
+  if (!(v_max > 0.0) || !std::isfinite(v_max)) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+    res.message = "v_max must be > 0 (0 uses the parameter exploration/v_max), got " + std::to_string(req.v_max);
+    return true;
+  }
   return false;
 }
 
-bool AtlasPlannerServer::addReachabilityTest(gpatlas_core::PlanRequest* request,
-                                             std::unique_ptr<gpatlas_motion::TouchMotionPlanner>* approach_check,
-                                             std::string* note, gpatlas_msgs::GetNextTouch::Response& res) {
+bool AtlasPlannerServer::addReachability(gpatlas_core::PlanRequest* request,
+                                         std::unique_ptr<gpatlas_motion::TouchMotionPlanner>* approach_check,
+                                         std::string* note, gpatlas_msgs::GetNextTouch::Response& res) {
   const std::string& topic = training_sub_.getTopic();
   bool offered = false;
   const std::shared_ptr<const octomap::OcTree> map =
@@ -166,104 +186,49 @@ bool AtlasPlannerServer::addReachabilityTest(gpatlas_core::PlanRequest* request,
     res.message = "reachable_only with approach/use_arm, but there is no arm: " + approach_arm_error_;
     return false;
   }
-  if (map) {
-    *approach_check =
-        std::make_unique<gpatlas_motion::TouchMotionPlanner>(approach_config_, map, support_plane_, approach_arm_, arm_reach_);
-    gpatlas_motion::TouchMotionPlanner* check = approach_check->get();
-    request->reachable = [check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
-      return check->approachDirection(point, normal);
-    };
-  } else {
+  if (!map) {
     *note = offered ? "; every candidate taken: the collision map of this model failed"
                     : "; every candidate taken: no collision map in this process";
+    return true;
   }
+  *approach_check =
+      std::make_unique<gpatlas_motion::TouchMotionPlanner>(approach_config_, map, support_plane_, approach_arm_, arm_reach_);
+  const gpatlas_motion::TouchMotionPlanner* check = approach_check->get();
+  request->reachable = [check](const gpatlas_core::Vector3& point, const gpatlas_core::Vector3& normal) {
+    return check->approachDirection(point, normal);
+  };
   return true;
 }
 
-void AtlasPlannerServer::publishAtlas(const gpatlas_core::PlanResult& plan, double v_max, const std_msgs::Header& header) {
-  visualization_msgs::MarkerArray markers = atlasMarkers(plan.atlas->atlas, plan.atlas->path, v_max, world_frame_);
-  atlas_marker_pub_.publish(markers);
-  gpatlas_msgs::Atlas atlas;
+gpatlas_core::PlanResult AtlasPlannerServer::planWith(const gpatlas_core::ExplorationStrategy& chosen,
+                                                      const std::string& name,
+                                                      const gpatlas_core::PlanRequest& request) const {
+  gpatlas_core::PlanResult plan;
+  try {
+    plan = chosen.plan(*model_, request);
+  } catch (const std::exception& e) {
+    // A strategy from a library of the user's own (strategy_libraries) may throw: an answer, not
+    // an exception out of the service callback.
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' failed: " + e.what();
+  } catch (...) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' failed with an exception that is not a std::exception";
+  }
+  if (plan.status == gpatlas_core::PlanStatus::kTouch &&
+      (plan.touch.points.empty() || plan.touch.points.size() != plan.touch.normals.size())) {
+    plan.status = gpatlas_core::PlanStatus::kError;
+    plan.message = "strategy '" + name + "' returned a touch without matching points and normals";
+  }
+  return plan;
+}
+
+void AtlasPlannerServer::publishAtlas(const gpatlas_core::AtlasPlanResult& planned, double v_max,
+                                      const std_msgs::Header& header) {
+  atlas_marker_pub_.publish(atlasMarkers(planned.atlas, planned.path, v_max, world_frame_));
+  gpatlas_msgs::Atlas atlas = toMsg(planned.atlas, planned.path);
   atlas.header = header;
-  for (const auto& chart : plan.atlas->atlas.charts()) {
-    gpatlas_msgs::Chart c;
-    c.centre = toPointMsg(chart.centre);
-    c.normal = toVectorMsg(chart.normal);
-    c.radius_m = chart.radius;
-    c.variance = chart.variance;
-    c.parent = chart.parent;
-    atlas.charts.push_back(c);
-  }
-  atlas.path = plan.atlas->path;
   atlas_pub_.publish(atlas);
-}
-
-bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
-                                     gpatlas_msgs::GetNextTouch::Response& res) {
-  std::lock_guard<std::mutex> lock(mutex_);
-  const ros::WallTime start = ros::WallTime::now();
-  res.touch.header.frame_id = world_frame_;
-  res.touch.header.stamp = ros::Time::now();
-  if (refuseForModel(req, res)) return true;
-  const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
-  if (!(v_max > 0.0) || !std::isfinite(v_max)) {
-    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-    res.message = "v_max must be > 0 (0 uses the parameter exploration/v_max), got " + std::to_string(req.v_max);
-    return true;
-  }
-  const std::string name = req.strategy.empty() ? default_strategy_ : req.strategy;
-  std::string error;
-  const gpatlas_core::ExplorationStrategy* chosen = strategy(name, &error);
-  if (!chosen) {
-    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-    res.message = error;
-    return true;
-  }
-  gpatlas_core::PlanRequest request;
-  request.v_max = v_max;
-  request.evidence = evidence_;
-  request.evidence.support_plane = support_plane_;
-  if (req.use_start) request.start = fromMsg(req.start);
-  for (const auto& p : req.attempted_targets) request.evidence.attempted_targets.push_back(fromMsg(p));
-  request.evidence.attempted_target_errors_m = req.attempted_target_errors_m;
-  request.footprint_radius_m = req.footprint_radius_m;
-  std::unique_ptr<gpatlas_motion::TouchMotionPlanner> approach_check;
-  std::string reachability_note;
-  if (req.reachable_only && !addReachabilityTest(&request, &approach_check, &reachability_note, res)) return true;
-  // The exploration loop numbers its plans; a call by hand gets the planner's own count.
-  ++plan_count_;
-  request.seed = req.seed != 0 ? req.seed : plan_count_;
-  const gpatlas_core::PlanResult plan = planSafely(*chosen, name, *model_, request);
-  res.plan_time_s = (ros::WallTime::now() - start).toSec();
-  res.message = plan.message + reachability_note;
-  res.max_evaluated_variance = plan.max_evaluated_variance;
-  res.unreachable_candidates = static_cast<std::uint32_t>(plan.unreachable_candidates);
-  switch (plan.status) {
-    case gpatlas_core::PlanStatus::kTouch:
-      res.status = gpatlas_msgs::GetNextTouch::Response::TOUCH;
-      break;
-    case gpatlas_core::PlanStatus::kConverged:
-      res.status = gpatlas_msgs::GetNextTouch::Response::CONVERGED;
-      break;
-    case gpatlas_core::PlanStatus::kCapReached:
-      // Not a proof of convergence, and no touch either: report it as an error with the reason.
-      res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-      res.message = "planner budget reached without a touch: " + plan.message;
-      break;
-    case gpatlas_core::PlanStatus::kError:
-      res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-      break;
-  }
-  if (plan.status == gpatlas_core::PlanStatus::kTouch) {
-    const std_msgs::Header header = res.touch.header;
-    res.touch = toMsg(plan.touch);
-    res.touch.header = header;
-    touch_pub_.publish(res.touch);
-  }
-  if (plan.atlas) publishAtlas(plan, v_max, res.touch.header);
-  ROS_INFO_STREAM("atlas_planner: " << name << " -> " << gpatlas_core::toString(plan.status) << " in "
-                                    << res.plan_time_s * 1000.0 << " ms (" << plan.message << ")");
-  return true;
 }
 
 }  // namespace gpatlas_ros

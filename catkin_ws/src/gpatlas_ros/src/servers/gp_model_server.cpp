@@ -316,11 +316,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg,
   }
   // The same rules as the bench's exploration loop (gpatlas_core::applyTouch).
   const gpatlas_core::TouchUpdate update = gpatlas_core::applyTouch(*model_, observed.contacts, free_space, touch_config_);
-  answer->num_added = static_cast<std::uint32_t>(update.points_added);
-  answer->num_contacts_added = static_cast<std::uint32_t>(update.contacts_added);
-  answer->num_refused = static_cast<std::uint32_t>(update.contacts_refused.total() + update.free_space_refused.total());
-  answer->observation_budget_full = update.budget_full;
-  *message = update.message;
+  *answer = toMsg(update);
   if (update.retraction.any())
     *message += "; the touch contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +
                 " occluded-interior guesses (" + std::to_string(update.retraction.dropped) + " dropped, " +
@@ -377,7 +373,7 @@ void GpModelServer::meshLoop() {
       visualization_msgs::Marker marker = meshMarker(surface.mesh, display_v_max_, world_frame_);
       marker.header.stamp = stamp;
       mesh_marker_pub_.publish(marker);
-      mesh_shape_pub_.publish(toShapeMsg(surface.mesh));
+      mesh_shape_pub_.publish(toMsg(surface.mesh));
       sensor_msgs::PointCloud2 cloud =
           pointsToCloud(surface.mesh.vertices, surface.mesh.vertex_variances, display_v_max_, world_frame_);
       cloud.header.stamp = stamp;

@@ -17,7 +17,6 @@ struct PipelineConfig {
   gpatlas_core::ViewTrainingConfig view;
   bool use_support_plane{true};
   gpatlas_core::TouchObservationConfig touch;
-  gpatlas_core::EvidenceRule evidence;
   gpatlas_core::Explorer::Config exploration;
   gpatlas_core::StrategyChoice strategy_choice;
   gpatlas_core::StrategyConfig strategy;

@@ -106,7 +106,8 @@ std::size_t approachTarget(const Touch& touch);
 std::size_t retreatTarget(const Touch& touch);
 
 // The surface points a touch aims at: a poke's target (its path's end), every waypoint of a
-// slide. They count as evidence once touched, whatever the probe found (EvidenceRule).
+// slide. They count as evidence once touched, whatever the probe found
+// (EvidenceState::attempted_targets).
 std::vector<Vector3> aimedPoints(const Touch& touch);
 
 }  // namespace gpatlas_core

@@ -98,7 +98,7 @@ std::vector<double> targetErrors(const std::vector<Vector3>& targets, const std:
 // Per aimed point of a touch (aimedPoints), the same where the nearest contact lies beyond it along
 // the approach (-normal): the probe went through where the model put the surface, which was
 // wrong. NaN where the probe stopped before it (something unpredicted was in the way, the target
-// is still unreached) or found nothing: EvidenceRule::attempted_target_errors_m.
+// is still unreached) or found nothing: EvidenceState::attempted_target_errors_m.
 std::vector<double> passedTargetErrors(const Touch& touch, const std::vector<Contact>& contacts);
 // The median of the finite values (NaN when there is none).
 double finiteMedian(std::vector<double> values);
@@ -109,8 +109,8 @@ double finiteMedian(std::vector<double> values);
 class TouchPlanner {
  public:
   virtual ~TouchPlanner() = default;
-  // `request.evidence.attempted_targets` holds where earlier touches aimed; the planner adds
-  // the rest of its evidence rule.
+  // `request.evidence_state` holds where earlier touches aimed; the planner adds what it
+  // knows itself (mergeEvidenceState).
   virtual PlanResult plan(const PlanRequest& request) = 0;
   // Observations in the model the next plan is made on.
   virtual std::size_t modelSize() const = 0;
@@ -187,10 +187,10 @@ class Explorer {
   ExplorationResult run(TouchPlanner& planner, Prober& prober, ModelUpdater& updater,
                         const Progress& progress = {}, TouchApproacher* approacher = nullptr) const;
 
-  // In one process: plans with `strategy` on `model` (fitted: the initial view) under
-  // `evidence`, and adds the touches to it with `touch` (applyTouch).
+  // In one process: plans with `strategy` on `model` (fitted: the initial view), knowing
+  // `known` (the table under the object), and adds the touches to it with `touch` (applyTouch).
   ExplorationResult run(SurfaceModel& model, const ExplorationStrategy& strategy, Prober& prober,
-                        const TouchObservationConfig& touch = {}, const EvidenceRule& evidence = {},
+                        const TouchObservationConfig& touch = {}, const EvidenceState& known = {},
                         const Progress& progress = {}, TouchApproacher* approacher = nullptr) const;
 
  private:
@@ -199,18 +199,19 @@ class Explorer {
 
 std::string validate(const Explorer::Config& config);
 
-// Plans with a strategy on a model held elsewhere (the caller updates it between plans).
+// Plans with a strategy on a model held elsewhere (the caller updates it between plans), knowing
+// `known` besides what each request brings (the table under the object).
 class ModelTouchPlanner : public TouchPlanner {
  public:
-  ModelTouchPlanner(const SurfaceModel& model, const ExplorationStrategy& strategy, EvidenceRule evidence)
-      : model_(model), strategy_(strategy), evidence_(std::move(evidence)) {}
+  ModelTouchPlanner(const SurfaceModel& model, const ExplorationStrategy& strategy, EvidenceState known)
+      : model_(model), strategy_(strategy), known_(std::move(known)) {}
   PlanResult plan(const PlanRequest& request) override;
   std::size_t modelSize() const override { return model_.observations().size(); }
 
  private:
   const SurfaceModel& model_;
   const ExplorationStrategy& strategy_;
-  EvidenceRule evidence_;
+  EvidenceState known_;
 };
 
 // Adds each touch to a model with applyTouch.

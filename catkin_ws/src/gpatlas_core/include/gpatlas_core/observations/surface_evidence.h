@@ -13,8 +13,9 @@
 
 namespace gpatlas_core {
 
-// The evidence test's settings, carried together by PlanRequest, AtlasPlanner::Config and
-// Explorer::Config.
+// The evidence test's settings: config/pipeline.yaml's evidence/ section (readEvidence). Every
+// strategy holds them (StrategyConfig::evidence); what the run has learnt that the test also
+// reads (EvidenceState) comes with each plan.
 struct EvidenceRule {
   // A predicted surface point farther than this (normalised units: the initial view's radius
   // is 1) from every measured surface point needs a touch whatever its variance. 0: V_max alone
@@ -25,25 +26,19 @@ struct EvidenceRule {
   // its point spacings; what lies farther from it (the unseen back beyond the silhouette, a
   // cavity the rim hid) was not seen, however near a view point it is, and needs a touch.
   double view_max_distance{0.2};
-  // The table the object rests on, if known, and how far along the normal a probe approaches
-  // a touch: surface whose approach would start under the table needs no evidence.
-  std::optional<SupportPlane> support_plane;
+  // How far along the normal a probe approaches a touch: surface whose approach would start
+  // under the table (EvidenceState::support_plane) needs no evidence.
   double approach_distance_m{0.1};
   // A touch that found the surface far from where the model predicted it shows that the model
   // is wrong around there, however low its variance: such a contact supports the surface only
   // within max_distance * clamp(surprise_distance_m / error, min_surprise_fraction, 1), where
   // error is how far from the predicted surface it lay (TrainingPoint::prediction_error_m), so
   // that touches go on where the model's guesses fail and not where they hold. The same for an
-  // attempted target the touch found the surface away from (attempted_target_errors_m).
-  // 0: every contact and target supports max_distance.
+  // attempted target the touch found the surface away from
+  // (EvidenceState::attempted_target_errors_m). 0: every contact and target supports
+  // max_distance.
   double surprise_distance_m{0.005};
   double min_surprise_fraction{0.2};
-  // Surface points earlier touches aimed at (world frame): evidence whatever the touch found.
-  std::vector<Vector3> attempted_targets;
-  // Per attempted target (empty, or one each): how far from it its touch found the surface,
-  // the nearest contact (metres); NaN when the touch found none (refused, or nothing in the way),
-  // which supports max_distance.
-  std::vector<double> attempted_target_errors_m;
   // A place whose variance is above V_max needs no touch when a measured surface point (a view
   // point or a contact) or an earlier touch's target lies within this distance: a touch there
   // would find what was found already. Otherwise a V_max below what the noise allows would
@@ -53,6 +48,34 @@ struct EvidenceRule {
 
 // Empty when the rule is usable; otherwise what is wrong with it.
 std::string validate(const EvidenceRule& rule);
+
+// What a run has learnt that the evidence test reads besides the model's measurements: the
+// table under the object (the planner's own knowledge, from segmentation) and where earlier
+// touches aimed (the exploration loop's). It travels in PlanRequest.
+struct EvidenceState {
+  // The table the object rests on, if known: surface whose probe approach would start below it
+  // cannot be touched, and the table is its evidence.
+  std::optional<SupportPlane> support_plane;
+  // Surface points earlier touches aimed at (world frame): evidence whatever the touch found.
+  std::vector<Vector3> attempted_targets;
+  // Per attempted target (empty, or one each): how far from it its touch found the surface,
+  // the nearest contact (metres); NaN when the touch found none (refused, or nothing in the way),
+  // which supports max_distance.
+  std::vector<double> attempted_target_errors_m;
+};
+
+// Empty when the state is usable; otherwise what is wrong with it.
+std::string validate(const EvidenceState& state);
+
+// The state a planner plans with: its own (`own`: the table it knows of, and any targets it
+// holds) and the one a request brings (`requested`: where the loop's touches aimed), the
+// requested targets after its own. The table is the planner's when it knows one, otherwise the
+// request's. Errors stay one per target, NaN for the targets of a side that gave none; both
+// sides without errors give none. False, with why, when a side's errors do not match its
+// targets. The bench's planner (ModelTouchPlanner) and the ROS planner nodelet both plan
+// through it.
+bool mergeEvidenceState(const EvidenceState& own, const EvidenceState& requested, EvidenceState* merged,
+                        std::string* error);
 
 // Where the predicted surface rests on measurements. The GP's variance falls within a
 // correlation length of any data, and its correlation length is about the object's size, so a
@@ -70,7 +93,7 @@ class SurfaceEvidence {
   // With `support`, the table the object rests on: a surface point whose probe approach
   // (approach_m along its outward normal) would start below the table cannot be touched, and
   // the table is its evidence (an object's underside; touches there hit the table).
-  // `attempted`: surface points that touches already aimed at (EvidenceRule::attempted_targets)
+  // `attempted`: surface points that touches already aimed at (EvidenceState::attempted_targets)
   // count as evidence too, whatever the touch found: a point the probe cannot reach (its
   // approach blocked by another part of the object) is not asked for again and again.
   // `view_max_distance_m`: how far a view point (source vision) supports the surface, at most
@@ -84,8 +107,8 @@ class SurfaceEvidence {
                   double view_max_distance_m = std::numeric_limits<double>::infinity(),
                   const std::vector<double>& attempted_errors_m = {}, double surprise_distance_m = 0.0,
                   double min_surprise_fraction = 1.0);
-  // The same from a rule, its distance converted with the model's scale.
-  SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule);
+  // The same from a rule and a run's state, the rule's distances converted with the model's scale.
+  SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule, const EvidenceState& state = {});
 
   bool enabled() const { return max_distance_m_ > 0.0; }
   // The share of max_distance a measurement that lay `error_m` from the predicted surface

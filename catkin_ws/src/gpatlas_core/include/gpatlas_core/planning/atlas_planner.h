@@ -75,8 +75,8 @@ class AtlasPlanner {
     // extend_path_charts is 0.
     double aim_past_m{0.0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
-    // charts are kept small enough that none hides such a point. Default: off, variance alone
-    // (Algorithm 1). AtlasStrategy sets it from PlanRequest::evidence.
+    // charts are kept small enough that none hides such a point (max_distance 0: variance
+    // alone, Algorithm 1). The atlas strategies take it from StrategyConfig::evidence.
     EvidenceRule evidence;
     std::uint64_t seed{1};
   };
@@ -90,10 +90,12 @@ class AtlasPlanner {
   // `start`: a point near the surface (e.g. the probe's position); without it the root is a
   // random on-surface training point of the model (SELECTSURFACEPOINT). A chart that needs a
   // touch `reachable` refuses is passed over: the atlas grows on past it, and the surface
-  // counts as covered when only such charts are left.
+  // counts as covered when only such charts are left. `evidence_state`: what the run has
+  // learnt that the evidence test reads (Config::evidence).
   AtlasPlanResult plan(const SurfaceModel& model, double v_max,
                        const std::optional<Vector3>& start = std::nullopt,
-                       const Progress& progress = {}, const TouchFilter& reachable = {}) const;
+                       const Progress& progress = {}, const TouchFilter& reachable = {},
+                       const EvidenceState& evidence_state = {}) const;
 
  private:
   Config config_;

@@ -2,24 +2,26 @@
 
 #include "gpatlas_core/planning/exploration_strategy.h"
 #include "gpatlas_core/planning/surface_sampler.h"
+#include "gpatlas_core/observations/surface_evidence.h"
 
 namespace gpatlas_core {
 
 // Both baselines sample the predicted surface (SurfaceSampler) and share one stopping rule:
 // converged when no sampled surface point has variance above V_max (or, with an evidence
-// distance in the request, lies that far from every measured surface point). This is a sample-based
+// distance in their rule, lies that far from every measured surface point). This is a sample-based
 // certificate, weaker than the atlas's coverage argument, and is documented as such.
 
 // The paper's Random Poke: a uniformly random point among the sampled surface points,
 // whatever its variance.
 class RandomStrategy : public ExplorationStrategy {
  public:
-  RandomStrategy(SurfaceSampler::Config config, std::uint64_t seed);
+  RandomStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed);
   std::string name() const override { return "random"; }
   PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;
 
  private:
   SurfaceSampler::Config config_;
+  EvidenceRule evidence_;
   std::uint64_t seed_;
 };
 
@@ -27,12 +29,13 @@ class RandomStrategy : public ExplorationStrategy {
 // below V_max, a point without evidence).
 class MaxVarianceStrategy : public ExplorationStrategy {
  public:
-  MaxVarianceStrategy(SurfaceSampler::Config config, std::uint64_t seed);
+  MaxVarianceStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed);
   std::string name() const override { return "max_variance"; }
   PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;
 
  private:
   SurfaceSampler::Config config_;
+  EvidenceRule evidence_;
   std::uint64_t seed_;
 };
 

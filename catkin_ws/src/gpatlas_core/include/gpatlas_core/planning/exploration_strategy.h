@@ -17,9 +17,10 @@ namespace gpatlas_core {
 
 struct PlanRequest {
   double v_max{0.1};  // reported (paper-equivalent) variance units
-  // Every strategy applies the evidence test (SurfaceEvidence) to its convergence test; the
-  // Explorer fills attempted_targets (max_distance 0: off, V_max alone as in the paper).
-  EvidenceRule evidence;
+  // What the run has learnt that every strategy's evidence test reads (its EvidenceRule,
+  // StrategyConfig::evidence, says how): the Explorer fills the attempted targets, the planner
+  // adds the table it knows of (mergeEvidenceState).
+  EvidenceState evidence_state;
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
   // Mixed with the strategy's own seed so that successive plans of one exploration differ

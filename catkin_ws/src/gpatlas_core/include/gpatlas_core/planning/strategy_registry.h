@@ -24,8 +24,11 @@ inline AtlasPlanner::Config atlasStrategyDefaults() {
 struct StrategyConfig {
   // atlas_poke, atlas_slide; atlas_poke does not extend its path (extend_path_charts): a poke
   // touches the first chart above V_max.
+  // Its evidence rule is `evidence` below (the atlas strategies set atlas.evidence from it).
   AtlasPlanner::Config atlas{atlasStrategyDefaults()};
   SurfaceSampler::Config sampler;   // random, max_variance
+  // Every strategy's evidence test (config/pipeline.yaml's evidence/).
+  EvidenceRule evidence;
   std::uint64_t seed{0};
 };
 
