@@ -8,6 +8,8 @@ SHELL := /bin/bash
 # Debian's ROS python modules live in /usr/bin/python3, not in a pyenv/venv python on PATH.
 export PATH := /usr/bin:$(PATH)
 export CCACHE_DIR ?= $(HOME)/.ccache
+# Paths relative to the checkout in ccache's keys: a second clone (CI's) reuses the first one's objects.
+export CCACHE_BASEDIR ?= $(CURDIR)
 
 JOBS ?= 2
 WS := catkin_ws

@@ -59,6 +59,8 @@ class GpModelServer {
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
   bool onReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  // Arms the fit of the next cloud that arrives (the one-shot view with fit_every_cloud false).
+  bool onFitNextCloud(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
   bool onRemoveObservations(gpatlas_msgs::RemoveObservations::Request& req,
                             gpatlas_msgs::RemoveObservations::Response& res);
   // Adds observations and fills the answer (AddObservations.srv says what each field is);
@@ -69,7 +71,11 @@ class GpModelServer {
   void meshLoop();
   std::uint32_t training_sequence_{0};  // with mutex_
 
-  std::mutex fit_mutex_;  // guards the four below
+  // False: only the cloud after each ~fit_next_cloud call is fitted (a streaming camera, a
+  // pipeline that wants one view); true: every cloud, the newest first.
+  bool fit_every_cloud_{true};
+  std::mutex fit_mutex_;  // guards the five below
+  bool fit_next_armed_{false};
   std::condition_variable fit_wake_;
   sensor_msgs::PointCloud2::ConstPtr fit_pending_;  // the newest cloud not fitted yet
   std::size_t clouds_dropped_{0};  // replaced while waiting, since the last fit
@@ -124,7 +130,7 @@ class GpModelServer {
 
   std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
   ros::Subscriber contacts_sub_, plane_sub_;
-  ros::ServiceServer add_srv_, reset_srv_, remove_srv_;
+  ros::ServiceServer add_srv_, reset_srv_, remove_srv_, fit_next_srv_;
   ros::Publisher training_pub_, surface_pub_, mesh_marker_pub_, mesh_shape_pub_;
 };
 

@@ -34,6 +34,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readTuning(reader, &tuning_);
   display_v_max_ = readVMax(reader);
   readMesher(reader, &mesher_config_);
+  fit_every_cloud_ = reader.flag("fit_every_cloud", fit_every_cloud_);
   reader.report("gp_model");
   try {
     model_ = gpatlas_core::makeSurfaceModel(model_config_);
@@ -54,6 +55,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   add_srv_ = pnh_.advertiseService("add_observations", &GpModelServer::onAddObservations, this);
   reset_srv_ = pnh_.advertiseService("reset", &GpModelServer::onReset, this);
   remove_srv_ = pnh_.advertiseService("remove_observations", &GpModelServer::onRemoveObservations, this);
+  fit_next_srv_ = pnh_.advertiseService("fit_next_cloud", &GpModelServer::onFitNextCloud, this);
   points_sub_ = std::make_unique<TfGatedCloudSubscriber>(
       nh_, "points", &tf_buffer_, world_frame_, "gp_model", kTfWaitWarningS,
       [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
@@ -63,7 +65,26 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
                                       << points_sub_->topic());
 }
 
-void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) { queueFit(msg); }
+void GpModelServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  {
+    std::lock_guard<std::mutex> lock(fit_mutex_);
+    if (!fit_every_cloud_ && !fit_next_armed_) return;
+    fit_next_armed_ = false;
+  }
+  queueFit(msg);
+}
+
+bool GpModelServer::onFitNextCloud(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  {
+    std::lock_guard<std::mutex> lock(fit_mutex_);
+    fit_next_armed_ = true;
+  }
+  res.success = true;
+  res.message = fit_every_cloud_ ? "every cloud is fitted (fit_every_cloud); the next one too"
+                                 : "the next cloud on " + points_sub_->topic() + " will be fitted";
+  ROS_INFO_STREAM("gp_model: " << res.message);
+  return true;
+}
 
 void GpModelServer::queueFit(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   {
