@@ -81,7 +81,8 @@ bool GpModelServer::onFitNextCloud(std_srvs::Trigger::Request&, std_srvs::Trigge
   }
   res.success = true;
   res.message = fit_every_cloud_ ? "every cloud is fitted (fit_every_cloud); the next one too"
-                                 : "the next cloud on " + points_sub_->topic() + " will be fitted";
+                                 : "the next cloud on " + (points_sub_ ? points_sub_->topic() : std::string("points")) +
+                                       " will be fitted";
   ROS_INFO_STREAM("gp_model: " << res.message);
   return true;
 }
