@@ -194,7 +194,7 @@ class ExplorationNode {
   const ExplorationNodeSettings settings_;
   TimedServiceClient client_;
   PipelineWatch watch_;
-  ModelMeasurement measurement_;
+  TrainingSetMeasurer measurement_;
   BackgroundMeasurements measurements_{measurement_};
   ExplorationReportWriter writer_;
   ros::Publisher cloud_pub_;

@@ -16,10 +16,11 @@
 
 namespace gpatlas_ros {
 
-// Measures the pipeline's model from its training set as the bench does.
-class ModelMeasurement {
+// Rebuilds the pipeline's model from a training set and measures it as the bench does
+// (gpatlas_geometry::measureModel).
+class TrainingSetMeasurer {
  public:
-  ModelMeasurement(gpatlas_core::SurfaceModelConfig model_config, gpatlas_geometry::SurfaceMesher::Config mesher_config)
+  TrainingSetMeasurer(gpatlas_core::SurfaceModelConfig model_config, gpatlas_geometry::SurfaceMesher::Config mesher_config)
       : model_config_(std::move(model_config)), mesher_config_(std::move(mesher_config)) {}
 
   // The object's true shape (simulation's ground_truth), for the shape error; empty: none.
@@ -48,7 +49,7 @@ class ModelMeasurement {
 class BackgroundMeasurements {
  public:
   // `measurement` must outlive this.
-  explicit BackgroundMeasurements(const ModelMeasurement& measurement) : measurement_(measurement) {}
+  explicit BackgroundMeasurements(const TrainingSetMeasurer& measurement) : measurement_(measurement) {}
   ~BackgroundMeasurements() { stop(); }
 
   void start();
@@ -62,7 +63,7 @@ class BackgroundMeasurements {
   void measureLoop();
   void measureJob(const std::pair<int, gpatlas_msgs::TrainingSet::ConstPtr>& job);
 
-  const ModelMeasurement& measurement_;
+  const TrainingSetMeasurer& measurement_;
   std::thread measurer_;  // measureLoop
   std::mutex measure_mutex_;
   std::condition_variable measure_wake_;

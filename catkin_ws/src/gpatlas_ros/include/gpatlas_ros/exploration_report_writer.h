@@ -23,12 +23,12 @@ class ExplorationReportWriter {
   // training set), writes the folder and logs the summary. Returns the node's exit code: 1
   // when the run ended in an error, otherwise 0.
   int write(gpatlas_core::ExplorationReport report, const gpatlas_msgs::TrainingSet::ConstPtr& final_training,
-            const ModelMeasurement& measurement);
+            const TrainingSetMeasurer& measurement);
 
  private:
   // The final model's surface, written to surface.ply and measured into report->final_shape
   // when there is a ground truth. Whether there is one; why not in *message.
-  bool writeFinalSurface(const gpatlas_msgs::TrainingSet::ConstPtr& training, const ModelMeasurement& measurement,
+  bool writeFinalSurface(const gpatlas_msgs::TrainingSet::ConstPtr& training, const TrainingSetMeasurer& measurement,
                          gpatlas_core::ExplorationReport* report, std::string* message) const;
   void saveCollisionMap();
   void plot() const;

@@ -16,7 +16,7 @@ namespace gpatlas_ros {
 
 using namespace gpatlas_conversions;
 
-std::unique_ptr<gpatlas_core::SurfaceModel> ModelMeasurement::measure(const gpatlas_msgs::TrainingSet& training,
+std::unique_ptr<gpatlas_core::SurfaceModel> TrainingSetMeasurer::measure(const gpatlas_msgs::TrainingSet& training,
                                                                       gpatlas_core::ExplorationRecord& record) const {
   std::unique_ptr<gpatlas_core::SurfaceModel> model_ptr;
   std::string error;
@@ -25,7 +25,7 @@ std::unique_ptr<gpatlas_core::SurfaceModel> ModelMeasurement::measure(const gpat
   return model_ptr;
 }
 
-void ModelMeasurement::measureModel(const gpatlas_core::SurfaceModel& model,
+void TrainingSetMeasurer::measureModel(const gpatlas_core::SurfaceModel& model,
                                     gpatlas_core::ExplorationRecord& record) const {
   const gpatlas_geometry::ModelMeasurement measured =
       gpatlas_geometry::measureModel(model, ground_truth_, mesher_config_);

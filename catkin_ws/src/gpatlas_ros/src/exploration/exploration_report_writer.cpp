@@ -41,7 +41,7 @@ bool ExplorationReportWriter::createFolder() const {
 
 int ExplorationReportWriter::write(gpatlas_core::ExplorationReport report,
                                    const gpatlas_msgs::TrainingSet::ConstPtr& final_training,
-                                   const ModelMeasurement& measurement) {
+                                   const TrainingSetMeasurer& measurement) {
   std::string surface_message = "no model";
   const bool has_surface = writeFinalSurface(final_training, measurement, &report, &surface_message);
   report.status = gpatlas_core::runStatus(report.result, has_surface, surface_message);
@@ -54,7 +54,7 @@ int ExplorationReportWriter::write(gpatlas_core::ExplorationReport report,
 }
 
 bool ExplorationReportWriter::writeFinalSurface(const gpatlas_msgs::TrainingSet::ConstPtr& training,
-                                                const ModelMeasurement& measurement,
+                                                const TrainingSetMeasurer& measurement,
                                                 gpatlas_core::ExplorationReport* report, std::string* message) const {
   const fs::path dir(results_dir_);
   const gpatlas_core::TriangleMesh& ground_truth = measurement.groundTruth();
