@@ -1,61 +1,35 @@
 #include "gpatlas_core/model/surface_model_factory.h"
 
-#include <map>
-#include <mutex>
+#include "gpatlas_core/common/named_factories.h"
+
 #include <stdexcept>
 
 namespace gpatlas_core {
 
 namespace {
 
-struct Registry {
-  std::mutex mutex;
-  std::map<std::string, SurfaceModelFactory> factories;
-
-  Registry() {
-    factories[GpisModel::kName] = [](const SurfaceModelConfig& c) { return std::make_unique<GpisModel>(c.gpis); };
-    factories[MultiscaleGpisModel::kName] = [](const SurfaceModelConfig& c) {
-      return std::make_unique<MultiscaleGpisModel>(c.multiscale, c.gpis);
-    };
-  }
-};
-
-Registry& registry() {
-  static Registry instance;
+NamedFactories<SurfaceModelFactory>& registry() {
+  static NamedFactories<SurfaceModelFactory> instance({
+      {GpisModel::kName, [](const SurfaceModelConfig& c) { return std::make_unique<GpisModel>(c.gpis); }},
+      {MultiscaleGpisModel::kName,
+       [](const SurfaceModelConfig& c) { return std::make_unique<MultiscaleGpisModel>(c.multiscale, c.gpis); }},
+  });
   return instance;
 }
 
 }  // namespace
 
 std::unique_ptr<SurfaceModel> makeSurfaceModel(const SurfaceModelConfig& config) {
-  SurfaceModelFactory factory;
-  {
-    Registry& r = registry();
-    std::lock_guard<std::mutex> lock(r.mutex);
-    const auto found = r.factories.find(config.type);
-    if (found != r.factories.end()) factory = found->second;
-  }
-  if (!factory) {
-    std::string known;
-    for (const std::string& n : surfaceModelNames()) known += (known.empty() ? "" : ", ") + n;
-    throw std::invalid_argument("unknown surface model '" + config.type + "'; known: " + known);
-  }
+  const SurfaceModelFactory factory = registry().find(config.type);
+  if (!factory)
+    throw std::invalid_argument("unknown surface model '" + config.type + "'; known: " + registry().namesJoined());
   return factory(config);
 }
 
 bool registerSurfaceModel(const std::string& name, SurfaceModelFactory factory) {
-  if (name.empty() || !factory) return false;
-  Registry& r = registry();
-  std::lock_guard<std::mutex> lock(r.mutex);
-  return r.factories.emplace(name, std::move(factory)).second;
+  return registry().add(name, std::move(factory));
 }
 
-std::vector<std::string> surfaceModelNames() {
-  Registry& r = registry();
-  std::lock_guard<std::mutex> lock(r.mutex);
-  std::vector<std::string> names;
-  for (const auto& entry : r.factories) names.push_back(entry.first);
-  return names;
-}
+std::vector<std::string> surfaceModelNames() { return registry().names(); }
 
 }  // namespace gpatlas_core
