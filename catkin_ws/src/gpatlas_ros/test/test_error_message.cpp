@@ -3,12 +3,13 @@
 // camera pose that puts the scene outside the crop box). ~expect lists the words the error must
 // contain.
 
+#include "mug_cloud_test.h"
+
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
 #include <sensor_msgs/PointCloud2.h>
 
-#include <filesystem>
 #include <mutex>
 #include <optional>
 #include <vector>
@@ -24,9 +25,7 @@ bool containsAll(const std::string& text, const std::vector<std::string>& words)
 TEST(SetUpError, AnErrorExplainsTheMistakeWithinASecond) {
   ros::NodeHandle pnh("~");
   std::string pcd;
-  pnh.getParam("pcd", pcd);
-  if (!std::filesystem::is_regular_file(pcd))
-    GTEST_SKIP() << "no recorded cloud at '" << pcd << "' (../shared/data is absent): skipped";
+  if (mug_cloud_test::recordedCloudAbsent(&pcd)) GTEST_SKIP() << mug_cloud_test::skipMessage(pcd);
   std::vector<std::string> expect;
   ASSERT_TRUE(pnh.getParam("expect", expect) && !expect.empty()) << "~expect: the words the error must contain";
   ros::NodeHandle nh;

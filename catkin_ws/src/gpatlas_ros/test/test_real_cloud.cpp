@@ -8,6 +8,8 @@
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/TrainingSet.h>
 
+#include "mug_cloud_test.h"
+
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -16,7 +18,6 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <filesystem>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -76,9 +77,7 @@ double nearestDistance(const Eigen::Vector3d& p, const std::vector<Eigen::Vector
 class RealCloud : public ::testing::Test {
  protected:
   void SetUp() override {
-    ros::NodeHandle("~").getParam("pcd", pcd_);
-    if (!std::filesystem::is_regular_file(pcd_))
-      GTEST_SKIP() << "no recorded cloud at '" << pcd_ << "' (../shared/data is absent): skipped";
+    if (mug_cloud_test::recordedCloudAbsent(&pcd_)) GTEST_SKIP() << mug_cloud_test::skipMessage(pcd_);
     object_sub_ = nh_.subscribe<sensor_msgs::PointCloud2>(
         "/gpatlas/segmentation/object_points", 1, [this](const sensor_msgs::PointCloud2::ConstPtr& m) { object_.set(*m); });
     training_sub_ = nh_.subscribe<gpatlas_msgs::TrainingSet>(

@@ -54,7 +54,8 @@ class GpModelServer {
   void fitLoop();
   // Waits up to plane_wait_s_ for the support plane of the cloud stamped `stamp`.
   void waitForPlane(const ros::Time& stamp);
-  void fitCloud(const sensor_msgs::PointCloud2& cloud);
+  // True when the model was refitted and published; otherwise the reason is logged.
+  bool fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg);
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   void onContacts(const gpatlas_msgs::Observations::ConstPtr& msg);
   bool onAddObservations(gpatlas_msgs::AddObservations::Request& req, gpatlas_msgs::AddObservations::Response& res);
@@ -67,7 +68,6 @@ class GpModelServer {
   // false with a message when nothing could be used.
   bool addObservations(const gpatlas_msgs::Observations& msg, gpatlas_msgs::AddObservations::Response* answer);
   void publishModel();  // with mutex_ held
-  std::uint32_t trainingSequence();  // takes mutex_
   void meshLoop();
   std::uint32_t training_sequence_{0};  // with mutex_
 

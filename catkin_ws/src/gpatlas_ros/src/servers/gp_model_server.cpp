@@ -120,15 +120,7 @@ void GpModelServer::fitLoop() {
     // keeps the previous model.
     try {
       waitForPlane(cloud->header.stamp);
-      const std::uint32_t before = trainingSequence();
-      fitCloud(*cloud);
-      const bool fitted = trainingSequence() != before;
-      if (fitted && use_support_plane_) {
-        std::lock_guard<std::mutex> lock(plane_mutex_);
-        const bool had_plane = support_plane_ && support_plane_->belongsTo(cloud->header.stamp);
-        last_fitted_without_plane_ = had_plane ? nullptr : cloud;
-      }
-      if (fitted)
+      if (fitCloud(cloud))
         ROS_INFO_STREAM("gp_model: cloud to model " << (ros::Time::now() - cloud->header.stamp).toSec() << " s; "
                                                     << dropped << " newer cloud(s) replaced older ones while it waited");
       else if (dropped > 0)
@@ -137,11 +129,6 @@ void GpModelServer::fitLoop() {
       ROS_ERROR_STREAM("gp_model: object cloud ignored: " << e.what());
     }
   }
-}
-
-std::uint32_t GpModelServer::trainingSequence() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  return training_sequence_;
 }
 
 void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
@@ -168,24 +155,23 @@ void GpModelServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& m
   }
 }
 
-void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
-  const sensor_msgs::PointCloud2* msg = &cloud;
+bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   std::vector<Eigen::Vector3d> points;
   std::size_t invalid = 0;
   std::string error;
   if (!cloudToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &points, &invalid, &error)) {
     ROS_WARN_STREAM("gp_model: object cloud ignored: " << error);
-    return;
+    return false;
   }
   if (points.size() < 4) {
     ROS_WARN_STREAM("gp_model: object cloud ignored: " << points.size() << " valid points (" << invalid
                                                        << " NaN), need at least 4");
-    return;
+    return false;
   }
   std::optional<gpatlas_core::SupportPlane> plane;
   if (use_support_plane_) {
     std::lock_guard<std::mutex> lock(plane_mutex_);
-    if (support_plane_ && support_plane_->belongsTo(cloud.header.stamp)) plane = support_plane_->plane;
+    if (support_plane_ && support_plane_->belongsTo(msg->header.stamp)) plane = support_plane_->plane;
   }
   std::optional<Eigen::Vector3d> sensor_origin;
   if (!sensor_frame_.empty()) {
@@ -202,7 +188,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   const gpatlas_core::ViewTraining view = gpatlas_core::buildViewTraining(points, sensor_origin, plane, view_config_, seed_);
   if (!view.ok) {
     ROS_WARN_STREAM("gp_model: object cloud ignored: " << view.message);
-    return;
+    return false;
   }
   for (const auto& w : view.warnings) ROS_WARN_STREAM("gp_model: " << w);
 
@@ -213,9 +199,13 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
       gpatlas_core::applyView(*model_, view.points, touch_config_, tuning_.enabled ? &tuning_.tuner : nullptr);
   if (!update.ok) {
     ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << update.fit.message);
-    return;
+    return false;
   }
   history_.setView(view.points);
+  if (use_support_plane_) {
+    std::lock_guard<std::mutex> plane_lock(plane_mutex_);
+    last_fitted_without_plane_ = plane ? nullptr : msg;
+  }
   for (const auto& w : update.fit.warnings) ROS_WARN_STREAM("gp_model: " << w);
   for (const auto& note : update.fit.notes) ROS_DEBUG_STREAM("gp_model: " << note);
   std::string tuned;
@@ -229,6 +219,7 @@ void GpModelServer::fitCloud(const sensor_msgs::PointCloud2& cloud) {
   ROS_INFO_STREAM("gp_model: view: " << view.message << retracted << "; " << update.fit.message << " in "
                                      << (ros::WallTime::now() - start).toSec() << " s" << tuned);
   publishModel();
+  return true;
 }
 
 void GpModelServer::onContacts(const gpatlas_msgs::Observations::ConstPtr& msg) {
