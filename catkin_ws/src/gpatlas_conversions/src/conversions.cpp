@@ -229,6 +229,7 @@ gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::SurfaceModel& model) {
   msg.hyperparameters.assign(params.data(), params.data() + params.size());
   msg.centroid = toPointMsg(model.centroid());
   msg.scale = model.scale();
+  msg.position_sd_scale = model.positionSdScale();
   const auto& observations = model.observations();
   for (const auto& p : observations) {
     msg.points.push_back(toPointMsg(p.position));
@@ -272,6 +273,7 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelSta
   out.hyperparameters = msg.hyperparameters;
   out.centroid = fromMsg(msg.centroid);
   out.scale = msg.scale;
+  out.position_sd_scale = msg.position_sd_scale > 0.0 && std::isfinite(msg.position_sd_scale) ? msg.position_sd_scale : 1.0;
   for (std::size_t i = 0; i < n; ++i) {
     if (msg.labels[i] < -1 || msg.labels[i] > 1 || msg.sources[i] > static_cast<uint8_t>(gpatlas_core::PointSource::kViewSupport)) {
       *error = "training point " + std::to_string(i) + " has an invalid label or source";

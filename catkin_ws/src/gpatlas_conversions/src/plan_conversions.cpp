@@ -36,6 +36,7 @@ gpatlas_core::PlanStatus fromStatusMsg(std::uint8_t status) {
 gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& request) {
   gpatlas_msgs::GetNextTouch::Request msg;
   msg.v_max = request.v_max;
+  msg.max_position_sd_m = request.max_position_sd_m > 0.0 ? request.max_position_sd_m : -1.0;
   msg.use_start = request.start.has_value();
   if (request.start) msg.start = toPointMsg(*request.start);
   for (const auto& p : request.evidence_state.attempted_targets) msg.attempted_targets.push_back(toPointMsg(p));
@@ -48,6 +49,7 @@ gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& reque
 gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg) {
   gpatlas_core::PlanRequest request;
   request.v_max = msg.v_max;
+  request.max_position_sd_m = msg.max_position_sd_m > 0.0 ? msg.max_position_sd_m : 0.0;
   if (msg.use_start) request.start = fromMsg(msg.start);
   for (const auto& p : msg.attempted_targets) request.evidence_state.attempted_targets.push_back(fromMsg(p));
   request.evidence_state.attempted_target_errors_m = msg.attempted_target_errors_m;

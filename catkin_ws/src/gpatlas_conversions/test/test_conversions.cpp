@@ -211,6 +211,7 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   // Hyperparameters away from the defaults (as tuning leaves them): the replica must take the sender's.
   const Eigen::VectorXd tuned = model.hyperparameters().array() + 0.1;
   ASSERT_TRUE(model.setHyperparameters(tuned).ok);
+  model.setPositionSdScale(0.05);  // as a calibration leaves it
 
   gpatlas_core::SurfaceModelState contents;
   std::string error;
@@ -234,10 +235,12 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
   }
   EXPECT_EQ(contents.centroid, model.centroid());
   EXPECT_EQ(contents.scale, model.scale());
+  EXPECT_EQ(contents.position_sd_scale, model.positionSdScale());
   std::unique_ptr<gpatlas_core::SurfaceModel> rebuilt_model;
   ASSERT_TRUE(modelFromMsg(toMsg(model), gpatlas_core::SurfaceModelConfig(), &rebuilt_model, &error)) << error;
   const gpatlas_core::SurfaceModel& rebuilt = *rebuilt_model;
   EXPECT_LT((rebuilt.hyperparameters() - tuned).norm(), 1e-12);
+  EXPECT_EQ(rebuilt.positionSdScale(), model.positionSdScale());
   const Eigen::Vector3d q(0.02, -0.03, 0.08);
   EXPECT_NEAR(rebuilt.mean(q), model.mean(q), 1e-12);
   EXPECT_NEAR(rebuilt.variance(q), model.variance(q), 1e-12);
@@ -334,6 +337,12 @@ TEST(Conversions, PlanRequestRoundTrip) {
   EXPECT_TRUE(std::isnan(back.evidence_state.attempted_target_errors_m[1]));
   EXPECT_EQ(back.footprint_radius_m, request.footprint_radius_m);
   EXPECT_EQ(back.seed, request.seed);
+  // The stop rule travels: the position rule, and the V_max rule (0), which the message says
+  // with a negative value because 0 asks for the node's parameter.
+  EXPECT_EQ(back.max_position_sd_m, 0.0);
+  EXPECT_LT(msg.max_position_sd_m, 0.0);
+  request.max_position_sd_m = 0.004;
+  EXPECT_EQ(fromMsg(toMsg(request)).max_position_sd_m, 0.004);
 
   request.start.reset();
   EXPECT_FALSE(toMsg(request).use_start);

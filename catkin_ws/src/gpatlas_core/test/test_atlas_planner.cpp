@@ -31,7 +31,7 @@ GpisModel capModel(const AnalyticSphere& sphere) {
 AtlasPlanResult planOnCap(const GpisModel& model, std::uint64_t seed) {
   AtlasPlanner::Config config;
   config.seed = seed;
-  return AtlasPlanner(config).plan(model, kVMax);
+  return AtlasPlanner(config).plan(model, StopRule{kVMax});
 }
 
 TEST(AtlasPlanner, CapOfSphereChartsLieOnTheSurfaceAndPathReachesUncertainty) {
@@ -107,9 +107,9 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     AtlasPlanner::Config config;
     config.seed = seed;
-    const AtlasPlanResult base = AtlasPlanner(config).plan(model, kVMax);
+    const AtlasPlanResult base = AtlasPlanner(config).plan(model, StopRule{kVMax});
     config.extend_path_charts = 5;
-    const AtlasPlanResult extended = AtlasPlanner(config).plan(model, kVMax);
+    const AtlasPlanResult extended = AtlasPlanner(config).plan(model, StopRule{kVMax});
     ASSERT_EQ(base.status, PlanStatus::kTouch) << base.message;
     ASSERT_EQ(extended.status, PlanStatus::kTouch) << extended.message;
     ASSERT_GT(extended.path.size(), base.path.size());
@@ -127,7 +127,7 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   }
   AtlasPlanner::Config invalid;
   invalid.extend_path_charts = -1;
-  EXPECT_EQ(AtlasPlanner(invalid).plan(model, kVMax).status, PlanStatus::kError);
+  EXPECT_EQ(AtlasPlanner(invalid).plan(model, StopRule{kVMax}).status, PlanStatus::kError);
 }
 
 // ADDCHART drops the candidates that fall inside another chart's ball, whatever their variance.
@@ -163,7 +163,7 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   // 400 points over the whole sphere are farther apart than a camera's: here view points
   // vouch as far as contacts.
   config.evidence.view_max_distance = config.evidence.max_distance;
-  const AtlasPlanResult result = AtlasPlanner(config).plan(model, kVMax);
+  const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax});
   EXPECT_EQ(result.status, PlanStatus::kConverged) << result.message;
   EXPECT_TRUE(result.path.empty());
   EXPECT_LE(result.max_chart_variance, kVMax);
@@ -207,10 +207,10 @@ TEST(AtlasPlanner, ConvergenceCoversEveryPieceOfThePredictedSurface) {
   const Vector3 start = known.centre + known.radius * Vector3(0, 0, 1);
   AtlasPlanner::Config one_tree;
   one_tree.cover_all_observations = false;
-  const AtlasPlanResult single = AtlasPlanner(one_tree).plan(model, kVMax, start);
+  const AtlasPlanResult single = AtlasPlanner(one_tree).plan(model, StopRule{kVMax}, start);
   EXPECT_EQ(single.status, PlanStatus::kConverged) << single.message;
 
-  const AtlasPlanResult covering = AtlasPlanner(AtlasPlanner::Config()).plan(model, kVMax, start);
+  const AtlasPlanResult covering = AtlasPlanner(AtlasPlanner::Config()).plan(model, StopRule{kVMax}, start);
   ASSERT_EQ(covering.status, PlanStatus::kTouch) << covering.message;
   const Vector3 end = covering.atlas.chart(covering.path.back()).centre;
   EXPECT_LT((end - partly_seen.centre).norm(), (end - known.centre).norm());
@@ -224,24 +224,24 @@ TEST(AtlasPlanner, BadInputGivesAnErrorStatus) {
   const AtlasPlanner planner;
   const double nan = std::numeric_limits<double>::quiet_NaN();
 
-  EXPECT_EQ(planner.plan(unfitted, kVMax).status, PlanStatus::kError);
-  EXPECT_NE(planner.plan(unfitted, kVMax).message.find("no model"), std::string::npos);
+  EXPECT_EQ(planner.plan(unfitted, StopRule{kVMax}).status, PlanStatus::kError);
+  EXPECT_NE(planner.plan(unfitted, StopRule{kVMax}).message.find("no model"), std::string::npos);
   for (const double v_max : {0.0, -1.0, nan, std::numeric_limits<double>::infinity()})
-    EXPECT_EQ(planner.plan(model, v_max).status, PlanStatus::kError) << v_max;
-  EXPECT_EQ(planner.plan(model, kVMax, Vector3(nan, 0.0, 0.0)).status, PlanStatus::kError);
+    EXPECT_EQ(planner.plan(model, StopRule{v_max}).status, PlanStatus::kError) << v_max;
+  EXPECT_EQ(planner.plan(model, StopRule{kVMax}, Vector3(nan, 0.0, 0.0)).status, PlanStatus::kError);
   // 10 cm above the top of the sphere: still inside the domain, but far from the surface.
-  const AtlasPlanResult far = planner.plan(model, kVMax, Vector3(sphere.centre + Vector3(0, 0, 0.16)));
+  const AtlasPlanResult far = planner.plan(model, StopRule{kVMax}, Vector3(sphere.centre + Vector3(0, 0, 0.16)));
   EXPECT_EQ(far.status, PlanStatus::kError);
   EXPECT_FALSE(far.message.empty());
   // A start just above the surface is accepted and becomes the root.
   const Vector3 near = sphere.centre + Vector3(0, 0, sphere.radius + 0.004);
-  const AtlasPlanResult from_start = planner.plan(model, kVMax, near);
+  const AtlasPlanResult from_start = planner.plan(model, StopRule{kVMax}, near);
   ASSERT_NE(from_start.status, PlanStatus::kError) << from_start.message;
   EXPECT_LT((from_start.atlas.chart(0).centre - near).norm(), 0.01);
 
   AtlasPlanner::Config broken;
   broken.chart.rho_min_m = -1.0;
-  EXPECT_EQ(AtlasPlanner(broken).plan(model, kVMax).status, PlanStatus::kError);
+  EXPECT_EQ(AtlasPlanner(broken).plan(model, StopRule{kVMax}).status, PlanStatus::kError);
 
   for (const std::string& name : strategyNames()) {
     const auto strategy = makeStrategy(name);
@@ -272,7 +272,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
       EXPECT_NEAR(normal.norm(), 1.0, 1e-9);
       return point.x() > sphere.centre.x() ? std::optional<Vector3>(normal) : std::nullopt;
     };
-    const AtlasPlanResult result = AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, east);
+    const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax}, std::nullopt, {}, east);
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& target = result.atlas.chart(result.path.back());
     EXPECT_GT(target.centre.x(), sphere.centre.x());
@@ -330,7 +330,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   AtlasPlanner::Config config;
   config.max_charts = 400;
   const AtlasPlanResult nowhere =
-      AtlasPlanner(config).plan(model, kVMax, std::nullopt, {}, [](const Vector3&, const Vector3&) { return std::optional<Vector3>(); });
+      AtlasPlanner(config).plan(model, StopRule{kVMax}, std::nullopt, {}, [](const Vector3&, const Vector3&) { return std::optional<Vector3>(); });
   EXPECT_NE(nowhere.status, PlanStatus::kTouch);
   EXPECT_GT(nowhere.unreachable_skipped, 0);
   EXPECT_NE(nowhere.message.find("no safe approach"), std::string::npos) << nowhere.message;

@@ -310,7 +310,7 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   AtlasPlanner::Config config;
   config.seed = 3;
   config.evidence.max_distance = 0.0;  // variance alone (Algorithm 1)
-  const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, kHugeVMax);
+  const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
   config.evidence.max_distance = 0.3;
@@ -318,7 +318,7 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const double max_distance_m = config.evidence.max_distance * model.scale();
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
-    const AtlasPlanResult result = AtlasPlanner(config).plan(model, kHugeVMax);
+    const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& end = result.atlas.chart(result.path.back());
     EXPECT_GT(bruteForceDistance(model, end.centre), max_distance_m);
@@ -348,9 +348,9 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
       SCOPED_TRACE(::testing::Message() << "fraction " << fraction << ", seed " << seed);
       config.seed = seed;
       config.aim_past_m = 0.0;
-      const AtlasPlanResult first = AtlasPlanner(config).plan(model, kHugeVMax);
+      const AtlasPlanResult first = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
       config.aim_past_m = fraction * max_distance_m;
-      const AtlasPlanResult aimed = AtlasPlanner(config).plan(model, kHugeVMax);
+      const AtlasPlanResult aimed = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
       ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
       ASSERT_EQ(aimed.status, PlanStatus::kTouch) << aimed.message;
       // The same search up to the first chart that needs a touch, then the aim's charts.
@@ -458,6 +458,7 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
   config.v_max = kHugeVMax;
+  config.max_position_sd_m = 0.0;  // the V_max rule: the evidence rule alone asks for touches
   config.max_actions = 40;
   // The loop passes where earlier touches aimed; a planner that drops them shows what they buy.
   struct ForgetfulPlanner : TouchPlanner {

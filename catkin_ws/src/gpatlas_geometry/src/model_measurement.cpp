@@ -40,10 +40,16 @@ ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const Tri
     measured.shape = ShapeMetrics(metrics).compare(measured.surface.mesh, truth);
     measured.metrics_s = secondsSince(metrics_start);
   }
-  if (request.calibration)
-    measured.calibration =
-        gpatlas_core::surfaceCalibration(model, sampleMeshSurface(truth, kCalibrationSamples, kCalibrationSeed));
-  else
+  if (request.calibration) {
+    const std::vector<Vector3> samples = sampleMeshSurface(truth, kCalibrationSamples, kCalibrationSeed);
+    // Each sample's position error: its distance to the predicted surface.
+    std::vector<double> errors;
+    if (measured.shape.ok) {
+      const MeshDistanceIndex predicted(measured.surface.mesh);
+      for (const Vector3& p : samples) errors.push_back(predicted.distance(p));
+    }
+    measured.calibration = gpatlas_core::surfaceCalibration(model, samples, 2.0, errors);
+  } else
     measured.calibration.message = "not asked for";
   return measured;
 }

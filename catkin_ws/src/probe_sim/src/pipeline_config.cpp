@@ -10,6 +10,7 @@ void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
   c->seed = readSeed(r, c->seed);
   readSurfaceModel(r, &c->model);
   readTuning(r, &c->tuning);
+  readPositionCalibration(r, &c->position_calibration);
   readViewTraining(r, &c->view);
   c->use_support_plane = readUseSupportPlane(r);
   readTouchObservations(r, &c->touch);

@@ -180,7 +180,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
   f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
-       "position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
+       "position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
        "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,approach_collisions,"
        "retreat_collisions,approach_plan_ms_median,recent_target_error_m\n";
   for (const auto& r : runs) {
@@ -192,6 +192,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << (ok ? num(r.metrics.rmse_truth_to_predicted) : "nan") << ',' << num(r.rmse_gt_to_pred_seen) << ','
       << num(r.rmse_gt_to_pred_unseen) << ',' << (ok ? num(r.metrics.chamfer_l1) : "nan")
       << ',' << (ok ? num(r.metrics.f_score) : "nan") << ',' << num(r.calibration) << ',' << num(r.position_sd_m) << ','
+      << num(r.coverage) << ',' << num(r.sharpness) << ',' << num(r.position_sd_scale) << ','
       << num(r.max_evaluated_variance) << ','
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << ','
       << r.unreachable_touches << ',' << r.unreachable_candidates << ',' << r.final_unreachable_candidates << ','

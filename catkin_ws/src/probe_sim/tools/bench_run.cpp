@@ -108,8 +108,11 @@ bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pi
     return false;
   }
   const gpatlas_core::ViewUpdate fit = gpatlas_core::applyView(
-      **model, view.training.points, pipeline.touch, pipeline.tuning.enabled ? &pipeline.tuning.tuner : nullptr);
+      **model, view.training.points, pipeline.touch, pipeline.tuning.enabled ? &pipeline.tuning.tuner : nullptr,
+      &pipeline.position_calibration);
   if (!fit.ok) *why = "initial fit failed: " + fit.fit.message;
+  if (fit.calibration && !fit.calibration->ok)
+    std::cerr << "gpatlas_bench: position sd not calibrated: " << fit.calibration->message << std::endl;
   return fit.ok;
 }
 
@@ -270,6 +273,8 @@ void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTrut
   if (measured.calibration.ok) {
     r.calibration = measured.calibration.fraction;
     r.position_sd_m = measured.calibration.median_position_sd_m;
+    r.coverage = measured.calibration.coverage;
+    r.sharpness = measured.calibration.sharpness;
   }
   // A run that leaves no predicted surface is an error whatever the loop said.
   r.status = gpatlas_core::runStatus(result, r.metrics.ok, r.metrics.message);
@@ -330,6 +335,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
                                        progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());
 
   recordLoop(result, *model, r);
+  r.position_sd_scale = model->positionSdScale();
   measureFinalModel(*model, gt, o, result, r);
   r.history.push_back(initial);
   r.history.insert(r.history.end(), result.records.begin(), result.records.end());

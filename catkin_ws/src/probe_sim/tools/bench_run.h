@@ -37,6 +37,12 @@ struct RunResult {
   double calibration{std::nan("")};
   // Its sharpness: the median sd of the surface's position along the normal there (m).
   double position_sd_m{std::nan("")};
+  // The share of those samples whose distance to the predicted surface is within 2 position sd
+  // (0.90-0.99 is calibrated), and the median position sd over the median distance (1 is sharp).
+  double coverage{std::nan("")};
+  double sharpness{std::nan("")};
+  // The final model's SurfaceModel::positionSdScale (1: not calibrated).
+  double position_sd_scale{std::nan("")};
   double max_evaluated_variance{0.0};
   double wall_s{0.0};
   double plan_ms_median{0.0};

@@ -94,7 +94,8 @@ void printRun(const RunResult& r, std::size_t finished, std::size_t total) {
     std::cout << " (seen by the camera " << r.rmse_gt_to_pred_seen * 1000 << " mm, unseen "
               << r.rmse_gt_to_pred_unseen * 1000 << " mm)";
   if (std::isfinite(r.calibration))
-    std::cout << ", calibration " << r.calibration << " (median position sd " << r.position_sd_m * 1000 << " mm)";
+    std::cout << ", calibration " << r.calibration << " (median position sd " << r.position_sd_m * 1000
+              << " mm, coverage " << r.coverage << ", sharpness " << r.sharpness << ", scale " << r.position_sd_scale << ")";
   std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
             << r.wall_s << " s";
   if (!r.error.empty()) std::cout << " (" << r.error << ")";

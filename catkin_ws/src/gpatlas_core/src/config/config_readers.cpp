@@ -155,10 +155,21 @@ void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->min_surprise_fraction = r.number("evidence/min_surprise_fraction", c->min_surprise_fraction, 1e-3, 1.0);
 }
 
+void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
+  c->folds = r.integer("position_calibration/folds", c->folds, 0, 100);
+  c->cut_fraction = r.number("position_calibration/cut_fraction", c->cut_fraction, 1e-3, 0.999);
+  c->coverage = r.number("position_calibration/coverage", c->coverage, 0.01, 0.999);
+}
+
 double readVMax(ParamReader& r, double fallback) { return r.number("exploration/v_max", fallback, 1e-12, 1e12); }
+
+double readMaxPositionSd(ParamReader& r, double fallback) {
+  return r.number("exploration/max_position_sd_m", fallback, 0.0, 10.0);
+}
 
 void readExplorer(ParamReader& r, Explorer::Config* c) {
   c->v_max = readVMax(r, c->v_max);
+  c->max_position_sd_m = readMaxPositionSd(r, c->max_position_sd_m);
   c->max_actions = r.integer("exploration/max_actions", c->max_actions, 0, 1000000);
   c->max_consecutive_failures = r.integer("exploration/max_consecutive_failures", c->max_consecutive_failures, 1, 1000000);
   c->max_approach_attempts = r.integer("exploration/max_approach_attempts", c->max_approach_attempts, 1, 1000);

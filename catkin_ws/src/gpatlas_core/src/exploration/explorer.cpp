@@ -65,7 +65,8 @@ double finiteMedian(std::vector<double> values) {
 
 std::string validate(const Explorer::Config& config) {
   std::ostringstream problem;
-  if (!(config.v_max > 0.0) || !std::isfinite(config.v_max)) problem << "v_max must be positive and finite; ";
+  if (const std::string rule = validate(StopRule{config.v_max, config.max_position_sd_m}); !rule.empty())
+    problem << rule << "; ";
   if (config.max_actions < 0) problem << "max_actions must be >= 0; ";
   if (config.max_consecutive_failures < 1) problem << "max_consecutive_failures must be >= 1; ";
   if (config.max_approach_attempts < 1) problem << "max_approach_attempts must be >= 1; ";
@@ -182,6 +183,7 @@ class ExplorationRun {
   PlanRequest request(int action, int attempt) const {
     PlanRequest request;
     request.v_max = config_.v_max;
+    request.max_position_sd_m = config_.max_position_sd_m;
     request.evidence_state = attempted_;
     request.footprint_radius_m = footprint_radius_m_;
     request.seed = mixSeeds(config_.seed, static_cast<std::uint64_t>(action));

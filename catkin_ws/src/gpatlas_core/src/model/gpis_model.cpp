@@ -438,14 +438,18 @@ GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
   if (!(c.noise_scale > 0.0)) throw std::invalid_argument("GpisModel: noise_scale must be > 0");
 }
 
-GpisModel::GpisModel(const GpisModel& other) : impl_(std::make_unique<Impl>(*other.impl_)) {}
+GpisModel::GpisModel(const GpisModel& other) : SurfaceModel(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
 
 GpisModel::GpisModel(const GpisModel& other, std::size_t room_for_observations)
-    : impl_(std::make_unique<Impl>(*other.impl_,
+    : SurfaceModel(other),
+      impl_(std::make_unique<Impl>(*other.impl_,
                                    other.impl_->num_pseudo + static_cast<Eigen::Index>(room_for_observations))) {}
 
 GpisModel& GpisModel::operator=(const GpisModel& other) {
-  if (this != &other) impl_ = std::make_unique<Impl>(*other.impl_);
+  if (this != &other) {
+    SurfaceModel::operator=(other);
+    impl_ = std::make_unique<Impl>(*other.impl_);
+  }
   return *this;
 }
 
@@ -791,7 +795,10 @@ FitReport GpisModel::restore(const SurfaceModelState& state) {
   trial.impl_->kernel->setLogParams(params.head(k));
   trial.impl_->noise_scale = std::exp(params[k]);
   report = trial.fitInFrame(state.observations, state.centroid, state.scale);
-  if (report.ok) *this = std::move(trial);
+  if (report.ok) {
+    *this = std::move(trial);
+    setPositionSdScale(state.position_sd_scale);
+  }
   return report;
 }
 

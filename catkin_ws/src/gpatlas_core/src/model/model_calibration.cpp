@@ -1,13 +1,25 @@
 #include "gpatlas_core/model/model_calibration.h"
 
+#include "gpatlas_core/model/position_uncertainty.h"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 
 namespace gpatlas_core {
 
+namespace {
+
+double medianOf(std::vector<double> values) {
+  if (values.empty()) return std::nan("");
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
+  return values[values.size() / 2];
+}
+
+}  // namespace
+
 CalibrationResult surfaceCalibration(const SurfaceModel& model, const std::vector<Vector3>& surface_points,
-                                     double k_sigma) {
+                                     double k_sigma, const std::vector<double>& position_errors_m) {
   CalibrationResult result;
   if (!model.isFitted()) {
     result.message = "no model";
@@ -17,11 +29,15 @@ CalibrationResult surfaceCalibration(const SurfaceModel& model, const std::vecto
     result.message = "k_sigma must be finite and > 0";
     return result;
   }
-  std::vector<Vector3> in_domain;
-  for (const Vector3& p : surface_points) {
-    if (!p.allFinite()) continue;
+  if (!position_errors_m.empty() && position_errors_m.size() != surface_points.size()) {
+    result.message = "one position error per surface point, or none";
+    return result;
+  }
+  std::vector<std::size_t> in_domain;
+  for (std::size_t i = 0; i < surface_points.size(); ++i) {
+    if (!surface_points[i].allFinite()) continue;
     ++result.samples;
-    if (model.inDomain(p)) in_domain.push_back(p);
+    if (model.inDomain(surface_points[i])) in_domain.push_back(i);
     else ++result.out_of_domain;
   }
   if (result.samples == 0) {
@@ -30,23 +46,32 @@ CalibrationResult surfaceCalibration(const SurfaceModel& model, const std::vecto
   }
   const double unit = model.varianceUnitFactor();
   constexpr std::size_t kBatch = 1024;
-  std::vector<double> position_sd;
+  std::vector<double> position_sd, measured_sd, measured_error;
+  std::size_t covered = 0;
   for (std::size_t begin = 0; begin < in_domain.size(); begin += kBatch) {
     const std::size_t count = std::min(kBatch, in_domain.size() - begin);
     Points3 batch(3, static_cast<Eigen::Index>(count));
-    for (std::size_t k = 0; k < count; ++k) batch.col(static_cast<Eigen::Index>(k)) = in_domain[begin + k];
+    for (std::size_t k = 0; k < count; ++k) batch.col(static_cast<Eigen::Index>(k)) = surface_points[in_domain[begin + k]];
     const BatchPrediction prediction = model.predictBatch(batch, true, false, true);
     for (Eigen::Index k = 0; k < batch.cols(); ++k) {
       const double sd = std::sqrt(std::max(prediction.variance[k] / unit, 0.0));
       if (std::abs(prediction.mean[k]) <= k_sigma * sd) ++result.within;
-      const double slope = prediction.gradient.col(k).norm();
-      position_sd.push_back(slope > 0.0 ? sd / slope : std::numeric_limits<double>::infinity());
+      const double sd_m = positionSd(model, prediction.variance[k], prediction.gradient.col(k).norm());
+      position_sd.push_back(sd_m);
+      if (position_errors_m.empty()) continue;
+      const double error = position_errors_m[in_domain[begin + static_cast<std::size_t>(k)]];
+      if (!std::isfinite(error)) continue;
+      measured_sd.push_back(sd_m);
+      measured_error.push_back(error);
+      if (error <= k_sigma * sd_m) ++covered;
     }
   }
   result.fraction = static_cast<double>(result.within) / static_cast<double>(result.samples);
-  if (!position_sd.empty()) {
-    std::nth_element(position_sd.begin(), position_sd.begin() + position_sd.size() / 2, position_sd.end());
-    result.median_position_sd_m = position_sd[position_sd.size() / 2];
+  if (!position_sd.empty()) result.median_position_sd_m = medianOf(position_sd);
+  if (!measured_error.empty()) {
+    result.coverage = static_cast<double>(covered) / static_cast<double>(measured_error.size());
+    result.median_position_error_m = medianOf(measured_error);
+    result.sharpness = medianOf(measured_sd) / std::max(result.median_position_error_m, 1e-6);
   }
   result.ok = true;
   return result;

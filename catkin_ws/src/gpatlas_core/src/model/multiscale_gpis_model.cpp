@@ -736,9 +736,12 @@ MultiscaleGpisModel::MultiscaleGpisModel(Config config, GpisModelConfig coarse_c
 }
 
 MultiscaleGpisModel::MultiscaleGpisModel(const MultiscaleGpisModel& other)
-    : impl_(std::make_unique<Impl>(*other.impl_)) {}
+    : SurfaceModel(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
 MultiscaleGpisModel& MultiscaleGpisModel::operator=(const MultiscaleGpisModel& other) {
-  if (this != &other) impl_ = std::make_unique<Impl>(*other.impl_);
+  if (this != &other) {
+    SurfaceModel::operator=(other);
+    impl_ = std::make_unique<Impl>(*other.impl_);
+  }
   return *this;
 }
 MultiscaleGpisModel::MultiscaleGpisModel(MultiscaleGpisModel&&) noexcept = default;
@@ -1181,7 +1184,10 @@ FitReport MultiscaleGpisModel::restore(const SurfaceModelState& state) {
   trial.observations = screenObservations(state.observations, kScreenOptions, &screen);
   report = trial.build(&state.centroid, state.scale, false);
   report.warnings.insert(report.warnings.begin(), screen.warnings.begin(), screen.warnings.end());
-  if (report.ok) *impl_ = std::move(trial);
+  if (report.ok) {
+    *impl_ = std::move(trial);
+    setPositionSdScale(state.position_sd_scale);
+  }
   return report;
 }
 

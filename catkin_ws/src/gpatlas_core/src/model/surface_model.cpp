@@ -28,6 +28,7 @@ SurfaceModelState SurfaceModel::state() const {
   s.centroid = centroid();
   s.scale = scale();
   s.observations = observations();
+  s.position_sd_scale = positionSdScale();
   return s;
 }
 

@@ -3,7 +3,8 @@
 namespace gpatlas_core {
 
 ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view_training,
-                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning) {
+                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning,
+                     const PositionCalibrationConfig* calibration) {
   ViewUpdate update;
   std::vector<TrainingPoint> data = view_training;
   std::vector<Vector3> touch_evidence;
@@ -20,6 +21,7 @@ ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view
   update.fit = model.fit(data);
   update.ok = update.fit.ok;
   if (update.ok && tuning) update.tuning = model.tune(*tuning);
+  if (update.ok && calibration) update.calibration = calibratePositionSd(model, *calibration);
   return update;
 }
 

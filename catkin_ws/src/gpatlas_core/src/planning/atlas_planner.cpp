@@ -124,11 +124,11 @@ AtlasPlanResult finishPlan(AtlasPlanResult& result, PlanStatus status, std::stri
 // result, every random choice comes from `rng`, in the order of the algorithm's steps.
 class AtlasGrowth {
  public:
-  AtlasGrowth(const SurfaceModel& model, double v_max, const AtlasPlanner::Config& config,
+  AtlasGrowth(const SurfaceModel& model, const StopRule& rule, const AtlasPlanner::Config& config,
               const SurfaceEvidence& evidence, const AtlasPlanner::Progress& progress,
               const TouchFilter& reachable, std::mt19937_64& rng, Clock::time_point started,
               AtlasPlanResult& result)
-      : model_(model), v_max_(v_max), config_(config), evidence_(evidence), progress_(progress),
+      : model_(model), rule_(rule), config_(config), evidence_(evidence), progress_(progress),
         reachable_(reachable), rng_(rng), started_(started), result_(result), atlas_(result.atlas) {}
 
   ChartCreation makeChart(const SurfacePoint& point, int parent) {
@@ -136,12 +136,13 @@ class AtlasGrowth {
                        evidence_.radiusCap(point.position, config_.chart.rho_min_m));
   }
 
-  // Algorithm 1's test (variance above V_max), or a surface nobody saw or felt. A chart right at
+  // Algorithm 1's test (StopRule: variance above V_max, or position sd above its bound), or a
+  // surface nobody saw or felt. A chart right at
   // a measurement or an earlier touch's target needs none (EvidenceRule::retouch_radius_m): a
   // touch there would find what was found. `counted`: a chart passed over is reported in the
   // plan's message (not for the aim's charts, past the one already found).
   bool needsTouch(Chart& chart, bool counted = true) {
-    if (!(chart.variance > v_max_) && !evidence_.isUnsupported(chart.centre, chart.normal)) return false;
+    if (!rule_.exceeded(model_, chart.variance, chart.slope) && !evidence_.isUnsupported(chart.centre, chart.normal)) return false;
     if (evidence_.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
       if (counted) ++result_.retouch_skipped;
       return false;
@@ -176,16 +177,16 @@ class AtlasGrowth {
   std::optional<PlanEnd> growTree(int& continuation) {
     while (atlas_.isExpandable()) {
       if (static_cast<int>(atlas_.size()) >= config_.max_charts)
-        return PlanEnd{PlanStatus::kCapReached, "chart cap reached without finding variance above V_max"};
+        return PlanEnd{PlanStatus::kCapReached, "chart cap reached without finding " + rule_.describe()};
       if (secondsSince(started_) > config_.max_time_s)
-        return PlanEnd{PlanStatus::kCapReached, "time cap reached without finding variance above V_max"};
+        return PlanEnd{PlanStatus::kCapReached, "time cap reached without finding " + rule_.describe()};
       ChartCreation created = expand(selectChart(continuation));
       if (!created.ok) continue;
       const bool new_needs_touch = needsTouch(created.chart);
       continuation = addChart(std::move(created.chart));
       if (new_needs_touch) {
         result_.path = atlas_.pathTo(extendPath(continuation));
-        return PlanEnd{PlanStatus::kTouch, "found a chart that needs a touch (variance above V_max or no evidence nearby)"};
+        return PlanEnd{PlanStatus::kTouch, "found a chart that needs a touch (" + rule_.describe() + " or no evidence nearby)"};
       }
     }
     return std::nullopt;
@@ -211,7 +212,7 @@ class AtlasGrowth {
       if (progress_) progress_(atlas_);
       if (new_needs_touch) {
         result_.path = atlas_.pathTo(continuation);
-        return PlanEnd{PlanStatus::kTouch, "a new tree's root needs a touch (variance above V_max or no evidence nearby)"};
+        return PlanEnd{PlanStatus::kTouch, "a new tree's root needs a touch (" + rule_.describe() + " or no evidence nearby)"};
       }
       rooted = true;
     }
@@ -290,7 +291,7 @@ class AtlasGrowth {
   }
 
   const SurfaceModel& model_;
-  const double v_max_;
+  const StopRule rule_;
   const AtlasPlanner::Config& config_;
   const SurfaceEvidence& evidence_;
   const AtlasPlanner::Progress& progress_;
@@ -307,7 +308,7 @@ class AtlasGrowth {
 
 }  // namespace
 
-AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, const std::optional<Vector3>& start,
+AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
                                    const Progress& progress, const TouchFilter& reachable,
                                    const EvidenceState& evidence_state) const {
   const Clock::time_point started = Clock::now();
@@ -316,8 +317,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
     return finishPlan(result, status, std::move(message), started);
   };
   if (!model.isFitted()) return finish(PlanStatus::kError, "no model: the GP is not fitted");
-  if (!(v_max > 0.0) || !std::isfinite(v_max))
-    return finish(PlanStatus::kError, "V_max must be a positive finite number");
+  if (const std::string problem = validate(rule); !problem.empty()) return finish(PlanStatus::kError, problem);
   if (const std::string problem = validate(config_); !problem.empty())
     return finish(PlanStatus::kError, "invalid planner config: " + problem);
 
@@ -326,7 +326,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
   if (!root_point.ok) return finish(PlanStatus::kError, error);
   const SurfaceEvidence evidence(model, config_.evidence, evidence_state);
-  AtlasGrowth growth(model, v_max, config_, evidence, progress, reachable, rng, started, result);
+  AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, started, result);
   ChartCreation root = growth.makeChart(root_point, -1);
   if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
   const bool root_needs_touch = growth.needsTouch(root.chart);
@@ -335,7 +335,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
   // (its candidates may all be covered or out of the domain).
   if (root_needs_touch) {
     result.path = result.atlas.pathTo(continuation);
-    return finish(PlanStatus::kTouch, "the root chart needs a touch (variance above V_max or no evidence nearby)");
+    return finish(PlanStatus::kTouch, "the root chart needs a touch (" + rule.describe() + " or no evidence nearby)");
   }
   growth.collectUncoveredCandidates();
   for (;;) {
@@ -346,7 +346,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, double v_max, cons
     if (!rooted) break;
   }
   return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(growth.trees()) +
-                                            " tree(s) covering the surface observations: the predicted surface is below V_max and near evidence");
+                                            " tree(s) covering the surface observations: no " + rule.describe() + ", all near evidence");
 }
 
 }  // namespace gpatlas_core

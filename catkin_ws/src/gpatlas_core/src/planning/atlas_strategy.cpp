@@ -12,7 +12,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
   if (mode_ == Mode::kPoke) config.aim_past_m = request.footprint_radius_m;
-  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.v_max, request.start, {}, request.reachable,
+  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.stopRule(), request.start, {}, request.reachable,
                                                               request.evidence_state);
 
   PlanResult result;

@@ -11,19 +11,22 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// A sampled surface and, per point, whether it needs a touch: variance above V_max or no
+// A sampled surface and, per point, whether it needs a touch: above the StopRule or no
 // measured surface point within the rule's evidence distance, and no measurement or earlier
 // touch's target right there (EvidenceRule::retouch_radius_m): a touch would find what was found.
 struct NeedySample {
   SurfaceSample sample;
   std::vector<char> unsupported;
   std::vector<char> retouched;
-  bool needsTouch(std::size_t i, double v_max) const {
-    return (unsupported[i] || sample.variances[i] > v_max) && !retouched[i];
+  bool exceeds(std::size_t i, const SurfaceModel& model, const StopRule& rule) const {
+    return rule.exceeded(model, sample.variances[i], sample.slopes[i]);
   }
-  bool anyNeedsTouch(double v_max) const {
+  bool needsTouch(std::size_t i, const SurfaceModel& model, const StopRule& rule) const {
+    return (unsupported[i] || exceeds(i, model, rule)) && !retouched[i];
+  }
+  bool anyNeedsTouch(const SurfaceModel& model, const StopRule& rule) const {
     for (std::size_t i = 0; i < sample.points.size(); ++i)
-      if (needsTouch(i, v_max)) return true;
+      if (needsTouch(i, model, rule)) return true;
     return false;
   }
 };
@@ -56,14 +59,14 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
     needy->retouched.push_back(evidence.measuredNear(needy->sample.points[i], rule.retouch_radius_m));
   }
   result.max_evaluated_variance = needy->sample.maxVariance();
-  if (!needy->anyNeedsTouch(request.v_max)) {
+  if (!needy->anyNeedsTouch(model, request.stopRule())) {
     result.status = PlanStatus::kConverged;
-    result.message = "no sampled surface point has variance above V_max or lacks evidence";
+    result.message = "no sampled surface point has " + request.stopRule().describe() + " or lacks evidence";
     std::size_t retouched = 0;
     for (std::size_t i = 0; i < needy->retouched.size(); ++i)
-      retouched += needy->retouched[i] && needy->sample.variances[i] > request.v_max ? 1 : 0;
+      retouched += needy->retouched[i] && needy->exceeds(i, model, request.stopRule()) ? 1 : 0;
     if (retouched > 0)
-      result.message += " (" + std::to_string(retouched) + " above V_max at measurements or earlier targets)";
+      result.message += " (" + std::to_string(retouched) + " above the bound at measurements or earlier targets)";
     return result;
   }
   return std::nullopt;
@@ -118,12 +121,12 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, Evidence
 
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
-                      [](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
+                      [&model](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
                         // The largest variance among the points that need a touch (one does).
                         const std::vector<double>& variances = needy.sample.variances;
                         std::size_t best = variances.size();
                         for (std::size_t i = 0; i < variances.size(); ++i) {
-                          if (!needy.needsTouch(i, request.v_max)) continue;
+                          if (!needy.needsTouch(i, model, request.stopRule())) continue;
                           if (best == variances.size() || variances[i] > variances[best]) best = i;
                         }
                         return best;

@@ -51,6 +51,7 @@ ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre,
   chart.normal = centre.gradient / gradient_norm;
   chart.tangent_basis = tangentBasis(chart.normal);
   chart.variance = centre.variance;
+  chart.slope = gradient_norm;
   chart.mean = centre.mean;
   chart.parent = parent;
   chart.radius = std::min(chartRadius(centre.variance, config), max_radius_m);

@@ -30,8 +30,8 @@ std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRe
     error.message = "no model: the GP is not fitted";
     return error;
   }
-  if (!(request.v_max > 0.0) || !std::isfinite(request.v_max)) {
-    error.message = "V_max must be a positive finite number";
+  if (std::string problem = validate(request.stopRule()); !problem.empty()) {
+    error.message = problem;
     return error;
   }
   if (std::string problem = validate(request.evidence_state); !problem.empty()) {

@@ -40,6 +40,7 @@ SurfaceSample SurfaceSampler::sample(const SurfaceModel& model) const {
     result.points.push_back(point.position);
     result.normals.push_back(point.outwardNormal());
     result.variances.push_back(point.variance);
+    result.slopes.push_back(point.gradient.norm());
   }
   if (result.points.empty()) {
     result.message = "no seed could be projected onto the predicted surface";

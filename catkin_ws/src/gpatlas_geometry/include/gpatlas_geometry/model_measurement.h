@@ -33,7 +33,7 @@ struct MeasurementRequest {
   // (maskedRmse): 20000 numbers.
   bool truth_distances{false};
   // How well the variance covers the truth: surfaceCalibration on kCalibrationSamples samples of
-  // the truth.
+  // the truth, with their distances to the predicted surface (coverage, sharpness).
   bool calibration{false};
 };
 

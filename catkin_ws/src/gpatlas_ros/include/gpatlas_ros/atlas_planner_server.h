@@ -55,6 +55,7 @@ class AtlasPlannerServer {
   std::string world_frame_;
   std::string default_strategy_;
   double default_v_max_{0.1};
+  double default_max_position_sd_m_{0.0};
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::StrategyConfig strategy_config_;  // with the evidence rule of every plan
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);

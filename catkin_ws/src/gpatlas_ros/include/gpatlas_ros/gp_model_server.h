@@ -101,6 +101,7 @@ class GpModelServer {
   gpatlas_core::TouchObservationConfig touch_config_;
   std::uint64_t seed_{0};
   gpatlas_core::TuningConfig tuning_;
+  gpatlas_core::PositionCalibrationConfig position_calibration_;
   double display_v_max_{0.1};
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_geometry::SurfaceMesher::Config mesher_config_;

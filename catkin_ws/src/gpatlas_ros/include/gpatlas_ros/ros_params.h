@@ -33,9 +33,11 @@ using gpatlas_core::readStrategy;
 using gpatlas_core::readStrategyChoice;
 using gpatlas_core::readTouchObservations;
 using gpatlas_core::readTuning;
+using gpatlas_core::readPositionCalibration;
 using gpatlas_core::readUseSupportPlane;
 using gpatlas_core::readViewTraining;
 using gpatlas_core::readVMax;
+using gpatlas_core::readMaxPositionSd;
 
 // The exploration node's own settings (launch parameters, not config/pipeline.yaml's: the file
 // holds what the pipeline and the bench share).

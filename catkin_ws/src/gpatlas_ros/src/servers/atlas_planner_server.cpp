@@ -28,6 +28,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   default_strategy_ = preamble.strategy_choice.name;
   model_config_ = preamble.model;
   default_v_max_ = readVMax(reader);
+  default_max_position_sd_m_ = readMaxPositionSd(reader);
   readEvidence(reader, &strategy_config_.evidence);
   readStrategy(reader, &strategy_config_);
   readApproach(reader, &approach_config_);
@@ -44,7 +45,8 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   training_sub_ = nh_.subscribe("training_set", 1, &AtlasPlannerServer::onTrainingSet, this);
   if (use_support_plane)
     plane_sub_ = nh_.subscribe("support_plane", 1, &AtlasPlannerServer::onSupportPlane, this);
-  ROS_INFO_STREAM("atlas_planner: strategy " << default_strategy_ << ", V_max " << default_v_max_ << "; call "
+  ROS_INFO_STREAM("atlas_planner: strategy " << default_strategy_ << ", stop rule: "
+                                             << gpatlas_core::StopRule{default_v_max_, default_max_position_sd_m_}.describe() << "; call "
                                              << next_touch_srv_.getService());
 }
 
@@ -117,6 +119,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   const gpatlas_core::PlanRequest asked = fromMsg(req);
   gpatlas_core::PlanRequest request = asked;
   request.v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
+  if (req.max_position_sd_m == 0.0) request.max_position_sd_m = default_max_position_sd_m_;
   // What the loop asks, merged as the bench's planner merges it, with the table this nodelet knows.
   gpatlas_core::EvidenceState own;
   own.support_plane = support_plane_;

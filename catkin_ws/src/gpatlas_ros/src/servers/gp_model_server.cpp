@@ -32,6 +32,7 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   readViewTraining(reader, &view_config_);
   readTouchObservations(reader, &touch_config_);
   readTuning(reader, &tuning_);
+  readPositionCalibration(reader, &position_calibration_);
   display_v_max_ = readVMax(reader);
   readMesher(reader, &mesher_config_);
   fit_every_cloud_ = reader.flag("fit_every_cloud", fit_every_cloud_);
@@ -196,7 +197,8 @@ bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   // The same fit as the bench's: a new view replaces the previous one, the touches stay.
   const ros::WallTime start = ros::WallTime::now();
   const gpatlas_core::ViewUpdate update =
-      gpatlas_core::applyView(*model_, view.points, touch_config_, tuning_.enabled ? &tuning_.tuner : nullptr);
+      gpatlas_core::applyView(*model_, view.points, touch_config_, tuning_.enabled ? &tuning_.tuner : nullptr,
+                              &position_calibration_);
   if (!update.ok) {
     ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << update.fit.message);
     return false;
@@ -216,8 +218,11 @@ bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   if (update.retraction.any())
     retracted = "; the touches contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +
                 " of its occluded-interior guesses (" + std::to_string(update.retraction.dropped) + " dropped)";
+  if (update.calibration && !update.calibration->ok)
+    ROS_WARN_STREAM("gp_model: position sd not calibrated: " << update.calibration->message);
+  const std::string calibrated = update.calibration && update.calibration->ok ? "; " + update.calibration->message : "";
   ROS_INFO_STREAM("gp_model: view: " << view.message << retracted << "; " << update.fit.message << " in "
-                                     << (ros::WallTime::now() - start).toSec() << " s" << tuned);
+                                     << (ros::WallTime::now() - start).toSec() << " s" << tuned << calibrated);
   publishModel();
   return true;
 }

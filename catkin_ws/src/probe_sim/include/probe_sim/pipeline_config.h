@@ -14,6 +14,7 @@ struct PipelineConfig {
   std::uint64_t seed{0};
   gpatlas_core::SurfaceModelConfig model;
   gpatlas_core::TuningConfig tuning;
+  gpatlas_core::PositionCalibrationConfig position_calibration;
   gpatlas_core::ViewTrainingConfig view;
   bool use_support_plane{true};
   gpatlas_core::TouchObservationConfig touch;

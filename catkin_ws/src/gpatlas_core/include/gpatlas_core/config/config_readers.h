@@ -10,6 +10,7 @@
 #include "gpatlas_core/model/surface_model_factory.h"
 #include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/occupancy_grid.h"
+#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/config/parameters.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/observations/view_training.h"
@@ -55,6 +56,7 @@ void readGpis(ParamReader& r, GpisModel::Config* c);
 void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c);
 void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c);
 void readTuning(ParamReader& r, TuningConfig* c);
+void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c);
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
 // Whether the table found by segmentation is used (the view's below-support points, no guesses
 // in it, the evidence rule's approach test).
@@ -65,6 +67,8 @@ void readExplorer(ParamReader& r, Explorer::Config* c);
 // The variance threshold V_max (exploration/v_max), for the loop (readExplorer) and for whoever
 // else needs it alone (the planner's default, the displayed colour scale).
 double readVMax(ParamReader& r, double fallback = Explorer::Config().v_max);
+// The stop rule in metres (exploration/max_position_sd_m), likewise.
+double readMaxPositionSd(ParamReader& r, double fallback = Explorer::Config().max_position_sd_m);
 void readStrategyChoice(ParamReader& r, StrategyChoice* c);
 void readStrategy(ParamReader& r, StrategyConfig* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);

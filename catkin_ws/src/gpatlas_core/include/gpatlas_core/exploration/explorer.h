@@ -164,6 +164,9 @@ class Explorer {
  public:
   struct Config {
     double v_max{0.1};
+    // The stop rule in metres (StopRule): converged when no reachable point of the predicted
+    // surface has a position sd above it; 0: the paper's V_max rule.
+    double max_position_sd_m{0.005};
     int max_actions{100};
     // The paper's extra stop on the real robot: this many failed touches in a row. A touch
     // fails when the probe reports failure or the model accepts none of its contacts.

@@ -65,6 +65,7 @@ struct SurfaceModelState {
   Vector3 centroid{Vector3::Zero()};
   double scale{1.0};
   std::vector<TrainingPoint> observations;
+  double position_sd_scale{1.0};  // SurfaceModel::positionSdScale
 };
 
 // An implicit surface model (paper section 3.1): a posterior over a function f that is negative
@@ -129,11 +130,21 @@ class SurfaceModel {
   virtual double nearestSurfaceDistance(const Vector3& point_world,
                                         const std::vector<Vector3>& new_surface_points = {}) const;
 
+  // ---- position uncertainty (position_uncertainty.h)
+  // The factor on sd(f) that calibratePositionSd fits: the common scale of the prior's and the
+  // noise's standard deviation, which leaves the mean unchanged. The reported variance does not
+  // include it, so that V_max keeps the paper's meaning; positionSd() does.
+  double positionSdScale() const { return position_sd_scale_; }
+  void setPositionSdScale(double scale) { position_sd_scale_ = scale; }
+
   // ---- replicas
   SurfaceModelState state() const;
   // Rebuilds this model from another's state (same model name): its hyperparameters, frame and
   // data, fitted once. On failure the model is unchanged.
   virtual FitReport restore(const SurfaceModelState& state) = 0;
+
+ private:
+  double position_sd_scale_{1.0};
 };
 
 }  // namespace gpatlas_core

@@ -5,6 +5,7 @@
 
 #include "gpatlas_core/common/types.h"
 #include "gpatlas_core/model/hyperparameter_tuner.h"
+#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/observations/occluded_interior.h"
 #include "gpatlas_core/observations/touch_training.h"
@@ -27,6 +28,8 @@ struct ViewUpdate {
   // Set when tuning was asked for and the fit succeeded; its `ok` is false when the model kept
   // its hyperparameters.
   std::optional<TuneReport> tuning;
+  // Set when calibration was asked for and the fit succeeded (after the tuning).
+  std::optional<PositionCalibration> calibration;
 };
 
 // Fits `model` from scratch to a view's training data (buildViewTraining) and the touches it
@@ -35,8 +38,10 @@ struct ViewUpdate {
 // (TouchObservationConfig::guess_min_depth_fraction of the model's scale), as each touch did to
 // the previous view's: a new view must not bring back a cavity's lid a touch took away. A model
 // not fitted yet takes the view alone. Then, with `tuning` (null: none), the hyperparameters are
-// tuned on the fitted model.
+// tuned on the fitted model, and with `calibration` (null: none) its position sd is calibrated
+// (calibratePositionSd); touches later keep that scale.
 ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view_training,
-                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning);
+                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning,
+                     const PositionCalibrationConfig* calibration = nullptr);
 
 }  // namespace gpatlas_core

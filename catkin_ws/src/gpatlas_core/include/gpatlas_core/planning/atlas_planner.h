@@ -2,6 +2,7 @@
 
 #include "gpatlas_core/planning/atlas.h"
 #include "gpatlas_core/planning/chart.h"
+#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/model/surface_projection.h"
@@ -92,7 +93,7 @@ class AtlasPlanner {
   // touch `reachable` refuses is passed over: the atlas grows on past it, and the surface
   // counts as covered when only such charts are left. `evidence_state`: what the run has
   // learnt that the evidence test reads (Config::evidence).
-  AtlasPlanResult plan(const SurfaceModel& model, double v_max,
+  AtlasPlanResult plan(const SurfaceModel& model, const StopRule& rule,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}, const TouchFilter& reachable = {},
                        const EvidenceState& evidence_state = {}) const;

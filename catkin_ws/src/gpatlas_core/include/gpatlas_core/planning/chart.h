@@ -43,6 +43,7 @@ struct Chart {
   TangentBasis tangent_basis{TangentBasis::Zero()};
   double radius{0.0};  // rho, metres
   double variance{0.0};
+  double slope{0.0};   // |grad f| at the centre, per metre (the position sd's denominator)
   double mean{0.0};    // f at the centre, |f| below the projection tolerance
   int parent{-1};      // index in the atlas, -1 for the root
   // The direction a touch of the centre comes from, when the planner's TouchFilter chose one

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "gpatlas_core/planning/atlas_planner.h"
+#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/planning/surface_sampler.h"
 #include "gpatlas_core/common/seeds.h"
@@ -17,6 +18,9 @@ namespace gpatlas_core {
 
 struct PlanRequest {
   double v_max{0.1};  // reported (paper-equivalent) variance units
+  // > 0: the stop rule in metres replaces V_max (StopRule).
+  double max_position_sd_m{0.0};
+  StopRule stopRule() const { return StopRule{v_max, max_position_sd_m}; }
   // What the run has learnt that every strategy's evidence test reads (its EvidenceRule,
   // StrategyConfig::evidence, says how): the Explorer fills the attempted targets, the planner
   // adds the table it knows of (mergeEvidenceState).

@@ -17,6 +17,7 @@ struct SurfaceSample {
   std::vector<Vector3> points;
   std::vector<Vector3> normals;  // outward unit normals
   std::vector<double> variances; // reported units
+  std::vector<double> slopes;    // |grad f| per metre (positionSd)
   int seeds_tried{0};
   double maxVariance() const;    // 0 when empty
 };

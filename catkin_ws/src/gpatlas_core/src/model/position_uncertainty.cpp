@@ -1,0 +1,171 @@
+#include "gpatlas_core/model/position_uncertainty.h"
+
+#include <algorithm>
+#include <Eigen/Eigenvalues>
+
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <sstream>
+
+namespace gpatlas_core {
+
+double positionSd(const SurfaceModel& model, double reported_variance, double gradient_norm) {
+  const double cap = model.domainRadiusWorld();
+  if (!std::isfinite(reported_variance)) return cap;
+  const double sd_f = model.positionSdScale() * std::sqrt(std::max(reported_variance, 0.0) / model.varianceUnitFactor());
+  if (!(gradient_norm > 0.0) || !std::isfinite(gradient_norm)) return cap;
+  return std::min(sd_f / gradient_norm, cap);
+}
+
+Eigen::VectorXd positionSd(const SurfaceModel& model, const Points3& x_world) {
+  Eigen::VectorXd sd(x_world.cols());
+  if (x_world.cols() == 0) return sd;
+  const BatchPrediction prediction = model.predictBatch(x_world, true, false, true);
+  for (Eigen::Index k = 0; k < x_world.cols(); ++k)
+    sd[k] = prediction.in_domain[k] ? positionSd(model, prediction.variance[k], prediction.gradient.col(k).norm())
+                                    : model.domainRadiusWorld();
+  return sd;
+}
+
+std::string validate(const PositionCalibrationConfig& config) {
+  std::ostringstream problem;
+  if (config.folds < 0) problem << "folds must be >= 0; ";
+  if (!(config.cut_fraction > 0.0) || !(config.cut_fraction < 1.0)) problem << "cut_fraction must be in (0, 1); ";
+  if (config.max_test_points_per_fold < 1) problem << "max_test_points_per_fold must be >= 1; ";
+  if (!(config.coverage > 0.0) || !(config.coverage < 1.0)) problem << "coverage must be in (0, 1); ";
+  if (!(config.min_scale > 0.0) || !(config.max_scale >= config.min_scale) || !std::isfinite(config.max_scale))
+    problem << "need 0 < min_scale <= max_scale < inf; ";
+  return problem.str();
+}
+
+namespace {
+
+// The directions of the folds' cuts: both ways along each principal axis of the surface data.
+std::vector<Vector3> cutDirections(const std::vector<Vector3>& surface, int count) {
+  Vector3 mean = Vector3::Zero();
+  for (const Vector3& p : surface) mean += p;
+  mean /= static_cast<double>(surface.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Vector3& p : surface) scatter += (p - mean) * (p - mean).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> axes(scatter);
+  std::vector<Vector3> directions;
+  for (int k = 0; k < count; ++k) {
+    const Vector3 axis = axes.eigenvectors().col(2 - (k / 2) % 3);
+    directions.push_back(k % 2 == 0 ? axis : Vector3(-axis));
+  }
+  return directions;
+}
+
+// |mean| / sd(f) at the held-out surface points of one fold: the position error over the
+// unscaled position sd (both are divided by |grad f|). The fold holds out every observation
+// beyond a plane across `direction` that cuts off `fraction` of the surface data: a side the
+// camera did not see, next to the part it did. Empty when the refit fails.
+std::vector<double> foldRatios(const SurfaceModel& model, const std::vector<Vector3>& surface, const Vector3& direction,
+                               const PositionCalibrationConfig& config, std::mt19937_64& rng) {
+  std::vector<double> heights;
+  for (const Vector3& p : surface) heights.push_back(p.dot(direction));
+  std::vector<double> sorted = heights;
+  const std::size_t k = static_cast<std::size_t>((1.0 - config.cut_fraction) * static_cast<double>(sorted.size() - 1));
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
+  const double cut = sorted[k];
+  std::vector<TrainingPoint> kept;
+  std::vector<Vector3> held_out;
+  for (const TrainingPoint& point : model.observations()) {
+    if (point.position.dot(direction) <= cut) kept.push_back(point);
+    else if (isSurfaceValue(point)) held_out.push_back(point.position);
+  }
+  if (held_out.empty()) return {};
+  std::shuffle(held_out.begin(), held_out.end(), rng);
+  held_out.resize(std::min(held_out.size(), static_cast<std::size_t>(config.max_test_points_per_fold)));
+  std::unique_ptr<SurfaceModel> trial = model.clone();
+  if (!trial->fitInFrame(kept, model.centroid(), model.scale()).ok) return {};
+  Points3 queries(3, static_cast<Eigen::Index>(held_out.size()));
+  for (std::size_t i = 0; i < held_out.size(); ++i) queries.col(static_cast<Eigen::Index>(i)) = held_out[i];
+  const BatchPrediction prediction = trial->predictBatch(queries, false, false, true);
+  std::vector<double> ratios;
+  for (Eigen::Index i = 0; i < queries.cols(); ++i) {
+    const double sd_f = std::sqrt(std::max(prediction.variance[i], 0.0) / trial->varianceUnitFactor());
+    if (prediction.in_domain[i] && sd_f > 0.0 && std::isfinite(prediction.mean[i]))
+      ratios.push_back(std::abs(prediction.mean[i]) / sd_f);
+  }
+  return ratios;
+}
+
+double quantile(std::vector<double> values, double q) {
+  const std::size_t k = std::min(values.size() - 1, static_cast<std::size_t>(q * static_cast<double>(values.size())));
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
+  return values[k];
+}
+
+}  // namespace
+
+PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalibrationConfig& config) {
+  const auto started = std::chrono::steady_clock::now();
+  PositionCalibration result;
+  result.scale = model.positionSdScale();
+  if (const std::string problem = validate(config); !problem.empty()) {
+    result.message = "invalid position calibration config: " + problem;
+    return result;
+  }
+  if (!model.isFitted()) {
+    result.message = "no model to calibrate";
+    return result;
+  }
+  if (config.folds == 0) {
+    result.message = "calibration off (folds 0): position sd scale kept at " + std::to_string(result.scale);
+    return result;
+  }
+  std::vector<Vector3> surface;
+  for (const TrainingPoint& point : model.observations())
+    if (isSurfaceValue(point)) surface.push_back(point.position);
+  if (surface.size() < 8) {
+    result.message = "too few surface observations to cross-validate";
+    return result;
+  }
+  std::mt19937_64 rng(config.seed);
+  std::vector<double> ratios;
+  for (const Vector3& direction : cutDirections(surface, config.folds)) {
+    const std::vector<double> fold = foldRatios(model, surface, direction, config, rng);
+    if (fold.empty()) continue;
+    ++result.folds_used;
+    ratios.insert(ratios.end(), fold.begin(), fold.end());
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  result.test_points = ratios.size();
+  if (ratios.empty()) {
+    result.message = "no fold could be refitted and predicted: position sd scale kept";
+    return result;
+  }
+  result.median_ratio = quantile(ratios, 0.5);
+  result.scale = std::clamp(quantile(ratios, config.coverage) / 2.0, config.min_scale, config.max_scale);
+  model.setPositionSdScale(result.scale);
+  result.ok = true;
+  std::ostringstream message;
+  message << "position sd scale " << result.scale << " from " << result.test_points << " held-out surface points in "
+          << result.folds_used << " cut-off sides of " << config.cut_fraction << " of the data (median |error| / sd "
+          << result.median_ratio << ")";
+  result.message = message.str();
+  return result;
+}
+
+bool StopRule::exceeded(const SurfaceModel& model, double reported_variance, double gradient_norm) const {
+  if (reported_variance > v_max) return true;
+  return max_position_sd_m > 0.0 && positionSd(model, reported_variance, gradient_norm) > max_position_sd_m;
+}
+
+std::string StopRule::describe() const {
+  std::ostringstream text;
+  text << "variance above V_max " << v_max;
+  if (max_position_sd_m > 0.0) text << " or position sd above " << max_position_sd_m * 1000.0 << " mm";
+  return text.str();
+}
+
+std::string validate(const StopRule& rule) {
+  if (!(rule.v_max > 0.0) || !std::isfinite(rule.v_max)) return "V_max must be a positive finite number";
+  if (!(rule.max_position_sd_m >= 0.0) || !std::isfinite(rule.max_position_sd_m))
+    return "max_position_sd_m must be >= 0 and finite (0: the V_max rule)";
+  return "";
+}
+
+}  // namespace gpatlas_core

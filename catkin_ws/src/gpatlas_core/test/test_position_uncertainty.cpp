@@ -1,0 +1,223 @@
+#include "gpatlas_core/exploration/explorer.h"
+#include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/model/model_calibration.h"
+#include "gpatlas_core/model/position_uncertainty.h"
+#include "gpatlas_core/planning/strategy_registry.h"
+#include "gpatlas_core/testing/analytic_sphere.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+namespace {
+
+using gpatlas_core::GpisModel;
+using gpatlas_core::TrainingPoint;
+using gpatlas_core::Points3;
+using gpatlas_core::Vector3;
+using gpatlas_core::testing::AnalyticSphere;
+
+// A GP on a sphere whose prior is tight enough that the surface's position is known to a few
+// millimetres: the regime where the first-order position sd is meant to hold.
+GpisModel tightSphereModel(const AnalyticSphere& sphere) {
+  gpatlas_core::GpisModelConfig config;
+  config.kernel = "squared_exponential";
+  config.initial_params = {std::log(0.5), std::log(0.6)};
+  config.noise_in_reported_units = false;
+  GpisModel model(config);
+  EXPECT_TRUE(model.fit(sphere.view(60, -1.0, 0.05, 5)).ok);
+  return model;
+}
+
+// One sample of the posterior of f at `points`, drawn point by point with the chain rule: each
+// value from the model's predictive distribution given the values drawn before it, which a
+// clone takes as noise-free observations. Uses nothing but the model's public interface.
+std::vector<double> posteriorSample(const GpisModel& model, const std::vector<Vector3>& points, std::mt19937_64& rng) {
+  std::unique_ptr<gpatlas_core::SurfaceModel> conditioned = model.clone();
+  std::normal_distribution<double> gaussian;
+  std::vector<double> values;
+  for (const Vector3& x : points) {
+    const gpatlas_core::Prediction p = conditioned->predict(x);
+    const double value = p.mean + std::sqrt(std::max(p.variance / conditioned->varianceUnitFactor(), 0.0)) * gaussian(rng);
+    values.push_back(value);
+    TrainingPoint drawn;
+    drawn.position = x;
+    drawn.target_override = value;
+    drawn.noise_sigma = 1e-4;
+    drawn.source = gpatlas_core::PointSource::kPseudo;
+    EXPECT_TRUE(conditioned->addPoints({drawn}).ok);
+  }
+  return values;
+}
+
+TEST(PositionSd, MatchesAMonteCarloOfTheZeroCrossingOfPosteriorSamples) {
+  const AnalyticSphere sphere;
+  const GpisModel model = tightSphereModel(sphere);
+  // A point of the true surface between the data, and the line along its normal.
+  const Vector3 normal = Vector3(0.3, -0.5, 0.8).normalized();
+  const Vector3 point = sphere.centre + sphere.radius * normal;
+  Points3 query(3, 1);
+  query.col(0) = point;
+  const double predicted_sd = gpatlas_core::positionSd(model, query)[0];
+  ASSERT_GT(predicted_sd, 1e-4);
+  ASSERT_LT(predicted_sd, 0.02);
+
+  // Where each sample's f crosses zero along the normal, nearest the point.
+  const gpatlas_core::Prediction at_point = model.predict(point);
+  const double centre_offset = -at_point.mean / at_point.gradient.norm();
+  std::vector<Vector3> line;
+  const int steps = 13;
+  for (int i = 0; i < steps; ++i)
+    line.push_back(point + (centre_offset + (i - steps / 2) * 0.6 * predicted_sd) * normal);
+  std::mt19937_64 rng(17);
+  std::vector<double> crossings;
+  for (int s = 0; s < 400; ++s) {
+    const std::vector<double> f = posteriorSample(model, line, rng);
+    double best = std::nan("");
+    for (int i = 0; i + 1 < steps; ++i) {
+      if ((f[i] < 0.0) == (f[i + 1] < 0.0)) continue;
+      const double t0 = (line[i] - point).dot(normal), t1 = (line[i + 1] - point).dot(normal);
+      const double t = t0 + (t1 - t0) * f[i] / (f[i] - f[i + 1]);
+      if (std::isnan(best) || std::abs(t - centre_offset) < std::abs(best - centre_offset)) best = t;
+    }
+    if (!std::isnan(best)) crossings.push_back(best);
+  }
+  ASSERT_GT(crossings.size(), 380u);
+  double mean = 0.0, squares = 0.0;
+  for (double t : crossings) mean += t;
+  mean /= static_cast<double>(crossings.size());
+  for (double t : crossings) squares += (t - mean) * (t - mean);
+  const double sampled_sd = std::sqrt(squares / static_cast<double>(crossings.size() - 1));
+  // 400 samples give the sd to about 4% (one sigma).
+  EXPECT_NEAR(predicted_sd / sampled_sd, 1.0, 0.15) << "first order " << predicted_sd << " m, sampled " << sampled_sd;
+}
+
+TEST(PositionSd, ScalesWithTheCalibrationAndIsCappedWhereTheGradientVanishes) {
+  const AnalyticSphere sphere;
+  GpisModel model = tightSphereModel(sphere);
+  const Vector3 point = sphere.centre + sphere.radius * Vector3::UnitX();
+  const gpatlas_core::Prediction p = model.predict(point);
+  Points3 query(3, 1);
+  query.col(0) = point;
+  const double sd = gpatlas_core::positionSd(model, query)[0];
+  EXPECT_NEAR(sd, std::sqrt(p.variance / model.varianceUnitFactor()) / p.gradient.norm(), 1e-12);
+  model.setPositionSdScale(0.25);
+  EXPECT_NEAR(gpatlas_core::positionSd(model, query)[0], 0.25 * sd, 1e-12);
+  // No slope: the surface could be anywhere in the domain.
+  EXPECT_EQ(gpatlas_core::positionSd(model, p.variance, 0.0), model.domainRadiusWorld());
+  EXPECT_EQ(gpatlas_core::positionSd(model, std::nan(""), 1.0), model.domainRadiusWorld());
+  EXPECT_LE(gpatlas_core::positionSd(model, 1e9, 1e-9), model.domainRadiusWorld());
+}
+
+// Each truth point's distance to the predicted surface along the sphere's radius: the mean's
+// zero crossing on the ray from the centre, found by bisection.
+std::vector<double> radialErrors(const gpatlas_core::SurfaceModel& model, const AnalyticSphere& sphere,
+                                 const std::vector<Vector3>& truth) {
+  std::vector<double> errors;
+  for (const Vector3& x : truth) {
+    const Vector3 direction = (x - sphere.centre).normalized();
+    double inside = 0.2 * sphere.radius, outside = 2.0 * sphere.radius;
+    if (!(model.mean(sphere.centre + inside * direction) < 0.0) || !(model.mean(sphere.centre + outside * direction) > 0.0)) {
+      errors.push_back(std::nan(""));
+      continue;
+    }
+    for (int i = 0; i < 40; ++i) {
+      const double middle = 0.5 * (inside + outside);
+      (model.mean(sphere.centre + middle * direction) < 0.0 ? inside : outside) = middle;
+    }
+    errors.push_back(std::abs(0.5 * (inside + outside) - sphere.radius));
+  }
+  return errors;
+}
+
+TEST(PositionCalibration, SharpensTheSdOfAHalfSeenSphereAndStillCoversItsTruth) {
+  const AnalyticSphere sphere;
+  GpisModel model;  // the default (paper-like) GPIS: honest but vague
+  ASSERT_TRUE(model.fit(sphere.view(300, 0.0, 0.02, 7)).ok);
+  std::vector<Vector3> truth;
+  for (const Vector3& d : gpatlas_core::fibonacciSphere(600)) truth.push_back(sphere.centre + sphere.radius * d);
+  const std::vector<double> errors = radialErrors(model, sphere, truth);
+  const gpatlas_core::CalibrationResult before = gpatlas_core::surfaceCalibration(model, truth, 2.0, errors);
+  ASSERT_TRUE(before.ok);
+
+  const gpatlas_core::PositionCalibration calibration = gpatlas_core::calibratePositionSd(model, {});
+  ASSERT_TRUE(calibration.ok) << calibration.message;
+  EXPECT_EQ(model.positionSdScale(), calibration.scale);
+  EXPECT_GT(calibration.folds_used, 3);
+  const gpatlas_core::CalibrationResult after = gpatlas_core::surfaceCalibration(model, truth, 2.0, errors);
+  std::cout << "half-seen sphere: scale " << calibration.scale << "; coverage " << before.coverage << " -> "
+            << after.coverage << ", sharpness " << before.sharpness << " -> " << after.sharpness << std::endl;
+  EXPECT_GT(before.sharpness, 5.0);  // vague
+  EXPECT_LT(after.sharpness, 0.5 * before.sharpness);
+  EXPECT_GE(after.coverage, 0.8);
+  // The mean is the model's own, untouched.
+  EXPECT_EQ(radialErrors(model, sphere, truth), errors);
+}
+
+TEST(PositionCalibration, RefusesBadInputAndKeepsTheScale) {
+  GpisModel unfitted;
+  EXPECT_FALSE(gpatlas_core::calibratePositionSd(unfitted, {}).ok);
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(100, 0.0, 0.02, 7)).ok);
+  gpatlas_core::PositionCalibrationConfig bad;
+  bad.coverage = 1.5;
+  EXPECT_FALSE(gpatlas_core::calibratePositionSd(model, bad).ok);
+  gpatlas_core::PositionCalibrationConfig off;
+  off.folds = 0;
+  EXPECT_FALSE(gpatlas_core::calibratePositionSd(model, off).ok);
+  EXPECT_EQ(model.positionSdScale(), 1.0);
+}
+
+// The back of a sphere seen from above: the position rule must not call it known before the
+// probe has been there (or found it out of reach), where the V_max rule at a lax threshold
+// does. The evidence rule (a touch wherever no data lie near) is off, so that the stop rule
+// alone decides.
+TEST(StopRule, AHalfSeenSphereDoesNotConvergeBeforeItsBackIsTouched) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
+  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
+  gpatlas_core::StrategyConfig variance_alone;
+  variance_alone.evidence.max_distance = 0.0;
+  const auto strategy = gpatlas_core::makeStrategy("atlas_poke", variance_alone);
+
+  gpatlas_core::Explorer::Config lax;
+  lax.v_max = 10.0;
+  lax.max_position_sd_m = 0.0;
+  GpisModel paper_rule(model);
+  gpatlas_core::testing::AnalyticSphereProber unused(sphere);
+  const gpatlas_core::ExplorationResult vmax_run = gpatlas_core::Explorer(lax).run(paper_rule, *strategy, unused);
+  EXPECT_TRUE(vmax_run.converged);
+  EXPECT_EQ(vmax_run.contacts, 0);
+
+  gpatlas_core::Explorer::Config rule;
+  rule.max_position_sd_m = 0.005;
+  rule.max_actions = 60;
+  gpatlas_core::testing::AnalyticSphereProber prober(sphere);
+  const gpatlas_core::ExplorationResult run = gpatlas_core::Explorer(rule).run(model, *strategy, prober);
+  ASSERT_FALSE(run.records.empty());
+  EXPECT_EQ(run.records.front().plan_status, gpatlas_core::PlanStatus::kTouch);
+  int below_the_view = 0;
+  for (const TrainingPoint& p : model.observations())
+    if (p.source == gpatlas_core::PointSource::kTouch && gpatlas_core::isSurfaceValue(p) &&
+        (p.position - sphere.centre).normalized().z() < 0.0)
+      ++below_the_view;
+  std::cout << "position rule: " << run.stop_reason << " after " << run.actions << " touches, " << below_the_view
+            << " contacts below the equator" << std::endl;
+  EXPECT_GT(below_the_view, 0);
+  if (run.converged) {
+    std::vector<Vector3> back;
+    for (const Vector3& d : gpatlas_core::fibonacciSphere(400))
+      if (d.z() < 0.0) back.push_back(sphere.centre + sphere.radius * d);
+    Points3 queries(3, static_cast<Eigen::Index>(back.size()));
+    for (std::size_t i = 0; i < back.size(); ++i) queries.col(static_cast<Eigen::Index>(i)) = back[i];
+    const Eigen::VectorXd sd = gpatlas_core::positionSd(model, queries);
+    std::vector<double> sorted(sd.data(), sd.data() + sd.size());
+    std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
+    EXPECT_LE(sorted[sorted.size() / 2], 0.005);
+  }
+}
+
+}  // namespace
