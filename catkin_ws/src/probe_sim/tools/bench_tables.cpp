@@ -131,11 +131,18 @@ void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vec
     r.metrics.chamfer_l1 = number(run("chamfer_l1_m"));
     r.metrics.f_score = number(run("fscore_5mm"));
     r.calibration = number(run("calibration_2sd"));
+    // Files of a bench without the F-score's column read as not measured there.
+    const bool has_fscore = std::find(t.history.header.fields.begin(), t.history.header.fields.end(), "fscore_5mm") !=
+                            t.history.header.fields.end();
     for (const CsvRecord& h : rows.history) {
       gpatlas_core::ExplorationRecord record;
       record.index = std::atoi(t.history.field(h, "action").c_str()) - 1;
       record.plan_ms = number(t.history.field(h, "plan_ms"));
       record.n_train = static_cast<std::size_t>(std::strtoull(t.history.field(h, "n_train").c_str(), nullptr, 10));
+      record.contacts_total = std::atoi(t.history.field(h, "contacts_total").c_str());
+      record.rmse_pred_to_gt_m = number(t.history.field(h, "rmse_pred_to_gt_m"));
+      record.rmse_gt_to_pred_m = number(t.history.field(h, "rmse_gt_to_pred_m"));
+      if (has_fscore) record.fscore_5mm = number(t.history.field(h, "fscore_5mm"));
       r.history.push_back(record);
     }
     if (rows.reachability) {

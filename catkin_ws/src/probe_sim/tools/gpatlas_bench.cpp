@@ -97,6 +97,16 @@ void printRun(const RunResult& r, std::size_t finished, std::size_t total) {
     std::cout << ", calibration " << r.calibration << " (median position sd " << r.position_sd_m * 1000 << " mm)";
   std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
             << r.wall_s << " s";
+  // The curve's cost: its measurements' share of the run's wall time.
+  double curve_ms = 0.0;
+  int curve_points = 0;
+  for (const auto& h : r.history) {
+    curve_ms += h.progress_ms;
+    curve_points += r.curve_every > 0 && (h.index + 1) % r.curve_every == 0 ? 1 : 0;
+  }
+  if (r.curve_every > 0 && r.wall_s > 0.0)
+    std::cout << " (the curve's " << curve_points << " measurements " << std::setprecision(3) << curve_ms / 1000.0
+              << " s of it, " << std::setprecision(2) << 100.0 * curve_ms / 1000.0 / r.wall_s << " %)";
   if (!r.error.empty()) std::cout << " (" << r.error << ")";
   std::cout << std::defaultfloat << std::endl;
 }
