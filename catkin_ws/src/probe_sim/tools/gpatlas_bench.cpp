@@ -4,7 +4,8 @@
 // view from a fixed camera pose (a partial view), downsample it to the initial training set,
 // fit the GPIS, then run the exploration loop (Algorithm 2) with the chosen strategy against the
 // simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
-// Writes runs.csv, history.csv, reachability.csv, summary.md and one PNG per object into --out.
+// Writes runs.csv, history.csv, reachability.csv, summary.md, one PNG per object and anytime.png
+// into --out.
 // With --shard K/N it runs a share of the runs, and --merge joins the shards' folders (for a
 // cluster's job array: scripts/slurm_bench.sh).
 // The command line: bench_options.h; the objects: bench_truth.h; one run: bench_run.h; the
