@@ -113,6 +113,9 @@ BenchTables readBenchTables(const fs::path& folder) {
 }
 
 void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vector<GroundTruth>* truths) {
+  // Files of a bench without the F-score's column read as not measured there.
+  const auto& history_columns = t.history.header.fields;
+  const bool has_fscore = std::find(history_columns.begin(), history_columns.end(), "fscore_5mm") != history_columns.end();
   for (const RunRows& rows : t.by_run) {
     const auto& run = [&](const std::string& column) -> const std::string& { return t.runs.field(rows.run, column); };
     RunResult r;
@@ -131,9 +134,6 @@ void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vec
     r.metrics.chamfer_l1 = number(run("chamfer_l1_m"));
     r.metrics.f_score = number(run("fscore_5mm"));
     r.calibration = number(run("calibration_2sd"));
-    // Files of a bench without the F-score's column read as not measured there.
-    const bool has_fscore = std::find(t.history.header.fields.begin(), t.history.header.fields.end(), "fscore_5mm") !=
-                            t.history.header.fields.end();
     for (const CsvRecord& h : rows.history) {
       gpatlas_core::ExplorationRecord record;
       record.index = std::atoi(t.history.field(h, "action").c_str()) - 1;
