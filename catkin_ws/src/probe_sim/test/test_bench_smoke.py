@@ -270,7 +270,8 @@ class BenchSmokeTest(unittest.TestCase):
         for args in (["--set", "exploration/v_max=0"], ["--set", "no/such_key=1"], ["--config", "/no/such/pipeline.yaml"],
                      ["--simulation", "/no/such/simulation.yaml"], ["--set", "simulation/probe_radius_m=-1"],
                      ["--strategy", "nope"], ["--object", "/no/such/file.stl"], ["--probe", "laser"], ["--reach-directions", "0"],
-                     ["--strategy-library", "/no/such/libstrategies.so"]):
+                     ["--strategy-library", "/no/such/libstrategies.so"], ["--curve-every", "-1"],
+                     ["--curve-resolution-m", "0"], ["--curve-samples", "0"], ["--variance-every", "0"]):
             proc = self.run_bench(*args, "--out", self.out)
             self.assertEqual(proc.returncode, 2, args)
             self.assertIn("gpatlas_bench:", proc.stderr)
