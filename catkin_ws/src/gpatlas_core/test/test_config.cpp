@@ -153,4 +153,36 @@ TEST(RunStatus, NoSurfaceIsAnErrorWhateverTheLoopSaid) {
   EXPECT_EQ(gpatlas_core::runStatus(capped, true, "").rfind("error", 0), 0u);
 }
 
+TEST(ReportJson, TheCurveHasEveryTouchAndNullWhereNotMeasured) {
+  gpatlas_core::ExplorationReport report;
+  report.initial.index = -1;
+  report.initial.rmse_pred_to_gt_m = 0.01;
+  report.initial.rmse_gt_to_pred_m = 0.008;
+  report.initial.fscore_5mm = 0.5;
+  for (int i = 0; i < 3; ++i) {
+    gpatlas_core::ExplorationRecord r;
+    r.index = i;
+    r.contacts_total = i;  // the first touch found nothing
+    if (i != 1) {  // the second's model was not measured (skipped, or no truth)
+      r.rmse_pred_to_gt_m = 0.004 - 0.001 * i;
+      r.rmse_gt_to_pred_m = 0.003 - 0.001 * i;
+      r.fscore_5mm = 0.8 + 0.05 * i;
+    }
+    report.result.records.push_back(r);
+  }
+  const std::string json = gpatlas_core::toJson(report);
+  const std::string curve =
+      "  \"curve\": [\n"
+      "    {\"touches\": 0, \"contacts_total\": 0, \"rmse_pred_to_gt_m\": 0.01, \"rmse_gt_to_pred_m\": 0.008, \"fscore_5mm\": 0.5},\n"
+      "    {\"touches\": 1, \"contacts_total\": 0, \"rmse_pred_to_gt_m\": 0.004, \"rmse_gt_to_pred_m\": 0.003, \"fscore_5mm\": 0.8},\n"
+      "    {\"touches\": 2, \"contacts_total\": 1, \"rmse_pred_to_gt_m\": null, \"rmse_gt_to_pred_m\": null, \"fscore_5mm\": null},\n"
+      "    {\"touches\": 3, \"contacts_total\": 2, \"rmse_pred_to_gt_m\": 0.002, \"rmse_gt_to_pred_m\": 0.001, \"fscore_5mm\": 0.9}\n"
+      "  ]\n}\n";
+  ASSERT_GE(json.size(), curve.size());
+  EXPECT_EQ(json.substr(json.size() - curve.size()), curve) << json;
+  // Each action's record and the initial model carry the F-score too.
+  EXPECT_NE(json.find("\"fscore_5mm\": 0.8},\n    {\"action\": 2"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"rmse_gt_to_pred_m\": 0.008, \"fscore_5mm\": 0.5}"), std::string::npos) << json;
+}
+
 }  // namespace

@@ -18,8 +18,10 @@ ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const Tri
                               const SurfaceMesher::Config& mesher, const MeasurementRequest& request) {
   ModelMeasurement measured;
   if (request.sampled_max_variance) {
+    const auto sample_start = std::chrono::steady_clock::now();
     const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
     if (sample.ok) measured.sampled_max_variance = sample.maxVariance();
+    measured.sample_s = secondsSince(sample_start);
   }
   if (truth.empty()) {
     measured.shape.message = "no truth to compare with";
@@ -34,7 +36,7 @@ ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const Tri
   if (!measured.surface.ok || measured.surface.mesh.empty()) {
     measured.shape.message = "no predicted surface: " + measured.surface.message;
   } else {
-    ShapeMetrics::Config metrics;
+    ShapeMetrics::Config metrics = request.shape;
     metrics.keep_truth_distances = request.truth_distances;
     const auto metrics_start = std::chrono::steady_clock::now();
     measured.shape = ShapeMetrics(metrics).compare(measured.surface.mesh, truth);

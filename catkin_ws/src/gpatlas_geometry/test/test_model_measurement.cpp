@@ -76,6 +76,24 @@ TEST(MeasureModel, ATruthOneCentimetreOutIsOneCentimetreOff) {
   EXPECT_GT(off.calibration.median_position_sd_m, 2.0 * right.calibration.median_position_sd_m);
 }
 
+// The cheaper comparison of the bench's curve (fewer samples, smaller indices) measures the same
+// 10 mm gap with the samples it was asked for.
+TEST(MeasureModel, FewerSamplesMeasureTheSameGap) {
+  const AnalyticSphere sphere;
+  const GpisModel model = sphereModel(sphere);
+  const double gap = 0.01;
+  MeasurementRequest cheap;
+  cheap.sampled_max_variance = false;
+  cheap.shape.samples_per_mesh = 2000;
+  cheap.shape.index.index_samples = 6000;
+  const ModelMeasurement off = measureModel(model, makeIcosphere(sphere.centre, sphere.radius + gap, 4), mesher(), cheap);
+  ASSERT_TRUE(off.shape.ok) << off.shape.message;
+  EXPECT_EQ(off.shape.samples_per_mesh, 2000u);
+  EXPECT_NEAR(off.shape.rmse_predicted_to_truth, gap, 0.001);
+  EXPECT_NEAR(off.shape.rmse_truth_to_predicted, gap, 0.001);
+  EXPECT_LT(off.shape.f_score, 0.01);
+}
+
 // A model of the top alone against the whole sphere: the truth-to-predicted RMSE over the seen
 // top is that of a good model, and the two parts make up the whole.
 TEST(MeasureModel, MaskedRmseMeasuresPartsOfTheTruth) {

@@ -1,6 +1,9 @@
 #!/usr/bin/env python3
 """Plots gpatlas_bench's history.csv: per object, the shape error (RMSE, both directions) and the
-largest surface variance against the number of actions, one line per strategy and seed."""
+largest surface variance against the number of actions, one line per strategy and seed; and
+anytime.png, the summary's anytime curve: per object one panel, per strategy the mean over its
+seeds of F@5mm and of the RMSEs after each number of touches (a run that stopped earlier counts
+with its final value)."""
 import csv
 import math
 import os
@@ -51,6 +54,60 @@ def main(out_dir):
         fig.savefig(png, dpi=90)
         plt.close(fig)
         print(f"plot: {png}")
+    plot_anytime(out_dir, rows)
+
+
+def measured_point(hist, touches):
+    """The run's last measured point at or before `touches` (its final one when it stopped earlier)."""
+    point = None
+    for h in hist:
+        if int(h["action"]) <= touches and h.get("fscore_5mm", "nan") != "nan" and h["rmse_gt_to_pred_m"] != "nan":
+            point = h
+    return point
+
+
+def plot_anytime(out_dir, rows):
+    if not rows or "fscore_5mm" not in rows[0]:
+        return
+    objects = sorted({r["object"] for r in rows})
+    strategies = sorted({r["strategy"] for r in rows})
+    fig, axes = plt.subplots(2, len(objects), figsize=(4.5 * len(objects), 7), squeeze=False)
+    for col, obj in enumerate(objects):
+        ax_f, ax_e = axes[0][col], axes[1][col]
+        for i, strategy in enumerate(strategies):
+            runs = {}
+            for r in rows:
+                if r["object"] == obj and r["strategy"] == strategy:
+                    runs.setdefault(r["seed"], []).append(r)
+            if not runs:
+                continue
+            last = max(int(h["action"]) for hist in runs.values() for h in hist)
+            curve = []
+            for k in range(last + 1):
+                points = [p for p in (measured_point(hist, k) for hist in runs.values()) if p is not None]
+                if points:
+                    mean = lambda key, scale=1.0: scale * sum(float(p[key]) for p in points) / len(points)
+                    curve.append((k, mean("fscore_5mm"), mean("rmse_gt_to_pred_m", 1000), mean("rmse_pred_to_gt_m", 1000)))
+            if not curve:
+                continue
+            k, f, g, p = zip(*curve)
+            colour = f"C{i}"
+            ax_f.plot(k, f, color=colour, label=f"{strategy} ({len(runs)} seeds)")
+            ax_e.plot(k, g, color=colour, label=f"{strategy} truth->predicted")
+            ax_e.plot(k, p, color=colour, linestyle="--", label=f"{strategy} predicted->truth")
+        ax_f.axhline(0.9, color="grey", linewidth=0.8, linestyle=":")
+        ax_f.set_title(f"{obj}: F@5mm")
+        ax_f.set_ylim(0.0, 1.0)
+        ax_e.set_title(f"{obj}: RMSE (mm)")
+        for ax in (ax_f, ax_e):
+            ax.set_xlabel("touches")
+            ax.grid(True, alpha=0.3)
+            ax.legend(fontsize=7)
+    fig.tight_layout()
+    png = os.path.join(out_dir, "anytime.png")
+    fig.savefig(png, dpi=90)
+    plt.close(fig)
+    print(f"plot: {png}")
 
 
 if __name__ == "__main__":

@@ -16,7 +16,7 @@ JOBS = [("sphere", "atlas_poke", "0"), ("sphere", "random", "0"), ("box", "atlas
 
 # The wall-clock columns: the only ones that may differ between two runs of the same job.
 RUNS_TIMING = {"wall_s", "plan_ms_median", "update_ms_median", "approach_plan_ms_median"}
-HISTORY_TIMING = {"plan_ms", "probe_ms", "update_ms", "approach_ms", "approach_plan_ms"}
+HISTORY_TIMING = {"plan_ms", "probe_ms", "update_ms", "approach_ms", "approach_plan_ms", "measure_ms"}
 
 
 def bench(*args, **kwargs):

@@ -16,7 +16,8 @@ COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,st
            "approach_plan_ms_median,recent_target_error_m").split(",")
 
 
-CURVE_EVERY = 2
+CURVE_EVERY = 1  # the default: the shape after every action
+VARIANCE_EVERY = 3
 
 
 class BenchSmokeTest(unittest.TestCase):
@@ -34,7 +35,8 @@ class BenchSmokeTest(unittest.TestCase):
         proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.12", "--set", "simulation/table=false",
                               "--strategy", "atlas_poke",
                               "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--set", "view/max_surface_points=200",
-                              "--curve-every", str(CURVE_EVERY), "--jobs", "2", "--out", self.out, "--no-plot")
+                              "--variance-every", str(VARIANCE_EVERY), "--jobs", "2",
+                              "--out", self.out, "--no-plot")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         self.assertIn("[2/2]", proc.stdout)
         with open(os.path.join(self.out, "runs.csv")) as f:
@@ -117,15 +119,27 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertGreaterEqual(sizes[0], 200)
             self.assertGreater(int(r["actions"]), 0, r)
             self.assertEqual(sizes[1], sizes[0], steps[:2])
-            # The bench's own variance sample: at action 0, every --curve-every (2) actions and
-            # after the last action, nowhere else.
+            # The curve: the shape at action 0 and after every action (--curve-every 1) at the
+            # curve's quality, the last action's as runs.csv has it; the bench's own variance sample
+            # at the multiples of --variance-every (3), and after the last action.
+            last = int(r["actions"])
             for h in steps:
                 action = int(h["action"])
                 sampled = float(h["sampled_max_variance"])
-                if action % CURVE_EVERY == 0 or action == int(r["actions"]):
+                curve = action % CURVE_EVERY == 0
+                self.assertEqual(h["measured"], "final" if action == last else "curve" if curve else "", h)
+                if (curve and action % VARIANCE_EVERY == 0) or action == last:
                     self.assertTrue(math.isfinite(sampled) and sampled >= 0.0, h)
                 else:
                     self.assertTrue(math.isnan(sampled), h)
+                shape = [float(h[k]) for k in ("rmse_pred_to_gt_m", "rmse_gt_to_pred_m", "fscore_5mm")]
+                if curve or action == last:
+                    self.assertTrue(all(math.isfinite(v) for v in shape) and 0.0 <= shape[2] <= 1.0, h)
+                else:
+                    self.assertTrue(all(math.isnan(v) for v in shape), h)
+            for key, run_key in (("rmse_pred_to_gt_m", "rmse_pred_to_gt_m"), ("rmse_gt_to_pred_m", "rmse_gt_to_pred_m"),
+                                 ("fscore_5mm", "fscore_5mm")):
+                self.assertEqual(steps[-1][key], r[run_key], (key, steps[-1], r))
         # Both strategies start from the same model (same seed, same view), so the bench's sample of
         # it, unlike each strategy's own estimate, is the same number.
         initial = [float(h["sampled_max_variance"]) for h in history if h["action"] == "0"]
@@ -150,6 +164,72 @@ class BenchSmokeTest(unittest.TestCase):
             self.assertGreater(float(run["position_sd_m"]), 0.0, run)
         self.assertIn("g->p reachable", summary)
         self.assertIn("- atlas_poke: median", summary)
+
+    def test_the_anytime_table_is_the_curve_of_history_csv(self):
+        # Four runs of up to 11 actions measured every 2: after 5 touches a run's point is its
+        # action 4, after 10 its action 10, after 20 its final one (it stopped before). A 6 cm
+        # sphere's runs reach F@5mm 0.9 at different actions (or not), so the median has work.
+        proc = self.run_bench("--object", "procedural:sphere", "--size-m", "0.06", "--set", "simulation/table=false",
+                              "--strategy", "atlas_poke,random", "--seeds", "0,1", "--max-actions", "11",
+                              "--set", "view/max_surface_points=200", "--curve-every", "2", "--no-reachability",
+                              "--jobs", "2", "--out", self.out, "--no-plot")
+        self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
+        self.assertIn("the curve's", proc.stdout)
+        with open(os.path.join(self.out, "runs.csv")) as f:
+            runs = list(csv.DictReader(f))
+        with open(os.path.join(self.out, "history.csv")) as f:
+            history = list(csv.DictReader(f))
+        last = {(r["strategy"], r["seed"]): int(r["actions"]) for r in runs}
+        for h in history:
+            action = int(h["action"])
+            measured = ("final" if action == last[(h["strategy"], h["seed"])] else
+                        "curve" if action % 2 == 0 else "")
+            self.assertEqual(h["measured"], measured, h)
+            self.assertEqual(h["fscore_5mm"] == "nan", measured == "", h)
+        with open(os.path.join(self.out, "summary.md")) as f:
+            lines = f.read().splitlines()
+        header = next(i for i, line in enumerate(lines) if line.startswith("| strategy | g->p @5 |"))
+        columns = [c.strip() for c in lines[header].strip("|").split("|")]
+        table = {}
+        for line in lines[header + 2:]:
+            if not line.startswith("|"):
+                break
+            cells = [c.strip() for c in line.strip("|").split("|")]
+            table[cells[0]] = dict(zip(columns, cells))
+        self.assertEqual(sorted(table), ["atlas_poke", "random"])
+        for strategy, row in table.items():
+            expected = self.anytime_row([r for r in runs if r["strategy"] == strategy], history)
+            self.assertEqual(len(expected), len(row), (expected, row))
+            for column, value in expected.items():
+                self.assertEqual(row[column], value, (strategy, column, row))
+
+    @staticmethod
+    def anytime_row(runs, history):
+        """The anytime table's row of one strategy, recomputed from runs.csv and history.csv."""
+        curves = []
+        for run in runs:
+            rows = [h for h in history if (h["object"], h["strategy"], h["seed"]) ==
+                    (run["object"], run["strategy"], run["seed"])]
+            measured = [(int(h["action"]), float(h["rmse_gt_to_pred_m"]), float(h["rmse_pred_to_gt_m"]),
+                         float(h["fscore_5mm"])) for h in rows if h["fscore_5mm"] != "nan"]
+            curves.append((int(run["actions"]), measured))
+        row = {"strategy": runs[0]["strategy"]}
+        for k in (5, 10, 20):
+            points = [[p for p in measured if p[0] <= k][-1] for _, measured in curves]
+            row["g->p @%d" % k] = "%.2f" % (1000 * sum(p[1] for p in points) / len(points))
+            row["p->g @%d" % k] = "%.2f" % (1000 * sum(p[2] for p in points) / len(points))
+            row["F@5mm @%d" % k] = "%.3f" % (sum(p[3] for p in points) / len(points))
+            row["reached %d" % k] = "%d/%d" % (sum(1 for actions, _ in curves if actions >= k), len(curves))
+        first = [next((p[0] for p in measured if p[3] >= 0.9), None) for _, measured in curves]
+        reached = sorted(t for t in first if t is not None)
+        if reached:
+            middle = len(reached) // 2
+            median = reached[middle] if len(reached) % 2 else 0.5 * (reached[middle - 1] + reached[middle])
+            row["touches to F@5mm 0.9"] = "%.1f" % median
+        else:
+            row["touches to F@5mm 0.9"] = "-"
+        row["never"] = str(len(curves) - len(reached))
+        return row
 
     def test_the_face_on_the_table_is_unreachable_and_sets_the_floor(self):
         # A 10 cm cube on the table: its bottom face (1/6 of the area) is covered. A prediction
@@ -190,7 +270,8 @@ class BenchSmokeTest(unittest.TestCase):
         for args in (["--set", "exploration/v_max=0"], ["--set", "no/such_key=1"], ["--config", "/no/such/pipeline.yaml"],
                      ["--simulation", "/no/such/simulation.yaml"], ["--set", "simulation/probe_radius_m=-1"],
                      ["--strategy", "nope"], ["--object", "/no/such/file.stl"], ["--probe", "laser"], ["--reach-directions", "0"],
-                     ["--strategy-library", "/no/such/libstrategies.so"]):
+                     ["--strategy-library", "/no/such/libstrategies.so"], ["--curve-every", "-1"],
+                     ["--curve-resolution-m", "0"], ["--curve-samples", "0"], ["--variance-every", "0"]):
             proc = self.run_bench(*args, "--out", self.out)
             self.assertEqual(proc.returncode, 2, args)
             self.assertIn("gpatlas_bench:", proc.stderr)

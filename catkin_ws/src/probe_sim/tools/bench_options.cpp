@@ -50,7 +50,10 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
   --jobs N                       runs in parallel [1]
   --out DIR                      output folder [bench_out]
   --urdf FILE                    the robot (head camera, arm) [vito_description's vito.urdf]
-  --curve-every K                measure the shape error every K actions (0: only at the end) [5]
+  --curve-every K                measure the shape error every K actions (0: only at the end) [1]
+  --curve-resolution-m R         the mesh of those measurements (the final one: mesh/resolution_m) [0.01]
+  --curve-samples N              samples of each surface in those measurements (the final one: 20000) [3000]
+  --variance-every K             of those, sample the surface's largest variance every K actions [5]
   --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
   --reach-directions N           escape lines tried per truth triangle for it [256]
   --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
@@ -157,6 +160,9 @@ bool parseFlags(int argc, char** argv, Options& o) {
     else if (a == "--out") o.out = next();
     else if (a == "--urdf") o.urdf_path = next();
     else if (a == "--curve-every") o.curve_every = parseInt(a, next());
+    else if (a == "--curve-resolution-m") o.curve_resolution_m = parseDouble(a, next());
+    else if (a == "--curve-samples") o.curve_samples = parseInt(a, next());
+    else if (a == "--variance-every") o.variance_every = parseInt(a, next());
     else if (a == "--no-reachability") o.reachability = false;
     else if (a == "--reach-directions") o.reach_directions = parseInt(a, next());
     else if (a == "--verbose") o.verbose = true;
@@ -224,6 +230,10 @@ void completeAndCheck(Options& o, bool seeds_given) {
   if (!seeds_given) o.seeds = {static_cast<int>(o.pipeline.seed)};
   if (o.max_actions >= 0) o.pipeline.exploration.max_actions = o.max_actions;
   if (o.reach_directions < 1) throw std::invalid_argument("--reach-directions must be >= 1");
+  if (o.curve_every < 0) throw std::invalid_argument("--curve-every must be >= 0");
+  if (!(o.curve_resolution_m > 0.0)) throw std::invalid_argument("--curve-resolution-m must be > 0");
+  if (o.curve_samples < 1) throw std::invalid_argument("--curve-samples must be >= 1");
+  if (o.variance_every < 1) throw std::invalid_argument("--variance-every must be >= 1");
   if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
   if (o.seeds.empty()) throw std::invalid_argument("--seeds needs at least one seed");
   const auto known = gpatlas_core::strategyNames();

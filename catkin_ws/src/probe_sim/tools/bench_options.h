@@ -38,7 +38,14 @@ struct Options {
   std::vector<std::string> overrides;  // --set key=value, in order
   std::string urdf_path;  // the robot: its head camera and its arm (the build's vito.urdf unless --urdf)
   std::string urdf_xml;
-  int curve_every{5};
+  int curve_every{1};
+  // The curve's points but the last are measured more cheaply than the final model, so that every
+  // action can have one: a coarser mesh of the prediction (the final one: mesh/resolution_m) and
+  // fewer samples of each surface (the final one: ShapeMetrics' 20000).
+  double curve_resolution_m{0.01};
+  int curve_samples{3000};
+  // The curve's sampled variance (a third of a point's cost) at every K-th action only.
+  int variance_every{5};
   bool reachability{true};
   int reach_directions{probe_sim::ReachabilityConfig().directions};
   bool verbose{false};

@@ -163,6 +163,77 @@ void writeReachabilityTable(std::ostream& f, const std::vector<RunResult>& runs,
   f << '\n';
 }
 
+// The anytime table's touch counts, and the F-score it counts the touches to.
+constexpr int kAnytimeTouches[] = {5, 10, 20};
+constexpr double kFscoreGoal = 0.9;
+
+// A run's shape error after `touches` touches: its last measured point at or before them, which is
+// its final measurement when it stopped earlier; NaN when it has none.
+gpatlas_core::ExplorationRecord curveAt(const RunResult& r, int touches) {
+  gpatlas_core::ExplorationRecord point;
+  for (const auto& h : r.history)
+    if (h.index + 1 <= touches && std::isfinite(h.rmse_gt_to_pred_m) && std::isfinite(h.fscore_5mm)) point = h;
+  return point;
+}
+
+// The touches after which the run's curve first reached kFscoreGoal; -1 when it never did.
+int touchesToGoal(const RunResult& r) {
+  for (const auto& h : r.history)
+    if (std::isfinite(h.fscore_5mm) && h.fscore_5mm >= kFscoreGoal) return h.index + 1;
+  return -1;
+}
+
+// One cell of the anytime table: the means over the runs with a measured point, in mm.
+std::string anytimeCell(const std::vector<const RunResult*>& runs, int touches) {
+  double g = 0.0, p = 0.0, f = 0.0;
+  int n = 0, reached = 0;
+  for (const RunResult* r : runs) {
+    reached += r->actions >= touches ? 1 : 0;
+    const gpatlas_core::ExplorationRecord point = curveAt(*r, touches);
+    if (!std::isfinite(point.rmse_gt_to_pred_m)) continue;
+    g += point.rmse_gt_to_pred_m;
+    p += point.rmse_pred_to_gt_m;
+    f += point.fscore_5mm;
+    ++n;
+  }
+  std::ostringstream cell;
+  if (n == 0) cell << " - | - | - |";
+  else
+    cell << std::fixed << std::setprecision(2) << ' ' << 1000.0 * g / n << " | " << 1000.0 * p / n << " | "
+         << std::setprecision(3) << f / n << " |";
+  cell << ' ' << reached << '/' << runs.size() << " |";
+  return cell.str();
+}
+
+// Per strategy, over its runs (every object and seed): the shape error after 5, 10 and 20
+// touches, and the touches it took to reach F@5mm >= 0.9.
+void writeAnytimeTable(std::ostream& f, const std::vector<RunResult>& runs, const std::vector<std::string>& strategies) {
+  f << "\nAnytime: per strategy, over its runs (every object and seed), the mean shape error after 5, 10 and 20 "
+       "touches (history.csv: RMSE truth->predicted g->p and predicted->truth p->g in mm, F@5mm), with the runs that "
+       "made that many touches / its runs; a run that stopped earlier contributes its final value, and a run "
+       "measured every K actions (--curve-every) its last measured point before. Points before the last are "
+       "measured at the curve's cheaper quality (history.csv: measured). Then the touches after which F@5mm first "
+       "reached 0.9: the median over the runs that reached it, and the runs that never did.\n\n| strategy |";
+  for (int k : kAnytimeTouches)
+    f << " g->p @" << k << " | p->g @" << k << " | F@5mm @" << k << " | reached " << k << " |";
+  f << " touches to F@5mm 0.9 | never |\n|---|";
+  for (std::size_t i = 0; i < std::size(kAnytimeTouches); ++i) f << "---|---|---|---|";
+  f << "---|---|\n";
+  for (const auto& s : strategies) {
+    std::vector<const RunResult*> of_strategy;
+    for (const auto& r : runs)
+      if (r.strategy == s) of_strategy.push_back(&r);
+    f << "| " << s << " |";
+    for (int k : kAnytimeTouches) f << anytimeCell(of_strategy, k);
+    std::vector<double> to_goal;
+    for (const RunResult* r : of_strategy)
+      if (const int t = touchesToGoal(*r); t >= 0) to_goal.push_back(t);
+    if (to_goal.empty()) f << " - |";
+    else f << ' ' << std::fixed << std::setprecision(1) << median(to_goal) << " |";
+    f << ' ' << of_strategy.size() - to_goal.size() << " |\n";
+  }
+}
+
 }  // namespace
 
 std::string summarySettings(const Options& o) {
@@ -203,18 +274,23 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
 
 void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
+  // measured: how the row's shape error was measured ("curve": at the curve's cheaper quality,
+  // "final": as runs.csv, "": not); measure_ms: the bench's time on the row's model before the
+  // next action, the curve's measurement (0 where there was none).
   f << "object,strategy,seed,action,contacts_total,max_evaluated_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
-       "plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,unreachable_candidates,approach_collisions,"
-       "retreat_collisions,approach_ms,approach_plan_ms,target_error_m\n";
+       "fscore_5mm,plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,unreachable_candidates,"
+       "approach_collisions,retreat_collisions,approach_ms,approach_plan_ms,target_error_m,measured,measure_ms\n";
   for (const auto& r : runs)
-    for (const auto& h : r.history) {
+    for (std::size_t i = 0; i < r.history.size(); ++i) {
+      const gpatlas_core::ExplorationRecord& h = r.history[i];
       const bool initial = h.index < 0;
       f << r.object << ',' << r.strategy << ',' << r.seed << ',' << h.index + 1 << ',' << h.contacts_total << ','
         << (initial ? "nan" : num(h.max_evaluated_variance)) << ',' << num(h.rmse_pred_to_gt_m) << ','
-        << num(h.rmse_gt_to_pred_m) << ',' << num(h.plan_ms, 4) << ',' << num(h.probe_ms, 4) << ','
-        << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance) << ','
-        << h.approach_refusals << ',' << h.unreachable_candidates << ',' << h.approach_collisions << ',' << h.retreat_collisions << ','
-        << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << ',' << num(h.target_error_m) << '\n';
+        << num(h.rmse_gt_to_pred_m) << ',' << num(h.fscore_5mm) << ',' << num(h.plan_ms, 4) << ','
+        << num(h.probe_ms, 4) << ',' << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance)
+        << ',' << h.approach_refusals << ',' << h.unreachable_candidates << ',' << h.approach_collisions << ','
+        << h.retreat_collisions << ',' << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << ','
+        << num(h.target_error_m) << ',' << measuredAs(r, i) << ',' << num(h.progress_ms, 4) << '\n';
     }
 }
 
@@ -269,6 +345,7 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   std::ofstream f(path);
   writeSummaryHeader(f, settings);
   writeShapeTable(f, runs, objects, strategies);
+  writeAnytimeTable(f, runs, strategies);
   f << "\nPlanning time per touch (history.csv: plan_ms, and n_train, the model size each plan saw):\n\n";
   for (const auto& p : plan_times) f << "- " << describePlanTimes(p) << '\n';
   if (std::any_of(truths.begin(), truths.end(), [](const GroundTruth& g) { return g.reachability_measured; }))

@@ -169,13 +169,15 @@ struct TruthSubsetRmse {
 // The model measured against the object's truth; with `subsets`, also over the parts of the
 // truth the object's masks mark.
 gpatlas_geometry::ModelMeasurement measure(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt,
-                                           const Options& o, gpatlas_geometry::MeasurementRequest request,
+                                           const Options& o, const gpatlas_geometry::SurfaceMesher::Config& mesher,
+                                           gpatlas_geometry::MeasurementRequest request,
                                            TruthSubsetRmse* subsets = nullptr) {
   request.truth_distances = subsets && (gt.reachability_measured || !gt.sample_seen.empty());
-  gpatlas_geometry::ModelMeasurement measured = gpatlas_geometry::measureModel(model, gt.mesh, o.pipeline.mesh, request);
+  gpatlas_geometry::ModelMeasurement measured = gpatlas_geometry::measureModel(model, gt.mesh, mesher, request);
   if (o.verbose) {
     std::cout << "  [" << gt.name << "] mesh: " << measured.surface.mesh.triangles.size() << " triangles on a "
-              << measured.surface.grid_size.transpose() << " grid in " << measured.mesh_s << " s" << std::endl;
+              << measured.surface.grid_size.transpose() << " grid in " << measured.mesh_s << " s (the variance's sample: "
+              << measured.sample_s << " s)" << std::endl;
     if (measured.surface.ok && !measured.surface.mesh.empty())
       std::cout << "  [" << gt.name << "] shape metrics in " << measured.metrics_s << " s" << std::endl;
   }
@@ -190,14 +192,26 @@ gpatlas_geometry::ModelMeasurement measure(const gpatlas_core::SurfaceModel& mod
   return measured;
 }
 
-// A point of the shape's curve (history.csv): the sampled variance and the shape error.
+// A point of the shape's curve (history.csv): the shape error at the curve's quality
+// (Options::curve_resolution_m, curve_samples; the final model is measured again at full quality)
+// and every --variance-every actions the sampled variance.
 void measureInto(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt, const Options& o,
                  gpatlas_core::ExplorationRecord& record) {
-  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, gpatlas_geometry::MeasurementRequest());
+  gpatlas_geometry::SurfaceMesher::Config mesher = o.pipeline.mesh;
+  mesher.resolution_m = o.curve_resolution_m;
+  gpatlas_geometry::MeasurementRequest request;
+  request.sampled_max_variance = (record.index + 1) % o.variance_every == 0;
+  request.shape.samples_per_mesh = static_cast<std::size_t>(o.curve_samples);
+  // The distance indices shrink with the samples, as many index samples per surface sample as the
+  // final measurement has (ShapeMetrics' defaults).
+  const gpatlas_geometry::ShapeMetrics::Config full;
+  request.shape.index.index_samples = full.index.index_samples * request.shape.samples_per_mesh / full.samples_per_mesh;
+  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, mesher, request);
   record.sampled_max_variance = measured.sampled_max_variance;
   if (measured.shape.ok) {
     record.rmse_pred_to_gt_m = measured.shape.rmse_predicted_to_truth;
     record.rmse_gt_to_pred_m = measured.shape.rmse_truth_to_predicted;
+    record.fscore_5mm = measured.shape.f_score;
   }
 }
 
@@ -261,7 +275,7 @@ void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTrut
   request.vertex_variances = !mesh_file.empty();  // they only colour a saved mesh
   request.calibration = true;
   TruthSubsetRmse subsets;
-  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, request, &subsets);
+  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, o.pipeline.mesh, request, &subsets);
   if (!mesh_file.empty() && measured.surface.ok && !measured.surface.mesh.empty()) {
     const std::string error = gpatlas_core::writePly(measured.surface.mesh, mesh_file);
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
@@ -286,6 +300,7 @@ void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTrut
   if (r.metrics.ok) {
     last.rmse_pred_to_gt_m = r.metrics.rmse_predicted_to_truth;
     last.rmse_gt_to_pred_m = r.metrics.rmse_truth_to_predicted;
+    last.fscore_5mm = r.metrics.f_score;
   }
 }
 
@@ -298,6 +313,7 @@ RunResult runIdentity(const GroundTruth& gt, const std::string& strategy_name, i
   r.probe = o.simulation.probe;
   r.seed = seed;
   r.v_max = o.pipeline.exploration.v_max;
+  r.curve_every = o.curve_every;
   return r;
 }
 
@@ -327,7 +343,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   gpatlas_core::ExplorationRecord initial;
   initial.index = -1;
   initial.n_train = model->observations().size();
-  if (o.curve_every > 0) measureInto(*model, gt, o, initial);
+  if (o.curve_every > 0) {
+    const auto measure_start = std::chrono::steady_clock::now();
+    measureInto(*model, gt, o, initial);
+    initial.progress_ms = 1000.0 * std::chrono::duration<double>(std::chrono::steady_clock::now() - measure_start).count();
+  }
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
   if (!makeApproacher(*model, view.support, o, &approacher, &why)) return failedRun(r, why);
   gpatlas_core::ExplorationResult result =
@@ -348,6 +368,12 @@ double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   const std::size_t m = v.size() / 2;
   return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
+}
+
+std::string measuredAs(const RunResult& r, std::size_t i) {
+  if (i + 1 == r.history.size() && r.history[i].index >= 0) return "final";  // measureFinalModel's
+  const int action = r.history[i].index + 1;
+  return r.curve_every > 0 && action % r.curve_every == 0 ? "curve" : "";
 }
 
 }  // namespace gpatlas_bench

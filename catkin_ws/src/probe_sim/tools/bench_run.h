@@ -23,6 +23,7 @@ struct RunResult {
   std::string status;
   int seed{0};
   double v_max{0.0};
+  int curve_every{0};  // --curve-every: which history entries were measured
   int actions{0};
   int contacts{0};
   bool converged{false};
@@ -57,7 +58,9 @@ struct RunResult {
   double approach_plan_ms_median{std::nan("")};
   // How far from their targets the last touches found the surface (recentTargetError).
   double recent_target_error_m{std::nan("")};
-  // The initial model (action 0) and every action, as the ROS exploration node records them.
+  // The initial model (action 0) and every action, as the ROS exploration node records them. Each
+  // entry's progress_ms is the time the bench spent measuring it for the curve (and on its --verbose
+  // line); the initial model's too.
   std::vector<gpatlas_core::ExplorationRecord> history;
   std::string error;
 };
@@ -73,5 +76,9 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
                  std::mutex& print_mutex);
 
 double median(std::vector<double> v);
+
+// How history entry `i` of `r` was measured: "final" (the last, as the run's runs.csv row),
+// "curve" (--curve-every, at the curve's cheaper quality) or "" (not measured).
+std::string measuredAs(const RunResult& r, std::size_t i);
 
 }  // namespace gpatlas_bench

@@ -113,6 +113,9 @@ BenchTables readBenchTables(const fs::path& folder) {
 }
 
 void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vector<GroundTruth>* truths) {
+  // Files of a bench without the F-score's column read as not measured there.
+  const auto& history_columns = t.history.header.fields;
+  const bool has_fscore = std::find(history_columns.begin(), history_columns.end(), "fscore_5mm") != history_columns.end();
   for (const RunRows& rows : t.by_run) {
     const auto& run = [&](const std::string& column) -> const std::string& { return t.runs.field(rows.run, column); };
     RunResult r;
@@ -136,6 +139,10 @@ void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vec
       record.index = std::atoi(t.history.field(h, "action").c_str()) - 1;
       record.plan_ms = number(t.history.field(h, "plan_ms"));
       record.n_train = static_cast<std::size_t>(std::strtoull(t.history.field(h, "n_train").c_str(), nullptr, 10));
+      record.contacts_total = std::atoi(t.history.field(h, "contacts_total").c_str());
+      record.rmse_pred_to_gt_m = number(t.history.field(h, "rmse_pred_to_gt_m"));
+      record.rmse_gt_to_pred_m = number(t.history.field(h, "rmse_gt_to_pred_m"));
+      if (has_fscore) record.fscore_5mm = number(t.history.field(h, "fscore_5mm"));
       r.history.push_back(record);
     }
     if (rows.reachability) {

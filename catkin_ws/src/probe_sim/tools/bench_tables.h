@@ -52,8 +52,9 @@ struct BenchTables {
 BenchTables readBenchTables(const std::filesystem::path& folder);
 
 // The runs as far as summary.md needs them (identity, status, actions, shape metrics, the
-// reachable truth's RMSE; per action the plan time and model size), and the truths whose
-// reachability was measured (name, reachable share, floor), in the order of their first run.
+// reachable truth's RMSE; per action the plan time, model size, contacts and shape error), and
+// the truths whose reachability was measured (name, reachable share, floor), in the order of
+// their first run.
 void runsFromTables(const BenchTables& tables, std::vector<RunResult>* runs, std::vector<GroundTruth>* truths);
 
 }  // namespace gpatlas_bench

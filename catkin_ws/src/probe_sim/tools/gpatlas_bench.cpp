@@ -4,7 +4,8 @@
 // view from a fixed camera pose (a partial view), downsample it to the initial training set,
 // fit the GPIS, then run the exploration loop (Algorithm 2) with the chosen strategy against the
 // simulated probe on the ground-truth mesh, and measure the predicted shape against the mesh.
-// Writes runs.csv, history.csv, reachability.csv, summary.md and one PNG per object into --out.
+// Writes runs.csv, history.csv, reachability.csv, summary.md, one PNG per object and anytime.png
+// into --out.
 // With --shard K/N it runs a share of the runs, and --merge joins the shards' folders (for a
 // cluster's job array: scripts/slurm_bench.sh).
 // The command line: bench_options.h; the objects: bench_truth.h; one run: bench_run.h; the
@@ -98,6 +99,16 @@ void printRun(const RunResult& r, std::size_t finished, std::size_t total) {
               << " mm, coverage " << r.coverage << ", sharpness " << r.sharpness << ", scale " << r.position_sd_scale << ")";
   std::cout << ", plan median " << std::setprecision(4) << r.plan_ms_median << " ms, " << std::setprecision(3)
             << r.wall_s << " s";
+  // The curve's cost: its measurements' share of the run's wall time.
+  double curve_ms = 0.0;
+  int curve_points = 0;
+  for (const auto& h : r.history) {
+    curve_ms += h.progress_ms;
+    curve_points += r.curve_every > 0 && (h.index + 1) % r.curve_every == 0 ? 1 : 0;
+  }
+  if (r.curve_every > 0 && r.wall_s > 0.0)
+    std::cout << " (the curve's " << curve_points << " measurements " << std::setprecision(3) << curve_ms / 1000.0
+              << " s of it, " << std::setprecision(2) << 100.0 * curve_ms / 1000.0 / r.wall_s << " %)";
   if (!r.error.empty()) std::cout << " (" << r.error << ")";
   std::cout << std::defaultfloat << std::endl;
 }

@@ -86,6 +86,16 @@ class SimExplorationTest(unittest.TestCase):
         self.assertLess(last, initial)
         metrics = report["final_metrics"]
         self.assertIsNotNone(metrics, "the simulator's ground truth should give shape metrics")
+        # The curve: the initial model and every action, each with its touches and contacts; with
+        # the simulator's truth the measured ones (metrics_every 1, some skipped while one runs)
+        # carry their RMSEs and F@5mm, the initial model's always.
+        curve = report["curve"]
+        self.assertEqual([p["touches"] for p in curve], list(range(report["actions"] + 1)))
+        self.assertEqual([p["contacts_total"] for p in curve[1:]], [h["contacts_total"] for h in report["history"]])
+        measured = [p for p in curve if p["fscore_5mm"] is not None]
+        self.assertIs(measured[0], curve[0])
+        for p in measured:
+            self.assertTrue(0.0 <= p["fscore_5mm"] <= 1.0 and p["rmse_gt_to_pred_m"] is not None, p)
         # A 12 cm sphere seen from one side: the predicted shape is within a few centimetres.
         for key in ("rmse_pred_to_gt_m", "rmse_gt_to_pred_m"):
             self.assertTrue(0.0 <= metrics[key] < 0.05, (key, metrics[key]))

@@ -33,6 +33,27 @@ std::string jsonString(const std::string& text) {
 
 const char* jsonBool(bool b) { return b ? "true" : "false"; }
 
+// The shape error against the touches: the initial model (0 touches), then after each action its
+// touches and contacts so far and the error measured on its model; null where it was not measured
+// (no truth, not on the measurement's schedule, or skipped).
+std::string curveJson(const ExplorationReport& report) {
+  std::ostringstream json;
+  auto point = [&json](int touches, int contacts, const ExplorationRecord& r) {
+    json << "    {\"touches\": " << touches << ", \"contacts_total\": " << contacts
+         << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m)
+         << ", \"fscore_5mm\": " << jsonNumber(r.fscore_5mm) << "}";
+  };
+  json << "  \"curve\": [\n";
+  point(0, 0, report.initial);
+  for (const ExplorationRecord& r : report.result.records) {
+    json << ",\n";
+    point(r.index + 1, r.contacts_total, r);
+  }
+  json << "\n  ]\n";
+  return json.str();
+}
+
 }  // namespace
 
 std::string describeAction(const ExplorationRecord& record) {
@@ -114,7 +135,8 @@ std::string toJson(const ExplorationReport& report) {
   json << ",\n  \"initial\": {\"n_train\": " << initial.n_train
        << ", \"sampled_max_variance\": " << jsonNumber(initial.sampled_max_variance)
        << ", \"rmse_pred_to_gt_m\": " << jsonNumber(initial.rmse_pred_to_gt_m)
-       << ", \"rmse_gt_to_pred_m\": " << jsonNumber(initial.rmse_gt_to_pred_m) << "}";
+       << ", \"rmse_gt_to_pred_m\": " << jsonNumber(initial.rmse_gt_to_pred_m)
+       << ", \"fscore_5mm\": " << jsonNumber(initial.fscore_5mm) << "}";
   json << ",\n  \"history\": [\n";
   for (std::size_t i = 0; i < result.records.size(); ++i) {
     const ExplorationRecord& r = result.records[i];
@@ -136,10 +158,10 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"update_message\": " << jsonString(r.update_message)
          << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)
          << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
-         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m) << "}"
-         << (i + 1 < result.records.size() ? ",\n" : "\n");
+         << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m)
+         << ", \"fscore_5mm\": " << jsonNumber(r.fscore_5mm) << "}" << (i + 1 < result.records.size() ? ",\n" : "\n");
   }
-  json << "  ]\n}\n";
+  json << "  ],\n" << curveJson(report) << "}\n";
   return json.str();
 }
 

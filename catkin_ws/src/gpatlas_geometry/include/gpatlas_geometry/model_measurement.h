@@ -35,6 +35,9 @@ struct MeasurementRequest {
   // How well the variance covers the truth: surfaceCalibration on kCalibrationSamples samples of
   // the truth, with their distances to the predicted surface (coverage, sharpness).
   bool calibration{false};
+  // How the surfaces are compared (its keep_truth_distances is truth_distances'): fewer samples
+  // make a cheaper, noisier measurement, e.g. of every action's model.
+  ShapeMetrics::Config shape;
 };
 
 struct ModelMeasurement {
@@ -46,12 +49,13 @@ struct ModelMeasurement {
   // surface, and the message says which.
   ShapeMetricsResult shape;
   gpatlas_core::CalibrationResult calibration;  // not ok unless asked for (and with a truth)
-  double mesh_s{0.0};     // time spent meshing
+  double sample_s{0.0};   // time spent sampling the variance
+  double mesh_s{0.0};     // meshing
   double metrics_s{0.0};  // and comparing
 };
 
 // Meshes `model` with `mesher` (its vertex_variances replaced by the request's) and compares
-// the surface with `truth` (ShapeMetrics' defaults: RMSE both ways, chamfer, F-score at 5 mm).
+// the surface with `truth` (request.shape: RMSE both ways, chamfer, F-score at 5 mm).
 // An empty truth measures only the sampled variance.
 ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const TriangleMesh& truth,
                               const SurfaceMesher::Config& mesher, const MeasurementRequest& request = {});

@@ -33,6 +33,7 @@ void TrainingSetMeasurer::measureModel(const gpatlas_core::SurfaceModel& model,
   if (!measured.shape.ok) return;
   record.rmse_pred_to_gt_m = measured.shape.rmse_predicted_to_truth;
   record.rmse_gt_to_pred_m = measured.shape.rmse_truth_to_predicted;
+  record.fscore_5mm = measured.shape.f_score;
 }
 
 void BackgroundMeasurements::start() { measurer_ = std::thread(&BackgroundMeasurements::measureLoop, this); }
@@ -77,7 +78,9 @@ void BackgroundMeasurements::measureJob(const std::pair<int, gpatlas_msgs::Train
   if (std::isfinite(measured.rmse_pred_to_gt_m))
     ROS_INFO_STREAM(std::setprecision(3) << "exploration: model after action " << job.first + 1 << ": RMSE "
                                          << 1000 * measured.rmse_pred_to_gt_m << "/"
-                                         << 1000 * measured.rmse_gt_to_pred_m << " mm, sampled max variance "
+                                         << 1000 * measured.rmse_gt_to_pred_m << " mm, F@5mm " << measured.fscore_5mm
+                                         << ", sampled max variance "
+
                                          << measured.sampled_max_variance << " (measured in "
                                          << (ros::WallTime::now() - started).toSec() << " s)");
   std::lock_guard<std::mutex> lock(measure_mutex_);
@@ -101,6 +104,7 @@ void BackgroundMeasurements::mergeInto(gpatlas_core::ExplorationResult* result, 
     record.sampled_max_variance = it->second.sampled_max_variance;
     record.rmse_pred_to_gt_m = it->second.rmse_pred_to_gt_m;
     record.rmse_gt_to_pred_m = it->second.rmse_gt_to_pred_m;
+    record.fscore_5mm = it->second.fscore_5mm;
   }
   if (skipped > 0)
     ROS_INFO_STREAM("exploration: " << measured.size() << " models measured after actions, " << skipped

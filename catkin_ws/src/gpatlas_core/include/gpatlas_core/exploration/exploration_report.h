@@ -44,6 +44,9 @@ double recentTargetError(const ExplorationResult& result, std::size_t touches = 
 // "error: no predicted surface: ..." whenever there is no surface, whatever the loop said.
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message);
 
+// report.json: the settings, the outcome, the final shape, the initial model, every action's
+// record, and the curve: the shape error (RMSE both ways, F@5mm) against the touches, from the
+// initial model on, null where an action's model was not measured (no truth, or skipped).
 std::string toJson(const ExplorationReport& report);
 
 }  // namespace gpatlas_core

@@ -61,10 +61,12 @@ struct ExplorationRecord {
   // the measured error of the model where it was last touched.
   double target_error_m{std::nan("")};
   // Filled by the caller's progress callback where it measures the model (NaN otherwise): the
-  // largest variance of a fixed surface sample, and the shape error against a known truth.
+  // largest variance of a fixed surface sample, and the shape error against a known truth (RMSE
+  // both ways, F-score at 5 mm).
   double sampled_max_variance{std::nan("")};
   double rmse_pred_to_gt_m{std::nan("")};
   double rmse_gt_to_pred_m{std::nan("")};
+  double fscore_5mm{std::nan("")};
 };
 
 struct ExplorationResult {
