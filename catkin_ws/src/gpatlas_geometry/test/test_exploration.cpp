@@ -67,6 +67,7 @@ ExplorationResult explore(const std::string& strategy_name, std::uint64_t seed, 
   const auto strategy = makeStrategy(strategy_name, strategy_config);
   Explorer::Config config;
   config.v_max = 0.1;
+  config.max_position_sd_m = 0.0;  // the paper's rule
   config.max_actions = 60;
   config.seed = seed;
   return Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), EvidenceState(), progress);
@@ -760,6 +761,7 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   const EvidenceRule& evidence = strategy_config.evidence;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
+  config.max_position_sd_m = 0.0;  // the paper's rule, on an uncalibrated model
   config.max_actions = 25;
   config.seed = 2;
   const ExplorationResult result =
@@ -809,6 +811,7 @@ TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   strategy_config.evidence = sparseViewEvidence();
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
+  config.max_position_sd_m = 0.0;  // the paper's rule, on an uncalibrated model
   config.max_actions = 40;
   config.seed = 2;
   const ExplorationResult result =

@@ -45,8 +45,8 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   training_sub_ = nh_.subscribe("training_set", 1, &AtlasPlannerServer::onTrainingSet, this);
   if (use_support_plane)
     plane_sub_ = nh_.subscribe("support_plane", 1, &AtlasPlannerServer::onSupportPlane, this);
-  ROS_INFO_STREAM("atlas_planner: strategy " << default_strategy_ << ", stop rule: "
-                                             << gpatlas_core::StopRule{default_v_max_, default_max_position_sd_m_}.describe() << "; call "
+  const gpatlas_core::StopRule stop_rule{default_v_max_, default_max_position_sd_m_};
+  ROS_INFO_STREAM("atlas_planner: strategy " << default_strategy_ << ", stop rule: " << stop_rule.describe() << "; call "
                                              << next_touch_srv_.getService());
 }
 
