@@ -307,6 +307,7 @@ void planTheFirstTouch(gpatlas_msgs::GetNextTouch& touch) {
   // The planner needs the latched training set too; retry while it reports no model.
   for (int attempt = 0; attempt < 20; ++attempt) {
     touch.request.v_max = 0.1;
+    touch.request.max_position_sd_m = -1.0;  // the paper's rule: the touch the approach test below is laid out for
     touch.request.strategy = "atlas_poke";
     ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", touch));
     if (touch.response.status != gpatlas_msgs::GetNextTouch::Response::NO_MODEL) break;
@@ -390,10 +391,11 @@ void expectPlannerAnswers() {
   EXPECT_EQ(fresh.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << fresh.response.message;
 
   // Where earlier touches aimed counts as evidence: with the variance out of the way (V_max
-  // 1e9), the unseen side still needs a touch (max_evidence_distance), until the request says
-  // that touches aimed all over the sphere.
+  // 1e9, the V_max rule alone), the unseen side still needs a touch (max_evidence_distance),
+  // until the request says that touches aimed all over the sphere.
   gpatlas_msgs::GetNextTouch evidence_only;
   evidence_only.request.v_max = 1e9;
+  evidence_only.request.max_position_sd_m = -1.0;
   evidence_only.request.strategy = "atlas_poke";
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", evidence_only));
   EXPECT_EQ(evidence_only.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << evidence_only.response.message;

@@ -10,7 +10,7 @@ import unittest
 
 COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,"
            "rmse_pred_to_gt_m,rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,"
-           "fscore_5mm,calibration_2sd,position_sd_m,max_evaluated_variance,wall_s,plan_ms_median,"
+           "fscore_5mm,calibration_2sd,position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
            "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
            "approach_collisions,retreat_collisions,"
            "approach_plan_ms_median,recent_target_error_m").split(",")
@@ -155,13 +155,20 @@ class BenchSmokeTest(unittest.TestCase):
         # The mean row's mean NN per strategy is the mean of runs.csv's chamfer_l1_m (one run each).
         mean_row = next(line for line in summary.splitlines() if line.startswith("| **mean** |"))
         cells = [c.strip() for c in mean_row.strip("|").split("|")]
-        # Six cells per strategy: steps, RMSE, mean NN, F@5mm, calibration, converged.
+        # Six cells per strategy: steps, RMSE, mean NN, F@5mm, coverage / sharpness, converged.
         for i, strategy in enumerate(["atlas_poke", "random"]):
             run = next(r for r in rows if r["strategy"] == strategy)
             self.assertAlmostEqual(float(cells[1 + 6 * i + 2]), float(run["chamfer_l1_m"]), delta=1e-4, msg=mean_row)
-            self.assertAlmostEqual(float(cells[1 + 6 * i + 4]), float(run["calibration_2sd"]), delta=1e-3, msg=mean_row)
+            coverage, sharpness = (float(c) for c in cells[1 + 6 * i + 4].split("/"))
+            self.assertAlmostEqual(coverage, float(run["coverage_2sd"]), delta=1e-3, msg=mean_row)
+            self.assertAlmostEqual(sharpness, float(run["sharpness"]), delta=0.01, msg=mean_row)
             self.assertTrue(0.0 <= float(run["calibration_2sd"]) <= 1.0, run)
             self.assertGreater(float(run["position_sd_m"]), 0.0, run)
+            # Coverage and sharpness from the truth's distances to the predicted surface; the
+            # view's cross-validation sets the scale (1 would be uncalibrated).
+            self.assertTrue(0.0 <= float(run["coverage_2sd"]) <= 1.0, run)
+            self.assertGreater(float(run["sharpness"]), 0.0, run)
+            self.assertTrue(0.0 < float(run["position_sd_scale"]) < 1.0, run)
         self.assertIn("g->p reachable", summary)
         self.assertIn("- atlas_poke: median", summary)
 

@@ -40,7 +40,7 @@ constexpr std::size_t kPlanBandLow = 800, kPlanBandHigh = 1200;
 // One cell of the summary's table: sums over the runs that left a predicted surface; a run that
 // failed (an error, or no predicted surface) is counted, not averaged in.
 struct CellSums {
-  double actions = 0, rmse_p = 0, rmse_g = 0, mean_nn = 0, conv = 0, f_score = 0, calibration = 0;
+  double actions = 0, rmse_p = 0, rmse_g = 0, mean_nn = 0, conv = 0, f_score = 0, coverage = 0, sharpness = 0;
   int n = 0, failed = 0, calibrated = 0;
 
   void add(const RunResult& r) {
@@ -55,13 +55,14 @@ struct CellSums {
     rmse_g += r.metrics.rmse_truth_to_predicted;
     mean_nn += r.metrics.chamfer_l1;
     f_score += r.metrics.f_score;
-    if (std::isfinite(r.calibration)) {
-      calibration += r.calibration;
+    if (std::isfinite(r.coverage) && std::isfinite(r.sharpness)) {
+      coverage += r.coverage;
+      sharpness += r.sharpness;
       ++calibrated;
     }
   }
 
-  // The cell's columns: mean actions, RMSEs, mean NN, F-score, calibration, converged runs.
+  // The cell's columns: mean actions, RMSEs, mean NN, F-score, coverage / sharpness, converged runs.
   std::string columns() const {
     std::ostringstream s;
     if (n == 0) {
@@ -72,7 +73,7 @@ struct CellSums {
     s << ' ' << std::fixed << std::setprecision(1) << actions / count << " | " << std::setprecision(4)
       << rmse_p / count << " / " << rmse_g / count << " | " << mean_nn / count << " | " << std::setprecision(3)
       << f_score / count << " | ";
-    if (calibrated > 0) s << calibration / calibrated;
+    if (calibrated > 0) s << coverage / calibrated << " / " << std::setprecision(2) << sharpness / calibrated;
     else s << '-';
     s << " | " << static_cast<int>(conv) << '/' << n;
     if (failed > 0) s << " +" << failed << " failed";
@@ -86,8 +87,9 @@ void writeSummaryHeader(std::ostream& f, const std::string& settings) {
   f << settings << "\n";
   f << "Per cell, over the runs that left a predicted surface: mean actions, mean RMSE predicted->truth / "
        "truth->predicted (m), the mean nearest-neighbour distance over both directions (chamfer_l1_m, the "
-       "paper's kind of number; m), the F-score at 5 mm, the calibration (the share of true-surface samples whose "
-       "predicted f is within 2 sd of 0; 0.95 is calibrated), converged runs / runs; failed runs (errors, no surface) are counted after "
+       "paper's kind of number; m), the F-score at 5 mm, the position sd's coverage (the share of true-surface samples "
+       "within 2 position sd of the predicted surface; 0.90-0.99 is calibrated) / sharpness (the median position sd "
+       "over the median distance; 1 is sharp, 10 ten times too vague), converged runs / runs; failed runs (errors, no surface) are counted after "
        "a '+' and left out of the means.\n\n";
 }
 
@@ -102,7 +104,7 @@ void writeShapeTable(std::ostream& f, const std::vector<RunResult>& runs, const 
   f << "| object |";
   for (const auto& s : strategies)
     f << ' ' << s << " steps | " << s << " RMSE p->g / g->p | " << s << " mean NN | " << s << " F@5mm | " << s
-      << " calibration | " << s << " conv |";
+      << " coverage / sharpness | " << s << " conv |";
   f << "\n|---|";
   for (std::size_t i = 0; i < strategies.size(); ++i) f << "---|---|---|---|---|---|";
   f << '\n';

@@ -134,6 +134,10 @@ void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vec
     r.metrics.chamfer_l1 = number(run("chamfer_l1_m"));
     r.metrics.f_score = number(run("fscore_5mm"));
     r.calibration = number(run("calibration_2sd"));
+    r.position_sd_m = number(run("position_sd_m"));
+    r.coverage = number(run("coverage_2sd"));
+    r.sharpness = number(run("sharpness"));
+    r.position_sd_scale = number(run("position_sd_scale"));
     for (const CsvRecord& h : rows.history) {
       gpatlas_core::ExplorationRecord record;
       record.index = std::atoi(t.history.field(h, "action").c_str()) - 1;

@@ -86,6 +86,9 @@ class SimExplorationTest(unittest.TestCase):
         self.assertLess(last, initial)
         metrics = report["final_metrics"]
         self.assertIsNotNone(metrics, "the simulator's ground truth should give shape metrics")
+        # The position sd measured on the truth, as the bench's runs.csv has it.
+        self.assertTrue(0.0 <= metrics["coverage_2sd"] <= 1.0, metrics)
+        self.assertGreater(metrics["sharpness"], 0.0, metrics)
         # The curve: the initial model and every action, each with its touches and contacts; with
         # the simulator's truth the measured ones (metrics_every 1, some skipped while one runs)
         # carry their RMSEs and F@5mm, the initial model's always.

@@ -128,7 +128,8 @@ std::string toJson(const ExplorationReport& report) {
     json << "{\"rmse_pred_to_gt_m\": " << jsonNumber(shape.rmse_pred_to_gt_m)
          << ", \"rmse_gt_to_pred_m\": " << jsonNumber(shape.rmse_gt_to_pred_m)
          << ", \"chamfer_l1_m\": " << jsonNumber(shape.chamfer_l1_m) << ", \"fscore_5mm\": " << jsonNumber(shape.fscore_5mm)
-         << "}";
+         << ", \"coverage_2sd\": " << jsonNumber(shape.coverage_2sd) << ", \"sharpness\": " << jsonNumber(shape.sharpness)
+         << ", \"position_sd_m\": " << jsonNumber(shape.position_sd_m) << "}";
   else
     json << "null";
   const ExplorationRecord& initial = report.initial;

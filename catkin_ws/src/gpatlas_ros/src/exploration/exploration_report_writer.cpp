@@ -1,6 +1,7 @@
 #include "gpatlas_ros/exploration_report_writer.h"
 
 #include <gpatlas_conversions/conversions.h>
+#include <gpatlas_geometry/model_measurement.h>
 #include <gpatlas_geometry/shape_metrics.h>
 #include <gpatlas_geometry/surface_mesher.h>
 #include <gpatlas_msgs/SaveMap.h>
@@ -62,17 +63,31 @@ bool ExplorationReportWriter::writeFinalSurface(const gpatlas_msgs::TrainingSet:
   if (training) {
     std::unique_ptr<gpatlas_core::SurfaceModel> model;
     if (modelFromMsg(*training, measurement.modelConfig(), &model, message)) {
-      const auto surface = gpatlas_geometry::SurfaceMesher(measurement.mesherConfig()).mesh(*model);
+      // The bench's final measurement, when there is a truth: the shape and the position sd.
+      gpatlas_geometry::MeasurementRequest request;
+      request.sampled_max_variance = false;
+      request.calibration = true;
+      request.vertex_variances = true;  // surface.ply is coloured by them
+      gpatlas_geometry::ModelMeasurement measured;
+      if (!ground_truth.empty())
+        measured = gpatlas_geometry::measureModel(*model, ground_truth, measurement.mesherConfig(), request);
+      else
+        measured.surface = gpatlas_geometry::SurfaceMesher(measurement.mesherConfig()).mesh(*model);
+      const gpatlas_geometry::SurfaceMeshResult& surface = measured.surface;
       *message = surface.message;
       has_surface = surface.ok;
       if (surface.ok) {
         const std::string write_error = gpatlas_core::writePly(surface.mesh, (dir / "surface.ply").string());
         if (!write_error.empty()) ROS_WARN_STREAM("exploration: " << write_error);
-        if (!ground_truth.empty()) {
-          const auto metrics = gpatlas_geometry::ShapeMetrics().compare(surface.mesh, ground_truth);
-          if (metrics.ok)
-            report->final_shape = {true, metrics.rmse_predicted_to_truth, metrics.rmse_truth_to_predicted,
-                                   metrics.chamfer_l1, metrics.f_score};
+      }
+      if (measured.shape.ok) {
+        const gpatlas_geometry::ShapeMetricsResult& metrics = measured.shape;
+        report->final_shape = {true, metrics.rmse_predicted_to_truth, metrics.rmse_truth_to_predicted,
+                               metrics.chamfer_l1, metrics.f_score};
+        if (measured.calibration.ok) {
+          report->final_shape.coverage_2sd = measured.calibration.coverage;
+          report->final_shape.sharpness = measured.calibration.sharpness;
+          report->final_shape.position_sd_m = measured.calibration.median_position_sd_m;
         }
       }
     }

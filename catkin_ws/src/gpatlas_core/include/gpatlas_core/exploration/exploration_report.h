@@ -2,6 +2,7 @@
 
 #include "gpatlas_core/exploration/explorer.h"
 
+#include <cmath>
 #include <string>
 
 namespace gpatlas_core {
@@ -16,6 +17,10 @@ struct FinalShape {
   double rmse_gt_to_pred_m{0.0};
   double chamfer_l1_m{0.0};
   double fscore_5mm{0.0};
+  // The position sd on samples of the truth (CalibrationResult): coverage, sharpness, median.
+  double coverage_2sd{std::nan("")};
+  double sharpness{std::nan("")};
+  double position_sd_m{std::nan("")};
 };
 
 // Everything report.json says about one exploration.
