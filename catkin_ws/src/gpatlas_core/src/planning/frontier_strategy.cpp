@@ -29,6 +29,7 @@ UnknownSpace emptyGrid(const SurfaceModel& model, const FrontierStrategy::Config
   space.origin = model.centroid() - Vector3::Constant(0.5 * (n - 1) * c.cell_m);
   space.cells.assign(static_cast<std::size_t>(n) * n * n, Cell::kIgnored);
   space.distance_m.assign(space.cells.size(), std::numeric_limits<float>::infinity());
+  space.shadow_depth_m.assign(space.cells.size(), 0.0f);
   return space;
 }
 
@@ -55,16 +56,17 @@ void markPredicted(const SurfaceModel& model, const std::vector<bool>& hidden, U
   }
 }
 
-// Each cell's distance to the nearest kPredicted cell, up to `reach`: a breadth-first sweep from
-// them that carries its nearest source (the distance is exact to within a cell).
-void measureDistances(UnknownSpace& space, double reach) {
+// Each cell's distance to the nearest `source` cell, up to `reach` (infinity beyond): a
+// breadth-first sweep from them that carries its nearest source (exact to within a cell).
+std::vector<float> distanceFrom(const UnknownSpace& space, const std::vector<bool>& is_source, double reach) {
   const Eigen::Vector3i& n = space.size;
+  std::vector<float> distance(space.cells.size(), std::numeric_limits<float>::infinity());
   std::vector<long> source(space.cells.size(), -1);
   std::deque<long> queue;
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k)
-    if (space.cells[static_cast<std::size_t>(k)] == Cell::kPredicted) {
+    if (is_source[static_cast<std::size_t>(k)]) {
       source[static_cast<std::size_t>(k)] = k;
-      space.distance_m[static_cast<std::size_t>(k)] = 0.0f;
+      distance[static_cast<std::size_t>(k)] = 0.0f;
       queue.push_back(k);
     }
   while (!queue.empty()) {
@@ -79,12 +81,13 @@ void measureDistances(UnknownSpace& space, double reach) {
           if (a < 0 || b < 0 || c < 0 || a >= n.x() || b >= n.y() || c >= n.z()) continue;
           const long m = a + n.x() * (b + static_cast<long>(n.y()) * c);
           const float d = static_cast<float>((space.centre(m) - from).norm());
-          if (d > reach || !(d < space.distance_m[static_cast<std::size_t>(m)])) continue;
-          space.distance_m[static_cast<std::size_t>(m)] = d;
+          if (d > reach || !(d < distance[static_cast<std::size_t>(m)])) continue;
+          distance[static_cast<std::size_t>(m)] = d;
           source[static_cast<std::size_t>(m)] = source[static_cast<std::size_t>(k)];
           queue.push_back(m);
         }
   }
+  return distance;
 }
 
 // Marks every candidate cell within `radius` of p as cleared.
@@ -175,7 +178,7 @@ void clearStroke(UnknownSpace& space, const Vector3& target, const std::vector<V
       lo = std::min(lo, (p - target).dot(best_direction));
       hi = std::max(hi, (p - target).dot(best_direction));
     }
-  for (double s = lo; s <= hi; s += 0.25 * space.cell_m) {
+  for (double s = lo; s <= hi; s += 0.02 * space.cell_m) {
     const long k = space.index(target + s * best_direction);
     if (k >= 0 && candidate(space.cells[static_cast<std::size_t>(k)])) space.cells[static_cast<std::size_t>(k)] = Cell::kCleared;
   }
@@ -214,7 +217,10 @@ std::string validate(const FrontierStrategy::Config& c) {
   positive(c.reach_m, "reach_m");
   positive(c.clear_radius_m, "clear_radius_m");
   positive(c.approach_distance_m, "approach_distance_m");
+  if (!(c.observed_within_m >= c.approach_distance_m) || !std::isfinite(c.observed_within_m))
+    problem << "observed_within_m must be finite and >= approach_distance_m; ";
   positive(c.prior_length_m, "prior_length_m");
+  positive(c.part_size_m, "part_size_m");
   positive(c.shadow.bin_m, "shadow.bin_m");
   positive(c.shadow.depth_margin_m, "shadow.depth_margin_m");
   if (!(c.min_gap_m >= 0.0) || !(c.min_gap_m < c.reach_m)) problem << "min_gap_m must be in [0, reach_m); ";
@@ -244,7 +250,13 @@ UnknownSpace FrontierStrategy::unknownSpace(const SurfaceModel& model, const Evi
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k) hidden[static_cast<std::size_t>(k)] = shadow.hidden(space.centre(k));
   std::vector<bool> in_domain;
   markPredicted(model, hidden, space, in_domain);
-  measureDistances(space, config_.reach_m);
+  std::vector<bool> predicted(space.cells.size()), seen(space.cells.size());
+  for (std::size_t k = 0; k < space.cells.size(); ++k) {
+    predicted[k] = space.cells[k] == Cell::kPredicted;
+    seen[k] = !hidden[k];
+  }
+  space.distance_m = distanceFrom(space, predicted, config_.reach_m);
+  space.shadow_depth_m = distanceFrom(space, seen, config_.part_size_m);
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k) {
     Cell& cell = space.cells[static_cast<std::size_t>(k)];
     const float d = space.distance_m[static_cast<std::size_t>(k)];
@@ -275,20 +287,40 @@ PlanResult FrontierStrategy::plan(const SurfaceModel& model, const PlanRequest& 
 
 namespace {
 
-// The best approach to `target` and its gain: the direction whose path, from the approach pose
-// (in observed space, above the table) through the target to past_m beyond it, does not cross
-// the predicted object before the target, and crosses the most weighted unknown cells.
+// The chance that unknown cell k holds a part the views missed: a part is attached to the object,
+// so it lies near the predicted one (prior_length_m), and it lies wholly in the shadow, so a part
+// of part_size_m fits only that deep in it (nearer observed space, a part would have shown).
+double partChance(const UnknownSpace& space, long k, const FrontierStrategy::Config& c) {
+  const double near = std::exp(-static_cast<double>(space.distance_m[static_cast<std::size_t>(k)]) / c.prior_length_m);
+  const double depth = static_cast<double>(space.shadow_depth_m[static_cast<std::size_t>(k)]);
+  return near * std::min(1.0, depth / c.part_size_m);
+}
+
+// Whether the approach line through `target` along `d` comes from observed space: from the
+// probe's start outward, within observed_within_m of the target, it reaches a point no view
+// hides (or a touch cleared), above the table and outside the predicted object all the way.
+bool comesFromObservedSpace(const UnknownSpace& space, const ViewShadow& shadow, const EvidenceState& state,
+                            const Vector3& target, const Vector3& d, const FrontierStrategy::Config& c) {
+  for (double s = c.approach_distance_m; s <= c.observed_within_m; s += c.cell_m) {
+    const Vector3 x = target + s * d;
+    if (state.support_plane && state.support_plane->height(x) < c.support_clearance_m) return false;
+    const long k = space.index(x);
+    const Cell cell = k >= 0 ? space.cells[static_cast<std::size_t>(k)] : Cell::kIgnored;
+    if (cell == Cell::kPredicted) return false;
+    if (cell == Cell::kCleared || !shadow.hidden(x)) return true;
+  }
+  return false;
+}
+
+// The best approach to `target` and its gain: the direction whose path, from observed space
+// through the target to past_m beyond it, does not cross the predicted object before the target,
+// and crosses the most weighted unknown cells.
 ShadowPoke bestApproach(const UnknownSpace& space, const ViewShadow& shadow, const EvidenceState& state,
                         const std::vector<Vector3>& directions, const Vector3& target,
                         const FrontierStrategy::Config& c) {
   ShadowPoke best{target, Vector3::Zero(), 0.0};
   const double step = 0.5 * c.cell_m;
   for (const Vector3& d : directions) {
-    const Vector3 start = target + c.approach_distance_m * d;
-    if (state.support_plane && state.support_plane->height(start) < c.support_clearance_m) continue;
-    const long start_cell = space.index(start);
-    const bool start_cleared = start_cell >= 0 && space.cells[static_cast<std::size_t>(start_cell)] == Cell::kCleared;
-    if (!start_cleared && shadow.hidden(start)) continue;
     double gain = 0.0;
     long last = -1;
     bool blocked = false;
@@ -307,10 +339,10 @@ ShadowPoke bestApproach(const UnknownSpace& space, const ViewShadow& shadow, con
         blocked = before_target;
         break;
       }
-      if (cell == Cell::kUnknown)
-        gain += std::exp(-static_cast<double>(space.distance_m[static_cast<std::size_t>(k)]) / c.prior_length_m);
+      if (cell == Cell::kUnknown) gain += partChance(space, k, c);
     }
-    if (!blocked && gain > best.gain) best = ShadowPoke{target, d, gain};
+    if (blocked || !(gain > best.gain) || !comesFromObservedSpace(space, shadow, state, target, d, c)) continue;
+    best = ShadowPoke{target, d, gain};
   }
   return best;
 }

@@ -32,6 +32,8 @@ struct UnknownSpace {
   Eigen::Vector3i size{Eigen::Vector3i::Zero()};
   std::vector<Cell> cells;          // i fastest
   std::vector<float> distance_m;    // per cell, to the nearest kPredicted cell (infinity beyond reach)
+  // Per cell, to the nearest cell a view saw (infinity beyond Config::part_size_m; 0 when seen).
+  std::vector<float> shadow_depth_m;
   int unknown_cells{0};             // kUnknown after the small pieces were dropped
   int clusters{0};                  // connected (26-neighbour) pieces of them
 
@@ -66,6 +68,10 @@ class FrontierStrategy : public ExplorationStrategy {
     // path counts this far past the target: a poke through empty space goes on past its target.
     double approach_distance_m{0.1};
     double past_m{0.03};
+    // The approach line, from the probe's start outward, must reach space a camera saw (or a
+    // touch measured) within this distance of the target: the probe comes from there. Space
+    // right behind an object is in its shadow far beyond the probe's start.
+    double observed_within_m{0.25};
     // Approach directions tried per target (evenly spread), targets evaluated per plan (a
     // stride through the unknown cells beyond), and the best targets offered to the approacher's
     // cheap test (PlanRequest::reachable) before giving up.
@@ -75,9 +81,12 @@ class FrontierStrategy : public ExplorationStrategy {
     // The run's budget of pokes into unknown space that found nothing
     // (EvidenceState::empty_unknown_pokes): once spent, the strategy reports convergence.
     int max_empty_pokes{10};
-    // A poke's expected gain: the unknown cells its path crosses, each weighted by
-    // exp(-distance to the predicted object / prior_length_m), the chance it holds a part.
+    // A poke's expected gain: the unknown cells its path crosses, each weighted by the chance it
+    // holds a part the views missed: exp(-distance to the predicted object / prior_length_m)
+    // times min(1, distance to observed space / part_size_m) (a part wholly in the shadow lies
+    // deep in it).
     double prior_length_m{0.02};
+    double part_size_m{0.03};
   };
 
   FrontierStrategy(Config config, std::uint64_t seed);
