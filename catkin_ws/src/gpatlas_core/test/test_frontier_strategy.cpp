@@ -242,16 +242,19 @@ TEST(FrontierStrategy, AnEmptyPokeClearsItsPathAndTheStrategyConverges) {
   // next poke goes elsewhere.
   const UnknownSpace after = frontier.unknownSpace(model, state);
   const Vector3 target = first.touch.points[0], outward = first.touch.normals[0].normalized();
-  const double end = probed.contacts.empty() ? 0.1 : (probed.contacts[0].position - (target + 0.1 * outward)).norm() - 0.1;
+  const double end =
+      probed.contacts.empty() ? 0.1 : (probed.contacts[0].position - (target + 0.1 * outward)).norm() - 0.1;
   int crossed = 0;
   for (double s = 0.1; s >= -end + 0.006; s -= 0.002) {
     const long before_cell = before.index(target + s * outward), after_cell = after.index(target + s * outward);
-    if (before_cell < 0 || before.cells[static_cast<std::size_t>(before_cell)] != UnknownSpace::Cell::kUnknown) continue;
+    if (before_cell < 0) continue;
+    if (before.cells[static_cast<std::size_t>(before_cell)] != UnknownSpace::Cell::kUnknown) continue;
     ++crossed;
     EXPECT_NE(after.cells[static_cast<std::size_t>(after_cell)], UnknownSpace::Cell::kUnknown) << s;
   }
   EXPECT_GT(crossed, 0);
-  std::cout << "unknown cells " << before.unknown_cells << " before the poke, " << after.unknown_cells << " after" << std::endl;
+  std::cout << "unknown cells " << before.unknown_cells << " before the poke, " << after.unknown_cells << " after"
+            << std::endl;
   const PlanResult second = strategy->plan(model, surfaceSettled(state));
   ASSERT_EQ(second.status, PlanStatus::kTouch) << second.message;
   EXPECT_GT((second.touch.points[0] - first.touch.points[0]).norm(), 0.005);
@@ -262,7 +265,8 @@ TEST(FrontierStrategy, AnEmptyPokeClearsItsPathAndTheStrategyConverges) {
   loop.max_actions = 60;
   SceneProber loop_prober(scene);
   GpisModel fresh = settledModel(scene, view);
-  const ExplorationResult run = Explorer(loop).run(fresh, *strategy, loop_prober, TouchObservationConfig(), stateOf(scene, view));
+  const ExplorationResult run =
+      Explorer(loop).run(fresh, *strategy, loop_prober, TouchObservationConfig(), stateOf(scene, view));
   std::cout << "empty scene: " << run.actions << " touches, " << run.contacts << " contacts, stop " << run.stop_reason
             << std::endl;
   EXPECT_TRUE(run.converged) << run.stop_reason;

@@ -13,6 +13,9 @@ namespace {
 
 using Cell = UnknownSpace::Cell;
 
+// A cell index as a vector index.
+std::size_t at(long k) { return static_cast<std::size_t>(k); }
+
 // How far a probe's free-space points may lie from the line of its path (metres): the probe's
 // path is straight, its points lie on it to rounding.
 constexpr double kStrokeTolerance_m = 0.002;
@@ -27,7 +30,7 @@ UnknownSpace emptyGrid(const SurfaceModel& model, const FrontierStrategy::Config
   space.cell_m = c.cell_m;
   space.size = Eigen::Vector3i::Constant(n);
   space.origin = model.centroid() - Vector3::Constant(0.5 * (n - 1) * c.cell_m);
-  space.cells.assign(static_cast<std::size_t>(n) * n * n, Cell::kIgnored);
+  space.cells.assign(at(n) * n * n, Cell::kIgnored);
   space.distance_m.assign(space.cells.size(), std::numeric_limits<float>::infinity());
   space.shadow_depth_m.assign(space.cells.size(), 0.0f);
   return space;
@@ -40,16 +43,16 @@ void markPredicted(const SurfaceModel& model, const std::vector<bool>& hidden, U
   constexpr long kBatch = 4096;
   std::vector<long> cells;
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k)
-    if (hidden[static_cast<std::size_t>(k)]) cells.push_back(k);
+    if (hidden[at(k)]) cells.push_back(k);
   in_domain.assign(space.cells.size(), false);
   const long total = static_cast<long>(cells.size());
   for (long first = 0; first < total; first += kBatch) {
     const long count = std::min(kBatch, total - first);
     Points3 points(3, count);
-    for (long k = 0; k < count; ++k) points.col(k) = space.centre(cells[static_cast<std::size_t>(first + k)]);
+    for (long k = 0; k < count; ++k) points.col(k) = space.centre(cells[at(first + k)]);
     const BatchPrediction p = model.predictBatch(points, false, false, false);
     for (long k = 0; k < count; ++k) {
-      const std::size_t cell = static_cast<std::size_t>(cells[static_cast<std::size_t>(first + k)]);
+      const std::size_t cell = static_cast<std::size_t>(cells[at(first + k)]);
       in_domain[cell] = p.in_domain(k);
       if (p.in_domain(k) && p.mean(k) < 0.0) space.cells[cell] = Cell::kPredicted;
     }
@@ -64,15 +67,15 @@ std::vector<float> distanceFrom(const UnknownSpace& space, const std::vector<boo
   std::vector<long> source(space.cells.size(), -1);
   std::deque<long> queue;
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k)
-    if (is_source[static_cast<std::size_t>(k)]) {
-      source[static_cast<std::size_t>(k)] = k;
-      distance[static_cast<std::size_t>(k)] = 0.0f;
+    if (is_source[at(k)]) {
+      source[at(k)] = k;
+      distance[at(k)] = 0.0f;
       queue.push_back(k);
     }
   while (!queue.empty()) {
     const long k = queue.front();
     queue.pop_front();
-    const Vector3 from = space.centre(source[static_cast<std::size_t>(k)]);
+    const Vector3 from = space.centre(source[at(k)]);
     const long i = k % n.x(), j = (k / n.x()) % n.y(), l = k / (static_cast<long>(n.x()) * n.y());
     for (int dl = -1; dl <= 1; ++dl)
       for (int dj = -1; dj <= 1; ++dj)
@@ -81,9 +84,9 @@ std::vector<float> distanceFrom(const UnknownSpace& space, const std::vector<boo
           if (a < 0 || b < 0 || c < 0 || a >= n.x() || b >= n.y() || c >= n.z()) continue;
           const long m = a + n.x() * (b + static_cast<long>(n.y()) * c);
           const float d = static_cast<float>((space.centre(m) - from).norm());
-          if (d > reach || !(d < distance[static_cast<std::size_t>(m)])) continue;
-          distance[static_cast<std::size_t>(m)] = d;
-          source[static_cast<std::size_t>(m)] = source[static_cast<std::size_t>(k)];
+          if (d > reach || !(d < distance[at(m)])) continue;
+          distance[at(m)] = d;
+          source[at(m)] = source[at(k)];
           queue.push_back(m);
         }
   }
@@ -102,7 +105,7 @@ void clearAround(UnknownSpace& space, const Vector3& p, double radius) {
         const Eigen::Vector3i q = c + Eigen::Vector3i(di, dj, dl);
         if ((q.array() < 0).any() || (q.array() >= space.size.array()).any()) continue;
         const long m = q.x() + space.size.x() * (q.y() + static_cast<long>(space.size.y()) * q.z());
-        Cell& cell = space.cells[static_cast<std::size_t>(m)];
+        Cell& cell = space.cells[at(m)];
         if (candidate(cell) && (space.centre(m) - p).norm() <= radius) cell = Cell::kCleared;
       }
 }
@@ -114,9 +117,9 @@ int dropSmallPieces(UnknownSpace& space, int min_cells) {
   std::vector<bool> seen(space.cells.size(), false);
   int pieces = 0;
   for (long start = 0; start < static_cast<long>(space.cells.size()); ++start) {
-    if (seen[static_cast<std::size_t>(start)] || space.cells[static_cast<std::size_t>(start)] != Cell::kUnknown) continue;
+    if (seen[at(start)] || space.cells[at(start)] != Cell::kUnknown) continue;
     std::vector<long> piece{start};
-    seen[static_cast<std::size_t>(start)] = true;
+    seen[at(start)] = true;
     for (std::size_t head = 0; head < piece.size(); ++head) {
       const long k = piece[head];
       const long i = k % n.x(), j = (k / n.x()) % n.y(), l = k / (static_cast<long>(n.x()) * n.y());
@@ -126,13 +129,13 @@ int dropSmallPieces(UnknownSpace& space, int min_cells) {
             const long a = i + di, b = j + dj, c = l + dl;
             if (a < 0 || b < 0 || c < 0 || a >= n.x() || b >= n.y() || c >= n.z()) continue;
             const long m = a + n.x() * (b + static_cast<long>(n.y()) * c);
-            if (seen[static_cast<std::size_t>(m)] || space.cells[static_cast<std::size_t>(m)] != Cell::kUnknown) continue;
-            seen[static_cast<std::size_t>(m)] = true;
+            if (seen[at(m)] || space.cells[at(m)] != Cell::kUnknown) continue;
+            seen[at(m)] = true;
             piece.push_back(m);
           }
     }
     if (static_cast<int>(piece.size()) < min_cells) {
-      for (long k : piece) space.cells[static_cast<std::size_t>(k)] = Cell::kTooSmall;
+      for (long k : piece) space.cells[at(k)] = Cell::kTooSmall;
     } else {
       ++pieces;
       space.unknown_cells += static_cast<int>(piece.size());
@@ -180,7 +183,7 @@ void clearStroke(UnknownSpace& space, const Vector3& target, const std::vector<V
     }
   for (double s = lo; s <= hi; s += 0.02 * space.cell_m) {
     const long k = space.index(target + s * best_direction);
-    if (k >= 0 && candidate(space.cells[static_cast<std::size_t>(k)])) space.cells[static_cast<std::size_t>(k)] = Cell::kCleared;
+    if (k >= 0 && candidate(space.cells[at(k)])) space.cells[at(k)] = Cell::kCleared;
   }
 }
 
@@ -203,7 +206,8 @@ long UnknownSpace::index(const Vector3& x) const {
 }
 
 Vector3 UnknownSpace::centre(long index) const {
-  const long i = index % size.x(), j = (index / size.x()) % size.y(), k = index / (static_cast<long>(size.x()) * size.y());
+  const long i = index % size.x(), j = (index / size.x()) % size.y();
+  const long k = index / (static_cast<long>(size.x()) * size.y());
   return origin + cell_m * Vector3(static_cast<double>(i), static_cast<double>(j), static_cast<double>(k));
 }
 
@@ -247,7 +251,8 @@ UnknownSpace FrontierStrategy::unknownSpace(const SurfaceModel& model, const Evi
   const ViewShadow shadow(state.views, config_.shadow);
   if (shadow.empty()) return space;
   std::vector<bool> hidden(space.cells.size(), false);
-  for (long k = 0; k < static_cast<long>(space.cells.size()); ++k) hidden[static_cast<std::size_t>(k)] = shadow.hidden(space.centre(k));
+  for (long k = 0; k < static_cast<long>(space.cells.size()); ++k)
+    hidden[at(k)] = shadow.hidden(space.centre(k));
   std::vector<bool> in_domain;
   markPredicted(model, hidden, space, in_domain);
   std::vector<bool> predicted(space.cells.size()), seen(space.cells.size());
@@ -258,10 +263,9 @@ UnknownSpace FrontierStrategy::unknownSpace(const SurfaceModel& model, const Evi
   space.distance_m = distanceFrom(space, predicted, config_.reach_m);
   space.shadow_depth_m = distanceFrom(space, seen, config_.part_size_m);
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k) {
-    Cell& cell = space.cells[static_cast<std::size_t>(k)];
-    const float d = space.distance_m[static_cast<std::size_t>(k)];
-    if (cell == Cell::kPredicted || !in_domain[static_cast<std::size_t>(k)] || d < config_.min_gap_m || !(d <= config_.reach_m))
-      continue;
+    Cell& cell = space.cells[at(k)];
+    const float d = space.distance_m[at(k)];
+    if (cell == Cell::kPredicted || !in_domain[at(k)] || d < config_.min_gap_m || !(d <= config_.reach_m)) continue;
     if (state.support_plane && state.support_plane->height(space.centre(k)) < config_.support_clearance_m) continue;
     cell = Cell::kUnknown;
   }
@@ -291,8 +295,8 @@ namespace {
 // so it lies near the predicted one (prior_length_m), and it lies wholly in the shadow, so a part
 // of part_size_m fits only that deep in it (nearer observed space, a part would have shown).
 double partChance(const UnknownSpace& space, long k, const FrontierStrategy::Config& c) {
-  const double near = std::exp(-static_cast<double>(space.distance_m[static_cast<std::size_t>(k)]) / c.prior_length_m);
-  const double depth = static_cast<double>(space.shadow_depth_m[static_cast<std::size_t>(k)]);
+  const double near = std::exp(-static_cast<double>(space.distance_m[at(k)]) / c.prior_length_m);
+  const double depth = static_cast<double>(space.shadow_depth_m[at(k)]);
   return near * std::min(1.0, depth / c.part_size_m);
 }
 
@@ -305,7 +309,7 @@ bool comesFromObservedSpace(const UnknownSpace& space, const ViewShadow& shadow,
     const Vector3 x = target + s * d;
     if (state.support_plane && state.support_plane->height(x) < c.support_clearance_m) return false;
     const long k = space.index(x);
-    const Cell cell = k >= 0 ? space.cells[static_cast<std::size_t>(k)] : Cell::kIgnored;
+    const Cell cell = k >= 0 ? space.cells[at(k)] : Cell::kIgnored;
     if (cell == Cell::kPredicted) return false;
     if (cell == Cell::kCleared || !shadow.hidden(x)) return true;
   }
@@ -334,7 +338,7 @@ ShadowPoke bestApproach(const UnknownSpace& space, const ViewShadow& shadow, con
       const long k = space.index(x);
       if (k < 0 || k == last) continue;
       last = k;
-      const Cell cell = space.cells[static_cast<std::size_t>(k)];
+      const Cell cell = space.cells[at(k)];
       if (cell == Cell::kPredicted) {
         blocked = before_target;
         break;
@@ -368,14 +372,15 @@ PlanResult FrontierStrategy::planShadowPoke(const SurfaceModel& model, const Pla
   }
   std::vector<long> unknown;
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k)
-    if (space.cells[static_cast<std::size_t>(k)] == Cell::kUnknown) unknown.push_back(k);
+    if (space.cells[at(k)] == Cell::kUnknown) unknown.push_back(k);
   const std::size_t stride = (unknown.size() + static_cast<std::size_t>(config_.max_targets) - 1) /
                              static_cast<std::size_t>(config_.max_targets);
   const ViewShadow shadow(request.evidence_state.views, config_.shadow);
   const std::vector<Vector3> directions = fibonacciSphere(config_.approach_directions);
   std::vector<ShadowPoke> pokes;
   for (std::size_t n = 0; n < unknown.size(); n += stride) {
-    const ShadowPoke poke = bestApproach(space, shadow, request.evidence_state, directions, space.centre(unknown[n]), config_);
+    const ShadowPoke poke =
+        bestApproach(space, shadow, request.evidence_state, directions, space.centre(unknown[n]), config_);
     if (poke.gain > 0.0) pokes.push_back(poke);
   }
   std::sort(pokes.begin(), pokes.end(), [](const ShadowPoke& a, const ShadowPoke& b) { return a.gain > b.gain; });
