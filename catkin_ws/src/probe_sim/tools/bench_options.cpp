@@ -40,7 +40,7 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
                                  [the config's simulation/object]
   --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
   --size-m S                     size of procedural objects in metres [simulation/procedural_size_m]
-  --strategy NAME                random | max_variance | atlas_poke | atlas_slide (repeatable)
+  --strategy NAME                random | max_variance | atlas_poke | atlas_slide | atlas_frontier (repeatable)
                                  [the config's strategy], or one from a --strategy-library
   --strategy-library FILE        a shared library that registers strategies of your own
                                  (GPATLAS_REGISTER_STRATEGY, gpatlas_core/planning/strategy_library.h) (repeatable)

@@ -40,6 +40,8 @@ RunResult failedRun(RunResult r, const std::string& why) {
 struct ObjectView {
   gpatlas_core::ViewTraining training;
   std::optional<gpatlas_core::SupportPlane> support;
+  // The camera's origin and the object's points: what the view left unobserved (its shadow).
+  gpatlas_core::CameraView camera;
 };
 
 // The cloud as probe_sim_node publishes it (float32 coordinates in the camera's frame), moved to
@@ -85,6 +87,7 @@ bool observeObject(const probe_sim::Scene& scene, const GroundTruth& gt, int see
   if (o.verbose) printSegmentation(gt, seed, segmented, print_mutex);
   if (o.pipeline.use_support_plane && segmented.plane_found)
     view->support = gpatlas_core::SupportPlane{segmented.plane_normal, segmented.plane_offset};
+  view->camera = {camera_pose->translation(), segmented.object_points};
   view->training = gpatlas_core::buildViewTraining(segmented.object_points, camera_pose->translation(), view->support,
                                                    o.pipeline.view, static_cast<std::uint64_t>(seed));
   if (!view->training.ok) {
@@ -337,8 +340,9 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   if (!prober) return failedRun(r, why);
   gpatlas_core::Explorer::Config loop = pipeline.exploration;
   loop.seed = static_cast<std::uint64_t>(seed);
-  gpatlas_core::EvidenceState known;  // the planner's own: the table
+  gpatlas_core::EvidenceState known;  // the planner's own: the table and the view
   known.support_plane = view.support;
+  known.views = {view.camera};
 
   gpatlas_core::ExplorationRecord initial;
   initial.index = -1;

@@ -149,7 +149,9 @@ class ExplorationRun {
     record.touch = plan.touch;
     if (planned == Planned::kApproachRefused) return giveUpOnTheAction(record, action_started);
     const bool budget_full = probeAndUpdate(plan.touch, record);
-    const bool touched = record.probe_success && record.contacts_added > 0;
+    // A poke into unobserved space that found nothing but free space did what it was for.
+    const bool touched = (record.probe_success && record.contacts_added > 0) ||
+                         (plan.touch.explores_unknown && record.free_points_added > 0);
     consecutive_failures_ = touched ? 0 : consecutive_failures_ + 1;
     report(record, action_started);
     result_.records.push_back(record);
@@ -300,6 +302,7 @@ class ExplorationRun {
     attempted_.attempted_target_errors_m.insert(attempted_.attempted_target_errors_m.end(), passed.begin(),
                                                 passed.end());
     record.target_error_m = finiteMedian(targetErrors(aimed, probed.contacts));
+    if (touch.explores_unknown && probed.contacts.empty()) ++attempted_.empty_unknown_pokes;
     for (const PadPress& pad : probed.pads)
       if (std::isfinite(pad.size_m)) footprint_radius_m_ = std::max(footprint_radius_m_, 0.5 * pad.size_m);
   }

@@ -104,6 +104,9 @@ std::string validate(const EvidenceRule& rule) {
 std::string validate(const EvidenceState& state) {
   if (!state.attempted_target_errors_m.empty() && state.attempted_target_errors_m.size() != state.attempted_targets.size())
     return "attempted_target_errors_m must be empty or hold one value per attempted target";
+  if (state.empty_unknown_pokes < 0) return "empty_unknown_pokes must be >= 0";
+  for (const CameraView& view : state.views)
+    if (std::string problem = validate(view); !problem.empty()) return problem;
   return "";
 }
 
@@ -125,6 +128,8 @@ bool mergeEvidenceState(const EvidenceState& own, const EvidenceState& requested
   }
   result.attempted_targets.insert(result.attempted_targets.end(), requested.attempted_targets.begin(),
                                   requested.attempted_targets.end());
+  result.views.insert(result.views.end(), requested.views.begin(), requested.views.end());
+  result.empty_unknown_pokes += requested.empty_unknown_pokes;
   *merged = std::move(result);
   return true;
 }

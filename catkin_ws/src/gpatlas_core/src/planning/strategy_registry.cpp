@@ -25,6 +25,14 @@ NamedFactories<StrategyFactory>& registry() {
          atlas.evidence = c.evidence;
          return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kSlide, atlas, c.seed);
        }},
+      {"atlas_frontier",
+       [](const StrategyConfig& c) {
+         FrontierStrategy::Config frontier = c.frontier;
+         frontier.atlas = c.atlas;
+         frontier.atlas.extend_path_charts = 0;
+         frontier.atlas.evidence = c.evidence;
+         return std::make_unique<FrontierStrategy>(frontier, c.seed);
+       }},
       {"random",
        [](const StrategyConfig& c) { return std::make_unique<RandomStrategy>(c.sampler, c.evidence, c.seed); }},
       {"max_variance",

@@ -86,6 +86,9 @@ struct Touch {
   std::vector<Vector3> normals;
   std::vector<double> variances;  // in the model's reported (paper-equivalent) units
   std::string strategy;
+  // A poke aimed into space no sensor has observed (the frontier strategy's), not at predicted
+  // surface: finding nothing there is a result, the free space along its path, not a failed touch.
+  bool explores_unknown{false};
   // How the probe's tip gets there and back (Algorithm 2's APPROACHTO and MOVEAWAY), when
   // planned (TouchApproacher): from the rest to the approach pose in front of approachTarget,
   // and from the approach pose in front of retreatTarget back to the rest, world frame. The

@@ -171,7 +171,8 @@ class Explorer {
     double max_position_sd_m{0.005};
     int max_actions{100};
     // The paper's extra stop on the real robot: this many failed touches in a row. A touch
-    // fails when the probe reports failure or the model accepts none of its contacts.
+    // fails when the probe reports failure or the model accepts none of its contacts; a touch
+    // into unobserved space (Touch::explores_unknown) succeeds with free space alone.
     int max_consecutive_failures{5};
     // Plan k is asked with seed mixSeeds(seed, k).
     std::uint64_t seed{0};

@@ -3,6 +3,7 @@
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/common/types.h"
 #include "gpatlas_core/observations/support_plane.h"
+#include "gpatlas_core/observations/view_shadow.h"
 
 #include <cstdint>
 #include <limits>
@@ -62,6 +63,13 @@ struct EvidenceState {
   // the nearest contact (metres); NaN when the touch found none (refused, or nothing in the way),
   // which supports max_distance.
   std::vector<double> attempted_target_errors_m;
+  // The camera views the model was built from (the sensor's origin and the object's points):
+  // what lies behind them as seen from the sensor was never observed (ViewShadow). Read by the
+  // frontier strategy only; empty: nothing is known to be unobserved.
+  std::vector<CameraView> views;
+  // Touches into unobserved space (Touch::explores_unknown) that found no contact: the budget the
+  // frontier strategy spends (the Explorer counts them).
+  int empty_unknown_pokes{0};
 };
 
 // Empty when the state is usable; otherwise what is wrong with it.
@@ -70,10 +78,10 @@ std::string validate(const EvidenceState& state);
 // The state a planner plans with: its own (`own`: the table it knows of, and any targets it
 // holds) and the one a request brings (`requested`: where the loop's touches aimed), the
 // requested targets after its own. The table is the planner's when it knows one, otherwise the
-// request's. Errors stay one per target, NaN for the targets of a side that gave none; both
-// sides without errors give none. False, with why, when a side's errors do not match its
-// targets. The bench's planner (ModelTouchPlanner) and the ROS planner nodelet both plan
-// through it.
+// request's; the views are both sides', its own first; the empty pokes their sum. Errors stay
+// one per target, NaN for the targets of a side that gave none; both sides without errors give
+// none. False, with why, when a side's errors do not match its targets or a view is not finite.
+// The bench's planner (ModelTouchPlanner) and the ROS planner nodelet both plan through it.
 bool mergeEvidenceState(const EvidenceState& own, const EvidenceState& requested, EvidenceState* merged,
                         std::string* error);
 

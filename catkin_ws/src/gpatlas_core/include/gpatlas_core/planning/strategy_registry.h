@@ -4,6 +4,7 @@
 
 #include "gpatlas_core/planning/atlas_planner.h"
 #include "gpatlas_core/planning/exploration_strategy.h"
+#include "gpatlas_core/planning/frontier_strategy.h"
 #include "gpatlas_core/planning/surface_sampler.h"
 
 #include <cstdint>
@@ -27,6 +28,8 @@ struct StrategyConfig {
   // Its evidence rule is `evidence` below (the atlas strategies set atlas.evidence from it).
   AtlasPlanner::Config atlas{atlasStrategyDefaults()};
   SurfaceSampler::Config sampler;   // random, max_variance
+  // atlas_frontier: its pokes into unobserved space; its atlas is atlas_poke's (`atlas` above).
+  FrontierStrategy::Config frontier;
   // Every strategy's evidence test (config/pipeline.yaml's evidence/).
   EvidenceRule evidence;
   std::uint64_t seed{0};
@@ -34,8 +37,8 @@ struct StrategyConfig {
 
 using StrategyFactory = std::function<std::unique_ptr<ExplorationStrategy>(const StrategyConfig&)>;
 
-// Creates a strategy by name: "atlas_poke", "atlas_slide", "random", "max_variance", or one
-// added with registerStrategy. Throws std::invalid_argument listing the known names.
+// Creates a strategy by name: "atlas_poke", "atlas_slide", "atlas_frontier", "random",
+// "max_variance", or one added with registerStrategy. Throws std::invalid_argument listing the known names.
 std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name,
                                                   const StrategyConfig& config = StrategyConfig());
 // Returns false (and changes nothing) if the name is taken or the factory is empty.
