@@ -59,6 +59,20 @@ void markPredicted(const SurfaceModel& model, const std::vector<bool>& hidden, U
   }
 }
 
+// Calls f(m) for each of the up to 26 neighbours m of cell k in a grid of `n` cells.
+template <typename F>
+void forEachNeighbour(const Eigen::Vector3i& n, long k, F&& f) {
+  const long i = k % n.x(), j = (k / n.x()) % n.y(), l = k / (static_cast<long>(n.x()) * n.y());
+  for (int dl = -1; dl <= 1; ++dl)
+    for (int dj = -1; dj <= 1; ++dj)
+      for (int di = -1; di <= 1; ++di) {
+        if (di == 0 && dj == 0 && dl == 0) continue;
+        const long a = i + di, b = j + dj, c = l + dl;
+        if (a < 0 || b < 0 || c < 0 || a >= n.x() || b >= n.y() || c >= n.z()) continue;
+        f(a + n.x() * (b + static_cast<long>(n.y()) * c));
+      }
+}
+
 // Each cell's distance to the nearest `source` cell, up to `reach` (infinity beyond): a
 // breadth-first sweep from them that carries its nearest source (exact to within a cell).
 std::vector<float> distanceFrom(const UnknownSpace& space, const std::vector<bool>& is_source, double reach) {
@@ -76,19 +90,13 @@ std::vector<float> distanceFrom(const UnknownSpace& space, const std::vector<boo
     const long k = queue.front();
     queue.pop_front();
     const Vector3 from = space.centre(source[at(k)]);
-    const long i = k % n.x(), j = (k / n.x()) % n.y(), l = k / (static_cast<long>(n.x()) * n.y());
-    for (int dl = -1; dl <= 1; ++dl)
-      for (int dj = -1; dj <= 1; ++dj)
-        for (int di = -1; di <= 1; ++di) {
-          const long a = i + di, b = j + dj, c = l + dl;
-          if (a < 0 || b < 0 || c < 0 || a >= n.x() || b >= n.y() || c >= n.z()) continue;
-          const long m = a + n.x() * (b + static_cast<long>(n.y()) * c);
-          const float d = static_cast<float>((space.centre(m) - from).norm());
-          if (d > reach || !(d < distance[at(m)])) continue;
-          distance[at(m)] = d;
-          source[at(m)] = source[at(k)];
-          queue.push_back(m);
-        }
+    forEachNeighbour(n, k, [&](long m) {
+      const float d = static_cast<float>((space.centre(m) - from).norm());
+      if (d > reach || !(d < distance[at(m)])) return;
+      distance[at(m)] = d;
+      source[at(m)] = source[at(k)];
+      queue.push_back(m);
+    });
   }
   return distance;
 }
@@ -121,18 +129,11 @@ int dropSmallPieces(UnknownSpace& space, int min_cells) {
     std::vector<long> piece{start};
     seen[at(start)] = true;
     for (std::size_t head = 0; head < piece.size(); ++head) {
-      const long k = piece[head];
-      const long i = k % n.x(), j = (k / n.x()) % n.y(), l = k / (static_cast<long>(n.x()) * n.y());
-      for (int dl = -1; dl <= 1; ++dl)
-        for (int dj = -1; dj <= 1; ++dj)
-          for (int di = -1; di <= 1; ++di) {
-            const long a = i + di, b = j + dj, c = l + dl;
-            if (a < 0 || b < 0 || c < 0 || a >= n.x() || b >= n.y() || c >= n.z()) continue;
-            const long m = a + n.x() * (b + static_cast<long>(n.y()) * c);
-            if (seen[at(m)] || space.cells[at(m)] != Cell::kUnknown) continue;
-            seen[at(m)] = true;
-            piece.push_back(m);
-          }
+      forEachNeighbour(n, piece[head], [&](long m) {
+        if (seen[at(m)] || space.cells[at(m)] != Cell::kUnknown) return;
+        seen[at(m)] = true;
+        piece.push_back(m);
+      });
     }
     if (static_cast<int>(piece.size()) < min_cells) {
       for (long k : piece) space.cells[at(k)] = Cell::kTooSmall;
