@@ -46,10 +46,14 @@ print("[demo] ---------------------------------------------------------------")
 left = r.get("final_unreachable_candidates") or 0
 print(f"[demo] status: {r['status']}  (the loop's stop reason: {r['stop_reason']}"
       + (f"; {left} candidates were left out of the approach's reach" if left else "") + ")")
-print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['settings']['strategy']}, V_max {r['settings']['v_max']}")
+print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['settings']['strategy']}, stop rule: V_max {r['settings']['v_max']}"
+      + (f" or position sd {1000 * r['settings']['max_position_sd_m']:g} mm" if r['settings'].get('max_position_sd_m') else " alone"))
 if m:
     print(f"[demo] shape RMSE predicted->truth {1000*m['rmse_pred_to_gt_m']:.1f} mm, truth->predicted "
           f"{1000*m['rmse_gt_to_pred_m']:.1f} mm, F-score@5mm {m['fscore_5mm']:.2f}")
+    if m.get("coverage_2sd") is not None and m.get("sharpness") is not None:
+        print(f"[demo] position sd: median {1000*m['position_sd_m']:.1f} mm, coverage {m['coverage_2sd']:.2f} "
+              "(truth within 2 sd), sharpness {:.2f} (median sd / median error)".format(m['sharpness']))
 e = r.get("recent_target_error_m")
 if e is not None:
     print(f"[demo] the last touches found the surface {1000*e:.1f} mm (median) from where the model predicted it")

@@ -109,7 +109,8 @@ std::string toJson(const ExplorationReport& report) {
   const ExplorationResult& result = report.result;
   std::ostringstream json;
   json << "{\n  \"settings\": {\"strategy\": " << jsonString(report.strategy) << ", \"v_max\": "
-       << jsonNumber(report.loop.v_max) << ", \"max_actions\": " << report.loop.max_actions
+       << jsonNumber(report.loop.v_max) << ", \"max_position_sd_m\": " << jsonNumber(report.loop.max_position_sd_m)
+       << ", \"max_actions\": " << report.loop.max_actions
        << ", \"max_consecutive_failures\": " << report.loop.max_consecutive_failures << ", \"seed\": " << report.loop.seed
        << ", \"model\": " << jsonString(report.model) << "},\n";
   json << "  \"status\": " << jsonString(report.status) << ",\n  \"stop_reason\": " << jsonString(result.stop_reason)
