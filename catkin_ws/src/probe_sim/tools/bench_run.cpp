@@ -102,7 +102,7 @@ bool observeObject(const probe_sim::Scene& scene, const GroundTruth& gt, int see
 }
 
 // The initial model: the view fitted as the GP nodelet fits it.
-bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pipeline,
+bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pipeline, bool verbose,
                      std::unique_ptr<gpatlas_core::SurfaceModel>* model, std::string* why) {
   try {
     *model = gpatlas_core::makeSurfaceModel(pipeline.model);
@@ -116,6 +116,8 @@ bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pi
   if (!fit.ok) *why = "initial fit failed: " + fit.fit.message;
   if (fit.calibration && !fit.calibration->ok)
     std::cerr << "gpatlas_bench: position sd not calibrated: " << fit.calibration->message << std::endl;
+  else if (fit.calibration && verbose)
+    std::cout << "  calibration: " << fit.calibration->message << std::endl;
   return fit.ok;
 }
 
@@ -330,7 +332,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, probe_sim::sceneConfig(o.simulation));
   ObjectView view;
   std::unique_ptr<gpatlas_core::SurfaceModel> model;
-  if (!observeObject(*scene, gt, seed, o, print_mutex, &view, &why) || !fitInitialModel(view, pipeline, &model, &why))
+  if (!observeObject(*scene, gt, seed, o, print_mutex, &view, &why) || !fitInitialModel(view, pipeline, o.verbose, &model, &why))
     return failedRun(r, why);
 
   gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;

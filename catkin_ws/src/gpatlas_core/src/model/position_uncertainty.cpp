@@ -144,7 +144,7 @@ PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalib
   std::ostringstream message;
   message << "position sd scale " << result.scale << " from " << result.test_points << " held-out surface points in "
           << result.folds_used << " cut-off sides of " << config.cut_fraction << " of the data (median |error| / sd "
-          << result.median_ratio << ")";
+          << result.median_ratio << ") in " << result.seconds << " s";
   result.message = message.str();
   return result;
 }
