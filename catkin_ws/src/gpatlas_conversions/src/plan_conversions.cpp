@@ -49,7 +49,9 @@ gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& reque
 gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg) {
   gpatlas_core::PlanRequest request;
   request.v_max = msg.v_max;
-  request.max_position_sd_m = msg.max_position_sd_m > 0.0 ? msg.max_position_sd_m : 0.0;
+  // < 0: the V_max rule alone (0 in a PlanRequest); 0 (the node's parameter, which the server
+  // fills in) and anything not finite (refused by the plan's validation) pass as they are.
+  request.max_position_sd_m = msg.max_position_sd_m < 0.0 ? 0.0 : msg.max_position_sd_m;
   if (msg.use_start) request.start = fromMsg(msg.start);
   for (const auto& p : msg.attempted_targets) request.evidence_state.attempted_targets.push_back(fromMsg(p));
   request.evidence_state.attempted_target_errors_m = msg.attempted_target_errors_m;

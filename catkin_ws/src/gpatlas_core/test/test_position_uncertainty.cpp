@@ -102,8 +102,12 @@ TEST(PositionSd, ScalesWithTheCalibrationAndIsCappedWhereTheGradientVanishes) {
   query.col(0) = point;
   const double sd = gpatlas_core::positionSd(model, query)[0];
   EXPECT_NEAR(sd, std::sqrt(p.variance / model.varianceUnitFactor()) / p.gradient.norm(), 1e-12);
-  model.setPositionSdScale(0.25);
+  EXPECT_TRUE(model.setPositionSdScale(0.25));
   EXPECT_NEAR(gpatlas_core::positionSd(model, query)[0], 0.25 * sd, 1e-12);
+  // A scale that would switch the rule off silently is refused.
+  EXPECT_FALSE(model.setPositionSdScale(0.0));
+  EXPECT_FALSE(model.setPositionSdScale(std::nan("")));
+  EXPECT_EQ(model.positionSdScale(), 0.25);
   // No slope: the surface could be anywhere in the domain.
   EXPECT_EQ(gpatlas_core::positionSd(model, p.variance, 0.0), model.domainRadiusWorld());
   EXPECT_EQ(gpatlas_core::positionSd(model, std::nan(""), 1.0), model.domainRadiusWorld());

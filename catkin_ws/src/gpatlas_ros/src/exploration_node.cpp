@@ -73,7 +73,8 @@ class ExplorationNode {
   }
 
   int run() {
-    ROS_INFO_STREAM("exploration: strategy " << settings_.strategy << ", V_max " << settings_.loop.v_max
+    const gpatlas_core::StopRule stop_rule{settings_.loop.v_max, settings_.loop.max_position_sd_m};
+    ROS_INFO_STREAM("exploration: strategy " << settings_.strategy << ", stop rule: " << stop_rule.describe()
                                              << ", at most " << settings_.loop.max_actions << " actions; results in "
                                              << writer_.resultsDir());
     if (!writer_.createFolder()) return 2;

@@ -8,7 +8,7 @@ import subprocess
 import tempfile
 import unittest
 
-COLUMNS = ("object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,"
+COLUMNS = ("object,strategy,probe,seed,vmax,max_position_sd_m,actions,contacts,converged,status,stop_reason,n_train,"
            "rmse_pred_to_gt_m,rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,"
            "fscore_5mm,calibration_2sd,position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
            "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
@@ -83,6 +83,7 @@ class BenchSmokeTest(unittest.TestCase):
             else:
                 self.assertTrue(math.isnan(error), r)
             self.assertEqual(float(r["vmax"]), 0.1)
+            self.assertEqual(float(r["max_position_sd_m"]), 0.005)
             self.assertLessEqual(int(r["contacts"]), int(r["n_train"]))
             fscore = float(r["fscore_5mm"])
             self.assertTrue(0.0 <= fscore <= 1.0)

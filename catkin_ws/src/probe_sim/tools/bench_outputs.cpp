@@ -243,7 +243,8 @@ std::string summarySettings(const Options& o) {
   f << "config `" << o.config_path << "`";
   for (const auto& overlay : o.overlays) f << " --overlay " << overlay;
   for (const auto& assignment : o.overrides) f << " --set " << assignment;
-  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", seeds";
+  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", max position sd "
+    << o.pipeline.exploration.max_position_sd_m << " m, seeds";
   for (int s : o.seeds) f << ' ' << s;
   f << ", max actions " << o.pipeline.exploration.max_actions << (o.simulation.table ? ", on a table" : ", no table") << ".";
   return f.str();
@@ -251,14 +252,14 @@ std::string summarySettings(const Options& o) {
 
 void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   std::ofstream f(path);
-  f << "object,strategy,probe,seed,vmax,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
+  f << "object,strategy,probe,seed,vmax,max_position_sd_m,actions,contacts,converged,status,stop_reason,n_train,rmse_pred_to_gt_m,"
        "rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,fscore_5mm,calibration_2sd,"
        "position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
        "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,approach_collisions,"
        "retreat_collisions,approach_plan_ms_median,recent_target_error_m\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
-    f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << r.actions
+    f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << num(r.max_position_sd_m) << ',' << r.actions
       << ',' << r.contacts << ',' << (r.converged ? 1 : 0) << ',' << csvField(r.status) << ',' << csvField(r.stop_reason)
       << ',' << r.n_train << ','
       << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','

@@ -318,6 +318,7 @@ RunResult runIdentity(const GroundTruth& gt, const std::string& strategy_name, i
   r.probe = o.simulation.probe;
   r.seed = seed;
   r.v_max = o.pipeline.exploration.v_max;
+  r.max_position_sd_m = o.pipeline.exploration.max_position_sd_m;
   r.curve_every = o.curve_every;
   return r;
 }

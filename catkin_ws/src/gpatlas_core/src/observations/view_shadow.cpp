@@ -9,6 +9,12 @@
 
 namespace gpatlas_core {
 
+namespace {
+// Rays more than about 84 degrees off the view's mean direction are left out: no camera sees
+// that wide, and the image-plane coordinates of such rays grow without bound.
+constexpr double kMinAxisCosine = 0.1;
+}  // namespace
+
 std::string validate(const CameraView& view) {
   if (!view.origin.allFinite()) return "a camera view's origin is not finite";
   for (const Vector3& p : view.points)
@@ -45,7 +51,7 @@ ViewShadow::ViewShadow(const std::vector<CameraView>& views, const Config& confi
     Eigen::Vector2i lo(std::numeric_limits<int>::max(), std::numeric_limits<int>::max()), hi = -lo;
     for (const Vector3& r : rays) {
       const double z = r.dot(map.axis);
-      if (!(z > 0.0)) continue;
+      if (!(z > kMinAxisCosine * r.norm())) continue;
       const Eigen::Vector2i bin(static_cast<int>(std::floor(r.dot(map.u) / z / map.pitch)),
                                 static_cast<int>(std::floor(r.dot(map.v) / z / map.pitch)));
       binned.emplace_back(bin, static_cast<float>(r.norm()));
@@ -71,9 +77,11 @@ ViewShadow::ViewShadow(const std::vector<CameraView>& views, const Config& confi
 bool ViewShadow::DepthMap::hides(const Vector3& x, double margin) const {
   const Vector3 r = x - origin;
   const double z = r.dot(axis);
-  if (!(z > 0.0)) return false;  // behind the camera: no surface it saw is in front of x
-  const int i = static_cast<int>(std::floor(r.dot(u) / z / pitch)) - i0;
-  const int j = static_cast<int>(std::floor(r.dot(v) / z / pitch)) - j0;
+  // Behind the camera, or beside it beyond any view's angle: no surface it saw is in front of x.
+  if (!(z > kMinAxisCosine * r.norm())) return false;
+  const double bin_i = std::floor(r.dot(u) / z / pitch) - i0, bin_j = std::floor(r.dot(v) / z / pitch) - j0;
+  if (!(bin_i >= -1.0 && bin_i <= width && bin_j >= -1.0 && bin_j <= height)) return false;
+  const int i = static_cast<int>(bin_i), j = static_cast<int>(bin_j);
   // The nearest seen surface over the bin and its neighbours: a point near the silhouette's edge
   // counts as hidden when any bin next to its own saw surface in front of it.
   float nearest = std::numeric_limits<float>::infinity();

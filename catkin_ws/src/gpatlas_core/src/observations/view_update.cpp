@@ -21,7 +21,11 @@ ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view
   update.fit = model.fit(data);
   update.ok = update.fit.ok;
   if (update.ok && tuning) update.tuning = model.tune(*tuning);
-  if (update.ok && calibration) update.calibration = calibratePositionSd(model, *calibration);
+  if (update.ok && calibration && calibration->folds > 0) {
+    update.calibration = calibratePositionSd(model, *calibration);
+    // A scale fitted to the previous view says nothing about this one: uncalibrated (vague) instead.
+    if (!update.calibration->ok) model.setPositionSdScale(1.0);
+  }
   return update;
 }
 

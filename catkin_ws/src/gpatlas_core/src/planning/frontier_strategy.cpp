@@ -22,14 +22,17 @@ constexpr double kStrokeTolerance_m = 0.002;
 
 bool candidate(Cell c) { return c == Cell::kUnknown || c == Cell::kCleared || c == Cell::kTooSmall; }
 
-// The grid's frame: cubic, about the model's centroid.
+// The grid's frame: cubic, about the model's centroid, with cells of cell_m or, for a large
+// object, coarser: at most kMaxCellsPerAxis per axis bounds the plan's memory and time.
+constexpr int kMaxCellsPerAxis = 160;
 UnknownSpace emptyGrid(const SurfaceModel& model, const FrontierStrategy::Config& c) {
   UnknownSpace space;
   const double half = c.search_radius_fraction * model.dataRadiusWorld();
-  const int n = std::max(1, static_cast<int>(std::ceil(2.0 * half / c.cell_m)));
-  space.cell_m = c.cell_m;
+  const double cell = std::max(c.cell_m, 2.0 * half / kMaxCellsPerAxis);
+  const int n = std::clamp(static_cast<int>(std::ceil(2.0 * half / cell)), 1, kMaxCellsPerAxis);
+  space.cell_m = cell;
   space.size = Eigen::Vector3i::Constant(n);
-  space.origin = model.centroid() - Vector3::Constant(0.5 * (n - 1) * c.cell_m);
+  space.origin = model.centroid() - Vector3::Constant(0.5 * (n - 1) * cell);
   space.cells.assign(at(n) * n * n, Cell::kIgnored);
   space.distance_m.assign(space.cells.size(), std::numeric_limits<float>::infinity());
   space.shadow_depth_m.assign(space.cells.size(), 0.0f);
@@ -236,8 +239,6 @@ std::string validate(const FrontierStrategy::Config& c) {
   if (c.approach_directions < 1 || c.max_targets < 1 || c.max_reachability_checks < 1)
     problem << "approach_directions, max_targets and max_reachability_checks must be >= 1; ";
   if (c.max_empty_pokes < 0) problem << "max_empty_pokes must be >= 0; ";
-  if (c.cell_m > 0.0 && c.search_radius_fraction > 0.0 && 2.0 * c.search_radius_fraction / c.cell_m > 1e4)
-    problem << "the grid is too fine for its span; ";
   return problem.str();
 }
 
@@ -306,7 +307,7 @@ double partChance(const UnknownSpace& space, long k, const FrontierStrategy::Con
 // hides (or a touch cleared), above the table and outside the predicted object all the way.
 bool comesFromObservedSpace(const UnknownSpace& space, const ViewShadow& shadow, const EvidenceState& state,
                             const Vector3& target, const Vector3& d, const FrontierStrategy::Config& c) {
-  for (double s = c.approach_distance_m; s <= c.observed_within_m; s += c.cell_m) {
+  for (double s = c.approach_distance_m; s <= c.observed_within_m; s += space.cell_m) {
     const Vector3 x = target + s * d;
     if (state.support_plane && state.support_plane->height(x) < c.support_clearance_m) return false;
     const long k = space.index(x);
@@ -324,7 +325,7 @@ ShadowPoke bestApproach(const UnknownSpace& space, const ViewShadow& shadow, con
                         const std::vector<Vector3>& directions, const Vector3& target,
                         const FrontierStrategy::Config& c) {
   ShadowPoke best{target, Vector3::Zero(), 0.0};
-  const double step = 0.5 * c.cell_m;
+  const double step = 0.5 * space.cell_m;
   for (const Vector3& d : directions) {
     double gain = 0.0;
     long last = -1;

@@ -120,6 +120,9 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   gpatlas_core::PlanRequest request = asked;
   request.v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
   if (req.max_position_sd_m == 0.0) request.max_position_sd_m = default_max_position_sd_m_;
+  if (name == "atlas_frontier")
+    ROS_WARN_ONCE("atlas_planner: atlas_frontier needs the camera's views, which next_touch does not carry yet: "
+                  "it plans as atlas_poke here (gpatlas_bench passes them)");
   // What the loop asks, merged as the bench's planner merges it, with the table this nodelet knows.
   gpatlas_core::EvidenceState own;
   own.support_plane = support_plane_;

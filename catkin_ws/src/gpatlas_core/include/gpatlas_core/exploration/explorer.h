@@ -167,7 +167,7 @@ class Explorer {
   struct Config {
     double v_max{0.1};
     // The stop rule in metres (StopRule): converged when no reachable point of the predicted
-    // surface has a position sd above it; 0: the paper's V_max rule.
+    // surface has a position sd above it (nor a variance above v_max); 0: v_max alone.
     double max_position_sd_m{0.005};
     int max_actions{100};
     // The paper's extra stop on the real robot: this many failed touches in a row. A touch

@@ -63,10 +63,10 @@ struct PositionCalibration {
 PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalibrationConfig& config);
 
 // Algorithm 1's test of one predicted surface point, and so the loop's stop rule: the paper's
-// variance above V_max, or, with max_position_sd_m > 0, the position sd above it.
+// variance above V_max or, with max_position_sd_m > 0, the position sd above that bound.
 struct StopRule {
   double v_max{0.1};              // reported variance units
-  double max_position_sd_m{0.0};  // > 0: replaces the V_max test
+  double max_position_sd_m{0.0};  // > 0: the position sd test as well as the V_max test
 
   bool exceeded(const SurfaceModel& model, double reported_variance, double gradient_norm) const;
   // "variance above V_max" or "position sd above 5 mm", for messages.

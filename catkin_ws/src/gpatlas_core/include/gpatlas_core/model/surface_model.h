@@ -4,6 +4,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <memory>
 #include <string>
 #include <vector>
@@ -135,7 +136,12 @@ class SurfaceModel {
   // noise's standard deviation, which leaves the mean unchanged. The reported variance does not
   // include it, so that V_max keeps the paper's meaning; positionSd() does.
   double positionSdScale() const { return position_sd_scale_; }
-  void setPositionSdScale(double scale) { position_sd_scale_ = scale; }
+  // False, and the scale kept, unless `scale` is finite and > 0.
+  bool setPositionSdScale(double scale) {
+    if (!(scale > 0.0) || !std::isfinite(scale)) return false;
+    position_sd_scale_ = scale;
+    return true;
+  }
 
   // ---- replicas
   SurfaceModelState state() const;
