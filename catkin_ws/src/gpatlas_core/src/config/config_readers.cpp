@@ -156,7 +156,7 @@ void readEvidence(ParamReader& r, EvidenceRule* c) {
 }
 
 void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
-  c->folds = r.integer("position_calibration/folds", c->folds, 0, 100);
+  c->folds = r.integer("position_calibration/folds", c->folds, 0, 6);
   c->cut_fraction = r.number("position_calibration/cut_fraction", c->cut_fraction, 1e-3, 0.999);
   c->coverage = r.number("position_calibration/coverage", c->coverage, 0.01, 0.999);
 }

@@ -1,8 +1,8 @@
 #include "gpatlas_core/model/position_uncertainty.h"
 
-#include <algorithm>
 #include <Eigen/Eigenvalues>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <random>
@@ -30,7 +30,7 @@ Eigen::VectorXd positionSd(const SurfaceModel& model, const Points3& x_world) {
 
 std::string validate(const PositionCalibrationConfig& config) {
   std::ostringstream problem;
-  if (config.folds < 0) problem << "folds must be >= 0; ";
+  if (config.folds < 0 || config.folds > 6) problem << "folds must be in [0, 6] (the six cuts); ";
   if (!(config.cut_fraction > 0.0) || !(config.cut_fraction < 1.0)) problem << "cut_fraction must be in (0, 1); ";
   if (config.max_test_points_per_fold < 1) problem << "max_test_points_per_fold must be >= 1; ";
   if (!(config.coverage > 0.0) || !(config.coverage < 1.0)) problem << "coverage must be in (0, 1); ";
@@ -59,13 +59,12 @@ std::vector<Vector3> cutDirections(const std::vector<Vector3>& surface, int coun
 
 // |mean| / sd(f) at the held-out surface points of one fold: the position error over the
 // unscaled position sd (both are divided by |grad f|). The fold holds out every observation
-// beyond a plane across `direction` that cuts off `fraction` of the surface data: a side the
+// beyond a plane across `direction` that cuts off `cut_fraction` of the surface data: a side the
 // camera did not see, next to the part it did. Empty when the refit fails.
 std::vector<double> foldRatios(const SurfaceModel& model, const std::vector<Vector3>& surface, const Vector3& direction,
                                const PositionCalibrationConfig& config, std::mt19937_64& rng) {
-  std::vector<double> heights;
-  for (const Vector3& p : surface) heights.push_back(p.dot(direction));
-  std::vector<double> sorted = heights;
+  std::vector<double> sorted;
+  for (const Vector3& p : surface) sorted.push_back(p.dot(direction));
   const std::size_t k = static_cast<std::size_t>((1.0 - config.cut_fraction) * static_cast<double>(sorted.size() - 1));
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(k), sorted.end());
   const double cut = sorted[k];

@@ -32,7 +32,8 @@ Eigen::VectorXd positionSd(const SurfaceModel& model, const Points3& x_world);
 // held-out surface points: an extrapolation into a side the data do not show, as the unseen
 // back of an object is one.
 struct PositionCalibrationConfig {
-  // Cuts, both ways along the principal axes of the surface data in turn (0: no calibration).
+  // Cuts, both ways along the principal axes of the surface data in turn: at most 6 (0: no
+  // calibration).
   int folds{6};
   // The share of the surface data a cut holds out.
   double cut_fraction{0.25};
