@@ -218,15 +218,19 @@ TriangleMesh makeTorusSegment(const Eigen::Vector3d& centre, double arc_radius,
   return mesh;
 }
 
+// The profile of an open cup: up the outside, across the rim, down the inside to the floor.
+Profile openCupProfile(double radius, double height, double wall, double floor_thickness) {
+  return {{0.0, 0.0},
+          {radius, 0.0},
+          {radius, height},
+          {radius - wall, height},
+          {radius - wall, floor_thickness},
+          {0.0, floor_thickness}};
+}
+
 TriangleMesh makeMugMesh(const ProceduralConfig& c) {
   const double radius = 0.35, height = 0.85, wall = 0.05, floor_thickness = 0.06;
-  const Profile cup = {{0.0, 0.0},
-                       {radius, 0.0},
-                       {radius, height},
-                       {radius - wall, height},
-                       {radius - wall, floor_thickness},
-                       {0.0, floor_thickness}};
-  TriangleMesh mesh = revolve(cup, false, c.segments);
+  TriangleMesh mesh = revolve(openCupProfile(radius, height, wall, floor_thickness), false, c.segments);
   // The handle's capped ends sit inside the wall, so from outside it looks attached.
   const double handle_arc = 0.24, handle_tube = 0.03;
   mesh.append(makeTorusSegment(Eigen::Vector3d(radius - wall / 2, 0.0, height / 2), handle_arc,
@@ -268,13 +272,7 @@ TriangleMesh makeSpoonMesh(const ProceduralConfig& c) {
 // pan and its handle are 1 long).
 TriangleMesh makePanMesh(const ProceduralConfig& c) {
   const double radius = 0.225, height = 0.06, wall = 0.012, floor_thickness = 0.015;
-  const Profile body = {{0.0, 0.0},
-                        {radius, 0.0},
-                        {radius, height},
-                        {radius - wall, height},
-                        {radius - wall, floor_thickness},
-                        {0.0, floor_thickness}};
-  TriangleMesh mesh = revolve(body, false, c.segments);
+  TriangleMesh mesh = revolve(openCupProfile(radius, height, wall, floor_thickness), false, c.segments);
   const double handle_start = radius - wall / 2, handle_width = 0.05, handle_thickness = 0.025;
   mesh.append(makeHandleMesh(handle_start, 1.0 - radius - handle_start, handle_width, handle_thickness,
                              height - 0.01 - handle_thickness / 2));

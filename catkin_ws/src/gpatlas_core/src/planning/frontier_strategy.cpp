@@ -249,8 +249,12 @@ FrontierStrategy::FrontierStrategy(Config config, std::uint64_t seed)
 }
 
 UnknownSpace FrontierStrategy::unknownSpace(const SurfaceModel& model, const EvidenceState& state) const {
+  return unknownSpace(model, state, ViewShadow(state.views, config_.shadow));
+}
+
+UnknownSpace FrontierStrategy::unknownSpace(const SurfaceModel& model, const EvidenceState& state,
+                                            const ViewShadow& shadow) const {
   UnknownSpace space = emptyGrid(model, config_);
-  const ViewShadow shadow(state.views, config_.shadow);
   if (shadow.empty()) return space;
   std::vector<bool> hidden(space.cells.size(), false);
   for (long k = 0; k < static_cast<long>(space.cells.size()); ++k)
@@ -358,7 +362,8 @@ ShadowPoke bestApproach(const UnknownSpace& space, const ViewShadow& shadow, con
 PlanResult FrontierStrategy::planShadowPoke(const SurfaceModel& model, const PlanRequest& request,
                                             PlanResult result) const {
   const auto started = std::chrono::steady_clock::now();
-  const UnknownSpace space = unknownSpace(model, request.evidence_state);
+  const ViewShadow shadow(request.evidence_state.views, config_.shadow);
+  const UnknownSpace space = unknownSpace(model, request.evidence_state, shadow);
   std::ostringstream note;
   note << "; unknown space: " << space.unknown_cells << " cells in " << space.clusters << " pieces, "
        << request.evidence_state.empty_unknown_pokes << " empty pokes so far";
@@ -377,7 +382,6 @@ PlanResult FrontierStrategy::planShadowPoke(const SurfaceModel& model, const Pla
     if (space.cells[at(k)] == Cell::kUnknown) unknown.push_back(k);
   const std::size_t stride = (unknown.size() + static_cast<std::size_t>(config_.max_targets) - 1) /
                              static_cast<std::size_t>(config_.max_targets);
-  const ViewShadow shadow(request.evidence_state.views, config_.shadow);
   const std::vector<Vector3> directions = fibonacciSphere(config_.approach_directions);
   std::vector<ShadowPoke> pokes;
   for (std::size_t n = 0; n < unknown.size(); n += stride) {

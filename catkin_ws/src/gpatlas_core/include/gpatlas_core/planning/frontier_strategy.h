@@ -101,6 +101,8 @@ class FrontierStrategy : public ExplorationStrategy {
   UnknownSpace unknownSpace(const SurfaceModel& model, const EvidenceState& state) const;
 
  private:
+  // The same, with the views' shadow already built (a plan needs it again for the approaches).
+  UnknownSpace unknownSpace(const SurfaceModel& model, const EvidenceState& state, const ViewShadow& shadow) const;
   PlanResult planShadowPoke(const SurfaceModel& model, const PlanRequest& request, PlanResult atlas_result) const;
 
   Config config_;
