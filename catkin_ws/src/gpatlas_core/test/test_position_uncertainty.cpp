@@ -2,6 +2,7 @@
 #include "gpatlas_core/model/gpis_model.h"
 #include "gpatlas_core/model/model_calibration.h"
 #include "gpatlas_core/model/position_uncertainty.h"
+#include "gpatlas_core/model/surface_projection.h"
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/testing/analytic_sphere.h"
 
@@ -222,6 +223,61 @@ TEST(StopRule, AHalfSeenSphereDoesNotConvergeBeforeItsBackIsTouched) {
     std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2), sorted.end());
     EXPECT_LE(sorted[sorted.size() / 2], 0.005);
   }
+}
+
+
+TEST(StopRule, ExcessIsTheLargerRatioAndExceededIsExcessAboveOne) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
+  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
+  const gpatlas_core::StopRule paper{0.05, 0.0}, in_mm{0.05, 0.005};
+  int position_bound = 0;
+  for (const Vector3& d : gpatlas_core::fibonacciSphere(200)) {
+    const Vector3 x = sphere.centre + sphere.radius * d;
+    const gpatlas_core::Prediction p = model.predict(x);
+    const double slope = p.gradient.norm();
+    const double by_variance = p.variance / 0.05;
+    const double by_position = gpatlas_core::positionSd(model, p.variance, slope) / 0.005;
+    EXPECT_DOUBLE_EQ(paper.excess(model, p.variance, slope), by_variance);
+    EXPECT_DOUBLE_EQ(in_mm.excess(model, p.variance, slope), std::max(by_variance, by_position));
+    EXPECT_EQ(paper.exceeded(model, p.variance, slope), by_variance > 1.0);
+    EXPECT_EQ(in_mm.exceeded(model, p.variance, slope), std::max(by_variance, by_position) > 1.0);
+    position_bound += by_position > by_variance ? 1 : 0;
+  }
+  EXPECT_GT(position_bound, 0);  // the position sd ranks some points, not only the variance
+}
+
+TEST(StopRule, MaxVarianceTouchesThePointFurthestPastTheRule) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
+  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
+  gpatlas_core::StrategyConfig config;
+  config.evidence.max_distance = 0.0;
+  const auto strategy = gpatlas_core::makeStrategy("max_variance", config);
+  gpatlas_core::PlanRequest request;
+  request.v_max = 10.0;  // no point is above V_max: the position sd alone decides
+  request.max_position_sd_m = 0.005;
+  const gpatlas_core::PlanResult plan = strategy->plan(model, request);
+  ASSERT_EQ(plan.status, gpatlas_core::PlanStatus::kTouch) << plan.message;
+  const auto excess = [&](const Vector3& x) {
+    const gpatlas_core::Prediction p = model.predict(x);
+    return request.stopRule().excess(model, p.variance, p.gradient.norm());
+  };
+  // An independent sample of the predicted surface: the sphere's directions projected onto it.
+  Points3 starts(3, 400), radial(3, 400);
+  const std::vector<Vector3> directions = gpatlas_core::fibonacciSphere(400);
+  for (Eigen::Index i = 0; i < starts.cols(); ++i) {
+    radial.col(i) = directions[static_cast<std::size_t>(i)];
+    starts.col(i) = sphere.centre + sphere.radius * radial.col(i);
+  }
+  double largest = 0.0;
+  for (const gpatlas_core::SurfacePoint& s :
+       gpatlas_core::projectOntoSurface(model, starts, radial, gpatlas_core::ProjectionConfig()))
+    if (s.ok) largest = std::max(largest, excess(s.position));
+  ASSERT_GT(largest, 1.0);
+  EXPECT_GT(excess(plan.touch.points.front()), 0.9 * largest);
 }
 
 }  // namespace

@@ -153,6 +153,12 @@ bool StopRule::exceeded(const SurfaceModel& model, double reported_variance, dou
   return max_position_sd_m > 0.0 && positionSd(model, reported_variance, gradient_norm) > max_position_sd_m;
 }
 
+double StopRule::excess(const SurfaceModel& model, double reported_variance, double gradient_norm) const {
+  const double by_variance = reported_variance / v_max;
+  if (!(max_position_sd_m > 0.0)) return by_variance;
+  return std::max(by_variance, positionSd(model, reported_variance, gradient_norm) / max_position_sd_m);
+}
+
 std::string StopRule::describe() const {
   std::ostringstream text;
   text << "variance above V_max " << v_max;

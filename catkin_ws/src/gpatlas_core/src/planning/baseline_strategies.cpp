@@ -122,12 +122,19 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, Evidence
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [&model](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
-                        // The largest variance among the points that need a touch (one does).
-                        const std::vector<double>& variances = needy.sample.variances;
-                        std::size_t best = variances.size();
-                        for (std::size_t i = 0; i < variances.size(); ++i) {
-                          if (!needy.needsTouch(i, model, request.stopRule())) continue;
-                          if (best == variances.size() || variances[i] > variances[best]) best = i;
+                        // The point furthest past the stop rule among those that need a touch (one
+                        // does): under V_max alone, the largest variance.
+                        const StopRule rule = request.stopRule();
+                        const SurfaceSample& sample = needy.sample;
+                        std::size_t best = sample.points.size();
+                        double best_excess = 0.0;
+                        for (std::size_t i = 0; i < sample.points.size(); ++i) {
+                          if (!needy.needsTouch(i, model, rule)) continue;
+                          const double excess = rule.excess(model, sample.variances[i], sample.slopes[i]);
+                          if (best == sample.points.size() || excess > best_excess) {
+                            best = i;
+                            best_excess = excess;
+                          }
                         }
                         return best;
                       });

@@ -70,6 +70,10 @@ struct StopRule {
   double max_position_sd_m{0.0};  // > 0: the position sd test as well as the V_max test
 
   bool exceeded(const SurfaceModel& model, double reported_variance, double gradient_norm) const;
+  // How far past the rule a point is: the larger of variance / V_max and position sd / its bound
+  // (the latter only with a bound); exceeded() is excess > 1. Ranks points under either rule
+  // alike, and under V_max alone in the order of the variance.
+  double excess(const SurfaceModel& model, double reported_variance, double gradient_norm) const;
   // "variance above V_max" or "position sd above 5 mm", for messages.
   std::string describe() const;
 };

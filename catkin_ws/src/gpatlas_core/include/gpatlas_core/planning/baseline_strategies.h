@@ -25,8 +25,10 @@ class RandomStrategy : public ExplorationStrategy {
   std::uint64_t seed_;
 };
 
-// The usual GPIS baseline: the highest-variance point of a dense surface sample (once all are
-// below V_max, a point without evidence).
+// The usual GPIS baseline: the point of a dense surface sample furthest past the stop rule
+// (StopRule::excess: the highest variance under V_max alone; with a position sd bound, the
+// larger of variance / V_max and position sd / bound), or once none is past it, a point without
+// evidence.
 class MaxVarianceStrategy : public ExplorationStrategy {
  public:
   MaxVarianceStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed);
