@@ -116,6 +116,7 @@ gpatlas_msgs::Touch toMsg(const gpatlas_core::Touch& touch, const std::vector<st
   for (const auto& n : touch.normals) msg.normals.push_back(toVectorMsg(n));
   msg.variances = touch.variances;
   msg.strategy = touch.strategy;
+  msg.explores_unknown = touch.explores_unknown;
   for (const auto& p : touch.approach_path) msg.approach_path.push_back(toPointMsg(p));
   for (const auto& p : touch.retreat_path) msg.retreat_path.push_back(toPointMsg(p));
   if (!touch.approach_joints.empty())
@@ -146,6 +147,7 @@ bool fromMsg(const gpatlas_msgs::Touch& msg, gpatlas_core::Touch* touch, std::st
   for (const auto& n : msg.normals) out.normals.push_back(fromMsg(n));
   out.variances = msg.variances;
   out.strategy = msg.strategy;
+  out.explores_unknown = msg.explores_unknown;
   for (const auto& p : msg.approach_path) out.approach_path.push_back(fromMsg(p));
   for (const auto& p : msg.retreat_path) out.retreat_path.push_back(fromMsg(p));
   if (joint_names) {
@@ -292,6 +294,36 @@ bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelSta
     out.observations.push_back(p);
   }
   *state = std::move(out);
+  return true;
+}
+
+void setView(const std::optional<gpatlas_core::CameraView>& view, gpatlas_msgs::TrainingSet* msg) {
+  msg->view_origin = toPointMsg(view ? view->origin : Eigen::Vector3d::Zero());
+  msg->view_points.clear();
+  if (!view) return;
+  msg->view_points.reserve(view->points.size());
+  for (const auto& p : view->points) {
+    geometry_msgs::Point32 q;
+    q.x = static_cast<float>(p.x());
+    q.y = static_cast<float>(p.y());
+    q.z = static_cast<float>(p.z());
+    msg->view_points.push_back(q);
+  }
+}
+
+bool viewFromMsg(const gpatlas_msgs::TrainingSet& msg, std::optional<gpatlas_core::CameraView>* view,
+                 std::string* error) {
+  view->reset();
+  if (msg.view_points.empty()) return true;
+  gpatlas_core::CameraView out;
+  out.origin = fromMsg(msg.view_origin);
+  out.points.reserve(msg.view_points.size());
+  for (const auto& p : msg.view_points) out.points.emplace_back(p.x, p.y, p.z);
+  if (const std::string problem = gpatlas_core::validate(out); !problem.empty()) {
+    *error = "training set's camera view: " + problem;
+    return false;
+  }
+  *view = std::move(out);
   return true;
 }
 

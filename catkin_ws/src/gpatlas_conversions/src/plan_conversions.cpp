@@ -41,6 +41,7 @@ gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& reque
   if (request.start) msg.start = toPointMsg(*request.start);
   for (const auto& p : request.evidence_state.attempted_targets) msg.attempted_targets.push_back(toPointMsg(p));
   msg.attempted_target_errors_m = request.evidence_state.attempted_target_errors_m;
+  msg.empty_unknown_pokes = request.evidence_state.empty_unknown_pokes;
   msg.footprint_radius_m = request.footprint_radius_m;
   msg.seed = request.seed;
   return msg;
@@ -55,6 +56,7 @@ gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg
   if (msg.use_start) request.start = fromMsg(msg.start);
   for (const auto& p : msg.attempted_targets) request.evidence_state.attempted_targets.push_back(fromMsg(p));
   request.evidence_state.attempted_target_errors_m = msg.attempted_target_errors_m;
+  request.evidence_state.empty_unknown_pokes = msg.empty_unknown_pokes;
   request.footprint_radius_m = msg.footprint_radius_m;
   request.seed = msg.seed;
   return request;

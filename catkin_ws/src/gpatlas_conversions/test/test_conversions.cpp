@@ -30,8 +30,12 @@ TEST(Conversions, TouchRoundTrip) {
     EXPECT_EQ(back.variances[i], touch.variances[i]);
   }
   EXPECT_EQ(back.strategy, "atlas_slide");
+  EXPECT_FALSE(back.explores_unknown);
   EXPECT_EQ(back.approach_path, touch.approach_path);
   EXPECT_EQ(back.retreat_path, touch.retreat_path);
+  touch.explores_unknown = true;
+  ASSERT_TRUE(fromMsg(toMsg(touch), &back, &error)) << error;
+  EXPECT_TRUE(back.explores_unknown);
 }
 
 TEST(Conversions, TouchJointTrajectoriesRoundTripByName) {
@@ -257,6 +261,33 @@ TEST(Conversions, TrainingSetRebuildsTheSameModel) {
             1e-6);
 }
 
+// The camera view travels with the training set, to float precision; none stays none.
+TEST(Conversions, TrainingSetCarriesTheCameraView) {
+  gpatlas_core::CameraView view;
+  view.origin = {0.1, -0.6, 0.9};
+  view.points = {{0.7, 0.05, 0.12}, {0.71, -0.02, 0.1}, {0.69, 0.0, 0.15}};
+  gpatlas_msgs::TrainingSet msg;
+  setView(view, &msg);
+  std::optional<gpatlas_core::CameraView> back;
+  std::string error;
+  ASSERT_TRUE(viewFromMsg(msg, &back, &error)) << error;
+  ASSERT_TRUE(back.has_value());
+  EXPECT_EQ(back->origin, view.origin);
+  ASSERT_EQ(back->points.size(), view.points.size());
+  for (std::size_t i = 0; i < view.points.size(); ++i) EXPECT_LT((back->points[i] - view.points[i]).norm(), 1e-7);
+
+  setView(std::nullopt, &msg);
+  EXPECT_TRUE(msg.view_points.empty());
+  ASSERT_TRUE(viewFromMsg(msg, &back, &error)) << error;
+  EXPECT_FALSE(back.has_value());
+
+  setView(view, &msg);
+  msg.view_origin.y = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_FALSE(viewFromMsg(msg, &back, &error));
+  EXPECT_FALSE(back.has_value());
+  EXPECT_NE(error.find("camera view"), std::string::npos) << error;
+}
+
 TEST(Conversions, CloudRoundTripSkipsNaN) {
   std::vector<Eigen::Vector3d> pts = {{0.5, 0.25, -0.125}, {1, 2, 3}, {std::nan(""), 0, 0}};
   const auto cloud = pointsToCloud(pts, {0.0, 0.2, 0.1}, 0.2, "world");
@@ -323,6 +354,7 @@ TEST(Conversions, PlanRequestRoundTrip) {
   request.start = gpatlas_core::Vector3(0.4, -0.1, 0.2);
   request.evidence_state.attempted_targets = {{0.1, 0.2, 0.3}, {0.5, 0.0, -0.25}};
   request.evidence_state.attempted_target_errors_m = {0.004, std::numeric_limits<double>::quiet_NaN()};
+  request.evidence_state.empty_unknown_pokes = 3;
   request.footprint_radius_m = 0.01;
   request.seed = 0x9e3779b97f4a7c15ull;
   const gpatlas_msgs::GetNextTouch::Request msg = toMsg(request);
@@ -335,6 +367,7 @@ TEST(Conversions, PlanRequestRoundTrip) {
   ASSERT_EQ(back.evidence_state.attempted_target_errors_m.size(), 2u);
   EXPECT_EQ(back.evidence_state.attempted_target_errors_m[0], 0.004);
   EXPECT_TRUE(std::isnan(back.evidence_state.attempted_target_errors_m[1]));
+  EXPECT_EQ(back.evidence_state.empty_unknown_pokes, 3);
   EXPECT_EQ(back.footprint_radius_m, request.footprint_radius_m);
   EXPECT_EQ(back.seed, request.seed);
   // The stop rule travels: the position rule, and the V_max rule (0), which the message says

@@ -298,6 +298,15 @@ void expectTrainingFromTheView(const gpatlas_msgs::TrainingSet& training) {
   }
   EXPECT_GT(view_free_space, 100u);
   EXPECT_GT(occluded_interior, 10u);
+  // The view itself travels with it, for atlas_frontier's shadow: the camera's origin and the
+  // object's points, every one on the sphere's side facing the camera.
+  EXPECT_LT((gpatlas_conversions::fromMsg(training.view_origin) - kCameraPosition).norm(), 1e-6);
+  EXPECT_GT(training.view_points.size(), 100u);
+  for (const auto& q : training.view_points) {
+    const Eigen::Vector3d p(q.x, q.y, q.z);
+    EXPECT_LT(std::abs((p - kCentre).norm() - kRadius), 0.004);
+    EXPECT_GT((p - kCentre).dot(kCameraPosition - kCentre), 0.0);
+  }
   // Two layers (below_support/depth_fractions) of the 8 x 8 grid, each cut to the sphere's disc.
   EXPECT_GE(below_table, 2u * 40u);
 }

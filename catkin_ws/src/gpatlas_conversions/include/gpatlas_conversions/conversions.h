@@ -13,6 +13,7 @@
 #include <gpatlas_core/planning/exploration_strategy.h>
 #include <gpatlas_core/common/types.h>
 #include <gpatlas_core/observations/support_plane.h>
+#include <gpatlas_core/observations/view_shadow.h>
 
 #include <geometry_msgs/Point.h>
 #include <geometry_msgs/Vector3.h>
@@ -32,6 +33,7 @@
 #include <Eigen/Geometry>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -98,7 +100,8 @@ bool fromMsg(const shape_msgs::Mesh& msg, gpatlas_core::TriangleMesh* mesh, std:
 
 // The next_touch service (GetNextTouch): a plan request and the planner's answer. The request's
 // strategy, model_stamp and reachable_only are the caller's to fill; the plan request's
-// reachable test and support plane do not travel (the planner nodelet has its own). v_max 0
+// reachable test, support plane and camera views do not travel (the planner nodelet has its
+// own: the views come with the training set). v_max 0
 // in a message means the nodelet's own, which the caller puts in.
 gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& request);
 gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg);
@@ -117,6 +120,12 @@ gpatlas_msgs::Atlas toMsg(const gpatlas_core::Atlas& atlas, const std::vector<in
 gpatlas_msgs::TrainingSet toMsg(const gpatlas_core::SurfaceModel& model);
 // Fails (false with a reason) on mismatched array lengths or invalid labels or sources.
 bool fromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelState* state, std::string* error);
+// The camera view a model was fitted from travels with its training set (view_origin,
+// view_points as float32: the shadow's bins are millimetres wide). An empty optional clears it.
+void setView(const std::optional<gpatlas_core::CameraView>& view, gpatlas_msgs::TrainingSet* msg);
+// Empty view_points: no view (nullopt). Fails (false with why) on a non-finite origin or point.
+bool viewFromMsg(const gpatlas_msgs::TrainingSet& msg, std::optional<gpatlas_core::CameraView>* view,
+                 std::string* error);
 // Rebuilds the sender's model: the model named in the message, built with `config`'s settings
 // (they must match the sender's for an exact copy), then restored from the message's state.
 bool modelFromMsg(const gpatlas_msgs::TrainingSet& msg, gpatlas_core::SurfaceModelConfig config,

@@ -68,6 +68,8 @@ class AtlasPlannerServer {
   std::mutex mutex_;
   // The GP nodelet's snapshot when it is in this manager, otherwise a replica (SharedModels).
   std::shared_ptr<const gpatlas_core::SurfaceModel> model_;
+  // The camera view model_ was fitted from (its training set's), for atlas_frontier's shadow.
+  std::optional<gpatlas_core::CameraView> view_;
   ros::Time model_stamp_;  // the stamp of the training set model_ is from
   std::uint32_t model_sequence_{0};  // and its sequence number
   gpatlas_motion::ApproachConfig approach_config_;  // for GetNextTouch's reachable_only

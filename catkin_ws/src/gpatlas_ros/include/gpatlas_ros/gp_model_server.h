@@ -4,6 +4,7 @@
 #include <gpatlas_core/exploration/observation_history.h>
 #include <gpatlas_core/model/hyperparameter_tuner.h>
 #include <gpatlas_core/model/surface_model_factory.h>
+#include <gpatlas_core/observations/view_shadow.h>
 #include <gpatlas_geometry/surface_mesher.h>
 #include <gpatlas_msgs/AddObservations.h>
 #include <gpatlas_msgs/Observations.h>
@@ -125,9 +126,12 @@ class GpModelServer {
   tf2_ros::Buffer tf_buffer_;
   tf2_ros::TransformListener tf_listener_;
 
-  std::mutex mutex_;  // guards model_ and history_ (callbacks may run concurrently in a multi-threaded manager)
+  std::mutex mutex_;  // guards model_, history_ and view_ (callbacks may run concurrently in a multi-threaded manager)
   std::unique_ptr<gpatlas_core::SurfaceModel> model_;
   gpatlas_core::ObservationHistory history_;  // the view and each touch, for remove_observations
+  // The fitted view's sensor origin and object points (world frame), published with every
+  // training set for the planner's shadow of unobserved space; none without a sensor_frame.
+  std::optional<gpatlas_core::CameraView> view_;
 
   std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
   ros::Subscriber contacts_sub_, plane_sub_;

@@ -78,6 +78,7 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     if (msg->points.empty()) {  // the GP node was reset
       std::lock_guard<std::mutex> lock(mutex_);
       model_.reset();
+      view_.reset();
       model_error_.clear();
       return;
     }
@@ -85,15 +86,21 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     std::string error;
     bool shared = false;
     const bool ok = modelForTrainingSet(training_sub_.getTopic(), *msg, model_config_, &model, &error, &shared);
+    // A malformed view costs atlas_frontier its shadow pokes, not the model.
+    std::optional<gpatlas_core::CameraView> view;
+    std::string view_error;
+    if (ok && !viewFromMsg(*msg, &view, &view_error)) ROS_WARN_STREAM("atlas_planner: view ignored: " << view_error);
     std::lock_guard<std::mutex> lock(mutex_);
     if (!ok) {
       // Planning on the previous model would plan on data the GP no longer has.
       model_.reset();
+      view_.reset();
       model_error_ = error;
       ROS_ERROR_STREAM("atlas_planner: " << error);
       return;
     }
     model_ = std::move(model);
+    view_ = std::move(view);
     model_stamp_ = msg->header.stamp;
     model_sequence_ = msg->sequence;
     model_error_.clear();
@@ -120,12 +127,14 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   gpatlas_core::PlanRequest request = asked;
   request.v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
   if (req.max_position_sd_m == 0.0) request.max_position_sd_m = default_max_position_sd_m_;
-  if (name == "atlas_frontier")
-    ROS_WARN_ONCE("atlas_planner: atlas_frontier needs the camera's views, which next_touch does not carry yet: "
-                  "it plans as atlas_poke here (gpatlas_bench passes them)");
-  // What the loop asks, merged as the bench's planner merges it, with the table this nodelet knows.
+  if (name == "atlas_frontier" && !view_)
+    ROS_WARN_THROTTLE(60.0, "atlas_planner: atlas_frontier plans as atlas_poke: the training set carries no camera "
+                            "view (the GP nodelet's sensor_frame is empty or had no transform)");
+  // What the loop asks, merged as the bench's planner merges it, with the table and the view
+  // this nodelet knows.
   gpatlas_core::EvidenceState own;
   own.support_plane = support_plane_;
+  if (view_) own.views = {*view_};
   if (!chosen || !gpatlas_core::mergeEvidenceState(own, asked.evidence_state, &request.evidence_state, &error)) {
     res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
     res.message = error;

@@ -204,6 +204,8 @@ bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
     return false;
   }
   history_.setView(view.points);
+  view_.reset();
+  if (sensor_origin) view_ = gpatlas_core::CameraView{*sensor_origin, points};
   if (use_support_plane_) {
     std::lock_guard<std::mutex> plane_lock(plane_mutex_);
     last_fitted_without_plane_ = plane ? nullptr : msg;
@@ -257,6 +259,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   std::lock_guard<std::mutex> lock(mutex_);
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
   history_.clear();
+  view_.reset();
   SharedModels::withdraw(training_pub_.getTopic());
   // An empty training set tells the planner and the collision map to drop their copies.
   gpatlas_msgs::TrainingSet empty;
@@ -350,6 +353,7 @@ bool GpModelServer::addObservations(const gpatlas_msgs::Observations& msg,
 void GpModelServer::publishModel() {
   // Called with mutex_ held.
   gpatlas_msgs::TrainingSet training = toMsg(*model_);
+  setView(view_, &training);
   training.sequence = ++training_sequence_;
   training.header.frame_id = world_frame_;
   training.header.stamp = ros::Time::now();
