@@ -282,13 +282,18 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
     // measurement, or unsupported by the evidence) was passed over, not returned.
     const SurfaceEvidence evidence(model, config.evidence);
     int western_needy = 0;
+    double area = 0.0, western_needy_area = 0.0;  // the charts' discs
     for (std::size_t i = 0; i < result.atlas.size(); ++i) {
       const Chart& chart = result.atlas.chart(static_cast<int>(i));
       const bool needy = evidence.isUnsupported(chart.centre, chart.normal) ||
                          (chart.variance > kVMax && !evidence.measuredNear(chart.centre, config.evidence.retouch_radius_m));
-      western_needy += needy && chart.centre.x() <= sphere.centre.x() ? 1 : 0;
+      const bool west = needy && chart.centre.x() <= sphere.centre.x();
+      western_needy += west ? 1 : 0;
+      area += M_PI * chart.radius * chart.radius;
+      western_needy_area += west ? M_PI * chart.radius * chart.radius : 0.0;
     }
     EXPECT_EQ(result.unreachable_skipped, western_needy);
+    EXPECT_NEAR(result.unreachable_area_fraction, western_needy_area / area, 1e-12);
   }
   // A slide: its extension stops before the first refused chart, and it starts at the first
   // chart of the path the filter accepts.
@@ -333,5 +338,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
       AtlasPlanner(config).plan(model, StopRule{kVMax}, std::nullopt, {}, [](const Vector3&, const Vector3&) { return std::optional<Vector3>(); });
   EXPECT_NE(nowhere.status, PlanStatus::kTouch);
   EXPECT_GT(nowhere.unreachable_skipped, 0);
+  EXPECT_GT(nowhere.unreachable_area_fraction, 0.0);
+  EXPECT_LE(nowhere.unreachable_area_fraction, 1.0);
   EXPECT_NE(nowhere.message.find("no safe approach"), std::string::npos) << nowhere.message;
 }

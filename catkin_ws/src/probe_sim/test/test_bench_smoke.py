@@ -12,7 +12,7 @@ COLUMNS = ("object,strategy,probe,seed,vmax,max_position_sd_m,actions,contacts,c
            "rmse_pred_to_gt_m,rmse_gt_to_pred_m,rmse_gt_to_pred_seen_m,rmse_gt_to_pred_unseen_m,chamfer_l1_m,"
            "fscore_5mm,calibration_2sd,position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
            "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
-           "approach_collisions,retreat_collisions,"
+           "final_unreachable_area_fraction,approach_collisions,retreat_collisions,"
            "approach_plan_ms_median,recent_target_error_m").split(",")
 
 
@@ -73,6 +73,10 @@ class BenchSmokeTest(unittest.TestCase):
             for key in ("unreachable_touches", "unreachable_candidates", "final_unreachable_candidates",
                         "approach_collisions", "retreat_collisions"):
                 self.assertGreaterEqual(int(r[key]), 0, (key, r))
+            # Candidates left out of reach have a share of the atlas's area, and none have none.
+            share = float(r["final_unreachable_area_fraction"])
+            self.assertTrue(0.0 <= share <= 1.0, r)
+            self.assertEqual(share > 0.0, int(r["final_unreachable_candidates"]) > 0, r)
             if actions > 0:
                 self.assertTrue(0.0 <= float(r["approach_plan_ms_median"]) < 1000.0, r)
             # Where the last touches found the surface, measured from their targets: on this

@@ -263,6 +263,8 @@ void recordLoop(const gpatlas_core::ExplorationResult& result, const gpatlas_cor
   r.unreachable_touches = result.unreachable_touches;
   r.unreachable_candidates = result.unreachable_candidates;
   r.final_unreachable_candidates = result.final_unreachable_candidates;
+  r.final_unreachable_area_fraction = result.final_unreachable_area_fraction;
+  r.out_of_reach_note = gpatlas_core::outOfReachNote(result);
   r.approach_collisions = result.approach_collisions;
   r.retreat_collisions = result.retreat_collisions;
 }

@@ -54,6 +54,8 @@ struct RunResult {
   int unreachable_touches{0};
   int unreachable_candidates{0};
   int final_unreachable_candidates{0};  // in the plan that ended the run
+  double final_unreachable_area_fraction{0.0};  // their share of its atlas's area
+  std::string out_of_reach_note;                // gpatlas_core::outOfReachNote
   int approach_collisions{0};
   int retreat_collisions{0};
   double approach_plan_ms_median{std::nan("")};

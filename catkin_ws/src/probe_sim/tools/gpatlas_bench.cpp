@@ -84,8 +84,7 @@ void measureReachabilityOfObjectsRun(std::vector<GroundTruth>& objects, const st
 void printRun(const RunResult& r, std::size_t finished, std::size_t total) {
   std::cout << "[" << finished << "/" << total << "] " << r.object << " " << r.strategy << " seed " << r.seed << ": "
             << r.actions << " actions, " << r.contacts << " contacts, " << r.status;
-  if (r.final_unreachable_candidates > 0)
-    std::cout << " (" << r.final_unreachable_candidates << " candidates left out of reach)";
+  std::cout << r.out_of_reach_note;
   if (r.metrics.ok)
     std::cout << ", RMSE " << std::setprecision(3) << r.metrics.rmse_predicted_to_truth * 1000 << " / "
               << r.metrics.rmse_truth_to_predicted * 1000 << " mm, F@5mm " << r.metrics.f_score;

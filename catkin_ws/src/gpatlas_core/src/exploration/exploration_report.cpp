@@ -105,6 +105,15 @@ std::string runStatus(const ExplorationResult& result, bool has_surface, const s
   return "stopped: " + reason;
 }
 
+std::string outOfReachNote(const ExplorationResult& result) {
+  if (result.final_unreachable_candidates <= 0) return "";
+  std::ostringstream note;
+  note.precision(2);
+  note << " (" << result.final_unreachable_candidates << " candidates left out of reach: " << std::fixed
+       << 100.0 * result.final_unreachable_area_fraction << "% of the atlas's area)";
+  return note.str();
+}
+
 std::string toJson(const ExplorationReport& report) {
   const ExplorationResult& result = report.result;
   std::ostringstream json;
@@ -118,6 +127,7 @@ std::string toJson(const ExplorationReport& report) {
        << ",\n  \"contacts\": " << result.contacts << ",\n  \"unreachable_touches\": " << result.unreachable_touches
        << ",\n  \"unreachable_candidates\": " << result.unreachable_candidates
        << ",\n  \"final_unreachable_candidates\": " << result.final_unreachable_candidates
+       << ",\n  \"final_unreachable_area_fraction\": " << result.final_unreachable_area_fraction
        << ",\n  \"approach_collisions\": " << result.approach_collisions
        << ",\n  \"retreat_collisions\": " << result.retreat_collisions
        << ",\n  \"approach_plan_ms_median\": " << jsonNumber(approachPlanMsMedian(result))

@@ -176,6 +176,7 @@ class ExplorationRun {
       record.max_evaluated_variance = plan->max_evaluated_variance;
       result_.final_max_evaluated_variance = plan->max_evaluated_variance;
       result_.final_unreachable_candidates = plan->unreachable_candidates;
+      result_.final_unreachable_area_fraction = plan->unreachable_area_fraction;
       if (stopsAfterPlan(*plan, action)) return Planned::kStop;
       if (!approacher_ || approach(record, plan)) return Planned::kTouch;
       if (record.approach_refusals >= config_.max_approach_attempts) return Planned::kApproachRefused;

@@ -39,6 +39,8 @@ std::string validate(const AtlasPlanner::Config& config) {
 
 namespace {
 
+double discArea(const Chart& chart) { return M_PI * chart.radius * chart.radius; }
+
 using Clock = std::chrono::steady_clock;
 
 double secondsSince(Clock::time_point start) {
@@ -109,14 +111,24 @@ AtlasPlanResult finishPlan(AtlasPlanResult& result, PlanStatus status, std::stri
   result.status = status;
   result.message = std::move(message);
   result.elapsed_s = secondsSince(started);
-  for (const Chart& chart : result.atlas.charts())
+  double area = 0.0, unreachable_area = 0.0;
+  for (const Chart& chart : result.atlas.charts()) {
     result.max_chart_variance = std::max(result.max_chart_variance, chart.variance);
+    area += discArea(chart);
+    unreachable_area += chart.out_of_reach ? discArea(chart) : 0.0;
+  }
+  result.unreachable_area_fraction = area > 0.0 ? unreachable_area / area : 0.0;
   if (result.retouch_skipped > 0)
     result.message += "; " + std::to_string(result.retouch_skipped) +
                       " chart(s) that would need a touch lie right at a measurement or an earlier target";
-  if (result.unreachable_skipped > 0)
+  if (result.unreachable_skipped > 0) {
+    std::ostringstream share;
+    share.precision(2);
+    share << 100.0 * result.unreachable_area_fraction;
     result.message += "; " + std::to_string(result.unreachable_skipped) +
-                      " chart(s) that need a touch passed over: no safe approach";
+                      " chart(s) that need a touch passed over: no safe approach (" + share.str() +
+                      "% of the atlas's area)";
+  }
   return result;
 }
 
@@ -149,6 +161,7 @@ class AtlasGrowth {
     }
     if (!takeApproach(chart)) {
       if (counted) ++result_.unreachable_skipped;
+      chart.out_of_reach = counted;
       return false;
     }
     return true;

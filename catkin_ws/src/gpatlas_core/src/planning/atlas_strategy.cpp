@@ -21,6 +21,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   result.max_evaluated_variance = planned.max_chart_variance;
   result.elapsed_s = planned.elapsed_s;
   result.unreachable_candidates = planned.unreachable_skipped;
+  result.unreachable_area_fraction = planned.unreachable_area_fraction;
   if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;
   if (planned.status == PlanStatus::kTouch) {
     Touch& touch = result.touch;

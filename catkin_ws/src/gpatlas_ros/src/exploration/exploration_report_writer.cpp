@@ -110,8 +110,8 @@ void ExplorationReportWriter::plot() const {
 
 int ExplorationReportWriter::logSummary(const gpatlas_core::ExplorationReport& report) const {
   std::ostringstream summary;
-  summary << "exploration finished: " << report.status << " after " << report.result.actions << " actions ("
-          << report.result.contacts << " contacts)";
+  summary << "exploration finished: " << report.status << gpatlas_core::outOfReachNote(report.result) << " after "
+          << report.result.actions << " actions (" << report.result.contacts << " contacts)";
   if (report.final_shape.measured)
     summary << std::setprecision(3) << "; shape RMSE " << 1000 * report.final_shape.rmse_pred_to_gt_m
             << " mm (predicted->truth), " << 1000 * report.final_shape.rmse_gt_to_pred_m

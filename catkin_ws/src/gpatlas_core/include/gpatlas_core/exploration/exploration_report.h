@@ -48,6 +48,9 @@ double recentTargetError(const ExplorationResult& result, std::size_t touches = 
 // The status of a finished run: "converged", "stopped: <reason>" or "error: <reason>", and
 // "error: no predicted surface: ..." whenever there is no surface, whatever the loop said.
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message);
+// What the plan that ended the run left out of reach, for a status line: empty, or " (12
+// candidates left out of reach: 8.3% of the atlas's area)".
+std::string outOfReachNote(const ExplorationResult& result);
 
 // report.json: the settings, the outcome, the final shape, the initial model, every action's
 // record, and the curve: the shape error (RMSE both ways, F@5mm) against the touches, from the

@@ -49,6 +49,8 @@ struct Chart {
   // The direction a touch of the centre comes from, when the planner's TouchFilter chose one
   // (it may be tilted from the normal); zero: along the normal.
   Vector3 approach_direction{Vector3::Zero()};
+  // It needed a touch, and the planner's TouchFilter found no way to make it.
+  bool out_of_reach{false};
   std::vector<ChartCandidate> candidates;
 
   bool expandable() const { return !candidates.empty(); }

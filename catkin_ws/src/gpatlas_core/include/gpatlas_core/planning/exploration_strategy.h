@@ -51,6 +51,9 @@ struct PlanResult {
   std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
   double elapsed_s{0.0};
   int unreachable_candidates{0};  // candidates passed over for PlanRequest::reachable
+  // The atlas strategies: those candidates' share of the atlas's area
+  // (AtlasPlanResult::unreachable_area_fraction); 0 for the others.
+  double unreachable_area_fraction{0.0};
 };
 
 // Chooses the next touch on a GPIS model (the step "plan" of Algorithm 2).
