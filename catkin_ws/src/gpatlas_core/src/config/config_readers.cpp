@@ -193,6 +193,12 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
   c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
+  FrontierStrategy::Config& frontier = c->frontier;
+  frontier.cell_m = r.number("frontier/cell_m", frontier.cell_m, 1e-3, 0.1);
+  frontier.reach_m = r.number("frontier/reach_m", frontier.reach_m, 1e-3, 1.0);
+  frontier.min_gap_m = r.number("frontier/min_gap_m", frontier.min_gap_m, 0.0, 1.0);
+  frontier.support_clearance_m = r.number("frontier/support_clearance_m", frontier.support_clearance_m, 0.0, 1.0);
+  frontier.max_empty_pokes = r.integer("frontier/max_empty_pokes", frontier.max_empty_pokes, 0, 1000);
   c->seed = readSeed(r, c->seed);
 }
 
