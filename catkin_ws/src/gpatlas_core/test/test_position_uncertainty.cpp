@@ -175,18 +175,31 @@ TEST(PositionCalibration, RefusesBadInputAndKeepsTheScale) {
   EXPECT_EQ(model.positionSdScale(), 1.0);
 }
 
+// The default GPIS on the upper part of a sphere (seen from above), its position sd calibrated.
+GpisModel calibratedHalfSeenSphere(const AnalyticSphere& sphere) {
+  GpisModel model;
+  EXPECT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
+  EXPECT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
+  return model;
+}
+
+// A strategy whose evidence rule (a touch wherever no data lie near) is off: the stop rule
+// alone decides.
+std::unique_ptr<gpatlas_core::ExplorationStrategy> withoutEvidenceRule(const std::string& name) {
+  gpatlas_core::StrategyConfig config;
+  config.evidence.max_distance = 0.0;
+  return gpatlas_core::makeStrategy(name, config);
+}
+
 // The back of a sphere seen from above: the position rule must not call it known before the
 // probe has been there (or found it out of reach), where the V_max rule at a lax threshold
 // does. The evidence rule (a touch wherever no data lie near) is off, so that the stop rule
 // alone decides.
 TEST(StopRule, AHalfSeenSphereDoesNotConvergeBeforeItsBackIsTouched) {
   const AnalyticSphere sphere;
-  GpisModel model;
-  ASSERT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
-  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
-  gpatlas_core::StrategyConfig variance_alone;
-  variance_alone.evidence.max_distance = 0.0;
-  const auto strategy = gpatlas_core::makeStrategy("atlas_poke", variance_alone);
+  GpisModel model = calibratedHalfSeenSphere(sphere);
+  ASSERT_TRUE(model.isFitted());
+  const auto strategy = withoutEvidenceRule("atlas_poke");
 
   gpatlas_core::Explorer::Config lax;
   lax.v_max = 10.0;
@@ -228,9 +241,8 @@ TEST(StopRule, AHalfSeenSphereDoesNotConvergeBeforeItsBackIsTouched) {
 
 TEST(StopRule, ExcessIsTheLargerRatioAndExceededIsExcessAboveOne) {
   const AnalyticSphere sphere;
-  GpisModel model;
-  ASSERT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
-  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
+  GpisModel model = calibratedHalfSeenSphere(sphere);
+  ASSERT_TRUE(model.isFitted());
   const gpatlas_core::StopRule paper{0.05, 0.0}, in_mm{0.05, 0.005};
   int position_bound = 0;
   for (const Vector3& d : gpatlas_core::fibonacciSphere(200)) {
@@ -250,12 +262,9 @@ TEST(StopRule, ExcessIsTheLargerRatioAndExceededIsExcessAboveOne) {
 
 TEST(StopRule, MaxVarianceTouchesThePointFurthestPastTheRule) {
   const AnalyticSphere sphere;
-  GpisModel model;
-  ASSERT_TRUE(model.fit(sphere.view(300, 0.3, 0.02, 9)).ok);
-  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
-  gpatlas_core::StrategyConfig config;
-  config.evidence.max_distance = 0.0;
-  const auto strategy = gpatlas_core::makeStrategy("max_variance", config);
+  GpisModel model = calibratedHalfSeenSphere(sphere);
+  ASSERT_TRUE(model.isFitted());
+  const auto strategy = withoutEvidenceRule("max_variance");
   gpatlas_core::PlanRequest request;
   request.v_max = 10.0;  // no point is above V_max: the position sd alone decides
   request.max_position_sd_m = 0.005;
