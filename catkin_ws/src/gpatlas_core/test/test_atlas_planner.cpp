@@ -332,6 +332,30 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   for (std::size_t k = needy; k < path.size(); ++k)
     EXPECT_GT(slid.atlas->atlas.chart(path[k]).centre.x(), sphere.centre.x()) << "chart " << k << " of the path";
 
+  // The baselines too: a filter that refuses their first choice gets their second, approached
+  // along the direction it chose, and the refusal is counted.
+  const Vector3 chosen_direction = Vector3(0.3, 0.0, 1.0).normalized();
+  for (const std::string name : {"random", "max_variance"}) {
+    const auto baseline = makeStrategy(name, slide_config);
+    PlanRequest free_request;
+    free_request.v_max = kVMax;
+    const PlanResult first = baseline->plan(model, free_request);
+    ASSERT_EQ(first.status, PlanStatus::kTouch) << name << ": " << first.message;
+    const Vector3 first_choice = first.touch.points.front();
+    PlanRequest filtered = free_request;
+    int asked = 0;
+    filtered.reachable = [&](const Vector3& point, const Vector3&) {
+      ++asked;
+      return point == first_choice ? std::nullopt : std::optional<Vector3>(chosen_direction);
+    };
+    const PlanResult second = baseline->plan(model, filtered);
+    ASSERT_EQ(second.status, PlanStatus::kTouch) << name << ": " << second.message;
+    EXPECT_NE(second.touch.points.front(), first_choice) << name;
+    EXPECT_EQ(second.touch.normals.front(), chosen_direction) << name;
+    EXPECT_EQ(second.unreachable_candidates, 1) << name;
+    EXPECT_EQ(asked, 2) << name;
+  }
+
   AtlasPlanner::Config config;
   config.max_charts = 400;
   const AtlasPlanResult nowhere =

@@ -3,6 +3,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <numeric>
+#include <optional>
+#include <utility>
 #include <random>
 
 namespace gpatlas_core {
@@ -72,7 +75,8 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
   return std::nullopt;
 }
 
-PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::string& strategy) {
+PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::string& strategy,
+                  const std::optional<Vector3>& approach_direction = std::nullopt) {
   PlanResult result;
   result.status = PlanStatus::kTouch;
   result.message = "touch at a sampled surface point";
@@ -80,17 +84,43 @@ PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::str
   result.touch.kind = Touch::Kind::kPoke;
   result.touch.strategy = strategy;
   result.touch.points.push_back(sample.points[index]);
-  result.touch.normals.push_back(sample.normals[index]);
+  result.touch.normals.push_back(approach_direction ? *approach_direction : sample.normals[index]);
   result.touch.variances.push_back(sample.variances[index]);
   return result;
 }
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-// The baselines share everything but the choice of the sampled point they poke.
-template <typename Pick>
+// The sampled points a baseline tries, best first, are offered to the approacher's cheap test
+// (PlanRequest::reachable) at most this many times per plan: the first it accepts is poked
+// along the direction it chose. When it accepts none, the first is poked along its normal and
+// the approacher refuses it (a failed touch), as without the test.
+constexpr std::size_t kMaxReachabilityChecks = 32;
+
+PlanResult pokeFirstReachable(const NeedySample& needy, const std::vector<std::size_t>& ranked,
+                              const PlanRequest& request, const std::string& name) {
+  const SurfaceSample& sample = needy.sample;
+  if (!request.reachable) return pokeAt(sample, ranked.front(), name);
+  int refused = 0;
+  for (std::size_t k = 0; k < ranked.size() && k < kMaxReachabilityChecks; ++k) {
+    const std::size_t i = ranked[k];
+    if (const std::optional<Vector3> direction = request.reachable(sample.points[i], sample.normals[i])) {
+      PlanResult result = pokeAt(sample, i, name, direction);
+      result.unreachable_candidates = refused;
+      return result;
+    }
+    ++refused;
+  }
+  PlanResult result = pokeAt(sample, ranked.front(), name);
+  result.unreachable_candidates = refused;
+  result.message += " (no safe approach found for the " + std::to_string(refused) + " best)";
+  return result;
+}
+
+// The baselines share everything but the order in which they try the sampled points (`rank`).
+template <typename Rank>
 PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, const SurfaceSampler::Config& config,
-                        const EvidenceRule& rule, std::uint64_t seed, const std::string& name, Pick pick) {
+                        const EvidenceRule& rule, std::uint64_t seed, const std::string& name, Rank rank) {
   const Clock::time_point started = Clock::now();
   NeedySample needy;
   const auto noted = [&](PlanResult result) {
@@ -100,7 +130,7 @@ PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, c
     return result;
   };
   if (auto finished = sampleOrFinish(model, request, config, rule, seed, &needy)) return noted(*finished);
-  return noted(pokeAt(needy.sample, pick(needy, request, seed), name));
+  return noted(pokeFirstReachable(needy, rank(needy, request, seed), request, name));
 }
 
 }  // namespace
@@ -111,8 +141,12 @@ RandomStrategy::RandomStrategy(SurfaceSampler::Config config, EvidenceRule evide
 PlanResult RandomStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [](const NeedySample& needy, const PlanRequest&, std::uint64_t seed) {
+                        // Every sampled point, in random order.
+                        std::vector<std::size_t> order(needy.sample.points.size());
+                        std::iota(order.begin(), order.end(), std::size_t{0});
                         std::mt19937_64 rng(mixSeeds(seed, 1));
-                        return std::uniform_int_distribution<std::size_t>(0, needy.sample.points.size() - 1)(rng);
+                        std::shuffle(order.begin(), order.end(), rng);
+                        return order;
                       });
 }
 
@@ -122,21 +156,19 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, Evidence
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [&model](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
-                        // The point furthest past the stop rule among those that need a touch (one
-                        // does): under V_max alone, the largest variance.
+                        // The points that need a touch (one does), furthest past the stop rule
+                        // first: under V_max alone, by variance.
                         const StopRule rule = request.stopRule();
                         const SurfaceSample& sample = needy.sample;
-                        std::size_t best = sample.points.size();
-                        double best_excess = 0.0;
-                        for (std::size_t i = 0; i < sample.points.size(); ++i) {
-                          if (!needy.needsTouch(i, model, rule)) continue;
-                          const double excess = rule.excess(model, sample.variances[i], sample.slopes[i]);
-                          if (best == sample.points.size() || excess > best_excess) {
-                            best = i;
-                            best_excess = excess;
-                          }
-                        }
-                        return best;
+                        std::vector<std::pair<double, std::size_t>> needing;
+                        for (std::size_t i = 0; i < sample.points.size(); ++i)
+                          if (needy.needsTouch(i, model, rule))
+                            needing.emplace_back(rule.excess(model, sample.variances[i], sample.slopes[i]), i);
+                        std::stable_sort(needing.begin(), needing.end(),
+                                         [](const auto& a, const auto& b) { return a.first > b.first; });
+                        std::vector<std::size_t> ranked;
+                        for (const auto& [excess, i] : needing) ranked.push_back(i);
+                        return ranked;
                       });
 }
 

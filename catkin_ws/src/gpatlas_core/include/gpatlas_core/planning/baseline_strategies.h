@@ -7,9 +7,11 @@
 namespace gpatlas_core {
 
 // Both baselines sample the predicted surface (SurfaceSampler) and share one stopping rule:
-// converged when no sampled surface point has variance above V_max (or, with an evidence
+// converged when no sampled surface point is past the StopRule (or, with an evidence
 // distance in their rule, lies that far from every measured surface point). This is a sample-based
-// certificate, weaker than the atlas's coverage argument, and is documented as such.
+// certificate, weaker than the atlas's coverage argument, and is documented as such. Each pokes
+// the first of its choices that PlanRequest::reachable accepts (of the first 32 it tries), as
+// a robot would: a baseline that pokes where the probe cannot go measures the approacher.
 
 // The paper's Random Poke: a uniformly random point among the sampled surface points,
 // whatever its variance.

@@ -30,9 +30,9 @@ struct PlanRequest {
   // Mixed with the strategy's own seed so that successive plans of one exploration differ
   // while the whole run stays reproducible.
   std::uint64_t seed{0};
-  // The atlas strategies pass over candidates this refuses (the Explorer's approacher's cheap
-  // test); empty: every candidate is reachable. The baselines ignore it: a touch they choose
-  // that has no safe approach is refused by the approacher itself.
+  // Every strategy passes over candidates this refuses (the Explorer's approacher's cheap
+  // test) and approaches the one it keeps along the direction this chose; empty: every
+  // candidate is reachable along its normal. The baselines test their best 32 sampled points.
   TouchFilter reachable;
   // The probe's contact footprint: half the side of the largest tactile pad it has reported
   // (ProbeResult::pads; the Explorer fills it), 0 for a point probe. atlas_poke aims this far
