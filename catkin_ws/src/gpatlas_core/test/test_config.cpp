@@ -186,3 +186,19 @@ TEST(ReportJson, TheCurveHasEveryTouchAndNullWhereNotMeasured) {
 }
 
 }  // namespace
+
+// The status line's note on what the last plan left out of reach: nothing without candidates,
+// their count, and for an atlas their share of its area.
+TEST(ExplorationReport, OutOfReachNoteSaysTheCountAndTheAtlasShare) {
+  gpatlas_core::ExplorationResult result;
+  EXPECT_EQ(gpatlas_core::outOfReachNote(result), "");
+  result.final_unreachable_candidates = 3;
+  EXPECT_EQ(gpatlas_core::outOfReachNote(result), " (3 candidates left out of reach)");
+  result.final_unreachable_candidates = 12;
+  result.final_unreachable_area_fraction = 0.083;
+  EXPECT_EQ(gpatlas_core::outOfReachNote(result), " (12 candidates left out of reach: 8.30% of the atlas's area)");
+  // report.json carries the share.
+  gpatlas_core::ExplorationReport report;
+  report.result = result;
+  EXPECT_NE(gpatlas_core::toJson(report).find("\"final_unreachable_area_fraction\": 0.083"), std::string::npos);
+}

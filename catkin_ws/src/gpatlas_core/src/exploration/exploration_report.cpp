@@ -109,8 +109,11 @@ std::string outOfReachNote(const ExplorationResult& result) {
   if (result.final_unreachable_candidates <= 0) return "";
   std::ostringstream note;
   note.precision(2);
-  note << " (" << result.final_unreachable_candidates << " candidates left out of reach: " << std::fixed
-       << 100.0 * result.final_unreachable_area_fraction << "% of the atlas's area)";
+  note << " (" << result.final_unreachable_candidates << " candidates left out of reach";
+  // The baselines' candidates are sampled points, with no area of their own.
+  if (result.final_unreachable_area_fraction > 0.0)
+    note << ": " << std::fixed << 100.0 * result.final_unreachable_area_fraction << "% of the atlas's area";
+  note << ")";
   return note.str();
 }
 

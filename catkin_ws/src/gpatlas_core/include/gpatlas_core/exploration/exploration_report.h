@@ -49,7 +49,7 @@ double recentTargetError(const ExplorationResult& result, std::size_t touches = 
 // "error: no predicted surface: ..." whenever there is no surface, whatever the loop said.
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message);
 // What the plan that ended the run left out of reach, for a status line: empty, or " (12
-// candidates left out of reach: 8.3% of the atlas's area)".
+// candidates left out of reach: 8.30% of the atlas's area)" (the area for the atlas strategies).
 std::string outOfReachNote(const ExplorationResult& result);
 
 // report.json: the settings, the outcome, the final shape, the initial model, every action's
