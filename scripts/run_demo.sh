@@ -44,8 +44,10 @@ r = json.load(open(f"{d}/report.json"))
 m = r.get("final_metrics") or {}
 print("[demo] ---------------------------------------------------------------")
 left = r.get("final_unreachable_candidates") or 0
+share = r.get("final_unreachable_area_fraction") or 0
 print(f"[demo] status: {r['status']}  (the loop's stop reason: {r['stop_reason']}"
-      + (f"; {left} candidates were left out of the approach's reach" if left else "") + ")")
+      + (f"; {left} candidates were left out of the approach's reach" if left else "")
+      + (f", {100 * share:.1f}% of the atlas's area" if share else "") + ")")
 print(f"[demo] actions: {r['actions']}, contacts: {r['contacts']}, strategy {r['settings']['strategy']}, stop rule: V_max {r['settings']['v_max']}"
       + (f" or position sd {1000 * r['settings']['max_position_sd_m']:g} mm" if r['settings'].get('max_position_sd_m') else " alone"))
 if m:
