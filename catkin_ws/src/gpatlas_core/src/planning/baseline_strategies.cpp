@@ -5,8 +5,8 @@
 #include <chrono>
 #include <numeric>
 #include <optional>
-#include <utility>
 #include <random>
+#include <utility>
 
 namespace gpatlas_core {
 
