@@ -124,7 +124,7 @@ AtlasPlanResult finishPlan(AtlasPlanResult& result, PlanStatus status, std::stri
   if (result.unreachable_skipped > 0) {
     std::ostringstream share;
     share.precision(2);
-    share << 100.0 * result.unreachable_area_fraction;
+    share << std::fixed << 100.0 * result.unreachable_area_fraction;
     result.message += "; " + std::to_string(result.unreachable_skipped) +
                       " chart(s) that need a touch passed over: no safe approach (" + share.str() +
                       "% of the atlas's area)";

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
+#include <limits>
 #include <numeric>
 #include <optional>
 #include <random>
@@ -84,17 +86,19 @@ PlanResult pokeAt(const SurfaceSample& sample, std::size_t index, const std::str
   result.touch.kind = Touch::Kind::kPoke;
   result.touch.strategy = strategy;
   result.touch.points.push_back(sample.points[index]);
-  result.touch.normals.push_back(approach_direction ? *approach_direction : sample.normals[index]);
+  result.touch.normals.push_back(approach_direction ? approach_direction->normalized() : sample.normals[index]);
   result.touch.variances.push_back(sample.variances[index]);
   return result;
 }
 
 double secondsSince(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
-// The sampled points a baseline tries, best first, are offered to the approacher's cheap test
+// The sampled points a baseline tries, in its order, are offered to the approacher's cheap test
 // (PlanRequest::reachable) at most this many times per plan: the first it accepts is poked
 // along the direction it chose. When it accepts none, the first is poked along its normal and
-// the approacher refuses it (a failed touch), as without the test.
+// the approacher refuses it (a failed touch, as without the test): a baseline has no coverage
+// argument to converge on. Each test costs a few collision checks of the probe's approach;
+// 32 keeps a plan's tests below the atlas's typical count.
 constexpr std::size_t kMaxReachabilityChecks = 32;
 
 PlanResult pokeFirstReachable(const NeedySample& needy, const std::vector<std::size_t>& ranked,
@@ -113,7 +117,7 @@ PlanResult pokeFirstReachable(const NeedySample& needy, const std::vector<std::s
   }
   PlanResult result = pokeAt(sample, ranked.front(), name);
   result.unreachable_candidates = refused;
-  result.message += " (no safe approach found for the " + std::to_string(refused) + " best)";
+  result.message += " (no safe approach found for the first " + std::to_string(refused) + " tried)";
   return result;
 }
 
@@ -162,8 +166,11 @@ PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanReques
                         const SurfaceSample& sample = needy.sample;
                         std::vector<std::pair<double, std::size_t>> needing;
                         for (std::size_t i = 0; i < sample.points.size(); ++i)
-                          if (needy.needsTouch(i, model, rule))
-                            needing.emplace_back(rule.excess(model, sample.variances[i], sample.slopes[i]), i);
+                          if (needy.needsTouch(i, model, rule)) {
+                            // A point whose variance is unknown counts as the most uncertain.
+                            const double excess = rule.excess(model, sample.variances[i], sample.slopes[i]);
+                            needing.emplace_back(std::isnan(excess) ? std::numeric_limits<double>::infinity() : excess, i);
+                          }
                         std::stable_sort(needing.begin(), needing.end(),
                                          [](const auto& a, const auto& b) { return a.first > b.first; });
                         std::vector<std::size_t> ranked;

@@ -86,7 +86,7 @@ struct ExplorationResult {
   // means converged within reach, the rest of the surface out of it.
   int final_unreachable_candidates{0};
   // Their share of that plan's atlas area (PlanResult::unreachable_area_fraction): at
-  // convergence, the share of the predicted surface that needs a touch the probe cannot make.
+  // convergence, about the share of the predicted surface that needs a touch the probe cannot make.
   double final_unreachable_area_fraction{0.0};
   // Touches the approach planner refused (not executed; those refused before the plan that
   // ended the run are in no record), and the probe's unexpected contacts on the way to the

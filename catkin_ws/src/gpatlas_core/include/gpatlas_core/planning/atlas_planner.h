@@ -40,7 +40,8 @@ struct AtlasPlanResult {
   int retouch_skipped{0};          // charts above V_max at a measurement or an earlier target (EvidenceRule::retouch_radius_m)
   int unreachable_skipped{0};      // charts that needed a touch the TouchFilter said the probe cannot make
   // Their share of the atlas's area (each chart's disc, pi r^2, over all charts'). A converged
-  // atlas covers the predicted surface: then the share of it that needs a touch out of reach.
+  // atlas covers the predicted surface: then about the share of it that needs a touch out of
+  // reach (the discs overlap, about alike everywhere).
   double unreachable_area_fraction{0.0};
   double elapsed_s{0.0};
 };

@@ -32,7 +32,8 @@ struct PlanRequest {
   std::uint64_t seed{0};
   // Every strategy passes over candidates this refuses (the Explorer's approacher's cheap
   // test) and approaches the one it keeps along the direction this chose; empty: every
-  // candidate is reachable along its normal. The baselines test their best 32 sampled points.
+  // candidate is reachable along its normal. The baselines test their first 32 choices and,
+  // when it refuses all, poke the first anyway (the approacher then refuses it).
   TouchFilter reachable;
   // The probe's contact footprint: half the side of the largest tactile pad it has reported
   // (ProbeResult::pads; the Explorer fills it), 0 for a point probe. atlas_poke aims this far
@@ -51,8 +52,9 @@ struct PlanResult {
   std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
   double elapsed_s{0.0};
   int unreachable_candidates{0};  // candidates passed over for PlanRequest::reachable
-  // The atlas strategies: those candidates' share of the atlas's area
-  // (AtlasPlanResult::unreachable_area_fraction); 0 for the others.
+  // The atlas strategies: those charts' share of the atlas's area
+  // (AtlasPlanResult::unreachable_area_fraction); 0 for the others. atlas_frontier counts the
+  // shadow targets it could not approach among the candidates, without an area.
   double unreachable_area_fraction{0.0};
 };
 
