@@ -8,16 +8,6 @@
 
 namespace gpatlas_core {
 
-namespace {
-
-double medianOf(std::vector<double> values) {
-  if (values.empty()) return std::nan("");
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2), values.end());
-  return values[values.size() / 2];
-}
-
-}  // namespace
-
 CalibrationResult surfaceCalibration(const SurfaceModel& model, const std::vector<Vector3>& surface_points,
                                      double k_sigma, const std::vector<double>& position_errors_m) {
   CalibrationResult result;
@@ -67,11 +57,11 @@ CalibrationResult surfaceCalibration(const SurfaceModel& model, const std::vecto
     }
   }
   result.fraction = static_cast<double>(result.within) / static_cast<double>(result.samples);
-  if (!position_sd.empty()) result.median_position_sd_m = medianOf(position_sd);
+  if (!position_sd.empty()) result.median_position_sd_m = quantile(position_sd, 0.5);
   if (!measured_error.empty()) {
     result.coverage = static_cast<double>(covered) / static_cast<double>(measured_error.size());
-    result.median_position_error_m = medianOf(measured_error);
-    result.sharpness = medianOf(measured_sd) / std::max(result.median_position_error_m, 1e-6);
+    result.median_position_error_m = quantile(measured_error, 0.5);
+    result.sharpness = quantile(measured_sd, 0.5) / std::max(result.median_position_error_m, 1e-6);
   }
   result.ok = true;
   return result;

@@ -91,12 +91,6 @@ std::vector<double> foldRatios(const SurfaceModel& model, const std::vector<Vect
   return ratios;
 }
 
-double quantile(std::vector<double> values, double q) {
-  const std::size_t k = std::min(values.size() - 1, static_cast<std::size_t>(q * static_cast<double>(values.size())));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
-}
-
 }  // namespace
 
 PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalibrationConfig& config) {

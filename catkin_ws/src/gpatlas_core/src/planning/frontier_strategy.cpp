@@ -148,13 +148,18 @@ int dropSmallPieces(UnknownSpace& space, int min_cells) {
   return pieces;
 }
 
-// The positions a run's touches measured: the contacts and the free space the model holds.
-std::vector<Vector3> touchedPositions(const SurfaceModel& model) {
-  std::vector<Vector3> points;
-  for (const TrainingPoint& p : model.observations())
-    if ((p.source == PointSource::kTouch && !observesSlope(p)) || p.source == PointSource::kFreeSpace)
-      points.push_back(p.position);
-  return points;
+// The positions a run's touches measured, from the model's observations: the contacts and the
+// free space.
+struct TouchedPositions {
+  std::vector<Vector3> contacts, free_space;
+};
+TouchedPositions touchedPositions(const SurfaceModel& model) {
+  TouchedPositions touched;
+  for (const TrainingPoint& p : model.observations()) {
+    if (p.source == PointSource::kTouch && !observesSlope(p)) touched.contacts.push_back(p.position);
+    else if (p.source == PointSource::kFreeSpace) touched.free_space.push_back(p.position);
+  }
+  return touched;
 }
 
 // Marks the candidate cells a probe's straight path crossed as cleared. Every probe moves along a
@@ -275,14 +280,13 @@ UnknownSpace FrontierStrategy::unknownSpace(const SurfaceModel& model, const Evi
     if (state.support_plane && state.support_plane->height(space.centre(k)) < config_.support_clearance_m) continue;
     cell = Cell::kUnknown;
   }
-  const std::vector<Vector3> touched = touchedPositions(model);
-  for (const Vector3& p : touched) clearAround(space, p, config_.clear_radius_m);
+  const TouchedPositions touched = touchedPositions(model);
+  for (const Vector3& p : touched.contacts) clearAround(space, p, config_.clear_radius_m);
+  for (const Vector3& p : touched.free_space) clearAround(space, p, config_.clear_radius_m);
   for (const Vector3& p : state.attempted_targets) clearAround(space, p, config_.clear_radius_m);
-  std::vector<Vector3> free_space;
-  for (const TrainingPoint& p : model.observations())
-    if (p.source == PointSource::kFreeSpace) free_space.push_back(p.position);
   for (const Vector3& target : state.attempted_targets)
-    clearStroke(space, target, free_space, 2.0 * config_.approach_distance_m + config_.past_m, kStrokeTolerance_m);
+    clearStroke(space, target, touched.free_space, 2.0 * config_.approach_distance_m + config_.past_m,
+                kStrokeTolerance_m);
   space.clusters = dropSmallPieces(space, config_.min_cluster_cells);
   return space;
 }

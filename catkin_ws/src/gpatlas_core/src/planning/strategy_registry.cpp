@@ -10,14 +10,19 @@ namespace gpatlas_core {
 
 namespace {
 
+// atlas_poke's planner, also atlas_frontier's: a poke touches the first chart that needs one.
+AtlasPlanner::Config pokeAtlas(const StrategyConfig& c) {
+  AtlasPlanner::Config atlas = c.atlas;
+  atlas.extend_path_charts = 0;
+  atlas.evidence = c.evidence;
+  return atlas;
+}
+
 NamedFactories<StrategyFactory>& registry() {
   static NamedFactories<StrategyFactory> instance({
       {"atlas_poke",
        [](const StrategyConfig& c) {
-         AtlasPlanner::Config atlas = c.atlas;
-         atlas.extend_path_charts = 0;
-         atlas.evidence = c.evidence;
-         return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kPoke, atlas, c.seed);
+         return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kPoke, pokeAtlas(c), c.seed);
        }},
       {"atlas_slide",
        [](const StrategyConfig& c) {
@@ -28,9 +33,7 @@ NamedFactories<StrategyFactory>& registry() {
       {"atlas_frontier",
        [](const StrategyConfig& c) {
          FrontierStrategy::Config frontier = c.frontier;
-         frontier.atlas = c.atlas;
-         frontier.atlas.extend_path_charts = 0;
-         frontier.atlas.evidence = c.evidence;
+         frontier.atlas = pokeAtlas(c);
          return std::make_unique<FrontierStrategy>(frontier, c.seed);
        }},
       {"random",

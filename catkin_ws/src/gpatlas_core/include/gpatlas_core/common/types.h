@@ -27,6 +27,10 @@ const char* toString(PointSource source);
 // isotropic (the GP's outside pseudo-points, the view hull's support planes).
 std::vector<Vector3> fibonacciSphere(int count);
 
+// The q-quantile of `values` as one of them: the element of rank min(n - 1, floor(q n)) (q 0.5:
+// the median, the upper middle of an even count); NaN when there is none.
+double quantile(std::vector<double> values, double q);
+
 // Training label of a point: on the surface (f = 0), outside (f = +1) or inside (f = -1).
 enum class PointLabel : std::int8_t { kInside = -1, kSurface = 0, kOutside = 1 };
 
