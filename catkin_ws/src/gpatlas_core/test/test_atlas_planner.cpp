@@ -28,8 +28,15 @@ GpisModel capModel(const AnalyticSphere& sphere) {
   return model;
 }
 
-AtlasPlanResult planOnCap(const GpisModel& model, std::uint64_t seed) {
+// Algorithm 1 verbatim: the first chart that needs a touch.
+AtlasPlanner::Config firstChartConfig() {
   AtlasPlanner::Config config;
+  config.selection = AtlasPlanner::Config::Selection::kFirst;
+  return config;
+}
+
+AtlasPlanResult planOnCap(const GpisModel& model, std::uint64_t seed) {
+  AtlasPlanner::Config config = firstChartConfig();
   config.seed = seed;
   return AtlasPlanner(config).plan(model, StopRule{kVMax});
 }
@@ -105,7 +112,7 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    AtlasPlanner::Config config;
+    AtlasPlanner::Config config = firstChartConfig();
     config.seed = seed;
     const AtlasPlanResult base = AtlasPlanner(config).plan(model, StopRule{kVMax});
     config.extend_path_charts = 5;
@@ -131,6 +138,73 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
 }
 
 // ADDCHART drops the candidates that fall inside another chart's ball, whatever their variance.
+// best_score: the atlas covers the whole predicted surface, the touched chart's predicted fall
+// of the error is the largest of the scored ones (recomputed with the clone's variance, not the
+// low-rank one) and at least that of the chart Algorithm 1 touches; a filter's refusals are
+// passed over in the order of the scores.
+TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  const StopRule rule{kVMax};
+  AtlasPlanner::Config config;
+  config.seed = 2;
+  config.score.max_reference_points = 100000;  // every chart, so the recomputation sees the same sum
+  const AtlasPlanResult best = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult first = AtlasPlanner(firstChartConfig()).plan(model, rule);
+  ASSERT_EQ(best.status, PlanStatus::kTouch) << best.message;
+  ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
+  EXPECT_GT(best.atlas.size(), first.atlas.size());
+  EXPECT_GT(best.needy_charts, 1);
+  EXPECT_GT(best.predicted_reduction, 0.0);
+
+  std::vector<SurfacePatch> patches;
+  for (const Chart& chart : best.atlas.charts())
+    patches.push_back({chart.centre, chart.normal, M_PI * chart.radius * chart.radius, chart.variance, chart.slope});
+  // The touched chart, every 4th other chart above V_max, and (last) the chart Algorithm 1 touches.
+  const Chart& touched = best.atlas.chart(best.path.back());
+  const Chart& first_touched = first.atlas.chart(first.path.back());
+  std::vector<TouchCandidate> candidates{{touched.centre, touched.normal}};
+  int above = 0;
+  for (const Chart& chart : best.atlas.charts())
+    if (chart.variance > kVMax && ++above % 4 == 0) candidates.push_back({chart.centre, chart.normal});
+  candidates.push_back({first_touched.centre, first_touched.normal});
+
+  // The clone's way: SurfaceModel's own varianceAfter, through a model that does not override it.
+  class CloneOnly : public GpisModel {
+   public:
+    explicit CloneOnly(const GpisModel& m) : GpisModel(m) {}
+    Eigen::MatrixXd varianceAfter(const Points3& x, const std::vector<std::vector<TrainingPoint>>& t) const override {
+      return SurfaceModel::varianceAfter(x, t);
+    }
+  };
+  const TouchScores recomputed =
+      scoreTouches(CloneOnly(model), rule, patches, candidates, TouchObservationConfig{}, config.score, 1);
+  ASSERT_TRUE(recomputed.ok) << recomputed.message;
+  EXPECT_NEAR(recomputed.reduction.front(), best.predicted_reduction, 1e-6 * best.predicted_reduction);
+  EXPECT_GE(best.predicted_reduction, recomputed.reduction.back() * (1.0 - 1e-6));
+  // The best of the 32 it scored (8 furthest past the rule, a sample of the rest); of a sample
+  // of every chart above V_max, close to the best.
+  const double best_of_all = *std::max_element(recomputed.reduction.begin(), recomputed.reduction.end());
+  EXPECT_GE(best.predicted_reduction, 0.8 * best_of_all);
+
+  // The western half refused: the touch is in the east, each refusal counted and marked.
+  int asked = 0;
+  const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {
+    ++asked;
+    return point.x() > sphere.centre.x() ? std::optional<Vector3>(normal) : std::nullopt;
+  };
+  const AtlasPlanResult eastern = AtlasPlanner(config).plan(model, rule, std::nullopt, {}, east);
+  ASSERT_EQ(eastern.status, PlanStatus::kTouch) << eastern.message;
+  EXPECT_GT(eastern.atlas.chart(eastern.path.back()).centre.x(), sphere.centre.x());
+  EXPECT_EQ(asked, eastern.unreachable_skipped + 1);
+  int marked = 0;
+  for (const Chart& chart : eastern.atlas.charts()) {
+    marked += chart.out_of_reach ? 1 : 0;
+    if (chart.out_of_reach) EXPECT_LE(chart.centre.x(), sphere.centre.x());
+  }
+  EXPECT_EQ(marked, eastern.unreachable_skipped);
+}
+
 TEST(Atlas, CoverageDropsTheCandidatesInsideAnotherChartsBall) {
   const auto makeChart = [](const Vector3& centre, double radius, std::vector<ChartCandidate> candidates) {
     Chart chart;
@@ -264,7 +338,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    AtlasPlanner::Config config;
+    AtlasPlanner::Config config = firstChartConfig();
     config.seed = seed;
     int asked = 0;
     const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {

@@ -192,6 +192,13 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
   c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
   c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
+  const std::string selection = r.text("planner/selection", toString(c->atlas.selection));
+  if (!parseSelection(selection, &c->atlas.selection))
+    r.invalid("planner/selection", "'" + selection + "' is not first or best_score");
+  TouchScoreConfig& score = c->atlas.score;
+  score.max_reference_points = r.integer("score/max_reference_points", score.max_reference_points, 1, 100000);
+  score.max_candidates = r.integer("score/max_candidates", score.max_candidates, 1, 10000);
+  score.max_excess_candidates = r.integer("score/max_excess_candidates", score.max_excess_candidates, 0, score.max_candidates);
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
   FrontierStrategy::Config& frontier = c->frontier;
   frontier.cell_m = r.number("frontier/cell_m", frontier.cell_m, 1e-3, 0.1);

@@ -75,6 +75,7 @@ std::string validate(const Explorer::Config& config) {
 
 PlanResult ModelTouchPlanner::plan(const PlanRequest& request) {
   PlanRequest full = request;
+  full.touch_observations = touch_;
   std::string problem;
   if (!mergeEvidenceState(known_, request.evidence_state, &full.evidence_state, &problem)) {
     PlanResult error;
@@ -102,7 +103,7 @@ ExplorationResult Explorer::run(SurfaceModel& model, const ExplorationStrategy& 
     result.stop_reason = "invalid_config: " + problem;
     return result;
   }
-  ModelTouchPlanner planner(model, strategy, known);
+  ModelTouchPlanner planner(model, strategy, known, touch);
   ModelTouchUpdater updater(model, touch);
   return run(planner, prober, updater, progress, approacher);
 }

@@ -5,6 +5,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
+#include <tbb/parallel_for.h>
 
 #include <cmath>
 #include <limits>
@@ -896,6 +897,100 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
     }
   }
   return out;
+}
+
+Eigen::MatrixXd GpisModel::varianceAfter(const Points3& x_world,
+                                         const std::vector<std::vector<TrainingPoint>>& touches) const {
+  const Impl& m = *impl_;
+  if (!m.fitted) throw std::logic_error("GpisModel: query before the model was fitted");
+  const Eigen::Index q = x_world.cols(), n = m.n;
+  const Config& c = m.config;
+  // The rows each batch would add by extending the factor; `by_refit`: the batches addPoints()
+  // takes by a refit, whose variance the clone's way gives.
+  std::vector<Impl::ObservationRows> rows(touches.size());
+  std::vector<std::size_t> by_refit;
+  std::vector<std::pair<std::size_t, std::size_t>> columns;  // (batch, row) of each extra column
+  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
+  for (std::size_t b = 0; b < touches.size(); ++b) {
+    FitReport screen;
+    const std::vector<TrainingPoint> accepted = screenObservations(touches[b], kScreenOptions, &screen);
+    bool refits = false;
+    for (const TrainingPoint& p : accepted)
+      refits = refits || (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius);
+    if (!refits) rows[b] = m.screenNewRows(accepted);
+    if (has_inside_point && c.inside_point_min_clearance > 0.0)
+      for (std::size_t j = 0; j < rows[b].kept.size(); ++j)
+        refits = refits || (rows[b].kept[j].label != PointLabel::kInside && rows[b].x[j].norm() < c.inside_point_min_clearance);
+    if (refits) {
+      by_refit.push_back(b);
+      rows[b] = {};
+    }
+    for (std::size_t j = 0; j < rows[b].kept.size(); ++j) columns.emplace_back(b, j);
+  }
+  const Eigen::Index extra = static_cast<Eigen::Index>(columns.size());
+  const Points3 xq = (x_world.colwise() - m.centroid) / m.scale;
+  const Vector3 no_slope = Vector3::Zero();
+  const auto rowDirection = [&](std::size_t b, std::size_t j) {
+    const Vector3& u = rows[b].kept[j].slope_direction;
+    return u.squaredNorm() > 0.0 ? Vector3(u.normalized()) : no_slope;
+  };
+  // cov(training row i, reference j) and cov(training row i, new row e), then L^-1 of both.
+  Eigen::MatrixXd solved(n, q + extra);
+  tbb::parallel_for(Eigen::Index{0}, q + extra, [&](Eigen::Index col) {
+    Vector3 point = col < q ? Vector3(xq.col(col)) : rows[columns[col - q].first].x[columns[col - q].second];
+    const Vector3 direction = col < q ? no_slope : rowDirection(columns[col - q].first, columns[col - q].second);
+    for (Eigen::Index i = 0; i < n; ++i)
+      solved(i, col) = observationCovariance(*m.kernel, m.x.col(i), m.slope_dir.col(i), point, direction);
+  });
+  constexpr Eigen::Index kChunk = 64;
+  tbb::parallel_for(Eigen::Index{0}, (q + extra + kChunk - 1) / kChunk, [&](Eigen::Index block) {
+    const Eigen::Index begin = block * kChunk, count = std::min(q + extra, begin + kChunk) - begin;
+    solveLowerInPlace(m.chol, n, solved.middleCols(begin, count));
+  });
+  const double prior = m.kernel->value(0.0), unit = m.varianceUnitFactor();
+  const Eigen::ArrayXd before = (prior - solved.leftCols(q).colwise().squaredNorm().array()).max(0.0);
+  Eigen::MatrixXd after(q, static_cast<Eigen::Index>(touches.size()));
+  Eigen::Index first = q;
+  for (std::size_t b = 0; b < touches.size(); ++b) {
+    const Eigen::Index k = static_cast<Eigen::Index>(rows[b].kept.size());
+    if (k == 0) {
+      after.col(static_cast<Eigen::Index>(b)) = before.matrix() * unit;
+      continue;
+    }
+    const auto v_new = solved.middleCols(first, k);
+    // S = prior covariance of the new rows (with their noise and the factor's jitter, as
+    // extendFactor builds them) minus what the data explain; C = cov(new rows, references).
+    Eigen::MatrixXd schur(k, k), cross(k, q);
+    for (Eigen::Index a = 0; a < k; ++a) {
+      const std::size_t ja = static_cast<std::size_t>(a);
+      const Vector3 ua = rowDirection(b, ja);
+      for (Eigen::Index d = 0; d < k; ++d)
+        schur(a, d) = observationCovariance(*m.kernel, rows[b].x[ja], ua, rows[b].x[static_cast<std::size_t>(d)],
+                                            rowDirection(b, static_cast<std::size_t>(d)));
+      const double sigma = rows[b].kept[ja].noise_sigma;
+      schur(a, a) += m.noise_scale * sigma * sigma * m.noiseUnit(*m.kernel) + m.jitter;
+      for (Eigen::Index j = 0; j < q; ++j)
+        cross(a, j) = observationCovariance(*m.kernel, rows[b].x[ja], ua, xq.col(j), no_slope);
+    }
+    schur.noalias() -= v_new.transpose() * v_new;
+    cross.noalias() -= v_new.transpose() * solved.leftCols(q);
+    Eigen::LLT<Eigen::MatrixXd> llt(schur);
+    if (llt.info() != Eigen::Success) {
+      by_refit.push_back(b);
+    } else {
+      llt.matrixL().solveInPlace(cross);
+      after.col(static_cast<Eigen::Index>(b)) = ((before - cross.colwise().squaredNorm().transpose().array()).max(0.0) * unit).matrix();
+    }
+    first += k;
+  }
+  if (!by_refit.empty()) {
+    std::vector<std::vector<TrainingPoint>> refitted;
+    for (std::size_t b : by_refit) refitted.push_back(touches[b]);
+    const Eigen::MatrixXd cloned = SurfaceModel::varianceAfter(x_world, refitted);
+    for (std::size_t i = 0; i < by_refit.size(); ++i)
+      after.col(static_cast<Eigen::Index>(by_refit[i])) = cloned.col(static_cast<Eigen::Index>(i));
+  }
+  return after;
 }
 
 Prediction GpisModel::predict(const Vector3& x_world) const {

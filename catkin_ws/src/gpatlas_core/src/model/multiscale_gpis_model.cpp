@@ -545,6 +545,12 @@ struct MultiscaleGpisModel::Impl {
 
   // Each query's cells and blending weights.
   QuerySlots querySlots(const Points3& x_world) const;
+  // The blending weight of the cell at `coords` at x (whether or not the cell exists).
+  double cellWeight(const Eigen::Vector3i& coords, const Vector3& x) const;
+  // The points of each batch that addPoints() would give the coarse level; `by_refit` set for
+  // the batches it would take by a refit.
+  std::vector<std::vector<TrainingPoint>> coarseShares(const std::vector<std::vector<TrainingPoint>>& accepted,
+                                                       std::vector<char>* by_refit) const;
   // Each cell's residual mean and variance (and gradients) at the queries that fall in it.
   CellPredictions predictCells(const Points3& x_world, const CellGroups& groups, const LocalKernel& kernel,
                                const BatchNeeds& needs) const;
@@ -1091,6 +1097,192 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   const CellPredictions cells = m.predictCells(x_world, groupByCell(query_slots, m.cells.size()), kernel, needs);
   blendLevels(coarse, query_slots, cells, kernel, m.config.zero_expert_weight, m.coarse.varianceUnitFactor(), needs, out);
   return out;
+}
+
+double MultiscaleGpisModel::Impl::cellWeight(const Eigen::Vector3i& coords, const Vector3& x) const {
+  const double s = config.cell_size_m, h = halfWidth();
+  double w = 1.0;
+  for (int d = 0; d < 3; ++d) w *= bump((x[d] - (coords[d] + 0.5) * s) / h);
+  return w;
+}
+
+std::vector<std::vector<TrainingPoint>> MultiscaleGpisModel::Impl::coarseShares(
+    const std::vector<std::vector<TrainingPoint>>& accepted, std::vector<char>* by_refit) const {
+  std::vector<std::vector<TrainingPoint>> shares(accepted.size());
+  const std::size_t old_count = observations.size();
+  for (std::size_t b = 0; b < accepted.size(); ++b) {
+    for (const TrainingPoint& p : accepted[b])
+      if (isSurfaceValue(p) && (fromView(p.source) || ((p.position - coarse.centroid()) / coarse.scale()).norm() >
+                                                          coarse_config.renormalise_radius))
+        (*by_refit)[b] = 1;
+    if ((*by_refit)[b] || accepted[b].empty()) continue;
+    std::vector<TrainingPoint> all = observations;
+    all.insert(all.end(), accepted[b].begin(), accepted[b].end());
+    const std::vector<std::size_t> selection = coarseSelection(all);
+    std::vector<std::size_t> extra;
+    std::set_difference(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end(),
+                        std::back_inserter(extra));
+    if (!std::includes(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end()) ||
+        (!extra.empty() && extra.front() < old_count)) {
+      (*by_refit)[b] = 1;
+      continue;
+    }
+    for (std::size_t i : extra) shares[b].push_back(all[i]);
+  }
+  return shares;
+}
+
+Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
+                                                   const std::vector<std::vector<TrainingPoint>>& touches) const {
+  const Impl& m = *impl_;
+  if (!m.fitted) throw std::logic_error("MultiscaleGpisModel: query before the model was fitted");
+  const Eigen::Index q = x_world.cols();
+  const std::size_t num_batches = touches.size();
+  std::vector<std::vector<TrainingPoint>> accepted(num_batches);
+  for (std::size_t b = 0; b < num_batches; ++b) {
+    FitReport screen;
+    accepted[b] = screenObservations(touches[b], kScreenOptions, &screen);
+  }
+  std::vector<char> by_refit(num_batches, 0);
+  Eigen::MatrixXd after = m.coarse.varianceAfter(x_world, m.coarseShares(accepted, &by_refit));
+
+  // The fine level before: each query's cells (slots) and their variances.
+  const FineParams p = m.fine();
+  const LocalKernel local{p.sigma * p.sigma, p.length_m};
+  const Matern52Kernel kernel(p.sigma, p.length_m);
+  const double noise_var = m.noiseVar(p), w0 = m.config.zero_expert_weight, unit = m.coarse.varianceUnitFactor();
+  const QuerySlots slots = m.querySlots(x_world);
+  const CellGroups groups = groupByCell(slots, m.cells.size());
+  const CellPredictions before = m.predictCells(x_world, groups, local, BatchNeeds{false, false, true, false});
+
+  // Each batch's value points by the existing cell whose region holds them, and the new cells
+  // its surface values create (with the new points in their regions).
+  struct NewCell {
+    Eigen::Vector3i coords;
+    std::vector<Vector3> points;
+  };
+  std::vector<std::unordered_map<std::size_t, std::vector<Vector3>>> in_cell(num_batches);
+  std::vector<std::vector<NewCell>> new_cells(num_batches);
+  std::unordered_set<std::size_t> touched_cells;
+  std::vector<Eigen::Vector3i> keys;
+  for (std::size_t b = 0; b < num_batches; ++b) {
+    if (by_refit[b]) continue;
+    std::unordered_map<CellKey, std::size_t> fresh;
+    for (const TrainingPoint& point : accepted[b]) {
+      if (!isSurfaceValue(point)) continue;
+      const Eigen::Vector3i core = m.coreOf(point.position);
+      if (!m.cell_index.count(packKey(core)) && fresh.emplace(packKey(core), new_cells[b].size()).second)
+        new_cells[b].push_back({core, {}});
+    }
+    for (const TrainingPoint& point : accepted[b]) {
+      if (!isValueObservation(point)) continue;
+      m.cellsContaining(point.position, &keys);
+      for (const Eigen::Vector3i& key : keys) {
+        if (const auto found = m.cell_index.find(packKey(key)); found != m.cell_index.end()) {
+          in_cell[b][found->second].push_back(point.position);
+          touched_cells.insert(found->second);
+        } else if (const auto created = fresh.find(packKey(key)); created != fresh.end()) {
+          new_cells[b][created->second].points.push_back(point.position);
+        }
+      }
+    }
+  }
+  // L^-1 k(X_c, x) for the queries in each cell a batch changes, once for all batches.
+  const std::vector<std::size_t> touched(touched_cells.begin(), touched_cells.end());
+  std::unordered_map<std::size_t, Eigen::MatrixXd> solved_queries;
+  for (std::size_t c : touched) solved_queries[c];
+  tbb::parallel_for(std::size_t{0}, touched.size(), [&](std::size_t t) {
+    const std::size_t c = touched[t];
+    const Cell& cell = m.cells[c];
+    const std::size_t begin = groups.offset[c], count = groups.offset[c + 1] - begin;
+    Eigen::MatrixXd& k = solved_queries.at(c);
+    k.resize(cell.x.cols(), static_cast<Eigen::Index>(count));
+    for (std::size_t j = 0; j < count; ++j) {
+      const Vector3 x = x_world.col(static_cast<Eigen::Index>(groups.entries[begin + j] / kMaxSlots)) - cell.centre;
+      for (Eigen::Index i = 0; i < cell.x.cols(); ++i) k(i, static_cast<Eigen::Index>(j)) = kernel.value((x - cell.x.col(i)).norm());
+    }
+    cell.chol.triangularView<Eigen::Lower>().solveInPlace(k);
+  });
+
+  tbb::parallel_for(std::size_t{0}, num_batches, [&](std::size_t b) {
+    if (by_refit[b]) return;
+    std::vector<double> variance = before.variance;  // per (query, slot)
+    for (const auto& [c, points] : in_cell[b]) {
+      // A rank-k update of the cell's posterior: var'(x) = var(x) - c^T S^-1 c.
+      const Cell& cell = m.cells[c];
+      const Eigen::Index k = static_cast<Eigen::Index>(points.size());
+      Eigen::MatrixXd v_new(cell.x.cols(), k), schur(k, k);
+      for (Eigen::Index a = 0; a < k; ++a) {
+        for (Eigen::Index i = 0; i < cell.x.cols(); ++i)
+          v_new(i, a) = kernel.value((points[static_cast<std::size_t>(a)] - cell.centre - cell.x.col(i)).norm());
+        for (Eigen::Index d = 0; d < k; ++d)
+          schur(a, d) = kernel.value((points[static_cast<std::size_t>(a)] - points[static_cast<std::size_t>(d)]).norm());
+        schur(a, a) += noise_var + cell.jitter;
+      }
+      cell.chol.triangularView<Eigen::Lower>().solveInPlace(v_new);
+      schur.noalias() -= v_new.transpose() * v_new;
+      const Eigen::MatrixXd& v_query = solved_queries.at(c);
+      const std::size_t begin = groups.offset[c];
+      Eigen::MatrixXd cross = -v_new.transpose() * v_query;
+      for (Eigen::Index j = 0; j < cross.cols(); ++j) {
+        const Vector3 x = x_world.col(static_cast<Eigen::Index>(groups.entries[begin + static_cast<std::size_t>(j)] / kMaxSlots));
+        for (Eigen::Index a = 0; a < k; ++a) cross(a, j) += kernel.value((x - points[static_cast<std::size_t>(a)]).norm());
+      }
+      Eigen::LLT<Eigen::MatrixXd> llt(schur);
+      if (llt.info() != Eigen::Success) continue;
+      llt.matrixL().solveInPlace(cross);
+      for (Eigen::Index j = 0; j < cross.cols(); ++j) {
+        double& v = variance[groups.entries[begin + static_cast<std::size_t>(j)]];
+        v = std::max(0.0, v - cross.col(j).squaredNorm());
+      }
+    }
+    // The new cells: their members (the bucket of their region and the batch's new points) and
+    // their variance where their weight reaches.
+    std::vector<Cell> built;
+    for (const NewCell& fresh : new_cells[b]) {
+      Cell cell;
+      cell.centre = (fresh.coords.cast<double>().array() + 0.5).matrix() * m.config.cell_size_m;
+      cell.coords = fresh.coords;
+      std::vector<Vector3> members;
+      if (const auto bucket = m.buckets.find(packKey(fresh.coords)); bucket != m.buckets.end())
+        for (std::size_t i : bucket->second) members.push_back(m.observations[i].position);
+      members.insert(members.end(), fresh.points.begin(), fresh.points.end());
+      cell.x.resize(3, static_cast<Eigen::Index>(members.size()));
+      for (std::size_t i = 0; i < members.size(); ++i) cell.x.col(static_cast<Eigen::Index>(i)) = members[i] - cell.centre;
+      cell.y = Eigen::VectorXd::Zero(cell.x.cols());
+      if (factoriseCell(&cell, kernel, noise_var)) built.push_back(std::move(cell));
+    }
+    for (Eigen::Index col = 0; col < q; ++col) {
+      const std::size_t jq = static_cast<std::size_t>(col);
+      double sum_w = w0, sum_wv = w0 * local.s2;
+      for (int k = 0; k < slots.count[jq]; ++k) {
+        const Slot& slot = slots.slots[jq][static_cast<std::size_t>(k)];
+        sum_w += slot.weight;
+        sum_wv += slot.weight * variance[jq * kMaxSlots + static_cast<std::size_t>(k)];
+      }
+      for (const Cell& cell : built) {
+        const double w = m.cellWeight(cell.coords, x_world.col(col));
+        if (!(w > 0.0)) continue;
+        Eigen::VectorXd k(cell.x.cols());
+        for (Eigen::Index i = 0; i < cell.x.cols(); ++i) k[i] = kernel.value((x_world.col(col) - cell.centre - cell.x.col(i)).norm());
+        cell.chol.triangularView<Eigen::Lower>().solveInPlace(k);
+        sum_w += w;
+        sum_wv += w * std::max(0.0, local.s2 - k.squaredNorm());
+      }
+      after(col, static_cast<Eigen::Index>(b)) += unit * sum_wv / sum_w;
+    }
+  });
+  // Columns of the batches without fine updates: the coarse level's variance after plus the
+  // fine level's as it is.
+  std::vector<std::vector<TrainingPoint>> refitted;
+  for (std::size_t b = 0; b < num_batches; ++b)
+    if (by_refit[b]) refitted.push_back(touches[b]);
+  if (!refitted.empty()) {
+    const Eigen::MatrixXd cloned = SurfaceModel::varianceAfter(x_world, refitted);
+    for (std::size_t b = 0, i = 0; b < num_batches; ++b)
+      if (by_refit[b]) after.col(static_cast<Eigen::Index>(b)) = cloned.col(static_cast<Eigen::Index>(i++));
+  }
+  return after;
 }
 
 Prediction MultiscaleGpisModel::predict(const Vector3& x_world) const {

@@ -20,6 +20,18 @@ double SurfaceModel::nearestSurfaceDistance(const Vector3& point_world,
   return std::sqrt(nearest);
 }
 
+Eigen::MatrixXd SurfaceModel::varianceAfter(const Points3& x_world,
+                                            const std::vector<std::vector<TrainingPoint>>& touches) const {
+  Eigen::MatrixXd after(x_world.cols(), static_cast<Eigen::Index>(touches.size()));
+  const Eigen::VectorXd before = predictBatch(x_world, false, false, true).variance;
+  for (std::size_t b = 0; b < touches.size(); ++b) {
+    std::unique_ptr<SurfaceModel> copy = clone();
+    after.col(static_cast<Eigen::Index>(b)) =
+        copy->addPoints(touches[b]).ok ? copy->predictBatch(x_world, false, false, true).variance : before;
+  }
+  return after;
+}
+
 SurfaceModelState SurfaceModel::state() const {
   SurfaceModelState s;
   s.model = name();

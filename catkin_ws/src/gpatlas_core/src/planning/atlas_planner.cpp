@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <chrono>
+#include <limits>
+#include <numeric>
 #include <cmath>
 #include <random>
 #include <sstream>
@@ -34,7 +36,19 @@ std::string validate(const AtlasPlanner::Config& config) {
       !(config.projection.max_step_fraction > 0.0))
     problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
   if (const std::string evidence = validate(config.evidence); !evidence.empty()) problem << "evidence: " << evidence << "; ";
+  if (const std::string score = validate(config.score); !score.empty()) problem << "score: " << score;
   return problem.str();
+}
+
+bool parseSelection(const std::string& name, AtlasPlanner::Config::Selection* selection) {
+  if (name == "first") *selection = AtlasPlanner::Config::Selection::kFirst;
+  else if (name == "best_score") *selection = AtlasPlanner::Config::Selection::kBestScore;
+  else return false;
+  return true;
+}
+
+const char* toString(AtlasPlanner::Config::Selection selection) {
+  return selection == AtlasPlanner::Config::Selection::kFirst ? "first" : "best_score";
 }
 
 namespace {
@@ -141,7 +155,8 @@ class AtlasGrowth {
               const TouchFilter& reachable, std::mt19937_64& rng, Clock::time_point started,
               AtlasPlanResult& result)
       : model_(model), rule_(rule), config_(config), evidence_(evidence), progress_(progress),
-        reachable_(reachable), rng_(rng), started_(started), result_(result), atlas_(result.atlas) {}
+        reachable_(reachable), rng_(rng), started_(started), result_(result), atlas_(result.atlas),
+        scoring_(config.selection == AtlasPlanner::Config::Selection::kBestScore) {}
 
   ChartCreation makeChart(const SurfacePoint& point, int parent) {
     return createChart(model_, point, parent, config_.chart, rng_,
@@ -153,12 +168,14 @@ class AtlasGrowth {
   // a measurement or an earlier touch's target needs none (EvidenceRule::retouch_radius_m): a
   // touch there would find what was found. `counted`: a chart passed over is reported in the
   // plan's message (not for the aim's charts, past the one already found).
+  // When scoring, the approach is tested later, in the order of the scores (chooseBest).
   bool needsTouch(Chart& chart, bool counted = true) {
     if (!rule_.exceeded(model_, chart.variance, chart.slope) && !evidence_.isUnsupported(chart.centre, chart.normal)) return false;
     if (evidence_.measuredNear(chart.centre, config_.evidence.retouch_radius_m)) {
       if (counted) ++result_.retouch_skipped;
       return false;
     }
+    if (scoring_ && counted) return true;
     if (!takeApproach(chart)) {
       if (counted) ++result_.unreachable_skipped;
       chart.out_of_reach = counted;
@@ -197,7 +214,9 @@ class AtlasGrowth {
       if (!created.ok) continue;
       const bool new_needs_touch = needsTouch(created.chart);
       continuation = addChart(std::move(created.chart));
-      if (new_needs_touch) {
+      if (new_needs_touch && scoring_) {
+        needy_.push_back(continuation);
+      } else if (new_needs_touch) {
         result_.path = atlas_.pathTo(extendPath(continuation));
         return PlanEnd{PlanStatus::kTouch, "found a chart that needs a touch (" + rule_.describe() + " or no evidence nearby)"};
       }
@@ -223,7 +242,9 @@ class AtlasGrowth {
       continuation = atlas_.addChart(std::move(created.chart));
       ++trees_;
       if (progress_) progress_(atlas_);
-      if (new_needs_touch) {
+      if (new_needs_touch && scoring_) {
+        needy_.push_back(continuation);
+      } else if (new_needs_touch) {
         result_.path = atlas_.pathTo(continuation);
         return PlanEnd{PlanStatus::kTouch, "a new tree's root needs a touch (" + rule_.describe() + " or no evidence nearby)"};
       }
@@ -233,6 +254,64 @@ class AtlasGrowth {
   }
 
   int trees() const { return trees_; }
+  bool scoring() const { return scoring_; }
+  void addNeedy(int chart) { needy_.push_back(chart); }
+
+  // kBestScore, once the atlas is grown: the needy charts scored (a sample, see TouchScoreConfig),
+  // then offered to the TouchFilter best first, the unscored ones after them by how far past
+  // the rule they are. nullopt when none can be touched (each is then out of reach).
+  std::optional<PlanEnd> chooseBest(const TouchObservationConfig& touch) {
+    result_.needy_charts = static_cast<int>(needy_.size());
+    if (needy_.empty()) return std::nullopt;
+    const auto excess = [&](int index) {
+      const Chart& chart = atlas_.chart(index);
+      const double e = rule_.excess(model_, chart.variance, chart.slope);
+      return std::isfinite(e) ? e : std::numeric_limits<double>::infinity();
+    };
+    std::vector<int> order = needy_;
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return excess(a) > excess(b); });
+    const std::size_t most = static_cast<std::size_t>(config_.score.max_candidates);
+    const std::size_t by_excess = std::min(order.size(), static_cast<std::size_t>(config_.score.max_excess_candidates));
+    std::shuffle(order.begin() + static_cast<std::ptrdiff_t>(by_excess), order.end(), rng_);
+    std::vector<int> scored(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(std::min(most, order.size())));
+    std::vector<int> rest(order.begin() + static_cast<std::ptrdiff_t>(scored.size()), order.end());
+    std::stable_sort(rest.begin(), rest.end(), [&](int a, int b) { return excess(a) > excess(b); });
+
+    std::vector<SurfacePatch> patches;
+    patches.reserve(atlas_.size());
+    for (const Chart& chart : atlas_.charts())
+      patches.push_back({chart.centre, chart.normal, discArea(chart), chart.variance, chart.slope});
+    std::vector<TouchCandidate> candidates;
+    for (int index : scored) candidates.push_back({atlas_.chart(index).centre, atlas_.chart(index).normal});
+    const TouchScores scores = scoreTouches(model_, rule_, patches, candidates, touch, config_.score, rng_());
+    result_.scored_candidates = static_cast<int>(scored.size());
+    result_.total_error = scores.total_error;
+    std::vector<std::size_t> by_score(scored.size());
+    std::iota(by_score.begin(), by_score.end(), std::size_t{0});
+    if (scores.ok)
+      std::stable_sort(by_score.begin(), by_score.end(),
+                       [&](std::size_t a, std::size_t b) { return scores.reduction[a] > scores.reduction[b]; });
+    std::vector<std::pair<int, double>> tries;  // (chart, predicted reduction)
+    for (std::size_t i : by_score) tries.emplace_back(scored[i], scores.ok ? scores.reduction[i] : 0.0);
+    for (int index : rest) tries.emplace_back(index, 0.0);
+    for (const auto& [index, reduction] : tries) {
+      Chart& chart = atlas_.chart(index);
+      if (takeApproach(chart)) {
+        result_.predicted_reduction = reduction;
+        result_.path = atlas_.pathTo(extendPath(index));
+        std::ostringstream message;
+        message.precision(3);
+        message << "touching the chart whose poke removes the most error of " << scored.size() << " scored ("
+                << needy_.size() << " need a touch: " << rule_.describe() << " or no evidence nearby); predicted "
+                << 1e4 * reduction << " of " << 1e4 * scores.total_error << " cm^2"
+                << (scores.ok ? "" : " (scoring failed: " + scores.message + ")");
+        return PlanEnd{PlanStatus::kTouch, message.str()};
+      }
+      ++result_.unreachable_skipped;
+      chart.out_of_reach = true;
+    }
+    return std::nullopt;
+  }
 
  private:
   bool capReached() const {
@@ -317,13 +396,15 @@ class AtlasGrowth {
   std::vector<Vector3> uncovered_candidates_;
   std::size_t next_candidate_{0};
   int trees_{1};
+  const bool scoring_;
+  std::vector<int> needy_;  // charts that need a touch (kBestScore), in the order found
 };
 
 }  // namespace
 
 AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
                                    const Progress& progress, const TouchFilter& reachable,
-                                   const EvidenceState& evidence_state) const {
+                                   const EvidenceState& evidence_state, const TouchObservationConfig& touch) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
   const auto finish = [&](PlanStatus status, std::string message) {
@@ -346,18 +427,26 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
   int continuation = growth.addChart(std::move(root.chart));
   // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
   // (its candidates may all be covered or out of the domain).
-  if (root_needs_touch) {
+  if (root_needs_touch && growth.scoring()) {
+    growth.addNeedy(continuation);
+  } else if (root_needs_touch) {
     result.path = result.atlas.pathTo(continuation);
     return finish(PlanStatus::kTouch, "the root chart needs a touch (" + rule.describe() + " or no evidence nearby)");
   }
   growth.collectUncoveredCandidates();
   for (;;) {
-    if (std::optional<PlanEnd> end = growth.growTree(continuation)) return finish(end->status, std::move(end->message));
+    std::optional<PlanEnd> end = growth.growTree(continuation);
     bool rooted = false;
-    if (std::optional<PlanEnd> end = growth.rootNewTree(continuation, rooted))
-      return finish(end->status, std::move(end->message));
+    if (!end) end = growth.rootNewTree(continuation, rooted);
+    if (end && end->status == PlanStatus::kCapReached && growth.scoring()) {
+      // A capped atlas still offers the touches it found.
+      if (std::optional<PlanEnd> chosen = growth.chooseBest(touch))
+        return finish(chosen->status, chosen->message + "; the atlas stopped at its cap");
+    }
+    if (end) return finish(end->status, std::move(end->message));
     if (!rooted) break;
   }
+  if (std::optional<PlanEnd> chosen = growth.chooseBest(touch)) return finish(chosen->status, std::move(chosen->message));
   return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(growth.trees()) +
                                             " tree(s) covering the surface observations: no " + rule.describe() + ", all near evidence");
 }

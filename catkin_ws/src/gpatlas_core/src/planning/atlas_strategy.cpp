@@ -13,7 +13,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   config.seed = mixSeeds(seed_, request.seed);
   if (mode_ == Mode::kPoke) config.aim_past_m = request.footprint_radius_m;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.stopRule(), request.start, {}, request.reachable,
-                                                              request.evidence_state);
+                                                      request.evidence_state, request.touch_observations);
 
   PlanResult result;
   result.status = planned.status;

@@ -58,6 +58,7 @@ class AtlasPlannerServer {
   double default_max_position_sd_m_{0.0};
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::StrategyConfig strategy_config_;  // with the evidence rule of every plan
+  gpatlas_core::TouchObservationConfig touch_config_;  // touch/, as the GP nodelet reads it: the score's fantasy touches
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   double tf_timeout_s_{0.5};
   tf2_ros::Buffer tf_buffer_;

@@ -31,6 +31,7 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   default_max_position_sd_m_ = readMaxPositionSd(reader);
   readEvidence(reader, &strategy_config_.evidence);
   readStrategy(reader, &strategy_config_);
+  readTouchObservations(reader, &touch_config_);
   readApproach(reader, &approach_config_);
   approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
   if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("atlas_planner: approach/use_arm: " << approach_arm_error_);
@@ -146,6 +147,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   // The exploration loop numbers its plans; a call by hand gets the planner's own count.
   ++plan_count_;
   request.seed = req.seed != 0 ? req.seed : plan_count_;
+  request.touch_observations = touch_config_;
   const gpatlas_core::PlanResult plan = planWith(*chosen, name, request);
   res = toMsg(plan);
   res.touch.header = header;

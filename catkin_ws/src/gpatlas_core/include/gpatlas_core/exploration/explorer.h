@@ -209,11 +209,13 @@ class Explorer {
 std::string validate(const Explorer::Config& config);
 
 // Plans with a strategy on a model held elsewhere (the caller updates it between plans), knowing
-// `known` besides what each request brings (the table under the object).
+// `known` besides what each request brings (the table under the object) and how the updater
+// turns a touch into observations (`touch`, for the strategies' lookahead).
 class ModelTouchPlanner : public TouchPlanner {
  public:
-  ModelTouchPlanner(const SurfaceModel& model, const ExplorationStrategy& strategy, EvidenceState known)
-      : model_(model), strategy_(strategy), known_(std::move(known)) {}
+  ModelTouchPlanner(const SurfaceModel& model, const ExplorationStrategy& strategy, EvidenceState known,
+                    TouchObservationConfig touch = {})
+      : model_(model), strategy_(strategy), known_(std::move(known)), touch_(std::move(touch)) {}
   PlanResult plan(const PlanRequest& request) override;
   std::size_t modelSize() const override { return model_.observations().size(); }
 
@@ -221,6 +223,7 @@ class ModelTouchPlanner : public TouchPlanner {
   const SurfaceModel& model_;
   const ExplorationStrategy& strategy_;
   EvidenceState known_;
+  TouchObservationConfig touch_;
 };
 
 // Adds each touch to a model with applyTouch.

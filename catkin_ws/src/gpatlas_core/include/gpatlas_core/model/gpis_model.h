@@ -151,6 +151,13 @@ class GpisModel : public SurfaceModel {
   // and `variance` is NaN: mean-only queries (meshing, projection) cost O(n) per point.
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
                                bool with_variance_gradient = true, bool with_variance = true) const override;
+  // The variance after each batch from the posterior covariance between the references and the
+  // batch's rows, cov(a, b) = k(a, b) - k(a, X) K^-1 k(X, b): var'(x) = var(x) - c^T S^-1 c with
+  // c = cov(batch, x) and S = cov(batch, batch) + noise (one solve against the factor for all
+  // batches and references). A batch that addPoints() would take by a refit (a surface point that
+  // moves the frame, a point that drops the inside pseudo-point) takes the clone's way.
+  Eigen::MatrixXd varianceAfter(const Points3& x_world,
+                                const std::vector<std::vector<TrainingPoint>>& touches) const override;
 
 
   // Hyperparameters.

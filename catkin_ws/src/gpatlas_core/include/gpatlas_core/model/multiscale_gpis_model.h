@@ -125,6 +125,15 @@ class MultiscaleGpisModel : public SurfaceModel {
   Prediction predict(const Vector3& x_world) const override;
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true, bool with_variance_gradient = true,
                                bool with_variance = true) const override;
+  // Both levels' low-rank updates, blended as predictBatch blends them: the coarse level's
+  // (GpisModel::varianceAfter) for the batch's points its thinning would keep; the fine level's
+  // for each cell whose region holds a new value point (rank k on its factor), and a cell built
+  // at a new surface point where none is. Exact while no cell holds more than
+  // max_points_per_cell (beyond, a cell's thinning would choose its members again); a batch that
+  // addPoints() takes by a refit (view surface data, a frame that moves, a coarse thinning that
+  // changes) takes the clone's way.
+  Eigen::MatrixXd varianceAfter(const Points3& x_world,
+                                const std::vector<std::vector<TrainingPoint>>& touches) const override;
 
   // The coarse model's log-parameters, then fine log sigma, log length_m, log noise_m.
   std::vector<std::string> hyperparameterNames() const override;

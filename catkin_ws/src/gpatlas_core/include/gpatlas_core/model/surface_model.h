@@ -117,6 +117,15 @@ class SurfaceModel {
   double mean(const Vector3& x_world) const;
   double variance(const Vector3& x_world) const;
 
+  // ---- lookahead (planning/touch_score.h)
+  // The reported variance at `x_world` that the model would have after taking each batch of
+  // `touches` (one column per batch): what addPoints() of that batch gives, without changing the
+  // model. A GP's variance does not depend on the observed values, so no outcome is assumed.
+  // This default adds each batch to a clone; the GPIS models override it with a low-rank update
+  // of their factors (the posterior covariance between the references and the batch).
+  virtual Eigen::MatrixXd varianceAfter(const Points3& x_world,
+                                        const std::vector<std::vector<TrainingPoint>>& touches) const;
+
   // ---- hyperparameters
   // Names of the log-parameters that hyperparameters() returns, in order.
   virtual std::vector<std::string> hyperparameterNames() const = 0;

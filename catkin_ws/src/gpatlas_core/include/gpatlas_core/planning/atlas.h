@@ -21,6 +21,9 @@ class Atlas {
 
   const std::vector<Chart>& charts() const { return charts_; }
   const Chart& chart(int index) const { return charts_.at(static_cast<std::size_t>(index)); }
+  // For the planner's touch fields (approach_direction, out_of_reach), which the coordination
+  // of the atlas does not read.
+  Chart& chart(int index) { return charts_.at(static_cast<std::size_t>(index)); }
   std::size_t size() const { return charts_.size(); }
   bool empty() const { return charts_.empty(); }
 

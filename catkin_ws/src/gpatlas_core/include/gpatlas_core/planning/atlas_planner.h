@@ -6,6 +6,8 @@
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/model/surface_projection.h"
+#include "gpatlas_core/observations/touch_training.h"
+#include "gpatlas_core/planning/touch_score.h"
 
 #include <cstdint>
 #include <functional>
@@ -43,6 +45,12 @@ struct AtlasPlanResult {
   // atlas covers the predicted surface: then about the share of it that needs a touch out of
   // reach (the discs overlap, about alike everywhere).
   double unreachable_area_fraction{0.0};
+  // Selection::kBestScore: the charts that needed a touch, how many were scored, and the chosen
+  // touch's predicted fall of the surface's error against the error before it (touch_score.h).
+  int needy_charts{0};
+  int scored_candidates{0};
+  double predicted_reduction{0.0};
+  double total_error{0.0};
   double elapsed_s{0.0};
 };
 
@@ -83,6 +91,14 @@ class AtlasPlanner {
     // charts are kept small enough that none hides such a point (max_distance 0: variance
     // alone, Algorithm 1). The atlas strategies take it from StrategyConfig::evidence.
     EvidenceRule evidence;
+    // Which chart that needs a touch is touched. kFirst: the first one the growth finds, where
+    // it stops (Algorithm 1 verbatim). kBestScore: the atlas grows over the whole predicted
+    // surface, and the chart whose poke would remove the most error (scoreTouches, over the
+    // charts as the surface's patches, each with its disc's area) is touched, or the next best
+    // one the TouchFilter accepts.
+    enum class Selection { kFirst, kBestScore };
+    Selection selection{Selection::kBestScore};
+    TouchScoreConfig score;
     std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.
@@ -97,15 +113,19 @@ class AtlasPlanner {
   // touch `reachable` refuses is passed over: the atlas grows on past it, and the surface
   // counts as covered when only such charts are left. `evidence_state`: what the run has
   // learnt that the evidence test reads (Config::evidence).
+  // `touch`: how a touch's measurements become observations, for the score's fantasy pokes.
   AtlasPlanResult plan(const SurfaceModel& model, const StopRule& rule,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}, const TouchFilter& reachable = {},
-                       const EvidenceState& evidence_state = {}) const;
+                       const EvidenceState& evidence_state = {}, const TouchObservationConfig& touch = {}) const;
 
  private:
   Config config_;
 };
 
 std::string validate(const AtlasPlanner::Config& config);
+// "first" or "best_score"; false for another name.
+bool parseSelection(const std::string& name, AtlasPlanner::Config::Selection* selection);
+const char* toString(AtlasPlanner::Config::Selection selection);
 
 }  // namespace gpatlas_core

@@ -39,6 +39,9 @@ struct PlanRequest {
   // (ProbeResult::pads; the Explorer fills it), 0 for a point probe. atlas_poke aims this far
   // past the edge of the supported surface (AtlasPlanner::Config::aim_past_m).
   double footprint_radius_m{0.0};
+  // How the loop turns a touch's measurements into observations (the Explorer's, the GP
+  // nodelet's touch/): the atlas strategies' score adds a candidate's in fantasy.
+  TouchObservationConfig touch_observations;
 };
 
 struct PlanResult {
