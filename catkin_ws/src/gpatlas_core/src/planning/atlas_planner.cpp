@@ -160,7 +160,7 @@ class AtlasGrowth {
 
   ChartCreation makeChart(const SurfacePoint& point, int parent) {
     return createChart(model_, point, parent, config_.chart, rng_,
-                       evidence_.radiusCap(point.position, config_.chart.rho_min_m));
+                       evidence_.radiusCap(point.position, config_.chart.rho_min_m), rank_candidates_);
   }
 
   // Algorithm 1's test (StopRule: variance above V_max, or position sd above its bound), or a
@@ -326,6 +326,17 @@ class AtlasGrowth {
     return direction.has_value();
   }
 
+  // The variances of a chart's candidates (createChart's ranking, for a chart made without it).
+  void rankCandidates(int index) {
+    std::vector<ChartCandidate>& candidates = atlas_.chart(index).candidates;
+    if (candidates.empty()) return;
+    Points3 ambient(3, static_cast<Eigen::Index>(candidates.size()));
+    for (std::size_t k = 0; k < candidates.size(); ++k) ambient.col(static_cast<Eigen::Index>(k)) = candidates[k].ambient;
+    const Eigen::VectorXd variance = model_.predictBatch(ambient, false, false, true).variance;
+    for (std::size_t k = 0; k < candidates.size(); ++k)
+      candidates[k].variance = std::isfinite(variance[static_cast<Eigen::Index>(k)]) ? variance[static_cast<Eigen::Index>(k)] : -1.0;
+  }
+
   // SELECTCHART.
   int selectChart(int continuation) {
     int selected = continuation;
@@ -360,6 +371,12 @@ class AtlasGrowth {
 
   // The path's last chart, past the first chart that needs a touch (extend_path_charts, aim_past_m).
   int extendPath(int last) {
+    // A scoring atlas grew without ranking its candidates; the path's extension goes toward the
+    // highest variance (eq. 16), so from here on they are ranked.
+    if (!rank_candidates_) {
+      rank_candidates_ = true;
+      rankCandidates(last);
+    }
     for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
       if (capReached()) break;
       if (atlas_.chart(last).candidates.empty()) break;
@@ -397,6 +414,7 @@ class AtlasGrowth {
   std::size_t next_candidate_{0};
   int trees_{1};
   const bool scoring_;
+  bool rank_candidates_{!scoring_};  // createChart's ranking of the candidates (eq. 16)
   std::vector<int> needy_;  // charts that need a touch (kBestScore), in the order found
 };
 

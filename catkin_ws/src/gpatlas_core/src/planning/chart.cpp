@@ -34,7 +34,8 @@ int candidateCount(double radius, const ChartConfig& config) {
 }
 
 ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre, int parent,
-                          const ChartConfig& config, std::mt19937_64& rng, double max_radius_m) {
+                          const ChartConfig& config, std::mt19937_64& rng, double max_radius_m,
+                          bool rank_candidates) {
   ChartCreation creation;
   if (!centre.ok || !centre.position.allFinite() || !centre.gradient.allFinite() ||
       !std::isfinite(centre.variance)) {
@@ -70,7 +71,7 @@ ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre,
     candidate.ambient = chart.toAmbient(candidate.tangent);
     if (model.inDomain(candidate.ambient)) candidates.push_back(candidate);
   }
-  if (!candidates.empty()) {
+  if (!candidates.empty() && rank_candidates) {
     Points3 ambient(3, static_cast<Eigen::Index>(candidates.size()));
     for (std::size_t k = 0; k < candidates.size(); ++k) ambient.col(static_cast<Eigen::Index>(k)) = candidates[k].ambient;
     const BatchPrediction prediction = model.predictBatch(ambient, /*with_gradient=*/false,

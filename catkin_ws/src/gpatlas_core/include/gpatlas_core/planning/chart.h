@@ -72,10 +72,13 @@ struct ChartCreation {
 // Builds the chart at a projected surface point: tangent basis from the gradient, radius from
 // the variance, candidates in the annulus with their variances from one batched query.
 // Candidates whose ambient point lies outside the model's domain are not kept.
-// `max_radius_m` caps the variance's radius (see SurfaceEvidence::radiusCap).
+// `max_radius_m` caps the variance's radius (see SurfaceEvidence::radiusCap). Without
+// `rank_candidates` the candidates' variances are not queried (left 0): an atlas grown over the
+// whole surface expands every candidate anyway, and their ranking (eq. 16) only orders it.
 ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre, int parent,
                           const ChartConfig& config, std::mt19937_64& rng,
-                          double max_radius_m = std::numeric_limits<double>::infinity());
+                          double max_radius_m = std::numeric_limits<double>::infinity(),
+                          bool rank_candidates = true);
 
 // Reports a problem with the configuration, or an empty string when it is usable.
 std::string validate(const ChartConfig& config);
