@@ -147,6 +147,7 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
   const GpisModel model = capModel(sphere);
   const StopRule rule{kVMax};
   AtlasPlanner::Config config;
+  config.selection = AtlasPlanner::Config::Selection::kBestScore;
   config.seed = 2;
   config.score.max_reference_points = 100000;  // every chart, so the recomputation sees the same sum
   const AtlasPlanResult best = AtlasPlanner(config).plan(model, rule);

@@ -97,7 +97,7 @@ class AtlasPlanner {
     // charts as the surface's patches, each with its disc's area) is touched, or the next best
     // one the TouchFilter accepts.
     enum class Selection { kFirst, kBestScore };
-    Selection selection{Selection::kBestScore};
+    Selection selection{Selection::kFirst};
     TouchScoreConfig score;
     std::uint64_t seed{1};
   };
