@@ -160,7 +160,7 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
 
   std::vector<SurfacePatch> patches;
   for (const Chart& chart : best.atlas.charts())
-    patches.push_back({chart.centre, chart.normal, M_PI * chart.radius * chart.radius, chart.variance, chart.slope});
+    patches.push_back({chart.centre, M_PI * chart.radius * chart.radius, chart.variance, chart.slope});
   // The touched chart, every 4th other chart above V_max, and (last) the chart Algorithm 1 touches.
   const Chart& touched = best.atlas.chart(best.path.back());
   const Chart& first_touched = first.atlas.chart(first.path.back());

@@ -140,8 +140,7 @@ TEST(TouchScore, PredictsTheFallOfTheErrorThatTheTouchBrings) {
     const gpatlas_core::BatchPrediction p = m.predictBatch(points, true, false, true);
     std::vector<gpatlas_core::SurfacePatch> patches;
     for (Eigen::Index i = 0; i < points.cols(); ++i)
-      patches.push_back({points.col(i), Vector3((points.col(i) - sphere.centre).normalized()), area, p.variance[i],
-                         p.gradient.col(i).norm()});
+      patches.push_back({points.col(i), area, p.variance[i], p.gradient.col(i).norm()});
     return patches;
   };
   const auto summedError = [&](const SurfaceModel& m) {

@@ -249,6 +249,23 @@ struct GpisModel::Impl {
   // Extends the factor by the rows (block Cholesky); false, with n and the factor as they were,
   // when the new block does not factorise with the current jitter.
   bool extendFactor(const ObservationRows& rows);
+
+  // addPoints() takes these by a refit, not by extending the factor: a surface point beyond
+  // renormalise_radius (the frame must grow) ...
+  bool movesFrame(const std::vector<TrainingPoint>& points) const {
+    for (const auto& p : points)
+      if (isSurfaceValue(p) && normalise(p.position).norm() > config.renormalise_radius) return true;
+    return false;
+  }
+  // ... or a contact or free-space point near the centroid, which invalidates the inside
+  // pseudo-point there (refit() drops it when such a point is that close, e.g. in a cup's cavity).
+  bool dropsInsidePoint(const ObservationRows& rows) const {
+    const bool has_inside_point = num_pseudo > static_cast<Eigen::Index>(config.num_outside_points);
+    if (!has_inside_point || !(config.inside_point_min_clearance > 0.0)) return false;
+    for (std::size_t j = 0; j < rows.kept.size(); ++j)
+      if (rows.kept[j].label != PointLabel::kInside && rows.x[j].norm() < config.inside_point_min_clearance) return true;
+    return false;
+  }
 };
 
 bool GpisModel::Impl::refitFrame(bool renormalise, Vector3* centroid, double* scale) const {
@@ -664,7 +681,6 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
   FitReport report;
   std::vector<TrainingPoint> accepted = screenObservations(points, kScreenOptions, &report);
   Impl& m = *impl_;
-  const Config& c = m.config;
   if (accepted.empty()) {
     report.ok = true;
     report.message = "no valid point to add";
@@ -673,10 +689,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
 
   // A surface point far from the current centroid means the object is larger than the data
   // seen so far: renormalise so that every point, old and new, stays within the domain.
-  bool needs_renormalise = false;
-  for (const auto& p : accepted)
-    if (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius) needs_renormalise = true;
-  if (needs_renormalise) {
+  if (m.movesFrame(accepted)) {
     FitReport refit_report = refitWith(accepted, true);
     refit_report.warnings.insert(refit_report.warnings.begin(), report.warnings.begin(), report.warnings.end());
     if (refit_report.ok) refit_report.message = "renormalised and refitted: " + refit_report.message;
@@ -707,13 +720,7 @@ FitReport GpisModel::addPoints(const std::vector<TrainingPoint>& points) {
     return refit_report;
   };
 
-  // A contact or free-space point near the centroid invalidates the inside pseudo-point there
-  // (refit() drops it when such a point is that close, e.g. in a cup's cavity).
-  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
-  if (has_inside_point && c.inside_point_min_clearance > 0.0)
-    for (std::size_t j = 0; j < kept.size(); ++j)
-      if (kept[j].label != PointLabel::kInside && rows.x[j].norm() < c.inside_point_min_clearance)
-        return refitWithKept();
+  if (m.dropsInsidePoint(rows)) return refitWithKept();
 
   const Eigen::Index k = static_cast<Eigen::Index>(kept.size());
   if (!m.extendFactor(rows)) {
@@ -904,23 +911,17 @@ Eigen::MatrixXd GpisModel::varianceAfter(const Points3& x_world,
   const Impl& m = *impl_;
   if (!m.fitted) throw std::logic_error("GpisModel: query before the model was fitted");
   const Eigen::Index q = x_world.cols(), n = m.n;
-  const Config& c = m.config;
   // The rows each batch would add by extending the factor; `by_refit`: the batches addPoints()
   // takes by a refit, whose variance the clone's way gives.
   std::vector<Impl::ObservationRows> rows(touches.size());
   std::vector<std::size_t> by_refit;
   std::vector<std::pair<std::size_t, std::size_t>> columns;  // (batch, row) of each extra column
-  const bool has_inside_point = m.num_pseudo > static_cast<Eigen::Index>(c.num_outside_points);
   for (std::size_t b = 0; b < touches.size(); ++b) {
     FitReport screen;
     const std::vector<TrainingPoint> accepted = screenObservations(touches[b], kScreenOptions, &screen);
-    bool refits = false;
-    for (const TrainingPoint& p : accepted)
-      refits = refits || (isSurfaceValue(p) && m.normalise(p.position).norm() > c.renormalise_radius);
+    bool refits = m.movesFrame(accepted);
     if (!refits) rows[b] = m.screenNewRows(accepted);
-    if (has_inside_point && c.inside_point_min_clearance > 0.0)
-      for (std::size_t j = 0; j < rows[b].kept.size(); ++j)
-        refits = refits || (rows[b].kept[j].label != PointLabel::kInside && rows[b].x[j].norm() < c.inside_point_min_clearance);
+    refits = refits || m.dropsInsidePoint(rows[b]);
     if (refits) {
       by_refit.push_back(b);
       rows[b] = {};

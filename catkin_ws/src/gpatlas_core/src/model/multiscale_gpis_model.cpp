@@ -547,10 +547,51 @@ struct MultiscaleGpisModel::Impl {
   QuerySlots querySlots(const Points3& x_world) const;
   // The blending weight of the cell at `coords` at x (whether or not the cell exists).
   double cellWeight(const Eigen::Vector3i& coords, const Vector3& x) const;
+
+  // ---- varianceAfter's pieces
+  // Why addPoints() takes this point by a full refit, or nullptr: surface data from a view, or a
+  // contact beyond the frame's radius.
+  const char* refitReason(const TrainingPoint& p) const {
+    if (!isSurfaceValue(p)) return nullptr;
+    if (fromView(p.source)) return "new surface data from a view, refitted";
+    if (((p.position - coarse.centroid()) / coarse.scale()).norm() > coarse_config.renormalise_radius)
+      return "a contact beyond the frame's radius, renormalised and refitted";
+    return nullptr;
+  }
+  // Whether the coarse level can be extended to `selection` (coarseSelection of the observations
+  // with new ones from old_count on): it keeps every point it holds and adds only new ones
+  // (`extra`); else it is refitted in its frame.
+  bool extendsCoarse(const std::vector<std::size_t>& selection, std::size_t old_count,
+                     std::vector<std::size_t>* extra) const {
+    std::set_difference(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end(),
+                        std::back_inserter(*extra));
+    return std::includes(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end()) &&
+           (extra->empty() || extra->front() >= old_count);
+  }
   // The points of each batch that addPoints() would give the coarse level; `by_refit` set for
   // the batches it would take by a refit.
   std::vector<std::vector<TrainingPoint>> coarseShares(const std::vector<std::vector<TrainingPoint>>& accepted,
                                                        std::vector<char>* by_refit) const;
+  // A batch's value points by the existing cell whose region holds them, and the cells its
+  // surface values would create (with the batch's points in their regions).
+  struct NewCell {
+    Eigen::Vector3i coords;
+    std::vector<Vector3> points;
+  };
+  struct FantasyCells {
+    std::unordered_map<std::size_t, std::vector<Vector3>> existing;
+    std::vector<NewCell> created;
+  };
+  FantasyCells fantasyCells(const std::vector<TrainingPoint>& accepted) const;
+  // Cell c's variance at its queries (per query and slot, in `variance`) after it takes `points`;
+  // `solved_queries`: L^-1 k(X_c, x) for those queries, in the order of `groups`.
+  void lowerCellVariance(std::size_t c, const std::vector<Vector3>& points, const Eigen::MatrixXd& solved_queries,
+                         const Points3& x_world, const CellGroups& groups, std::vector<double>* variance) const;
+  std::vector<Cell> buildFantasyCells(const std::vector<NewCell>& created) const;
+  // predictBatch's blend of the fine variance at x: its cells' (`slot_variance` per slot) and
+  // the cells `built`, where their weight reaches.
+  double blendedFineVariance(const Vector3& x, const std::array<Slot, kMaxSlots>& slots, int count,
+                             const double* slot_variance, const std::vector<Cell>& built) const;
   // Each cell's residual mean and variance (and gradients) at the queries that fall in it.
   CellPredictions predictCells(const Points3& x_world, const CellGroups& groups, const LocalKernel& kernel,
                                const BatchNeeds& needs) const;
@@ -820,10 +861,8 @@ CoarseUpdate MultiscaleGpisModel::Impl::updateCoarse(const std::vector<TrainingP
   const std::vector<std::size_t> selection = coarseSelection(all);
   CoarseUpdate update{GpisModel(coarse, selection.size()), selection, false, {}};
   std::vector<std::size_t> extra;
-  update.grows = std::includes(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end());
-  std::set_difference(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end(),
-                      std::back_inserter(extra));
-  if (update.grows && (extra.empty() || extra.front() >= old_count)) {
+  update.grows = extendsCoarse(selection, old_count, &extra);
+  if (update.grows) {
     std::vector<TrainingPoint> extra_points;
     for (std::size_t i : extra) extra_points.push_back(all[i]);
     update.report = extra_points.empty() ? FitReport{} : update.model.addPoints(extra_points);
@@ -913,12 +952,8 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
   }
   const Impl& m = *impl_;
   const std::size_t old_count = m.observations.size();
-  for (const TrainingPoint& p : accepted) {
-    if (!isSurfaceValue(p)) continue;
-    if (fromView(p.source)) return impl_->refitWithAdded(accepted, screen, "new surface data from a view, refitted");
-    if (((p.position - m.coarse.centroid()) / m.coarse.scale()).norm() > m.coarse_config.renormalise_radius)
-      return impl_->refitWithAdded(accepted, screen, "a contact beyond the frame's radius, renormalised and refitted");
-  }
+  for (const TrainingPoint& p : accepted)
+    if (const char* why = m.refitReason(p)) return impl_->refitWithAdded(accepted, screen, why);
 
   std::vector<TrainingPoint> all = m.observations;
   all.insert(all.end(), accepted.begin(), accepted.end());
@@ -1109,21 +1144,14 @@ double MultiscaleGpisModel::Impl::cellWeight(const Eigen::Vector3i& coords, cons
 std::vector<std::vector<TrainingPoint>> MultiscaleGpisModel::Impl::coarseShares(
     const std::vector<std::vector<TrainingPoint>>& accepted, std::vector<char>* by_refit) const {
   std::vector<std::vector<TrainingPoint>> shares(accepted.size());
-  const std::size_t old_count = observations.size();
   for (std::size_t b = 0; b < accepted.size(); ++b) {
     for (const TrainingPoint& p : accepted[b])
-      if (isSurfaceValue(p) && (fromView(p.source) || ((p.position - coarse.centroid()) / coarse.scale()).norm() >
-                                                          coarse_config.renormalise_radius))
-        (*by_refit)[b] = 1;
+      if (refitReason(p)) (*by_refit)[b] = 1;
     if ((*by_refit)[b] || accepted[b].empty()) continue;
     std::vector<TrainingPoint> all = observations;
     all.insert(all.end(), accepted[b].begin(), accepted[b].end());
-    const std::vector<std::size_t> selection = coarseSelection(all);
     std::vector<std::size_t> extra;
-    std::set_difference(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end(),
-                        std::back_inserter(extra));
-    if (!std::includes(selection.begin(), selection.end(), coarse_members.begin(), coarse_members.end()) ||
-        (!extra.empty() && extra.front() < old_count)) {
+    if (!extendsCoarse(coarseSelection(all), observations.size(), &extra)) {
       (*by_refit)[b] = 1;
       continue;
     }
@@ -1132,11 +1160,109 @@ std::vector<std::vector<TrainingPoint>> MultiscaleGpisModel::Impl::coarseShares(
   return shares;
 }
 
+MultiscaleGpisModel::Impl::FantasyCells MultiscaleGpisModel::Impl::fantasyCells(
+    const std::vector<TrainingPoint>& accepted) const {
+  FantasyCells out;
+  std::unordered_map<CellKey, std::size_t> fresh;  // key -> index in out.created
+  for (const TrainingPoint& point : accepted) {
+    if (!isSurfaceValue(point)) continue;
+    const Eigen::Vector3i core = coreOf(point.position);
+    if (!cell_index.count(packKey(core)) && fresh.emplace(packKey(core), out.created.size()).second)
+      out.created.push_back({core, {}});
+  }
+  std::vector<Eigen::Vector3i> keys;
+  for (const TrainingPoint& point : accepted) {
+    if (!isValueObservation(point)) continue;
+    cellsContaining(point.position, &keys);
+    for (const Eigen::Vector3i& key : keys) {
+      if (const auto found = cell_index.find(packKey(key)); found != cell_index.end())
+        out.existing[found->second].push_back(point.position);
+      else if (const auto created = fresh.find(packKey(key)); created != fresh.end())
+        out.created[created->second].points.push_back(point.position);
+    }
+  }
+  return out;
+}
+
+void MultiscaleGpisModel::Impl::lowerCellVariance(std::size_t c, const std::vector<Vector3>& points,
+                                                  const Eigen::MatrixXd& solved_queries, const Points3& x_world,
+                                                  const CellGroups& groups, std::vector<double>* variance) const {
+  // A rank-k update of the cell's posterior: var'(x) = var(x) - c^T S^-1 c.
+  const FineParams p = fine();
+  const Matern52Kernel kernel(p.sigma, p.length_m);
+  const Cell& cell = cells[c];
+  const Eigen::Index k = static_cast<Eigen::Index>(points.size());
+  Eigen::MatrixXd v_new(cell.x.cols(), k), schur(k, k);
+  for (Eigen::Index a = 0; a < k; ++a) {
+    const Vector3& pa = points[static_cast<std::size_t>(a)];
+    for (Eigen::Index i = 0; i < cell.x.cols(); ++i) v_new(i, a) = kernel.value((pa - cell.centre - cell.x.col(i)).norm());
+    for (Eigen::Index d = 0; d < k; ++d) schur(a, d) = kernel.value((pa - points[static_cast<std::size_t>(d)]).norm());
+    schur(a, a) += noiseVar(p) + cell.jitter;
+  }
+  cell.chol.triangularView<Eigen::Lower>().solveInPlace(v_new);
+  schur.noalias() -= v_new.transpose() * v_new;
+  const std::size_t begin = groups.offset[c];
+  Eigen::MatrixXd cross = -v_new.transpose() * solved_queries;
+  for (Eigen::Index j = 0; j < cross.cols(); ++j) {
+    const Vector3 x = x_world.col(static_cast<Eigen::Index>(groups.entries[begin + static_cast<std::size_t>(j)] / kMaxSlots));
+    for (Eigen::Index a = 0; a < k; ++a) cross(a, j) += kernel.value((x - points[static_cast<std::size_t>(a)]).norm());
+  }
+  Eigen::LLT<Eigen::MatrixXd> llt(schur);
+  if (llt.info() != Eigen::Success) return;
+  llt.matrixL().solveInPlace(cross);
+  for (Eigen::Index j = 0; j < cross.cols(); ++j) {
+    double& v = (*variance)[groups.entries[begin + static_cast<std::size_t>(j)]];
+    v = std::max(0.0, v - cross.col(j).squaredNorm());
+  }
+}
+
+std::vector<Cell> MultiscaleGpisModel::Impl::buildFantasyCells(const std::vector<NewCell>& created) const {
+  const FineParams p = fine();
+  const Matern52Kernel kernel(p.sigma, p.length_m);
+  std::vector<Cell> built;
+  for (const NewCell& fresh : created) {
+    // Its members: the bucket of its region (value observations held) and the batch's new points.
+    Cell cell;
+    cell.coords = fresh.coords;
+    cell.centre = (fresh.coords.cast<double>().array() + 0.5).matrix() * config.cell_size_m;
+    std::vector<Vector3> members;
+    if (const auto bucket = buckets.find(packKey(fresh.coords)); bucket != buckets.end())
+      for (std::size_t i : bucket->second) members.push_back(observations[i].position);
+    members.insert(members.end(), fresh.points.begin(), fresh.points.end());
+    cell.x.resize(3, static_cast<Eigen::Index>(members.size()));
+    for (std::size_t i = 0; i < members.size(); ++i) cell.x.col(static_cast<Eigen::Index>(i)) = members[i] - cell.centre;
+    cell.y = Eigen::VectorXd::Zero(cell.x.cols());
+    if (factoriseCell(&cell, kernel, noiseVar(p))) built.push_back(std::move(cell));
+  }
+  return built;
+}
+
+double MultiscaleGpisModel::Impl::blendedFineVariance(const Vector3& x, const std::array<Slot, kMaxSlots>& slots, int count,
+                                                      const double* slot_variance, const std::vector<Cell>& built) const {
+  const FineParams p = fine();
+  const Matern52Kernel kernel(p.sigma, p.length_m);
+  const double s2 = p.sigma * p.sigma, w0 = config.zero_expert_weight;
+  double sum_w = w0, sum_wv = w0 * s2;
+  for (int k = 0; k < count; ++k) {
+    sum_w += slots[static_cast<std::size_t>(k)].weight;
+    sum_wv += slots[static_cast<std::size_t>(k)].weight * slot_variance[k];
+  }
+  for (const Cell& cell : built) {
+    const double w = cellWeight(cell.coords, x);
+    if (!(w > 0.0)) continue;
+    Eigen::VectorXd kx(cell.x.cols());
+    for (Eigen::Index i = 0; i < cell.x.cols(); ++i) kx[i] = kernel.value((x - cell.centre - cell.x.col(i)).norm());
+    cell.chol.triangularView<Eigen::Lower>().solveInPlace(kx);
+    sum_w += w;
+    sum_wv += w * std::max(0.0, s2 - kx.squaredNorm());
+  }
+  return sum_wv / sum_w;
+}
+
 Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
                                                    const std::vector<std::vector<TrainingPoint>>& touches) const {
   const Impl& m = *impl_;
   if (!m.fitted) throw std::logic_error("MultiscaleGpisModel: query before the model was fitted");
-  const Eigen::Index q = x_world.cols();
   const std::size_t num_batches = touches.size();
   std::vector<std::vector<TrainingPoint>> accepted(num_batches);
   for (std::size_t b = 0; b < num_batches; ++b) {
@@ -1146,56 +1272,26 @@ Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
   std::vector<char> by_refit(num_batches, 0);
   Eigen::MatrixXd after = m.coarse.varianceAfter(x_world, m.coarseShares(accepted, &by_refit));
 
-  // The fine level before: each query's cells (slots) and their variances.
+  // The fine level: each query's cells and their variances now, then each batch's cells.
   const FineParams p = m.fine();
-  const LocalKernel local{p.sigma * p.sigma, p.length_m};
   const Matern52Kernel kernel(p.sigma, p.length_m);
-  const double noise_var = m.noiseVar(p), w0 = m.config.zero_expert_weight, unit = m.coarse.varianceUnitFactor();
   const QuerySlots slots = m.querySlots(x_world);
   const CellGroups groups = groupByCell(slots, m.cells.size());
-  const CellPredictions before = m.predictCells(x_world, groups, local, BatchNeeds{false, false, true, false});
-
-  // Each batch's value points by the existing cell whose region holds them, and the new cells
-  // its surface values create (with the new points in their regions).
-  struct NewCell {
-    Eigen::Vector3i coords;
-    std::vector<Vector3> points;
-  };
-  std::vector<std::unordered_map<std::size_t, std::vector<Vector3>>> in_cell(num_batches);
-  std::vector<std::vector<NewCell>> new_cells(num_batches);
-  std::unordered_set<std::size_t> touched_cells;
-  std::vector<Eigen::Vector3i> keys;
+  const CellPredictions before =
+      m.predictCells(x_world, groups, LocalKernel{p.sigma * p.sigma, p.length_m}, BatchNeeds{false, false, true, false});
+  std::vector<Impl::FantasyCells> fantasy(num_batches);
+  std::unordered_map<std::size_t, Eigen::MatrixXd> solved_queries;  // L^-1 k(X_c, x) of a changed cell's queries
   for (std::size_t b = 0; b < num_batches; ++b) {
     if (by_refit[b]) continue;
-    std::unordered_map<CellKey, std::size_t> fresh;
-    for (const TrainingPoint& point : accepted[b]) {
-      if (!isSurfaceValue(point)) continue;
-      const Eigen::Vector3i core = m.coreOf(point.position);
-      if (!m.cell_index.count(packKey(core)) && fresh.emplace(packKey(core), new_cells[b].size()).second)
-        new_cells[b].push_back({core, {}});
-    }
-    for (const TrainingPoint& point : accepted[b]) {
-      if (!isValueObservation(point)) continue;
-      m.cellsContaining(point.position, &keys);
-      for (const Eigen::Vector3i& key : keys) {
-        if (const auto found = m.cell_index.find(packKey(key)); found != m.cell_index.end()) {
-          in_cell[b][found->second].push_back(point.position);
-          touched_cells.insert(found->second);
-        } else if (const auto created = fresh.find(packKey(key)); created != fresh.end()) {
-          new_cells[b][created->second].points.push_back(point.position);
-        }
-      }
-    }
+    fantasy[b] = m.fantasyCells(accepted[b]);
+    for (const auto& entry : fantasy[b].existing) solved_queries[entry.first];
   }
-  // L^-1 k(X_c, x) for the queries in each cell a batch changes, once for all batches.
-  const std::vector<std::size_t> touched(touched_cells.begin(), touched_cells.end());
-  std::unordered_map<std::size_t, Eigen::MatrixXd> solved_queries;
-  for (std::size_t c : touched) solved_queries[c];
-  tbb::parallel_for(std::size_t{0}, touched.size(), [&](std::size_t t) {
-    const std::size_t c = touched[t];
-    const Cell& cell = m.cells[c];
-    const std::size_t begin = groups.offset[c], count = groups.offset[c + 1] - begin;
-    Eigen::MatrixXd& k = solved_queries.at(c);
+  std::vector<std::size_t> changed;
+  for (const auto& entry : solved_queries) changed.push_back(entry.first);
+  tbb::parallel_for(std::size_t{0}, changed.size(), [&](std::size_t t) {
+    const Cell& cell = m.cells[changed[t]];
+    const std::size_t begin = groups.offset[changed[t]], count = groups.offset[changed[t] + 1] - begin;
+    Eigen::MatrixXd& k = solved_queries.at(changed[t]);
     k.resize(cell.x.cols(), static_cast<Eigen::Index>(count));
     for (std::size_t j = 0; j < count; ++j) {
       const Vector3 x = x_world.col(static_cast<Eigen::Index>(groups.entries[begin + j] / kMaxSlots)) - cell.centre;
@@ -1203,77 +1299,19 @@ Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
     }
     cell.chol.triangularView<Eigen::Lower>().solveInPlace(k);
   });
-
+  const double unit = m.coarse.varianceUnitFactor();
   tbb::parallel_for(std::size_t{0}, num_batches, [&](std::size_t b) {
     if (by_refit[b]) return;
     std::vector<double> variance = before.variance;  // per (query, slot)
-    for (const auto& [c, points] : in_cell[b]) {
-      // A rank-k update of the cell's posterior: var'(x) = var(x) - c^T S^-1 c.
-      const Cell& cell = m.cells[c];
-      const Eigen::Index k = static_cast<Eigen::Index>(points.size());
-      Eigen::MatrixXd v_new(cell.x.cols(), k), schur(k, k);
-      for (Eigen::Index a = 0; a < k; ++a) {
-        for (Eigen::Index i = 0; i < cell.x.cols(); ++i)
-          v_new(i, a) = kernel.value((points[static_cast<std::size_t>(a)] - cell.centre - cell.x.col(i)).norm());
-        for (Eigen::Index d = 0; d < k; ++d)
-          schur(a, d) = kernel.value((points[static_cast<std::size_t>(a)] - points[static_cast<std::size_t>(d)]).norm());
-        schur(a, a) += noise_var + cell.jitter;
-      }
-      cell.chol.triangularView<Eigen::Lower>().solveInPlace(v_new);
-      schur.noalias() -= v_new.transpose() * v_new;
-      const Eigen::MatrixXd& v_query = solved_queries.at(c);
-      const std::size_t begin = groups.offset[c];
-      Eigen::MatrixXd cross = -v_new.transpose() * v_query;
-      for (Eigen::Index j = 0; j < cross.cols(); ++j) {
-        const Vector3 x = x_world.col(static_cast<Eigen::Index>(groups.entries[begin + static_cast<std::size_t>(j)] / kMaxSlots));
-        for (Eigen::Index a = 0; a < k; ++a) cross(a, j) += kernel.value((x - points[static_cast<std::size_t>(a)]).norm());
-      }
-      Eigen::LLT<Eigen::MatrixXd> llt(schur);
-      if (llt.info() != Eigen::Success) continue;
-      llt.matrixL().solveInPlace(cross);
-      for (Eigen::Index j = 0; j < cross.cols(); ++j) {
-        double& v = variance[groups.entries[begin + static_cast<std::size_t>(j)]];
-        v = std::max(0.0, v - cross.col(j).squaredNorm());
-      }
-    }
-    // The new cells: their members (the bucket of their region and the batch's new points) and
-    // their variance where their weight reaches.
-    std::vector<Cell> built;
-    for (const NewCell& fresh : new_cells[b]) {
-      Cell cell;
-      cell.centre = (fresh.coords.cast<double>().array() + 0.5).matrix() * m.config.cell_size_m;
-      cell.coords = fresh.coords;
-      std::vector<Vector3> members;
-      if (const auto bucket = m.buckets.find(packKey(fresh.coords)); bucket != m.buckets.end())
-        for (std::size_t i : bucket->second) members.push_back(m.observations[i].position);
-      members.insert(members.end(), fresh.points.begin(), fresh.points.end());
-      cell.x.resize(3, static_cast<Eigen::Index>(members.size()));
-      for (std::size_t i = 0; i < members.size(); ++i) cell.x.col(static_cast<Eigen::Index>(i)) = members[i] - cell.centre;
-      cell.y = Eigen::VectorXd::Zero(cell.x.cols());
-      if (factoriseCell(&cell, kernel, noise_var)) built.push_back(std::move(cell));
-    }
-    for (Eigen::Index col = 0; col < q; ++col) {
+    for (const auto& [c, points] : fantasy[b].existing)
+      m.lowerCellVariance(c, points, solved_queries.at(c), x_world, groups, &variance);
+    const std::vector<Cell> built = m.buildFantasyCells(fantasy[b].created);
+    for (Eigen::Index col = 0; col < x_world.cols(); ++col) {
       const std::size_t jq = static_cast<std::size_t>(col);
-      double sum_w = w0, sum_wv = w0 * local.s2;
-      for (int k = 0; k < slots.count[jq]; ++k) {
-        const Slot& slot = slots.slots[jq][static_cast<std::size_t>(k)];
-        sum_w += slot.weight;
-        sum_wv += slot.weight * variance[jq * kMaxSlots + static_cast<std::size_t>(k)];
-      }
-      for (const Cell& cell : built) {
-        const double w = m.cellWeight(cell.coords, x_world.col(col));
-        if (!(w > 0.0)) continue;
-        Eigen::VectorXd k(cell.x.cols());
-        for (Eigen::Index i = 0; i < cell.x.cols(); ++i) k[i] = kernel.value((x_world.col(col) - cell.centre - cell.x.col(i)).norm());
-        cell.chol.triangularView<Eigen::Lower>().solveInPlace(k);
-        sum_w += w;
-        sum_wv += w * std::max(0.0, local.s2 - k.squaredNorm());
-      }
-      after(col, static_cast<Eigen::Index>(b)) += unit * sum_wv / sum_w;
+      after(col, static_cast<Eigen::Index>(b)) +=
+          unit * m.blendedFineVariance(x_world.col(col), slots.slots[jq], slots.count[jq], &variance[jq * kMaxSlots], built);
     }
   });
-  // Columns of the batches without fine updates: the coarse level's variance after plus the
-  // fine level's as it is.
   std::vector<std::vector<TrainingPoint>> refitted;
   for (std::size_t b = 0; b < num_batches; ++b)
     if (by_refit[b]) refitted.push_back(touches[b]);

@@ -214,9 +214,7 @@ class AtlasGrowth {
       if (!created.ok) continue;
       const bool new_needs_touch = needsTouch(created.chart);
       continuation = addChart(std::move(created.chart));
-      if (new_needs_touch && scoring_) {
-        needy_.push_back(continuation);
-      } else if (new_needs_touch) {
+      if (endsPlan(new_needs_touch, continuation)) {
         result_.path = atlas_.pathTo(extendPath(continuation));
         return PlanEnd{PlanStatus::kTouch, "found a chart that needs a touch (" + rule_.describe() + " or no evidence nearby)"};
       }
@@ -242,9 +240,7 @@ class AtlasGrowth {
       continuation = atlas_.addChart(std::move(created.chart));
       ++trees_;
       if (progress_) progress_(atlas_);
-      if (new_needs_touch && scoring_) {
-        needy_.push_back(continuation);
-      } else if (new_needs_touch) {
+      if (endsPlan(new_needs_touch, continuation)) {
         result_.path = atlas_.pathTo(continuation);
         return PlanEnd{PlanStatus::kTouch, "a new tree's root needs a touch (" + rule_.describe() + " or no evidence nearby)"};
       }
@@ -255,7 +251,13 @@ class AtlasGrowth {
 
   int trees() const { return trees_; }
   bool scoring() const { return scoring_; }
-  void addNeedy(int chart) { needy_.push_back(chart); }
+
+  // Whether the chart just added ends the plan: kFirst, when it needs a touch; kBestScore keeps
+  // such a chart for chooseBest and grows on.
+  bool endsPlan(bool needs_touch, int index) {
+    if (needs_touch && scoring_) needy_.push_back(index);
+    return needs_touch && !scoring_;
+  }
 
   // kBestScore, once the atlas is grown: the needy charts scored (a sample, see TouchScoreConfig),
   // then offered to the TouchFilter best first, the unscored ones after them by how far past
@@ -280,7 +282,7 @@ class AtlasGrowth {
     std::vector<SurfacePatch> patches;
     patches.reserve(atlas_.size());
     for (const Chart& chart : atlas_.charts())
-      patches.push_back({chart.centre, chart.normal, discArea(chart), chart.variance, chart.slope});
+      patches.push_back({chart.centre, discArea(chart), chart.variance, chart.slope});
     std::vector<TouchCandidate> candidates;
     for (int index : scored) candidates.push_back({atlas_.chart(index).centre, atlas_.chart(index).normal});
     const TouchScores scores = scoreTouches(model_, rule_, patches, candidates, touch, config_.score, rng_());
@@ -326,17 +328,6 @@ class AtlasGrowth {
     return direction.has_value();
   }
 
-  // The variances of a chart's candidates (createChart's ranking, for a chart made without it).
-  void rankCandidates(int index) {
-    std::vector<ChartCandidate>& candidates = atlas_.chart(index).candidates;
-    if (candidates.empty()) return;
-    Points3 ambient(3, static_cast<Eigen::Index>(candidates.size()));
-    for (std::size_t k = 0; k < candidates.size(); ++k) ambient.col(static_cast<Eigen::Index>(k)) = candidates[k].ambient;
-    const Eigen::VectorXd variance = model_.predictBatch(ambient, false, false, true).variance;
-    for (std::size_t k = 0; k < candidates.size(); ++k)
-      candidates[k].variance = std::isfinite(variance[static_cast<Eigen::Index>(k)]) ? variance[static_cast<Eigen::Index>(k)] : -1.0;
-  }
-
   // SELECTCHART.
   int selectChart(int continuation) {
     int selected = continuation;
@@ -375,7 +366,7 @@ class AtlasGrowth {
     // highest variance (eq. 16), so from here on they are ranked.
     if (!rank_candidates_) {
       rank_candidates_ = true;
-      rankCandidates(last);
+      rankCandidates(model_, &atlas_.chart(last).candidates);
     }
     for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
       if (capReached()) break;
@@ -445,9 +436,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
   int continuation = growth.addChart(std::move(root.chart));
   // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
   // (its candidates may all be covered or out of the domain).
-  if (root_needs_touch && growth.scoring()) {
-    growth.addNeedy(continuation);
-  } else if (root_needs_touch) {
+  if (growth.endsPlan(root_needs_touch, continuation)) {
     result.path = result.atlas.pathTo(continuation);
     return finish(PlanStatus::kTouch, "the root chart needs a touch (" + rule.describe() + " or no evidence nearby)");
   }

@@ -71,23 +71,26 @@ ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre,
     candidate.ambient = chart.toAmbient(candidate.tangent);
     if (model.inDomain(candidate.ambient)) candidates.push_back(candidate);
   }
-  if (!candidates.empty() && rank_candidates) {
-    Points3 ambient(3, static_cast<Eigen::Index>(candidates.size()));
-    for (std::size_t k = 0; k < candidates.size(); ++k) ambient.col(static_cast<Eigen::Index>(k)) = candidates[k].ambient;
-    const BatchPrediction prediction = model.predictBatch(ambient, /*with_gradient=*/false,
-                                                          /*with_variance_gradient=*/false);
-    for (std::size_t k = 0; k < candidates.size(); ++k) {
-      const double variance = prediction.variance(static_cast<Eigen::Index>(k));
-      // A NaN variance would poison the arg-max of eq. 16; such a direction is unusable.
-      candidates[k].variance = std::isfinite(variance) ? variance : -1.0;
-    }
-    candidates.erase(std::remove_if(candidates.begin(), candidates.end(),
-                                    [](const ChartCandidate& c) { return c.variance < 0.0; }),
-                     candidates.end());
-  }
+  if (rank_candidates) rankCandidates(model, &candidates);
   chart.candidates = std::move(candidates);
   creation.ok = true;
   return creation;
+}
+
+void rankCandidates(const SurfaceModel& model, std::vector<ChartCandidate>* candidates) {
+  if (candidates->empty()) return;
+  Points3 ambient(3, static_cast<Eigen::Index>(candidates->size()));
+  for (std::size_t k = 0; k < candidates->size(); ++k) ambient.col(static_cast<Eigen::Index>(k)) = (*candidates)[k].ambient;
+  const BatchPrediction prediction = model.predictBatch(ambient, /*with_gradient=*/false,
+                                                        /*with_variance_gradient=*/false);
+  for (std::size_t k = 0; k < candidates->size(); ++k) {
+    const double variance = prediction.variance(static_cast<Eigen::Index>(k));
+    // A NaN variance would poison the arg-max of eq. 16; such a direction is unusable.
+    (*candidates)[k].variance = std::isfinite(variance) ? variance : -1.0;
+  }
+  candidates->erase(std::remove_if(candidates->begin(), candidates->end(),
+                                   [](const ChartCandidate& c) { return c.variance < 0.0; }),
+                    candidates->end());
 }
 
 }  // namespace gpatlas_core

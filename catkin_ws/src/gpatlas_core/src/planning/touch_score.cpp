@@ -61,7 +61,6 @@ TouchScores scoreTouches(const SurfaceModel& model, const StopRule& rule, const 
     weight = static_cast<double>(carrying.size()) / static_cast<double>(cap);
     carrying.resize(cap);
   }
-  scores.reference_points = static_cast<int>(carrying.size());
   Points3 references(3, static_cast<Eigen::Index>(carrying.size()));
   for (std::size_t r = 0; r < carrying.size(); ++r) references.col(static_cast<Eigen::Index>(r)) = patches[carrying[r]].point;
 

@@ -79,6 +79,8 @@ ChartCreation createChart(const SurfaceModel& model, const SurfacePoint& centre,
                           const ChartConfig& config, std::mt19937_64& rng,
                           double max_radius_m = std::numeric_limits<double>::infinity(),
                           bool rank_candidates = true);
+// The candidates' variances (eq. 16's ranking); those whose variance is not finite are dropped.
+void rankCandidates(const SurfaceModel& model, std::vector<ChartCandidate>* candidates);
 
 // Reports a problem with the configuration, or an empty string when it is usable.
 std::string validate(const ChartConfig& config);

@@ -38,11 +38,10 @@ std::string validate(const TouchScoreConfig& config);
 // F-score at b). Under V_max alone: the variance's excess, (v - V_max) / V_max, when positive.
 double surfaceError(const SurfaceModel& model, const StopRule& rule, double reported_variance, double gradient_norm);
 
-// The surface as weighted points: where, its outward normal, its area (m^2), and the model's
-// variance and gradient norm there.
+// The surface as weighted points: where, its area (m^2), and the model's variance and gradient
+// norm there.
 struct SurfacePatch {
   Vector3 point{Vector3::Zero()};
-  Vector3 normal{Vector3::UnitZ()};
   double area_m2{0.0};
   double variance{0.0};
   double slope{0.0};
@@ -62,7 +61,6 @@ struct TouchScores {
   std::vector<double> reduction;
   // The summed error before any touch, over the whole surface.
   double total_error{0.0};
-  int reference_points{0};
 };
 
 // Scores every candidate against the surface `patches` (a sample of them, see the config). The
