@@ -371,9 +371,11 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
     EXPECT_NEAR(result.unreachable_area_fraction, western_needy_area / area, 1e-12);
   }
   // A slide: its extension stops before the first refused chart, and it starts at the first
-  // chart of the path the filter accepts.
+  // chart of the path the filter accepts. Algorithm 1's path: every chart before its end is
+  // below V_max (best_score's may pass through refused ones on its way).
   StrategyConfig slide_config;
   slide_config.seed = 4;
+  slide_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const auto slide = makeStrategy("atlas_slide", slide_config);
   PlanRequest request;
   request.v_max = kVMax;

@@ -316,16 +316,19 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   config.evidence.max_distance = 0.3;
   config.evidence.view_max_distance = 0.3;  // view points vouch as far as contacts here
   const double max_distance_m = config.evidence.max_distance * model.scale();
+  for (const auto selection : {AtlasPlanner::Config::Selection::kFirst, AtlasPlanner::Config::Selection::kBestScore})
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
+    config.selection = selection;
     const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& end = result.atlas.chart(result.path.back());
     EXPECT_GT(bruteForceDistance(model, end.centre), max_distance_m);
     // In the hole: on top of the sphere.
     EXPECT_GT((end.centre - sphere.centre).normalized().z(), 0.6);
-    // Every other chart's ball is supported (its radius is capped by its evidence), or the
-    // planner would have stopped there.
+    // Algorithm 1: every other chart's ball is supported (its radius is capped by its evidence),
+    // or the planner would have stopped there. (best_score grows over all of them.)
+    if (selection == AtlasPlanner::Config::Selection::kBestScore) continue;
     for (std::size_t i = 0; i < result.atlas.size(); ++i) {
       if (static_cast<int>(i) == result.path.back()) continue;
       const Chart& chart = result.atlas.chart(static_cast<int>(i));
@@ -340,6 +343,7 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
+  config.selection = AtlasPlanner::Config::Selection::kFirst;  // the first chart, at the edge
   config.evidence.max_distance = 0.3;
   config.evidence.view_max_distance = 0.3;
   const double max_distance_m = config.evidence.max_distance * model.scale();
@@ -393,8 +397,16 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   ASSERT_EQ(point.status, PlanStatus::kTouch) << point.message;
   ASSERT_EQ(pad.status, PlanStatus::kTouch) << pad.message;
   ASSERT_EQ(pad.touch.points.size(), 1u);
-  EXPECT_GT(bruteForceDistance(model, pad.touch.points.front()), bruteForceDistance(model, point.touch.points.front()));
-  EXPECT_GT(pad.atlas->path.size(), point.atlas->path.size());
+  // The best-scoring chart lies wherever its touch removes the most error: no aim.
+  EXPECT_EQ(pad.touch.points.front(), point.touch.points.front());
+  // The first chart lies at the edge of the supported surface: the pad aims past it.
+  config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
+  const auto first = makeStrategy("atlas_poke", config);
+  const PlanResult first_point = first->plan(model, request), first_pad = first->plan(model, with_pad);
+  ASSERT_EQ(first_pad.status, PlanStatus::kTouch) << first_pad.message;
+  EXPECT_GT(bruteForceDistance(model, first_pad.touch.points.front()),
+            bruteForceDistance(model, first_point.touch.points.front()));
+  EXPECT_GT(first_pad.atlas->path.size(), first_point.atlas->path.size());
   // A slide's path runs on into the unknown by itself: the footprint changes nothing.
   const auto slide = makeStrategy("atlas_slide", config);
   const PlanResult slid = slide->plan(model, request), slid_with_pad = slide->plan(model, with_pad);

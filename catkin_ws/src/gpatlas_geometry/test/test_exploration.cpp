@@ -755,9 +755,11 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   RecordingProber prober(sphere);
   StrategyConfig strategy_config;
   strategy_config.seed = 2;
-  // Without the surprise rule the atlas reaches under the sphere within these actions; with it,
-  // it first goes back to where the touches surprised it.
+  // Without the surprise rule Algorithm 1's atlas reaches under the sphere within these actions;
+  // with it, it first goes back to where the touches surprised it. best_score's order did not
+  // get there within them, so this test of the refusals keeps Algorithm 1's.
   strategy_config.evidence.surprise_distance_m = 0.0;
+  strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const EvidenceRule& evidence = strategy_config.evidence;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
@@ -809,6 +811,9 @@ TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   StrategyConfig strategy_config;
   strategy_config.seed = 2;
   strategy_config.evidence = sparseViewEvidence();
+  // Algorithm 1's touches leave part of the bottom above V_max at convergence; best_score's
+  // converged with none left to count, so this test of the count keeps Algorithm 1's.
+  strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
   config.max_position_sd_m = 0.0;  // the paper's rule, on an uncalibrated model

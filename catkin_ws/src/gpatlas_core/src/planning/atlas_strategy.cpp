@@ -11,7 +11,14 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
   config.seed = mixSeeds(seed_, request.seed);
-  if (mode_ == Mode::kPoke) config.aim_past_m = request.footprint_radius_m;
+  // A slide runs from the known surface to the first chart that needs a touch and on into the
+  // unknown (extend_path_charts): Algorithm 1's path. A best-scoring atlas covers the surface,
+  // so its charts leave the extension no room to grow.
+  if (mode_ == Mode::kSlide) config.selection = AtlasPlanner::Config::Selection::kFirst;
+  // The pad's aim past the edge of the supported surface is for the first chart, which lies at
+  // that edge; the best-scoring chart lies wherever its touch removes the most error.
+  if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
+    config.aim_past_m = request.footprint_radius_m;
   AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.stopRule(), request.start, {}, request.reachable,
                                                       request.evidence_state, request.touch_observations);
 

@@ -95,9 +95,10 @@ class AtlasPlanner {
     // it stops (Algorithm 1 verbatim). kBestScore: the atlas grows over the whole predicted
     // surface, and the chart whose poke would remove the most error (scoreTouches, over the
     // charts as the surface's patches, each with its disc's area) is touched, or the next best
-    // one the TouchFilter accepts.
+    // one the TouchFilter accepts. atlas_slide always follows Algorithm 1's path, and
+    // aim_past_m is for kFirst's chart (AtlasStrategy).
     enum class Selection { kFirst, kBestScore };
-    Selection selection{Selection::kFirst};
+    Selection selection{Selection::kBestScore};
     TouchScoreConfig score;
     std::uint64_t seed{1};
   };
