@@ -182,9 +182,9 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
       scoreTouches(CloneOnly(model), rule, patches, candidates, TouchObservationConfig{}, config.score, 1);
   ASSERT_TRUE(recomputed.ok) << recomputed.message;
   EXPECT_NEAR(recomputed.reduction.front(), best.predicted_reduction, 1e-6 * best.predicted_reduction);
-  EXPECT_GE(best.predicted_reduction, recomputed.reduction.back() * (1.0 - 1e-6));
-  // The best of the 32 it scored (8 furthest past the rule, a sample of the rest); of a sample
-  // of every chart above V_max, close to the best.
+  // Within the planner's tie (2 %) of the best of the 32 it scored (8 furthest past the rule, a
+  // sample of the rest); of a sample of every chart above V_max, close to the best.
+  EXPECT_GE(best.predicted_reduction, recomputed.reduction.back() * (1.0 - 0.02 - 1e-6));
   const double best_of_all = *std::max_element(recomputed.reduction.begin(), recomputed.reduction.end());
   EXPECT_GE(best.predicted_reduction, 0.8 * best_of_all);
 

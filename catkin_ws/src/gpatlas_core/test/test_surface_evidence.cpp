@@ -392,6 +392,7 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   request.seed = 5;
   PlanRequest with_pad = request;
   with_pad.footprint_radius_m = 0.01;
+  config.atlas.selection = AtlasPlanner::Config::Selection::kBestScore;
   const auto poke = makeStrategy("atlas_poke", config);
   const PlanResult point = poke->plan(model, request), pad = poke->plan(model, with_pad);
   ASSERT_EQ(point.status, PlanStatus::kTouch) << point.message;

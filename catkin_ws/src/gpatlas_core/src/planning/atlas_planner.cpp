@@ -270,10 +270,14 @@ class AtlasGrowth {
       const double e = rule_.excess(model_, chart.variance, chart.slope);
       return std::isfinite(e) ? e : std::numeric_limits<double>::infinity();
     };
+    // The furthest past the rule first, then a sample of the others taken in the order the atlas
+    // found them, so that the sample does not follow the excess's last digits.
     std::vector<int> order = needy_;
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return excess(a) > excess(b); });
     const std::size_t most = static_cast<std::size_t>(config_.score.max_candidates);
     const std::size_t by_excess = std::min(order.size(), static_cast<std::size_t>(config_.score.max_excess_candidates));
+    std::partial_sort(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(by_excess), order.end(),
+                      [&](int a, int b) { return excess(a) > excess(b) || (excess(a) == excess(b) && a < b); });
+    std::sort(order.begin() + static_cast<std::ptrdiff_t>(by_excess), order.end());
     std::shuffle(order.begin() + static_cast<std::ptrdiff_t>(by_excess), order.end(), rng_);
     std::vector<int> scored(order.begin(), order.begin() + static_cast<std::ptrdiff_t>(std::min(most, order.size())));
     std::vector<int> rest(order.begin() + static_cast<std::ptrdiff_t>(scored.size()), order.end());
@@ -288,11 +292,21 @@ class AtlasGrowth {
     const TouchScores scores = scoreTouches(model_, rule_, patches, candidates, touch, config_.score, rng_());
     result_.scored_candidates = static_cast<int>(scored.size());
     result_.total_error = scores.total_error;
+    // Best first. A score within kScoreTie of the best counts as the best, and the chart the atlas
+    // made first among those goes first: the fantasy's last digits (a model rebuilt from a message
+    // in another process) must not change the touch.
+    constexpr double kScoreTie = 0.02;
     std::vector<std::size_t> by_score(scored.size());
     std::iota(by_score.begin(), by_score.end(), std::size_t{0});
-    if (scores.ok)
+    if (scores.ok && !by_score.empty()) {
       std::stable_sort(by_score.begin(), by_score.end(),
                        [&](std::size_t a, std::size_t b) { return scores.reduction[a] > scores.reduction[b]; });
+      const double near_best = (1.0 - kScoreTie) * scores.reduction[by_score.front()];
+      auto first_made = by_score.begin();
+      for (auto it = by_score.begin(); it != by_score.end() && scores.reduction[*it] >= near_best; ++it)
+        if (scored[*it] < scored[*first_made]) first_made = it;
+      std::rotate(by_score.begin(), first_made, first_made + 1);
+    }
     std::vector<std::pair<int, double>> tries;  // (chart, predicted reduction)
     for (std::size_t i : by_score) tries.emplace_back(scored[i], scores.ok ? scores.reduction[i] : 0.0);
     for (int index : rest) tries.emplace_back(index, 0.0);
