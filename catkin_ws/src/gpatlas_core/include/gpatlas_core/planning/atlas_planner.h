@@ -98,7 +98,7 @@ class AtlasPlanner {
     // one the TouchFilter accepts. atlas_slide always follows Algorithm 1's path, and
     // aim_past_m is for kFirst's chart (AtlasStrategy).
     enum class Selection { kFirst, kBestScore };
-    Selection selection{Selection::kFirst};
+    Selection selection{Selection::kBestScore};
     TouchScoreConfig score;
     std::uint64_t seed{1};
   };
