@@ -2,7 +2,11 @@
 // on `points` (sensor_msgs/PointCloud2) in `~frame_id`, once and latched (`~rate_hz` 0), or as a
 // stream at `~rate_hz` for `~duration_s` (0: until shut down), each message freshly stamped, the
 // way a driver streams. The single cloud waits up to `~wait_for_subscriber_s` for a subscriber before
-// it is stamped. NaN points are kept: an organised cloud stays organised.
+// it is stamped. NaN points are kept: an organised cloud stays organised. A .pcd file is checked
+// (gpatlas_geometry::checkPcdFile) before PCL reads it: PCL's reader crashes on an empty or corrupt
+// one.
+
+#include "gpatlas_geometry/cloud_file.h"
 
 #include <pcl/PCLPointCloud2.h>
 #include <pcl/io/pcd_io.h>
@@ -32,9 +36,14 @@ std::string readCloud(const std::string& path, sensor_msgs::PointCloud2* cloud) 
   pcl::PCLPointCloud2 pcl_cloud;
   const std::string extension = lowerExtension(path);
   int status = -1;
-  if (extension == ".pcd") status = pcl::io::loadPCDFile(path, pcl_cloud);
-  else if (extension == ".ply") status = pcl::io::loadPLYFile(path, pcl_cloud);
-  else return path + ": unknown extension '" + extension + "' (.pcd or .ply)";
+  if (extension == ".pcd") {
+    if (const std::string error = gpatlas_geometry::checkPcdFile(path); !error.empty()) return error;
+    status = pcl::io::loadPCDFile(path, pcl_cloud);
+  } else if (extension == ".ply") {
+    status = pcl::io::loadPLYFile(path, pcl_cloud);
+  } else {
+    return path + ": unknown extension '" + extension + "' (.pcd or .ply)";
+  }
   if (status < 0) return path + ": PCL could not read it (status " + std::to_string(status) + ")";
   if (pcl_cloud.width * pcl_cloud.height == 0) return path + ": the cloud has no points";
   pcl_conversions::fromPCL(pcl_cloud, *cloud);

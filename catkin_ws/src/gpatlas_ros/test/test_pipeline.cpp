@@ -381,7 +381,15 @@ void expectPlannerAnswers() {
   bad.request.v_max = -1.0;
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
   EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
+  // A stop rule that is not a number: the refusal says what 0 means as GetNextTouch.srv does.
   bad.request.v_max = 0.1;
+  bad.request.max_position_sd_m = std::numeric_limits<double>::quiet_NaN();
+  ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
+  EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
+  EXPECT_NE(bad.response.message.find("0 uses the parameter exploration/max_position_sd_m"), std::string::npos)
+      << bad.response.message;
+  EXPECT_EQ(bad.response.message.find("0: the V_max rule"), std::string::npos) << bad.response.message;
+  bad.request.max_position_sd_m = 0.0;
   bad.request.strategy = "no_such_strategy";
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
   EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);

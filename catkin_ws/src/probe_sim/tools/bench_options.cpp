@@ -7,6 +7,7 @@
 #include <probe_sim/procedural_objects.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -15,6 +16,7 @@
 #include <memory>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
 
 namespace gpatlas_bench {
 
@@ -78,22 +80,50 @@ std::vector<std::string> splitList(const std::string& s) {
   return out;
 }
 
-double parseDouble(const std::string& flag, const std::string& value) {
+// A numeric flag's range is that of the config parameter it overrides, where there is one (the
+// config readers' ranges), so that no flag runs what the config file would refuse; the others are
+// bounded past any use, which refuses a typo's extra digits.
+constexpr double kMaxScale = 1e9;      // simulation/object_scale
+constexpr double kMaxSizeM = 100.0;    // simulation/procedural_size_m
+constexpr int kMaxSeed = 1 << 30;      // seed
+constexpr int kMaxActions = 1000000;   // exploration/max_actions
+constexpr double kMinCurveResolutionM = 1e-4, kMaxCurveResolutionM = 1.0;  // mesh/resolution_m
+constexpr int kMaxEveryActions = kMaxActions;  // --curve-every, --variance-every: a count of actions
+constexpr int kMaxJobs = 1024;
+constexpr int kMaxCurveSamples = 1000000;
+constexpr int kMaxReachDirections = 65536;
+
+std::string formatNumber(double v) {
+  std::ostringstream out;
+  out << v;
+  return out.str();
+}
+
+// A decimal number from `min` (exclusive when min_open) to `max`; else the flag, the value and the range.
+double parseNumber(const std::string& flag, const std::string& value, double min, bool min_open, double max) {
   char* end = nullptr;
   const double v = std::strtod(value.c_str(), &end);
-  if (end == value.c_str() || *end != '\0' || !std::isfinite(v))
-    throw std::invalid_argument(flag + " needs a number, got '" + value + "'");
+  const bool number = end != value.c_str() && *end == '\0' && std::isfinite(v);
+  if (!number || (min_open ? v <= min : v < min) || v > max)
+    throw std::invalid_argument(flag + " needs a number " + (min_open ? "> " : ">= ") + formatNumber(min) + " and <= " +
+                                formatNumber(max) + ", got '" + value + "'");
   return v;
 }
 
-int parseInt(const std::string& flag, const std::string& value) {
-  const double v = parseDouble(flag, value);
-  if (v != std::floor(v)) throw std::invalid_argument(flag + " needs an integer, got '" + value + "'");
+// A decimal integer (digits, an optional minus) from `min` to `max`; else the flag, the value and the range.
+int parseInt(const std::string& flag, const std::string& value, int min, int max) {
+  long long v = 0;
+  const char* end = value.data() + value.size();
+  const auto [ptr, ec] = std::from_chars(value.data(), end, v);
+  if (value.empty() || ec != std::errc() || ptr != end || v < min || v > max)
+    throw std::invalid_argument(flag + " needs an integer from " + std::to_string(min) + " to " + std::to_string(max) +
+                                ", got '" + value + "'");
   return static_cast<int>(v);
 }
 
 Shard parseShard(const std::string& value) {
-  const std::string usage = "--shard needs K/N with 1 <= K <= N (e.g. --shard 2/8), got '" + value + "'";
+  const std::string usage =
+      "--shard needs K/N with 1 <= K <= N, integers, N <= 999999999 (e.g. --shard 2/8), got '" + value + "'";
   const std::size_t slash = value.find('/');
   if (slash == std::string::npos) throw std::invalid_argument(usage);
   auto positive = [&](const std::string& digits) {
@@ -139,32 +169,28 @@ bool parseFlags(int argc, char** argv, Options& o) {
     else if (a == "--overlay") o.overlays.push_back(next());
     else if (a == "--set") o.overrides.push_back(next());
     else if (a == "--object") o.objects.push_back({next(), o.scale});
-    else if (a == "--scale") {
-      o.scale = parseDouble(a, next());
-      if (!(o.scale > 0.0)) throw std::invalid_argument("--scale must be > 0");
-    }
-    else if (a == "--size-m") {
-      o.procedural_size_m = parseDouble(a, next());
-      if (!(*o.procedural_size_m > 0.0)) throw std::invalid_argument("--size-m must be > 0");
-    }
+    else if (a == "--scale") o.scale = parseNumber(a, next(), 0.0, true, kMaxScale);
+    else if (a == "--size-m") o.procedural_size_m = parseNumber(a, next(), 0.0, true, kMaxSizeM);
     else if (a == "--strategy") {
       for (const auto& s : splitList(next())) o.strategies.push_back(s);
     } else if (a == "--strategy-library") loadStrategyLibraryAnnounced(next());
     else if (a == "--probe") o.probe = next();
     else if (a == "--seeds") {
       o.seeds.clear();
-      for (const auto& s : splitList(next())) o.seeds.push_back(parseInt(a, s));
+      for (const auto& s : splitList(next())) o.seeds.push_back(parseInt(a, s, 0, kMaxSeed));
+      if (o.seeds.empty()) throw std::invalid_argument("--seeds needs at least one seed");
       seeds_given = true;
-    } else if (a == "--max-actions") o.max_actions = parseInt(a, next());
-    else if (a == "--jobs") o.jobs = parseInt(a, next());
+    } else if (a == "--max-actions") o.max_actions = parseInt(a, next(), 0, kMaxActions);
+    else if (a == "--jobs") o.jobs = parseInt(a, next(), 1, kMaxJobs);
     else if (a == "--out") o.out = next();
     else if (a == "--urdf") o.urdf_path = next();
-    else if (a == "--curve-every") o.curve_every = parseInt(a, next());
-    else if (a == "--curve-resolution-m") o.curve_resolution_m = parseDouble(a, next());
-    else if (a == "--curve-samples") o.curve_samples = parseInt(a, next());
-    else if (a == "--variance-every") o.variance_every = parseInt(a, next());
+    else if (a == "--curve-every") o.curve_every = parseInt(a, next(), 0, kMaxEveryActions);
+    else if (a == "--curve-resolution-m")
+      o.curve_resolution_m = parseNumber(a, next(), kMinCurveResolutionM, false, kMaxCurveResolutionM);
+    else if (a == "--curve-samples") o.curve_samples = parseInt(a, next(), 1, kMaxCurveSamples);
+    else if (a == "--variance-every") o.variance_every = parseInt(a, next(), 1, kMaxEveryActions);
     else if (a == "--no-reachability") o.reachability = false;
-    else if (a == "--reach-directions") o.reach_directions = parseInt(a, next());
+    else if (a == "--reach-directions") o.reach_directions = parseInt(a, next(), 1, kMaxReachDirections);
     else if (a == "--verbose") o.verbose = true;
     else if (a == "--no-plot") o.plot = false;
     else if (a == "--save-meshes") o.save_meshes = true;
@@ -228,14 +254,7 @@ void completeAndCheck(Options& o, bool seeds_given) {
   if (o.objects.empty()) o.objects.push_back({o.simulation.object, o.simulation.object_scale});
   if (o.strategies.empty()) o.strategies.push_back(o.pipeline.strategy_choice.name);
   if (!seeds_given) o.seeds = {static_cast<int>(o.pipeline.seed)};
-  if (o.max_actions >= 0) o.pipeline.exploration.max_actions = o.max_actions;
-  if (o.reach_directions < 1) throw std::invalid_argument("--reach-directions must be >= 1");
-  if (o.curve_every < 0) throw std::invalid_argument("--curve-every must be >= 0");
-  if (!(o.curve_resolution_m > 0.0)) throw std::invalid_argument("--curve-resolution-m must be > 0");
-  if (o.curve_samples < 1) throw std::invalid_argument("--curve-samples must be >= 1");
-  if (o.variance_every < 1) throw std::invalid_argument("--variance-every must be >= 1");
-  if (o.jobs < 1) throw std::invalid_argument("--jobs must be >= 1");
-  if (o.seeds.empty()) throw std::invalid_argument("--seeds needs at least one seed");
+  if (o.max_actions) o.pipeline.exploration.max_actions = *o.max_actions;
   const auto known = gpatlas_core::strategyNames();
   for (const auto& s : o.strategies)
     if (std::find(known.begin(), known.end(), s) == known.end()) {

@@ -29,7 +29,7 @@ struct Options {
   std::vector<std::string> strategies;
   std::string probe;  // --probe; otherwise simulation/probe
   std::vector<int> seeds{0};
-  int max_actions{-1};  // < 0: the config's exploration/max_actions
+  std::optional<int> max_actions;  // otherwise the config's exploration/max_actions
   int jobs{1};
   std::string out{"bench_out"};
   std::string config_path;  // the build's config/pipeline.yaml unless --config

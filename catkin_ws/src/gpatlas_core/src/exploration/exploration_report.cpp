@@ -100,6 +100,8 @@ std::string runStatus(const ExplorationResult& result, bool has_surface, const s
   if (!has_surface) return "error: no predicted surface: " + surface_message;
   if (result.converged) return "converged";
   const std::string& reason = result.stop_reason;
+  // The loop's "error: ..." says it already.
+  if (reason.rfind("error: ", 0) == 0) return reason;
   if (reason.rfind("error", 0) == 0 || reason.rfind("planner_error", 0) == 0 || reason.rfind("invalid_config", 0) == 0)
     return "error: " + reason;
   return "stopped: " + reason;

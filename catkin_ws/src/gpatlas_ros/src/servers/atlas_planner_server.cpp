@@ -11,6 +11,7 @@
 #include <gpatlas_motion/touch_approach.h>
 
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 namespace gpatlas_ros {
@@ -180,6 +181,14 @@ bool AtlasPlannerServer::answeredWithoutAPlan(const gpatlas_msgs::GetNextTouch::
   if (!(v_max > 0.0) || !std::isfinite(v_max)) {
     res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
     res.message = "v_max must be > 0 (0 uses the parameter exploration/v_max), got " + std::to_string(req.v_max);
+    return true;
+  }
+  // Refused here in GetNextTouch.srv's terms: the planner's own check speaks of its StopRule, where
+  // 0 is the V_max rule, not the node's parameter.
+  if (std::isnan(req.max_position_sd_m) || req.max_position_sd_m == std::numeric_limits<double>::infinity()) {
+    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
+    res.message = "max_position_sd_m must be a finite number of metres (> 0 a limit, 0 uses the parameter "
+                  "exploration/max_position_sd_m, < 0 the V_max rule alone), got " + std::to_string(req.max_position_sd_m);
     return true;
   }
   return false;
