@@ -73,7 +73,8 @@ for file in share/gpatlas_ros/config/pipeline.yaml share/probe_sim/config/simula
             share/gpatlas_ros/nodelet_plugins.xml share/gpatlas_ros/launch/pipeline.launch \
             share/gpatlas_ros/rviz/exploration.rviz share/probe_sim_ros/launch/sim_exploration.launch \
             share/probe_sim_ros/rviz/sim.rviz lib/gpatlas_ros/exploration_node lib/gpatlas_ros/plot_exploration.py \
-            lib/probe_sim_ros/probe_sim_node lib/probe_sim/gpatlas_bench lib/probe_sim/plot_bench.py; do
+            lib/probe_sim_ros/probe_sim_node lib/probe_sim/gpatlas_bench lib/probe_sim/plot_bench.py \
+            share/gpatlas_geometry/scripts/shape_views.py; do
   [ -e "$install/$file" ] || problem+="$file not installed; "
 done
 # gpatlas_bench --plot runs the script whose path is compiled in: it must be the installed one.

@@ -45,6 +45,7 @@ gpatlas_msgs::AddObservations::Response toMsg(const gpatlas_core::TouchUpdate& u
   msg.message = update.message;
   msg.num_added = count(update.points_added);
   msg.num_contacts_added = count(update.contacts_added);
+  for (const gpatlas_core::Vector3& p : update.contact_positions) msg.contacts_added.push_back(toPointMsg(p));
   msg.num_free_space_added = count(update.free_points_added);
   msg.num_refused = static_cast<std::uint32_t>(update.contacts_refused.total() + update.free_space_refused.total());
   msg.observation_budget_full = update.budget_full;
@@ -57,6 +58,7 @@ gpatlas_core::TouchUpdate fromMsg(const gpatlas_msgs::AddObservations::Response&
   update.message = msg.message;
   update.points_added = static_cast<int>(msg.num_added);
   update.contacts_added = static_cast<int>(msg.num_contacts_added);
+  for (const auto& p : msg.contacts_added) update.contact_positions.push_back(fromMsg(p));
   update.free_points_added = static_cast<int>(msg.num_free_space_added);
   update.budget_full = msg.observation_budget_full;
   return update;

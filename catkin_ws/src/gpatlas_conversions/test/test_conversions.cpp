@@ -503,6 +503,7 @@ TEST(Conversions, TouchUpdateRoundTrip) {
   update.ok = true;
   update.message = "added";
   update.contacts_added = 3;
+  update.contact_positions = {{0.5, -0.1, 0.2}, {0.51, -0.1, 0.2}, {0.5, -0.09, 0.21}};
   update.free_points_added = 5;
   update.points_added = 11;
   update.contacts_refused.outside_workspace = 2;
@@ -514,6 +515,7 @@ TEST(Conversions, TouchUpdateRoundTrip) {
   EXPECT_TRUE(back.ok);
   EXPECT_EQ(back.message, "added");
   EXPECT_EQ(back.contacts_added, 3);
+  EXPECT_EQ(back.contact_positions, update.contact_positions);
   EXPECT_EQ(back.free_points_added, 5);
   EXPECT_EQ(back.points_added, 11);
   EXPECT_TRUE(back.budget_full);

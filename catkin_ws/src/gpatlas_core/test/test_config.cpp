@@ -165,7 +165,8 @@ TEST(ReportJson, TheCurveHasEveryTouchAndNullWhereNotMeasured) {
   for (int i = 0; i < 3; ++i) {
     gpatlas_core::ExplorationRecord r;
     r.index = i;
-    r.contacts_total = i;  // the first touch found nothing
+    r.contacts_total = i;  // the first touch found nothing, each other one contact
+    if (i > 0) r.contact_positions.push_back(Vector3(0.5 + 0.01 * i, -0.1, 0.25));
     if (i != 1) {  // the second's model was not measured (skipped, or no truth)
       r.rmse_pred_to_gt_m = 0.004 - 0.001 * i;
       r.rmse_gt_to_pred_m = 0.003 - 0.001 * i;
@@ -184,7 +185,10 @@ TEST(ReportJson, TheCurveHasEveryTouchAndNullWhereNotMeasured) {
   ASSERT_GE(json.size(), curve.size());
   EXPECT_EQ(json.substr(json.size() - curve.size()), curve) << json;
   // Each action's record and the initial model carry the F-score too.
-  EXPECT_NE(json.find("\"fscore_5mm\": 0.8},\n    {\"action\": 2"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"fscore_5mm\": 0.8, \"contact_points\": []},\n    {\"action\": 2"), std::string::npos) << json;
+  // and the positions of its contacts, in metres.
+  EXPECT_NE(json.find("\"contact_points\": [[0.51, -0.1, 0.25]]},\n    {\"action\": 3"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"contact_points\": [[0.52, -0.1, 0.25]]}\n  ]"), std::string::npos) << json;
   EXPECT_NE(json.find("\"rmse_gt_to_pred_m\": 0.008, \"fscore_5mm\": 0.5}"), std::string::npos) << json;
 }
 

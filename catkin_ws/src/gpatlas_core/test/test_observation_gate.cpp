@@ -121,6 +121,8 @@ TEST(ObservationGate, NonFiniteAndOutOfWorkspaceObservationsAreCountedApart) {
   const TouchUpdate update = applyTouch(model, contacts, free_space, config);
   EXPECT_TRUE(update.ok) << update.message;
   EXPECT_EQ(update.contacts_added, 2);
+  // Where the added contacts are: the two finite ones inside the workspace, not the refused.
+  EXPECT_EQ(update.contact_positions, (std::vector<Vector3>{contacts[0].position, contacts[3].position}));
   EXPECT_EQ(update.contacts_refused.total() + update.free_space_refused.total(), 4u);
   ASSERT_FALSE(update.warnings.empty());
   EXPECT_EQ(update.warnings.front(), gated.message);

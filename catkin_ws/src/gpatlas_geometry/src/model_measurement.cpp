@@ -30,6 +30,7 @@ ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const Tri
   }
   SurfaceMesher::Config mesh_config = mesher;
   mesh_config.vertex_variances = request.vertex_variances;
+  mesh_config.vertex_position_sd = request.vertex_position_sd;
   const auto mesh_start = std::chrono::steady_clock::now();
   measured.surface = SurfaceMesher(mesh_config).mesh(model);
   measured.mesh_s = secondsSince(mesh_start);

@@ -1,5 +1,7 @@
 #include "gpatlas_geometry/surface_mesher.h"
 
+#include "gpatlas_core/model/position_uncertainty.h"
+
 #include <vtkCellArray.h>
 #include <vtkFlyingEdges3D.h>
 #include <vtkFloatArray.h>
@@ -26,12 +28,12 @@ namespace {
 // Evaluates the model in batches; `store` receives (column in `points`, prediction, row).
 template <typename Store>
 void predictInBatches(const SurfaceModel& model, const std::vector<Vector3>& points, int batch_size, bool with_variance,
-                      Store store) {
+                      Store store, bool with_gradient = false) {
   for (std::size_t first = 0; first < points.size(); first += static_cast<std::size_t>(batch_size)) {
     const std::size_t count = std::min(points.size() - first, static_cast<std::size_t>(batch_size));
     Points3 batch(3, static_cast<Eigen::Index>(count));
     for (std::size_t k = 0; k < count; ++k) batch.col(static_cast<Eigen::Index>(k)) = points[first + k];
-    const BatchPrediction prediction = model.predictBatch(batch, false, false, with_variance);
+    const BatchPrediction prediction = model.predictBatch(batch, with_gradient, false, with_variance);
     for (std::size_t k = 0; k < count; ++k) store(first + k, prediction, static_cast<Eigen::Index>(k));
   }
 }
@@ -289,6 +291,22 @@ TriangleMesh zeroLevelSet(const Grid& grid, double resolution) {
   return mesh;
 }
 
+// The variance and the position sd at each vertex, as asked: one pass over the vertices, with
+// the gradient only when the position sd needs it.
+void fillVertexUncertainty(const SurfaceModel& model, const SurfaceMesher::Config& config, TriangleMesh& mesh) {
+  const bool variances = config.vertex_variances, position_sd = config.vertex_position_sd;
+  if (!variances && !position_sd) return;
+  if (variances) mesh.vertex_variances.assign(mesh.vertices.size(), 0.0);
+  if (position_sd) mesh.vertex_position_sd.assign(mesh.vertices.size(), 0.0);
+  predictInBatches(
+      model, mesh.vertices, config.batch_size, /*with_variance=*/true,
+      [&](std::size_t n, const BatchPrediction& prediction, Eigen::Index row) {
+        if (variances) mesh.vertex_variances[n] = prediction.variance(row);
+        if (position_sd) mesh.vertex_position_sd[n] = gpatlas_core::positionSd(model, prediction, row);
+      },
+      /*with_gradient=*/position_sd);
+}
+
 }  // namespace
 
 SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
@@ -347,12 +365,7 @@ SurfaceMeshResult SurfaceMesher::mesh(const SurfaceModel& model) const {
     return result;
   }
   result.ok = true;
-  if (!config_.vertex_variances) return result;
-  mesh.vertex_variances.assign(mesh.vertices.size(), 0.0);
-  predictInBatches(model, mesh.vertices, config_.batch_size, /*with_variance=*/true,
-                   [&](std::size_t n, const BatchPrediction& prediction, Eigen::Index row) {
-                     mesh.vertex_variances[n] = prediction.variance(row);
-                   });
+  fillVertexUncertainty(model, config_, mesh);
   return result;
 }
 

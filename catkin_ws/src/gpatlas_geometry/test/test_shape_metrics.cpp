@@ -1,5 +1,6 @@
 #include "gpatlas_core/model/gpis_model.h"
 #include "gpatlas_core/model/occupancy_grid.h"
+#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_geometry/shape_metrics.h"
 #include "gpatlas_geometry/surface_mesher.h"
 #include "gpatlas_core/common/triangle_mesh.h"
@@ -13,6 +14,7 @@
 #include <cstdio>
 #include <fstream>
 #include <random>
+#include <sstream>
 #include <string>
 #include <unistd.h>
 
@@ -143,6 +145,80 @@ TEST(SurfaceMesher, RecoversADenselyObservedSphereAndWritesPly) {
   EXPECT_FALSE(SurfaceMesher().mesh(GpisModel()).ok);
   config.resolution_m = std::numeric_limits<double>::quiet_NaN();
   EXPECT_FALSE(SurfaceMesher(config).mesh(model).ok);
+}
+
+// A PLY file as written by writePly: the vertex properties' names and each vertex's values.
+struct PlyVertices {
+  std::vector<std::string> properties;
+  std::vector<std::vector<double>> rows;
+};
+
+PlyVertices readPlyVertices(const std::string& path) {
+  PlyVertices ply;
+  std::ifstream in(path);
+  std::string line;
+  std::size_t count = 0;
+  bool in_vertex = false;
+  while (std::getline(in, line) && line != "end_header") {
+    std::istringstream words(line);
+    std::string word, type, name;
+    words >> word;
+    if (word == "element") {
+      words >> name >> count;
+      in_vertex = name == "vertex";
+      if (!in_vertex) continue;
+      ply.rows.resize(count);
+    } else if (word == "property" && in_vertex) {
+      words >> type >> name;
+      ply.properties.push_back(name);
+    }
+  }
+  for (std::vector<double>& row : ply.rows) {
+    row.resize(ply.properties.size());
+    for (double& value : row) in >> value;
+  }
+  return ply;
+}
+
+// The saved mesh's position sd is the model's, calibration scale included, at the very vertices
+// the file holds; and it says where the data were: a sphere seen from above is known to within
+// its noise on top and far less well underneath.
+TEST(SurfaceMesher, WritesEachVertexPositionSdToPly) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(300, 0.2, 0.316, 5)).ok);
+  ASSERT_TRUE(model.setPositionSdScale(0.5));
+  SurfaceMesher::Config config;
+  config.resolution_m = 0.008;
+  config.vertex_position_sd = true;
+  const SurfaceMeshResult meshed = SurfaceMesher(config).mesh(model);
+  ASSERT_TRUE(meshed.ok) << meshed.message;
+
+  char path[] = "/tmp/gpatlas_mesh_sd_XXXXXX";
+  const int fd = mkstemp(path);
+  ASSERT_GE(fd, 0);
+  close(fd);
+  ASSERT_EQ(writePly(meshed.mesh, path), "");
+  const PlyVertices ply = readPlyVertices(path);
+  std::remove(path);
+  ASSERT_EQ(ply.properties, (std::vector<std::string>{"x", "y", "z", "variance", "position_sd_m"}));
+  ASSERT_EQ(ply.rows.size(), meshed.mesh.vertices.size());
+  Points3 vertices(3, static_cast<Eigen::Index>(ply.rows.size()));
+  for (std::size_t i = 0; i < ply.rows.size(); ++i)
+    vertices.col(static_cast<Eigen::Index>(i)) = Vector3(ply.rows[i][0], ply.rows[i][1], ply.rows[i][2]);
+  const Eigen::VectorXd expected = positionSd(model, vertices);
+  std::vector<double> top, bottom;
+  for (std::size_t i = 0; i < ply.rows.size(); ++i) {
+    const double written = ply.rows[i][4];
+    ASSERT_TRUE(std::isfinite(written) && written > 0.0) << i;
+    ASSERT_NEAR(written, expected[static_cast<Eigen::Index>(i)], 1e-9 * expected[static_cast<Eigen::Index>(i)]) << i;
+    const double height = (vertices.col(static_cast<Eigen::Index>(i)) - sphere.centre).normalized().z();
+    if (height > 0.6) top.push_back(written);
+    if (height < -0.6) bottom.push_back(written);
+  }
+  ASSERT_FALSE(top.empty());
+  ASSERT_FALSE(bottom.empty());
+  EXPECT_LT(quantile(top, 0.5), 0.5 * quantile(bottom, 0.5));
 }
 
 }  // namespace

@@ -4,6 +4,7 @@ import csv
 import math
 import os
 import shutil
+import struct
 import subprocess
 import tempfile
 import unittest
@@ -14,6 +15,23 @@ COLUMNS = ("object,strategy,probe,seed,vmax,max_position_sd_m,actions,contacts,c
            "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
            "final_unreachable_area_fraction,approach_collisions,retreat_collisions,"
            "approach_plan_ms_median,recent_target_error_m").split(",")
+
+
+def read_ply(path):
+    """writePly's ASCII PLY: each vertex's values and the vertex properties' names."""
+    with open(path) as f:
+        properties, count, element = [], 0, None
+        for line in f:
+            words = line.split()
+            if words[0] == "element":
+                element = words[1]
+                count = int(words[2]) if element == "vertex" else count
+            elif words[0] == "property" and element == "vertex":
+                properties.append(words[-1])
+            elif words[0] == "end_header":
+                break
+        vertices = [[float(x) for x in f.readline().split()] for _ in range(count)]
+    return vertices, properties
 
 
 CURVE_EVERY = 1  # the default: the shape after every action
@@ -36,7 +54,7 @@ class BenchSmokeTest(unittest.TestCase):
                               "--strategy", "atlas_poke",
                               "--strategy", "random", "--seeds", "0", "--max-actions", "4", "--set", "view/max_surface_points=200",
                               "--variance-every", str(VARIANCE_EVERY), "--jobs", "2",
-                              "--out", self.out, "--no-plot")
+                              "--out", self.out, "--no-plot", "--save-meshes")
         self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
         self.assertIn("[2/2]", proc.stdout)
         with open(os.path.join(self.out, "runs.csv")) as f:
@@ -47,7 +65,9 @@ class BenchSmokeTest(unittest.TestCase):
         self.check_reachability(rows)
         self.check_history(rows)
         self.check_summary(rows)
+        self.check_saved_meshes(rows)
         self.assertIn("planning time, random: median", proc.stdout)
+        self.check_plot(rows)
 
     def check_runs(self, rows):
         self.assertEqual(sorted(r["strategy"] for r in rows), ["atlas_poke", "random"])
@@ -154,6 +174,45 @@ class BenchSmokeTest(unittest.TestCase):
         initial = [float(h["sampled_max_variance"]) for h in history if h["action"] == "0"]
         self.assertEqual(len(initial), 2)
         self.assertEqual(initial[0], initial[1])
+
+    def check_saved_meshes(self, rows):
+        # --save-meshes: each run's surface with every vertex's position sd, and its contacts, on
+        # the truth's sphere (its centre and radius from OBJECT_truth.ply) and as many as runs.csv
+        # counts.
+        truth, _ = read_ply(os.path.join(self.out, "sphere_truth.ply"))
+        centre = [sum(v[k] for v in truth) / len(truth) for k in range(3)]
+        radius = sum(math.dist(v, centre) for v in truth) / len(truth)
+        self.assertAlmostEqual(radius, 0.06, delta=0.002)
+        for r in rows:
+            stem = os.path.join(self.out, f"sphere_{r['strategy']}_seed0")
+            vertices, properties = read_ply(stem + ".ply")
+            self.assertEqual(properties, ["x", "y", "z", "variance", "position_sd_m"])
+            sd = [v[4] for v in vertices]
+            self.assertTrue(all(math.isfinite(x) and x > 0.0 for x in sd), r)
+            # The median over the predicted surface is of the order of runs.csv's median on the
+            # truth (the two surfaces differ by a few millimetres here).
+            median = sorted(sd)[len(sd) // 2]
+            self.assertLess(median, 10 * float(r["position_sd_m"]) + 0.005, r)
+            with open(stem + "_contacts.csv") as f:
+                contacts = list(csv.DictReader(f))
+            self.assertEqual(len(contacts), int(r["contacts"]), r)
+            for c in contacts:
+                self.assertTrue(1 <= int(c["action"]) <= int(r["actions"]), c)
+                gap = math.dist([float(c[k]) for k in "xyz"], centre) - radius
+                self.assertLess(abs(gap), 0.003, c)
+
+    def check_plot(self, rows):
+        # The per-object plot from these files: the curves and a row of three views per run.
+        script = os.path.join(os.path.dirname(os.path.realpath(__file__)), "..", "scripts", "plot_bench.py")
+        proc = subprocess.run(["/usr/bin/python3", script, self.out], capture_output=True, text=True, timeout=300)
+        self.assertEqual(proc.returncode, 0, proc.stdout + proc.stderr)
+        with open(os.path.join(self.out, "sphere.png"), "rb") as f:
+            header = f.read(24)
+        self.assertEqual(header[:8], b"\x89PNG\r\n\x1a\n")
+        width, height = struct.unpack(">II", header[16:24])
+        # matplotlib rounds the inches' pixels down, by a float's error.
+        self.assertEqual(width, 11 * 90)
+        self.assertAlmostEqual(height, (4 + 3.6 * len(rows)) * 90, delta=1.0)
 
     def check_summary(self, rows):
         with open(os.path.join(self.out, "summary.md")) as f:

@@ -59,7 +59,8 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
   --no-reachability              skip the truth's reachable part (reachability.csv, the floor)
   --reach-directions N           escape lines tried per truth triangle for it [256]
   --save-meshes                  write each run's final predicted surface as OBJECT_STRATEGY_seedS.ply
-                                 and each object as OBJECT_truth.ply
+                                 (x y z variance position_sd_m), its contacts as
+                                 OBJECT_STRATEGY_seedS_contacts.csv and each object as OBJECT_truth.ply
   --verbose                      one line per action
   --no-plot                      skip the PNG plots
   --shard K/N                    run share K of N of the (object, strategy, seed) job list: the jobs

@@ -17,6 +17,7 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -269,22 +270,40 @@ void recordLoop(const gpatlas_core::ExplorationResult& result, const gpatlas_cor
   r.retreat_collisions = result.retreat_collisions;
 }
 
+// The contacts the model took, one line each: action (1-based), x, y, z in metres (world frame),
+// for the per-object plot's views. Empty string on success, else the reason.
+std::string writeContacts(const gpatlas_core::ExplorationResult& result, const std::string& path) {
+  std::ofstream out(path);
+  if (!out) return "cannot open '" + path + "' for writing";
+  out << "action,x,y,z\n" << std::setprecision(9);
+  for (const gpatlas_core::ExplorationRecord& record : result.records)
+    for (const Vector3& p : record.contact_positions)
+      out << record.index + 1 << ',' << p.x() << ',' << p.y() << ',' << p.z() << '\n';
+  out.flush();
+  return out ? std::string() : "write to '" + path + "' failed";
+}
+
 // The final model against the truth: the run's shape metrics, calibration and status, saved
-// with --save-meshes; the last action's record gets the same numbers.
+// with --save-meshes (the mesh and the contacts); the last action's record gets the same numbers.
 void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt, const Options& o,
                        gpatlas_core::ExplorationResult& result, RunResult& r) {
-  const std::string mesh_file =
-      o.save_meshes ? (std::filesystem::path(o.out) / (r.object + "_" + r.strategy + "_seed" + std::to_string(r.seed) + ".ply")).string()
-                    : std::string();
+  const std::string run_stem =
+      (std::filesystem::path(o.out) / (r.object + "_" + r.strategy + "_seed" + std::to_string(r.seed))).string();
+  const std::string mesh_file = o.save_meshes ? run_stem + ".ply" : std::string();
   gpatlas_geometry::MeasurementRequest request;
   // The final model's sampled variance does not depend on the curve's schedule.
   request.sampled_max_variance = !result.records.empty() && std::isnan(result.records.back().sampled_max_variance);
   request.vertex_variances = !mesh_file.empty();  // they only colour a saved mesh
+  request.vertex_position_sd = !mesh_file.empty();
   request.calibration = true;
   TruthSubsetRmse subsets;
   const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, o.pipeline.mesh, request, &subsets);
   if (!mesh_file.empty() && measured.surface.ok && !measured.surface.mesh.empty()) {
     const std::string error = gpatlas_core::writePly(measured.surface.mesh, mesh_file);
+    if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
+  }
+  if (o.save_meshes) {
+    const std::string error = writeContacts(result, run_stem + "_contacts.csv");
     if (!error.empty()) std::cerr << "gpatlas_bench: --save-meshes: " << error << std::endl;
   }
   r.metrics = measured.shape;

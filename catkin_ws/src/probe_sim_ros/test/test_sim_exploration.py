@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Waits for the exploration node's report and checks the results folder it writes."""
 import json
+import math
 import os
 import shutil
 import time
@@ -10,6 +11,23 @@ import rospy
 import rostest
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
+
+
+def read_ply(path):
+    """writePly's ASCII PLY: each vertex's values and the vertex properties' names."""
+    with open(path) as f:
+        properties, count, element = [], 0, None
+        for line in f:
+            words = line.split()
+            if words[0] == "element":
+                element = words[1]
+                count = int(words[2]) if element == "vertex" else count
+            elif words[0] == "property" and element == "vertex":
+                properties.append(words[-1])
+            elif words[0] == "end_header":
+                break
+        vertices = [[float(x) for x in f.readline().split()] for _ in range(count)]
+    return vertices, properties
 
 
 class SimExplorationTest(unittest.TestCase):
@@ -104,13 +122,28 @@ class SimExplorationTest(unittest.TestCase):
         # A 12 cm sphere seen from one side: the predicted shape is within a few centimetres.
         for key in ("rmse_pred_to_gt_m", "rmse_gt_to_pred_m"):
             self.assertTrue(0.0 <= metrics[key] < 0.05, (key, metrics[key]))
-        for name in ("surface.ply", "collision_map.bt", "exploration.png"):
+        for name in ("surface.ply", "truth.ply", "collision_map.bt", "exploration.png"):
             path = os.path.join(results, name)
             self.assertTrue(os.path.exists(path) and os.path.getsize(path) > 0, path)
-        with open(os.path.join(results, "surface.ply")) as f:
-            header = f.read(400)
-        self.assertIn("property float variance", header.replace("double", "float"))
+        surface, properties = read_ply(os.path.join(results, "surface.ply"))
+        self.assertEqual(properties, ["x", "y", "z", "variance", "position_sd_m"])
+        self.assertTrue(all(math.isfinite(v[4]) and v[4] > 0.0 for v in surface))
+        self.check_contacts(report, os.path.join(results, "truth.ply"))
         shutil.rmtree(results, ignore_errors=True)
+
+    def check_contacts(self, report, truth_path):
+        # Each action's accepted contacts, as many as it counts, on the simulated 12 cm sphere
+        # (truth.ply: its centre and radius) within the probe's noise.
+        truth, _ = read_ply(truth_path)
+        centre = [sum(v[k] for v in truth) / len(truth) for k in range(3)]
+        radius = sum(math.dist(v[:3], centre) for v in truth) / len(truth)
+        self.assertAlmostEqual(radius, 0.06, delta=0.002)
+        for h in report["history"]:
+            self.assertEqual(len(h["contact_points"]), h["contacts"], h)
+        points = [p for h in report["history"] for p in h["contact_points"]]
+        self.assertEqual(len(points), report["contacts"])
+        for p in points:
+            self.assertLess(abs(math.dist(p, centre) - radius), 0.003, p)
 
 
 if __name__ == "__main__":

@@ -20,6 +20,8 @@ std::string validate(const TriangleMesh& mesh) {
     if ((t.array() < 0).any() || (t.array() >= num_vertices).any()) return "mesh has a vertex index out of range";
   if (!mesh.vertex_variances.empty() && mesh.vertex_variances.size() != mesh.vertices.size())
     return "mesh has a variance count different from its vertex count";
+  if (!mesh.vertex_position_sd.empty() && mesh.vertex_position_sd.size() != mesh.vertices.size())
+    return "mesh has a position sd count different from its vertex count";
   return {};
 }
 
@@ -82,16 +84,19 @@ std::string writePly(const TriangleMesh& mesh, const std::string& path) {
   std::ofstream out(path);
   if (!out) return "cannot open '" + path + "' for writing";
   const bool with_variance = !mesh.vertex_variances.empty();
+  const bool with_position_sd = !mesh.vertex_position_sd.empty();
   out << "ply\nformat ascii 1.0\ncomment gpatlas_core predicted surface, metres\n"
       << "element vertex " << mesh.vertices.size() << "\n"
       << "property double x\nproperty double y\nproperty double z\n";
   if (with_variance) out << "property double variance\n";
+  if (with_position_sd) out << "property double position_sd_m\n";
   out << "element face " << mesh.triangles.size() << "\nproperty list uchar int vertex_indices\nend_header\n";
   out.precision(std::numeric_limits<double>::max_digits10);
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
     const Vector3& v = mesh.vertices[i];
     out << v.x() << ' ' << v.y() << ' ' << v.z();
     if (with_variance) out << ' ' << mesh.vertex_variances[i];
+    if (with_position_sd) out << ' ' << mesh.vertex_position_sd[i];
     out << '\n';
   }
   for (const Eigen::Vector3i& t : mesh.triangles) out << "3 " << t[0] << ' ' << t[1] << ' ' << t[2] << '\n';

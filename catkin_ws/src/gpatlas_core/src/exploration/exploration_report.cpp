@@ -33,6 +33,16 @@ std::string jsonString(const std::string& text) {
 
 const char* jsonBool(bool b) { return b ? "true" : "false"; }
 
+// [[x, y, z], ...]: points in metres.
+std::string jsonPoints(const std::vector<Vector3>& points) {
+  std::string out = "[";
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const Vector3& p = points[i];
+    out += (i > 0 ? ", [" : "[") + jsonNumber(p.x()) + ", " + jsonNumber(p.y()) + ", " + jsonNumber(p.z()) + "]";
+  }
+  return out + "]";
+}
+
 // The shape error against the touches: the initial model (0 touches), then after each action its
 // touches and contacts so far and the error measured on its model; null where it was not measured
 // (no truth, not on the measurement's schedule, or skipped).
@@ -176,7 +186,9 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"sampled_max_variance\": " << jsonNumber(r.sampled_max_variance)
          << ", \"rmse_pred_to_gt_m\": " << jsonNumber(r.rmse_pred_to_gt_m)
          << ", \"rmse_gt_to_pred_m\": " << jsonNumber(r.rmse_gt_to_pred_m)
-         << ", \"fscore_5mm\": " << jsonNumber(r.fscore_5mm) << "}" << (i + 1 < result.records.size() ? ",\n" : "\n");
+         << ", \"fscore_5mm\": " << jsonNumber(r.fscore_5mm)
+         << ", \"contact_points\": " << jsonPoints(r.contact_positions) << "}"
+         << (i + 1 < result.records.size() ? ",\n" : "\n");
   }
   json << "  ],\n" << curveJson(report) << "}\n";
   return json.str();

@@ -282,6 +282,7 @@ class ExplorationRun {
       if (update.ok) {
         if (approacher_) approacher_->modelChanged();
         record.contacts_added = update.contacts_added;
+        record.contact_positions = update.contact_positions;
         record.free_points_added = update.free_points_added;
         record.retraction = update.retraction;
       } else {

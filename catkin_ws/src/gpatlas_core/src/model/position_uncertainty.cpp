@@ -22,10 +22,13 @@ Eigen::VectorXd positionSd(const SurfaceModel& model, const Points3& x_world) {
   Eigen::VectorXd sd(x_world.cols());
   if (x_world.cols() == 0) return sd;
   const BatchPrediction prediction = model.predictBatch(x_world, true, false, true);
-  for (Eigen::Index k = 0; k < x_world.cols(); ++k)
-    sd[k] = prediction.in_domain[k] ? positionSd(model, prediction.variance[k], prediction.gradient.col(k).norm())
-                                    : model.domainRadiusWorld();
+  for (Eigen::Index k = 0; k < x_world.cols(); ++k) sd[k] = positionSd(model, prediction, k);
   return sd;
+}
+
+double positionSd(const SurfaceModel& model, const BatchPrediction& prediction, Eigen::Index k) {
+  return prediction.in_domain[k] ? positionSd(model, prediction.variance[k], prediction.gradient.col(k).norm())
+                                 : model.domainRadiusWorld();
 }
 
 std::string validate(const PositionCalibrationConfig& config) {

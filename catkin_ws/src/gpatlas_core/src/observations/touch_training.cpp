@@ -196,6 +196,24 @@ FitReport addTouchPoints(SurfaceModel& model, const std::vector<TrainingPoint>& 
   return report;
 }
 
+namespace {
+
+// What the model took of `new_points` (touchTrainingPoints' order: the contacts first). The
+// model reports acceptance as a total; free-space points are the ones it drops (duplicates, out
+// of domain), so rejections are attributed to them first.
+void countAccepted(const FitReport& report, const TouchPointCounts& counts, const std::vector<TrainingPoint>& new_points,
+                   TouchUpdate& update) {
+  const int accepted = static_cast<int>(report.num_added);
+  const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
+  update.points_added = accepted;
+  update.contacts_added = std::min(accepted, static_cast<int>(counts.contacts));
+  for (int i = 0; i < update.contacts_added; ++i)
+    update.contact_positions.push_back(new_points[static_cast<std::size_t>(i)].position);
+  update.free_points_added = std::max(0, accepted - static_cast<int>(num_contact_points));
+}
+
+}  // namespace
+
 TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
                        const TouchObservationConfig& config) {
   TouchUpdate update;
@@ -288,12 +306,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
   update.message = report.message;
   update.warnings.insert(update.warnings.end(), report.warnings.begin(), report.warnings.end());
   if (!report.ok) return update;
-  // The model reports acceptance as a total; free-space points are the ones it drops
-  // (duplicates, out of domain), so rejections are attributed to them first.
-  const int accepted = static_cast<int>(report.num_added);
-  update.points_added = accepted;
-  update.contacts_added = std::min(accepted, static_cast<int>(counts.contacts));
-  update.free_points_added = std::max(0, accepted - static_cast<int>(num_contact_points));
+  countAccepted(report, counts, new_points, update);
   return update;
 }
 

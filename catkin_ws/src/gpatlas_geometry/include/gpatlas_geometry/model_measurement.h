@@ -28,6 +28,8 @@ struct MeasurementRequest {
   // The predicted surface's vertices carry their variance (a saved mesh is coloured by it); one
   // variance per vertex costs more than the mesh.
   bool vertex_variances{false};
+  // And their position sd in metres (SurfaceMesher::Config::vertex_position_sd), for a saved mesh.
+  bool vertex_position_sd{false};
   // Keep each truth sample's distance to the predicted surface
   // (ShapeMetricsResult::truth_to_predicted_distances), for RMSEs over parts of the truth
   // (maskedRmse): 20000 numbers.
@@ -54,8 +56,9 @@ struct ModelMeasurement {
   double metrics_s{0.0};  // and comparing
 };
 
-// Meshes `model` with `mesher` (its vertex_variances replaced by the request's) and compares
-// the surface with `truth` (request.shape: RMSE both ways, chamfer, F-score at 5 mm).
+// Meshes `model` with `mesher` (its vertex_variances and vertex_position_sd replaced by the
+// request's) and compares the surface with `truth` (request.shape: RMSE both ways, chamfer,
+// F-score at 5 mm).
 // An empty truth measures only the sampled variance.
 ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const TriangleMesh& truth,
                               const SurfaceMesher::Config& mesher, const MeasurementRequest& request = {});

@@ -15,7 +15,9 @@ using gpatlas_core::SurfaceModel;
 struct SurfaceMeshResult {
   bool ok{false};
   std::string message;
-  TriangleMesh mesh;  // vertex_variances filled (reported units) when Config::vertex_variances
+  // vertex_variances filled (reported units) when Config::vertex_variances, vertex_position_sd
+  // (metres) when Config::vertex_position_sd.
+  TriangleMesh mesh;
   Eigen::Vector3i grid_size{Eigen::Vector3i::Zero()};
 };
 
@@ -53,6 +55,9 @@ class SurfaceMesher {
     // The variance at every vertex (the displays colour the mesh by it): one variance per vertex
     // costs more than the whole mesh for a GP of a thousand points.
     bool vertex_variances{true};
+    // The position sd at every vertex (gpatlas_core::positionSd, calibrated): what a saved mesh
+    // shows, in metres. Needs the gradient as well as the variance.
+    bool vertex_position_sd{false};
     int batch_size{2048};
   };
 

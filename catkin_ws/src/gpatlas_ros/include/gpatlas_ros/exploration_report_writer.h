@@ -9,7 +9,8 @@
 
 namespace gpatlas_ros {
 
-// The exploration's results folder: report.json, the final surface (surface.ply), the collision
+// The exploration's results folder: report.json, the final surface (surface.ply, with each
+// vertex's variance and position sd), the truth when there is one (truth.ply), the collision
 // map (collision_map.bt, from the save_map service when there is one) and the plots
 // (scripts/plot_exploration.py), and the summary in the log.
 class ExplorationReportWriter {

@@ -59,6 +59,11 @@ bool ExplorationReportWriter::writeFinalSurface(const gpatlas_msgs::TrainingSet:
                                                 gpatlas_core::ExplorationReport* report, std::string* message) const {
   const fs::path dir(results_dir_);
   const gpatlas_core::TriangleMesh& ground_truth = measurement.groundTruth();
+  // The truth beside the prediction in exploration.png.
+  if (!ground_truth.empty()) {
+    const std::string write_error = gpatlas_core::writePly(ground_truth, (dir / "truth.ply").string());
+    if (!write_error.empty()) ROS_WARN_STREAM("exploration: " << write_error);
+  }
   bool has_surface = false;
   if (training) {
     std::unique_ptr<gpatlas_core::SurfaceModel> model;
@@ -67,12 +72,17 @@ bool ExplorationReportWriter::writeFinalSurface(const gpatlas_msgs::TrainingSet:
       gpatlas_geometry::MeasurementRequest request;
       request.sampled_max_variance = false;
       request.calibration = true;
-      request.vertex_variances = true;  // surface.ply is coloured by them
+      request.vertex_variances = true;    // surface.ply is coloured by them
+      request.vertex_position_sd = true;  // and exploration.png by these
       gpatlas_geometry::ModelMeasurement measured;
-      if (!ground_truth.empty())
+      if (!ground_truth.empty()) {
         measured = gpatlas_geometry::measureModel(*model, ground_truth, measurement.mesherConfig(), request);
-      else
-        measured.surface = gpatlas_geometry::SurfaceMesher(measurement.mesherConfig()).mesh(*model);
+      } else {
+        gpatlas_geometry::SurfaceMesher::Config mesher = measurement.mesherConfig();
+        mesher.vertex_variances = request.vertex_variances;
+        mesher.vertex_position_sd = request.vertex_position_sd;
+        measured.surface = gpatlas_geometry::SurfaceMesher(mesher).mesh(*model);
+      }
       const gpatlas_geometry::SurfaceMeshResult& surface = measured.surface;
       *message = surface.message;
       has_surface = surface.ok;

@@ -10,11 +10,13 @@
 namespace gpatlas_core {
 
 // An indexed triangle mesh in metres, shared by the surface mesher, the shape metrics and the
-// ground-truth shapes. vertex_variances is either empty or one value per vertex.
+// ground-truth shapes. vertex_variances (reported units) and vertex_position_sd (metres, the
+// position sd along the normal: positionSd) are each either empty or one value per vertex.
 struct TriangleMesh {
   std::vector<Vector3> vertices;
   std::vector<Eigen::Vector3i> triangles;
   std::vector<double> vertex_variances;
+  std::vector<double> vertex_position_sd;
 
   bool empty() const { return triangles.empty(); }
 };
@@ -30,7 +32,9 @@ double surfaceArea(const TriangleMesh& mesh);
 TriangleMesh makeIcosphere(const Vector3& centre, double radius, int subdivisions);
 
 // Writes an ASCII PLY with x y z per vertex, plus a `variance` property when the mesh carries
-// vertex variances. Returns an empty string on success, else the reason.
+// vertex variances and a `position_sd_m` property when it carries position sds (after the
+// variance: readers that take the first columns keep working). Returns an empty string on
+// success, else the reason.
 std::string writePly(const TriangleMesh& mesh, const std::string& path);
 
 }  // namespace gpatlas_core

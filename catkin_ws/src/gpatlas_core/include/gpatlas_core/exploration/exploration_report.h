@@ -53,7 +53,7 @@ std::string runStatus(const ExplorationResult& result, bool has_surface, const s
 std::string outOfReachNote(const ExplorationResult& result);
 
 // report.json: the settings, the outcome, the final shape, the initial model, every action's
-// record, and the curve: the shape error (RMSE both ways, F@5mm) against the touches, from the
+// record (with its accepted contacts' positions, contact_points), and the curve: the shape error (RMSE both ways, F@5mm) against the touches, from the
 // initial model on, null where an action's model was not measured (no truth, or skipped).
 std::string toJson(const ExplorationReport& report);
 

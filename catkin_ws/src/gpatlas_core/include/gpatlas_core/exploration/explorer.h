@@ -26,6 +26,7 @@ struct ExplorationRecord {
   bool probe_success{false};
   std::string probe_reason;      // the prober's reason when the touch failed
   int contacts_added{0};         // surface points accepted by the model
+  std::vector<Vector3> contact_positions;  // where they are, world frame (TouchUpdate)
   int free_points_added{0};      // outside points accepted by the model
   int contacts_total{0};         // contacts accepted since the start, this action's included
   std::size_t n_train{0};        // observations of the model this action's plan was made on

@@ -23,6 +23,8 @@ namespace gpatlas_core {
 double positionSd(const SurfaceModel& model, double reported_variance, double gradient_norm);
 // Batched over points (world frame); one predictBatch with gradients, no variance gradient.
 Eigen::VectorXd positionSd(const SurfaceModel& model, const Points3& x_world);
+// Column k of a prediction made with variance and gradient: the cap outside the domain.
+double positionSd(const SurfaceModel& model, const BatchPrediction& prediction, Eigen::Index k);
 
 // The common scale of the prior's and the noise's variance (SurfaceModel::positionSdScale),
 // fitted by spatial cross-validation on the model's own surface data: scaling both variances by

@@ -73,6 +73,7 @@ struct TouchUpdate {
   bool ok{false};
   std::string message;
   int contacts_added{0};     // surface points accepted by the model
+  std::vector<Vector3> contact_positions;  // those points, world frame (contacts_added of them)
   int free_points_added{0};  // outside points accepted by the model
   int points_added{0};       // every training point accepted (points behind contacts, slopes too)
   InteriorRetraction retraction;  // occluded-interior guesses the touch contradicted
