@@ -78,12 +78,14 @@ TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
   GpisModel model = initialModel(sphere, 1);
   const double initial_rmse = shapeRmse(model, sphere);
   std::vector<double> rmse_after_action;
+  std::vector<int> contacts_after_action;
   const ExplorationResult result = explore("atlas_poke", 1, model, [&](ExplorationRecord& record) {
     const GpisModel& m = model;
     EXPECT_EQ(record.index, static_cast<int>(rmse_after_action.size()));
     EXPECT_EQ(record.plan_status, PlanStatus::kTouch);
     EXPECT_GT(record.max_evaluated_variance, 0.1);  // a touch is only planned above V_max
     rmse_after_action.push_back(shapeRmse(m, sphere));
+    contacts_after_action.push_back(record.contacts_added);
   });
   ASSERT_EQ(result.stop_reason, "converged");
   EXPECT_TRUE(result.converged);
@@ -98,8 +100,14 @@ TEST(Explorer, AtlasPokeConvergesOnASphereAndTheShapeImproves) {
   EXPECT_GT(initial_rmse, 0.015);
   EXPECT_LT(rmse_after_action.back(), 0.5 * initial_rmse);
   EXPECT_LT(rmse_after_action.back(), 0.01);
-  // And the first touch already helps.
-  EXPECT_LT(rmse_after_action.front(), initial_rmse);
+  // And the first touch that adds a contact already helps. (The best-scoring chart may lie where
+  // the predicted surface bulges farthest from the data: the probe then meets the sphere
+  // centimetres away, outside the global GPIS's domain, and the model keeps nothing of it.)
+  const auto first_contact = std::find_if(contacts_after_action.begin(), contacts_after_action.end(),
+                                          [](int added) { return added > 0; });
+  ASSERT_NE(first_contact, contacts_after_action.end());
+  const std::size_t first_touched = static_cast<std::size_t>(first_contact - contacts_after_action.begin());
+  EXPECT_LT(rmse_after_action[first_touched], 0.9 * initial_rmse);
   std::printf("shape RMSE: initial %.4f m, after each action:", initial_rmse);
   for (double rmse : rmse_after_action) std::printf(" %.4f", rmse);
   std::printf("\n");
