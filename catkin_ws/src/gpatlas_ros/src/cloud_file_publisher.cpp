@@ -79,7 +79,14 @@ int main(int argc, char** argv) {
   if (rate_hz == 0.0) {
     // Stamped when the pipeline listens, so that the stamp says when the view reached it.
     const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(wait_for_subscriber_s);
-    while (ros::ok() && pub.getNumSubscribers() == 0 && ros::WallTime::now() < give_up) ros::WallDuration(0.05).sleep();
+    while (ros::ok() && pub.getNumSubscribers() == 0 && ros::WallTime::now() < give_up) {
+      // The one wait of this process: said after 10 s (wait_for_subscriber_s may be longer), as
+      // every wait of the pipeline is.
+      ROS_WARN_STREAM_DELAYED_THROTTLE(10.0, "cloud_file_publisher: waiting for a subscriber on "
+                                                 << pub.getTopic() << " (remap points:=... to change it) for at most "
+                                                 << wait_for_subscriber_s << " s (~wait_for_subscriber_s)");
+      ros::WallDuration(0.05).sleep();
+    }
     cloud.header.stamp = ros::Time::now();
     pub.publish(cloud);
     ros::spin();

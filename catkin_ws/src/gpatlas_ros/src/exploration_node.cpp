@@ -15,6 +15,7 @@
 #include <gpatlas_ros/ros_exploration_adapters.h>
 #include <gpatlas_ros/ros_params.h>
 #include <gpatlas_ros/timed_service_client.h>
+#include <gpatlas_ros/wait_report.h>
 
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
@@ -173,7 +174,12 @@ class ExplorationNode {
     const ExplorationNodeConfig& config = settings_.node;
     const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(config.service_timeout_s);
     ros::WallTime last_published = ros::WallTime::now();
+    WaitReport report("exploration", [this, &config] {
+      return watch_.describeTrainingSource() + "; gives up after service_timeout_s (" +
+             seconds(config.service_timeout_s) + ")";
+    });
     while (ros::ok() && ros::WallTime::now() < deadline) {
+      report.poll();
       if (const auto training = watch_.latestTraining()) {
         ROS_INFO_STREAM("exploration: model ready with " << training->points.size() << " observations");
         return true;

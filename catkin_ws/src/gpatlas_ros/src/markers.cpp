@@ -32,6 +32,18 @@ visualization_msgs::Marker baseMarker(const std::string& frame, const std::strin
 
 }  // namespace
 
+visualization_msgs::Marker deleteAllMarker(const std::string& frame) {
+  auto clear = baseMarker(frame, "", 0, visualization_msgs::Marker::CUBE);
+  clear.action = visualization_msgs::Marker::DELETEALL;
+  return clear;
+}
+
+visualization_msgs::MarkerArray deleteAllMarkers(const std::string& frame) {
+  visualization_msgs::MarkerArray array;
+  array.markers.push_back(deleteAllMarker(frame));
+  return array;
+}
+
 visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector3>& tip_path, const std::string& frame) {
   auto line = baseMarker(frame, "approach", 0, visualization_msgs::Marker::LINE_STRIP);
   line.scale.x = 0.004;

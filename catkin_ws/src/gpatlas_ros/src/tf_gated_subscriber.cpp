@@ -1,5 +1,7 @@
 #include "gpatlas_ros/tf_gated_subscriber.h"
 
+#include "gpatlas_ros/wait_report.h"
+
 namespace gpatlas_ros {
 
 namespace {
@@ -73,14 +75,17 @@ void TfGatedCloudSubscriber::checkWaiting(const ros::SteadyTimerEvent&) {
   double waited = 0.0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (!waiting_ || warned_) return;
-    waited = (ros::SteadyTime::now() - waiting_since_).toSec();
-    if (waited < warn_after_s_) return;
+    if (!waiting_) return;
+    const ros::SteadyTime now = ros::SteadyTime::now();
+    waited = (now - waiting_since_).toSec();
+    if (warned_ ? now < next_warning_ : waited < warn_after_s_) return;
     warned_ = true;
+    next_warning_ = now + ros::WallDuration(kWaitReportPeriodS);
     frame = waiting_frame_;
   }
-  ROS_WARN_STREAM(owner_ << ": a cloud in '" << frame << "' has waited " << waited << " s for a transform to '"
-                         << target_frame_ << "' (is robot_state_publisher or the camera driver's tf running?)");
+  ROS_WARN_STREAM(owner_ << ": a cloud on " << topic() << " in '" << frame << "' has waited " << waited
+                         << " s for a transform to '" << target_frame_
+                         << "' (is robot_state_publisher or the camera driver's tf running?)");
 }
 
 }  // namespace gpatlas_ros

@@ -10,6 +10,8 @@
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <string>
 
 namespace {
@@ -44,6 +46,35 @@ TEST(ExplorationNode, GivesUpOnAServiceThatNeverAnswers) {
   // Start-up, 2 s looking for a ground truth, 1 s on the capture. Without the timeout it would
   // wait the 30 s of the hanging call, then service_timeout_s for a model.
   EXPECT_LT(elapsed, 20.0);
+}
+
+// A service that is never offered: the node waits service_timeout_s for it, and says after 10 s
+// which service it waits for and from which remap (issue 51: a wait of more than 10 s is not
+// silent), then gives up.
+TEST(ExplorationNode, SaysWhichServiceItWaitsFor) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("gpatlas_exploration_wait_test_" + std::to_string(::getpid()));
+  const std::filesystem::path log = dir.string() + ".log";
+  const std::string command =
+      "rosrun gpatlas_ros exploration_node __name:=wait_exploration capture:=/nobody/capture "
+      "ground_truth:=/no_ground_truth _service_timeout_s:=13.0 _results_dir:=" +
+      dir.string() + " > " + log.string() + " 2>&1";
+  const int status = std::system(command.c_str());
+  std::ifstream file(log);
+  const std::string output((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
+  std::filesystem::remove(log);
+  std::filesystem::remove_all(dir);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 1) << output;
+  // One report at 10 s (the next would come at 20 s, after the 13 s it waits).
+  const std::string report = "waiting 10";
+  const std::size_t at = output.find(report);
+  ASSERT_NE(at, std::string::npos) << output;
+  const std::string line = output.substr(at, output.find('\n', at) - at);
+  EXPECT_NE(line.find("the service /nobody/capture (remapped from `capture`) to be offered"), std::string::npos) << line;
+  EXPECT_NE(line.find("service_timeout_s (13 s)"), std::string::npos) << line;
+  EXPECT_EQ(output.find("waiting 2"), std::string::npos) << output;
+  EXPECT_NE(output.find("service /nobody/capture not available after 13 s"), std::string::npos) << output;
 }
 
 }  // namespace

@@ -53,13 +53,18 @@ class BenchShardsTest(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
         cls.tmp = tempfile.mkdtemp(prefix="gpatlas_bench_shards_")
+        # The scene as a file of the sweep's own, which a test edits between two shards.
+        cls.scene = os.path.join(cls.tmp, "simulation.yaml")
+        shutil.copyfile(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "simulation.yaml"),
+                        cls.scene)
+        cls.args = BENCH_ARGS + ["--simulation", cls.scene]
         cls.one = os.path.join(cls.tmp, "one")
         cls.shards = [os.path.join(cls.tmp, "shard_%d" % k) for k in (1, 2)]
         # Both shards at once, one worker each, then the one-process run on two workers.
-        procs = [bench(*BENCH_ARGS, "--shard", "%d/2" % k, "--out", folder)
+        procs = [bench(*cls.args, "--shard", "%d/2" % k, "--out", folder)
                  for k, folder in zip((1, 2), cls.shards)]
         cls.shard_results = [finish(p) for p in procs]
-        cls.one_result = finish(bench(*BENCH_ARGS, "--jobs", "2", "--out", cls.one))
+        cls.one_result = finish(bench(*cls.args, "--jobs", "2", "--out", cls.one))
 
     @classmethod
     def tearDownClass(cls):
@@ -96,6 +101,8 @@ class BenchShardsTest(unittest.TestCase):
         self.assertEqual(summary_without_timing(os.path.join(merged, "summary.md")),
                          summary_without_timing(os.path.join(self.one, "summary.md")))
         self.assertIn("| **mean** |", "\n".join(summary_without_timing(os.path.join(merged, "summary.md"))))
+        with open(os.path.join(merged, "summary.md")) as f:
+            self.assertNotIn("Incomplete", f.read())
 
     def test_a_missing_shard_is_named_and_the_rest_merged(self):
         merged, (rc, out, err) = self.merge(self.shards[0])
@@ -105,6 +112,33 @@ class BenchShardsTest(unittest.TestCase):
         self.assertIn("job 3 (box random seed 0, shard 2/2)", err)
         _, rows = read_csv(os.path.join(merged, "runs.csv"))
         self.assertEqual([(r["object"], r["strategy"], r["seed"]) for r in rows], JOBS[0::2])
+        # summary.md, which is what gets read, says its tables lack them.
+        with open(os.path.join(merged, "summary.md")) as f:
+            summary = f.read()
+        self.assertIn("**Incomplete:** 2 of 4 jobs are missing", summary)
+        self.assertIn("- job 1 (sphere random seed 0, shard 2/2)", summary)
+        self.assertIn("- job 3 (box random seed 0, shard 2/2)", summary)
+        self.assertNotIn("job 0 (", summary)
+
+    def test_a_scene_edited_between_shards_is_refused(self):
+        # Shard 2 again, on the same --simulation path, the object moved 2 cm: another sweep.
+        with open(self.scene) as f:
+            scene = f.read()
+        self.assertIn("object_position_xy_m: [0.7, 0.0]", scene)
+        moved = os.path.join(self.tmp, "shard_2_moved")
+        try:
+            with open(self.scene, "w") as f:
+                f.write(scene.replace("object_position_xy_m: [0.7, 0.0]", "object_position_xy_m: [0.72, 0.0]", 1))
+            rc, out, err = finish(bench(*self.args, "--shard", "2/2", "--out", moved))
+        finally:
+            with open(self.scene, "w") as f:
+                f.write(scene)
+        self.assertEqual(rc, 0, out + err)
+        merged, (rc, out, err) = self.merge(self.shards[0], moved)
+        self.assertEqual(rc, 2, out + err)
+        self.assertIn("different settings", err)
+        self.assertIn("'files ", err)
+        self.assertFalse(os.path.exists(os.path.join(merged, "runs.csv")))
 
     def test_a_merge_refuses_what_is_not_one_sweep(self):
         changed = os.path.join(self.tmp, "changed")

@@ -337,8 +337,22 @@ std::string describePlanTimes(const PlanTimes& p) {
 
 
 
+namespace {
+
+// A merge that lacks jobs says so where the tables are read, not only on stderr.
+void writeMissingJobs(std::ostream& f, const std::vector<std::string>& missing_jobs, std::size_t merged_runs) {
+  if (missing_jobs.empty()) return;
+  f << "**Incomplete:** " << missing_jobs.size() << " of " << missing_jobs.size() + merged_runs
+    << " jobs are missing (no shard folder given to --merge ran them); the tables below leave them out:\n\n";
+  for (const std::string& job : missing_jobs) f << "- " << job << '\n';
+  f << '\n';
+}
+
+}  // namespace
+
 void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths,
-                  const std::vector<PlanTimes>& plan_times, const std::string& settings, const fs::path& path) {
+                  const std::vector<PlanTimes>& plan_times, const std::string& settings, const fs::path& path,
+                  const std::vector<std::string>& missing_jobs) {
   std::vector<std::string> objects, strategies;
   for (const auto& r : runs) {
     if (std::find(objects.begin(), objects.end(), r.object) == objects.end()) objects.push_back(r.object);
@@ -347,6 +361,7 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   }
   std::ofstream f(path);
   writeSummaryHeader(f, settings);
+  writeMissingJobs(f, missing_jobs, runs.size());
   writeShapeTable(f, runs, objects, strategies);
   writeAnytimeTable(f, runs, strategies);
   f << "\nPlanning time per touch (history.csv: plan_ms, and n_train, the model size each plan saw):\n\n";
@@ -355,12 +370,13 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
     writeReachabilityTable(f, runs, truths, strategies);
 }
 
-std::vector<PlanTimes> writeSummaryOfFolder(const fs::path& folder, const std::string& settings) {
+std::vector<PlanTimes> writeSummaryOfFolder(const fs::path& folder, const std::string& settings,
+                                            const std::vector<std::string>& missing_jobs) {
   std::vector<RunResult> runs;
   std::vector<GroundTruth> truths;
   runsFromTables(readBenchTables(folder), &runs, &truths);
   const std::vector<PlanTimes> plan_times = planTimesByStrategy(runs);
-  writeSummary(runs, truths, plan_times, settings, folder / "summary.md");
+  writeSummary(runs, truths, plan_times, settings, folder / "summary.md", missing_jobs);
   return plan_times;
 }
 

@@ -32,13 +32,16 @@ std::string summarySettings(const Options& o);
 
 // Per object and strategy, the means over the runs that left a predicted surface; the planning
 // times; and the reachable truth, when it was measured.
+// `missing_jobs` (a merge's, MergeResult::missing_jobs) are named under the settings: the
+// tables are then not the whole sweep.
 void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& truths,
                   const std::vector<PlanTimes>& plan_times, const std::string& settings,
-                  const std::filesystem::path& path);
+                  const std::filesystem::path& path, const std::vector<std::string>& missing_jobs = {});
 
 // summary.md of the folder, from its runs.csv, history.csv and reachability.csv as written (the
 // one path for a run and for a merge of shards, so that both give the same summary); returns
 // the planning times it lists. Throws std::runtime_error when a file is missing or malformed.
-std::vector<PlanTimes> writeSummaryOfFolder(const std::filesystem::path& folder, const std::string& settings);
+std::vector<PlanTimes> writeSummaryOfFolder(const std::filesystem::path& folder, const std::string& settings,
+                                            const std::vector<std::string>& missing_jobs = {});
 
 }  // namespace gpatlas_bench

@@ -129,9 +129,12 @@ bool inShard(std::size_t j, const Shard& shard) {
 
 void writeShardFile(const fs::path& folder, const Shard& shard, const std::vector<Job>& jobs,
                     const std::vector<GroundTruth>& objects, const Options& o) {
+  // Everything read from a file that decides the runs: a scene (--simulation) edited between two
+  // shards under the same path made two sweeps that merged as one.
   std::vector<std::string> files{fileText(o.config_path)};
   for (const std::string& overlay : o.overlays) files.push_back(fileText(overlay));
   files.push_back(o.urdf_xml);
+  files.push_back(fileText(o.simulation_path));
   std::ofstream f(folder / kShardFile);
   f << kShardLine << shard.index << '/' << shard.count << '\n';
   for (const std::string& arg : o.result_args) f << "arg " << arg << '\n';

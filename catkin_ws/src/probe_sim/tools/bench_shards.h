@@ -27,7 +27,7 @@ std::vector<Job> jobList(std::size_t object_count, const Options& o);
 bool inShard(std::size_t j, const Shard& shard);
 
 // shard.txt in `folder`: the shard, the settings that decide the runs (the command line's, a
-// fingerprint of the config, overlays and robot files, the summary's settings line) and the
+// fingerprint of the config, overlays, robot and scene files, the summary's settings line) and the
 // whole job list, so that a merge can check the shards belong together and name missing jobs.
 void writeShardFile(const std::filesystem::path& folder, const Shard& shard, const std::vector<Job>& jobs,
                     const std::vector<GroundTruth>& objects, const Options& o);

@@ -160,8 +160,9 @@ void saveTruths(const std::vector<GroundTruth>& objects, const Options& o) {
 }
 
 // summary.md from the CSV files of `out`, the planning times on the console, and the plots.
-void summarizeFolder(const fs::path& out, const std::string& settings, bool plot) {
-  for (const auto& p : writeSummaryOfFolder(out, settings))
+void summarizeFolder(const fs::path& out, const std::string& settings, bool plot,
+                     const std::vector<std::string>& missing_jobs = {}) {
+  for (const auto& p : writeSummaryOfFolder(out, settings, missing_jobs))
     std::cout << "planning time, " << describePlanTimes(p) << std::endl;
 #ifdef GPATLAS_PLOT_SCRIPT
   if (plot) {
@@ -192,7 +193,7 @@ int mergeMain(const Options& o) {
   MergeResult merged;
   try {
     merged = mergeShards(o.merge_folders, o.out);
-    summarizeFolder(o.out, merged.summary_settings, o.plot);
+    summarizeFolder(o.out, merged.summary_settings, o.plot, merged.missing_jobs);
   } catch (const std::exception& e) {
     std::cerr << "gpatlas_bench: --merge: " << e.what() << std::endl;
     return 2;

@@ -49,6 +49,9 @@ class AtlasPlannerServer {
   gpatlas_core::PlanResult planWith(const gpatlas_core::ExplorationStrategy& chosen, const std::string& name,
                                     const gpatlas_core::PlanRequest& request) const;
   void publishAtlas(const gpatlas_core::AtlasPlanResult& planned, double v_max, const std_msgs::Header& header);
+  // After a reset (an empty training set), with mutex_ held: no atlas (DELETEALL markers, no
+  // charts) and no touch, so that a late subscriber sees no plan on the model that is gone.
+  void publishNoPlan(const std_msgs::Header& header);
   const gpatlas_core::ExplorationStrategy* strategy(const std::string& name, std::string* error);
 
   ros::NodeHandle nh_, pnh_;

@@ -3,6 +3,7 @@
 #include <gpatlas_core/model/occupancy_grid.h>
 #include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_motion/arm_approach_planner.h>
+#include <gpatlas_motion/touch_approach.h>
 #include <gpatlas_msgs/PlanApproach.h>
 #include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/SupportPlane.h>
@@ -67,6 +68,14 @@ class CollisionMapServer {
   // The map's probabilities, built now if they are not yet (null with the reason on failure).
   std::shared_ptr<const octomap::OcTree> probabilitiesOf(const std::shared_ptr<Map>& map, std::string* error);
   void publishMap(const Map& map);  // with mutex_ held, the map's probabilities built
+  // After a reset (an empty training set), with mutex_ held: an empty OctoMap, DELETEALL on the
+  // voxel and approach markers and an empty approach trajectory, so that a late subscriber sees
+  // no map and no plan on the map that is gone.
+  void publishEmptyMap(const gpatlas_msgs::TrainingSet& reset);
+  // The displays of a planned approach (with the arm, its trajectory), unless a reset came
+  // after the plan started (resets_ no longer `resets_at_start`).
+  void publishApproach(const gpatlas_motion::TouchMotion& plan, const gpatlas_msgs::PlanApproach::Response& res,
+                       std::uint64_t resets_at_start);
   void publishStatus();  // with mutex_ held
 
   ros::NodeHandle nh_, pnh_;
@@ -88,6 +97,7 @@ class CollisionMapServer {
   std::shared_ptr<Map> map_;                     // the newest map approaches are planned on
   std::shared_ptr<Map> publish_pending_;         // the map whose probabilities subscribers wait for
   std::uint32_t latest_sequence_{0};
+  std::uint64_t resets_{0};  // empty training sets received
   std::uint8_t state_{0};
   std::string status_message_;
   std::condition_variable publish_wake_;

@@ -70,6 +70,13 @@ class GpModelServer {
   bool addObservations(const gpatlas_msgs::Observations& msg, gpatlas_msgs::AddObservations::Response* answer);
   void publishModel();  // with mutex_ held
   void meshLoop();
+  // Publishes the predicted surface of the model of `generation` unless a reset came meanwhile
+  // (a late subscriber would otherwise get the shape the reset removed).
+  void publishSurface(const gpatlas_geometry::SurfaceMeshResult& surface, const ros::Time& stamp,
+                      std::uint64_t generation);
+  // The empty surface, cloud and shape and a DELETEALL mesh marker, for every latched surface
+  // topic: what a late subscriber gets after a reset. With mesh_mutex_ held.
+  void publishEmptySurface(const ros::Time& stamp);
   std::uint32_t training_sequence_{0};  // with mutex_
 
   // False: only the cloud after each ~fit_next_cloud call is fitted (a streaming camera, a
@@ -87,10 +94,11 @@ class GpModelServer {
   static constexpr double plane_wait_s_{0.5};
   std::condition_variable plane_arrived_;  // with plane_mutex_
 
-  std::mutex mesh_mutex_;  // guards the three below
+  std::mutex mesh_mutex_;  // guards the four below and the surface topics' publishing
   std::condition_variable mesh_wake_;
   std::shared_ptr<const gpatlas_core::SurfaceModel> mesh_pending_;  // the newest model's snapshot
   ros::Time mesh_stamp_;
+  std::uint64_t mesh_generation_{0};  // counts resets: a mesh of an earlier generation is not published
   bool mesh_stopping_{false};
   std::thread mesher_;
 

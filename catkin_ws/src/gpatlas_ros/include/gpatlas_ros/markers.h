@@ -23,6 +23,10 @@ visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector
 visualization_msgs::Marker armTrailMarker(const std::vector<std::vector<gpatlas_motion::LinkCapsule>>& link_poses,
                                           const std::string& frame);
 
+// What a latched marker topic says after a reset: rviz drops every marker it showed from it.
+visualization_msgs::Marker deleteAllMarker(const std::string& frame);
+visualization_msgs::MarkerArray deleteAllMarkers(const std::string& frame);
+
 // Chart disks (coloured by variance), tree edges, and the chosen path (thick, yellow).
 visualization_msgs::MarkerArray atlasMarkers(const gpatlas_core::Atlas& atlas, const std::vector<int>& path,
                                              double v_max, const std::string& frame);

@@ -23,13 +23,20 @@ class PipelineWatch {
   // Waits (at most 5 s) for a training set received at `time` or later: the one an update made.
   void waitForTrainingSetNewerThan(const ros::WallTime& time) const;
   // Waits for the collision map of training set `sequence`, or the news that its build failed
-  // (an older map is left, or none is); false when neither came within `timeout_s`.
+  // (an older map is left, or none is); false when neither came within `timeout_s` (the node's
+  // call_timeout_s). Says every kWaitReportPeriodS what it waits for (wait_report.h).
   bool waitForCollisionMapOf(std::uint32_t sequence, double timeout_s) const;
+  // What a wait for a training set waits for: the topic, its remap and its publishers.
+  std::string describeTrainingSource() const;
 
  private:
   void onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg);
   void onMapStatus(const gpatlas_msgs::CollisionMapStatus::ConstPtr& msg);
 
+  // What a wait for a map waits for: the status topic, its remap, its publishers, the last status.
+  std::string describeMapStatusSource(std::uint32_t sequence, double timeout_s) const;
+
+  ros::NodeHandle nh_;
   mutable std::mutex mutex_;
   gpatlas_msgs::TrainingSet::ConstPtr training_;
   ros::WallTime training_received_;

@@ -15,7 +15,8 @@ namespace gpatlas_ros {
 // A cloud subscription that delivers each cloud only once tf can move it into `target_frame`.
 // A camera's first cloud often arrives before the robot's transforms (robot_state_publisher
 // still starting): a single-shot capture must wait for them, not be dropped after a fixed
-// timeout. A cloud that has waited `warn_after_s` is reported once, with its frame; a cloud
+// timeout. A cloud that has waited `warn_after_s` is reported, with its topic and frame, and
+// again every kWaitReportPeriodS while it waits; a cloud
 // without a frame is delivered at once (the converters take it to be in target_frame).
 class TfGatedCloudSubscriber {
  public:
@@ -45,6 +46,7 @@ class TfGatedCloudSubscriber {
   std::mutex mutex_;  // guards the wait record below
   bool waiting_{false};
   bool warned_{false};
+  ros::SteadyTime next_warning_;
   ros::SteadyTime waiting_since_;
   std::string waiting_frame_;
 };

@@ -1,5 +1,6 @@
 #pragma once
 
+#include <gpatlas_ros/wait_report.h>
 #include <ros/ros.h>
 
 #include <algorithm>
@@ -58,6 +59,24 @@ class TimedServiceClient {
   static constexpr double kOptionalServiceWaitS = 2.0;
   static constexpr double kOptionalCallTimeoutS = 30.0;
 
+  // Waits at most service_timeout_s_ for the service `name` to be offered, saying every
+  // kWaitReportPeriodS which one and how it is remapped.
+  bool waitForService(const std::string& name) const {
+    const std::string resolved = nh_.resolveName(name);
+    WaitReport report("exploration", [this, &name] {
+      return "the service " + remapHint(nh_, name) + " to be offered; gives up after service_timeout_s (" +
+             seconds(service_timeout_s_) + ")";
+    });
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(service_timeout_s_);
+    for (;;) {
+      const double left_s = (deadline - ros::WallTime::now()).toSec();
+      if (left_s <= 0.0) return false;
+      if (ros::service::waitForService(resolved, ros::Duration(std::min(left_s, 1.0)))) return true;
+      if (!ros::ok()) return false;
+      report.poll();
+    }
+  }
+
   // Calls the service on `client` (persistent), or on a connection of its own without one.
   template <typename Srv>
   bool timedCall(const std::string& resolved, Srv& srv, double timeout_s, const ros::ServiceClient* client = nullptr);
@@ -74,7 +93,7 @@ bool TimedServiceClient::call(const std::string& name, Srv& srv) {
   const std::string resolved = nh_.resolveName(name);
   ros::ServiceClient& client = clients_[resolved];
   if (!client || !client.isValid()) {
-    if (!ros::service::waitForService(resolved, ros::Duration(service_timeout_s_))) {
+    if (!waitForService(name)) {
       ROS_ERROR_STREAM("exploration: service " << resolved << " not available after " << service_timeout_s_ << " s");
       return false;
     }
@@ -111,11 +130,20 @@ bool TimedServiceClient::timedCall(const std::string& resolved, Srv& srv, double
     ROS_ERROR_STREAM("exploration: cannot call " << resolved << ": " << e.what());
     return false;
   }
+  WaitReport report("exploration", [&resolved, timeout_s] {
+    return "the answer of " + resolved + "; gives up after call_timeout_s (" + seconds(timeout_s) + ")";
+  });
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point deadline =
+      Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
   std::unique_lock<std::mutex> lock(pending->mutex);
-  if (!pending->answered.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                                  [&pending]() { return pending->done; })) {
-    ROS_ERROR_STREAM("exploration: " << resolved << " did not answer within " << timeout_s << " s");
-    return false;
+  while (!pending->answered.wait_until(lock, std::min(deadline, Clock::now() + Clock::duration(std::chrono::seconds(1))),
+                                       [&pending]() { return pending->done; })) {
+    if (Clock::now() >= deadline) {
+      ROS_ERROR_STREAM("exploration: " << resolved << " did not answer within " << timeout_s << " s");
+      return false;
+    }
+    report.poll();
   }
   lock.unlock();
   workers_.back().join();  // finished: reap it now (the last started is this call's)

@@ -1,4 +1,5 @@
 #include "gpatlas_ros/exploration_measurements.h"
+#include "gpatlas_ros/wait_report.h"
 
 #include <gpatlas_conversions/conversions.h>
 #include <gpatlas_core/common/background_work.h>
@@ -94,7 +95,9 @@ void BackgroundMeasurements::mergeInto(gpatlas_core::ExplorationResult* result, 
   {
     std::unique_lock<std::mutex> lock(measure_mutex_);
     if (measure_busy_ || measure_pending_) ROS_INFO("exploration: waiting for the last model measurement");
-    measure_wake_.wait(lock, [this] { return !measure_busy_ && !measure_pending_; });
+    WaitReport report("exploration", [] { return "the last model measurement (meshing the model, for the report)"; });
+    while (!measure_wake_.wait_for(lock, std::chrono::seconds(1), [this] { return !measure_busy_ && !measure_pending_; }))
+      report.poll();
     measured = measurements_;
     skipped = measurements_skipped_;
   }

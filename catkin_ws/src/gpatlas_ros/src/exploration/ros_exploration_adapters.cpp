@@ -5,6 +5,7 @@
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/PlanApproach.h>
 #include <gpatlas_msgs/Probe.h>
+#include <gpatlas_ros/wait_report.h>
 
 #include <stdexcept>
 
@@ -29,11 +30,17 @@ gpatlas_core::PlanResult ServicePlanner::plan(const gpatlas_core::PlanRequest& r
   // training set this node has seen, which can take it longer than this node took to see it.
   if (const auto training = services_.watch.latestTraining()) srv.request.model_stamp = training->header.stamp;
   const ros::WallTime asked = ros::WallTime::now();
+  WaitReport report("exploration", [this, &srv] {
+    return "the planner's model of the newest training set: " + services_.client.resolveName("next_touch") +
+           " answers STALE_MODEL (" + srv.response.message + "); gives up after call_timeout_s (" +
+           seconds(services_.call_timeout_s) + ")";
+  });
   while (true) {
     if (!services_.client.call("next_touch", srv)) throw std::runtime_error("next_touch did not answer");
     if (srv.response.status != gpatlas_msgs::GetNextTouch::Response::STALE_MODEL) break;
     if ((ros::WallTime::now() - asked).toSec() > services_.call_timeout_s)
       throw std::runtime_error("next_touch: " + srv.response.message);
+    report.poll();
     ros::WallDuration(0.02).sleep();
   }
   return fromMsg(srv.response);

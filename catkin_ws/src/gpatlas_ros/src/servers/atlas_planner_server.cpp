@@ -82,6 +82,7 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       model_.reset();
       view_.reset();
       model_error_.clear();
+      publishNoPlan(msg->header);
       return;
     }
     std::shared_ptr<const gpatlas_core::SurfaceModel> model;
@@ -255,6 +256,20 @@ void AtlasPlannerServer::publishAtlas(const gpatlas_core::AtlasPlanResult& plann
   gpatlas_msgs::Atlas atlas = toMsg(planned.atlas, planned.path);
   atlas.header = header;
   atlas_pub_.publish(atlas);
+}
+
+void AtlasPlannerServer::publishNoPlan(const std_msgs::Header& header) {
+  std_msgs::Header stamped = header;
+  stamped.frame_id = world_frame_;
+  visualization_msgs::MarkerArray clear = deleteAllMarkers(world_frame_);
+  clear.markers.front().header = stamped;
+  atlas_marker_pub_.publish(clear);
+  gpatlas_msgs::Atlas no_atlas;
+  no_atlas.header = stamped;
+  atlas_pub_.publish(no_atlas);
+  gpatlas_msgs::Touch no_touch;
+  no_touch.header = stamped;
+  touch_pub_.publish(no_touch);
 }
 
 }  // namespace gpatlas_ros

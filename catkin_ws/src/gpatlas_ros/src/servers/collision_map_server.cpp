@@ -85,11 +85,13 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
   try {
     std::shared_ptr<Map> map;
     std::uint32_t latest = 0;
+    std::uint64_t resets = 0;
     std::optional<gpatlas_core::SupportPlane> plane;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       map = map_;
       latest = latest_sequence_;
+      resets = resets_;
       plane = support_plane_;
     }
     if (approach_config_.use_arm && !approach_arm_) {
@@ -150,32 +152,72 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
         trajectory->header.frame_id = world_frame_;
         trajectory->header.stamp = ros::Time::now();
       }
-      approach_trajectory_pub_.publish(res.approach_trajectory);
-      // The arm at a few configurations along each stretch of the approach and the probing.
-      std::vector<std::vector<gpatlas_motion::LinkCapsule>> trail;
-      std::vector<Eigen::VectorXd> path = plan.approach_joints;
-      path.push_back(plan.probing_joints.back());
-      constexpr int kSamplesPerStretch = 6;
-      for (std::size_t i = 0; i + 1 < path.size(); ++i)
-        for (int k = 0; k < kSamplesPerStretch; ++k)
-          trail.push_back(approach_arm_->linkCapsules(path[i] + (path[i + 1] - path[i]) * (double(k) / kSamplesPerStretch)));
-      trail.push_back(approach_arm_->linkCapsules(path.back()));
-      visualization_msgs::Marker arm_marker = armTrailMarker(trail, world_frame_);
-      arm_marker.header.stamp = ros::Time::now();
-      approach_arm_pub_.publish(arm_marker);
     }
-    if (plan.ok) {
-      std::vector<Eigen::Vector3d> tip_path = plan.approach;
-      tip_path.push_back(plan.probing.back());
-      visualization_msgs::Marker marker = approachMarker(tip_path, world_frame_);
-      marker.header.stamp = ros::Time::now();
-      approach_pub_.publish(marker);
-    }
+    if (plan.ok) publishApproach(plan, res, resets);
   } catch (const std::exception& e) {
     res.success = false;
     res.message = std::string("approach planning failed: ") + e.what();
   }
   return true;
+}
+
+void CollisionMapServer::publishApproach(const gpatlas_motion::TouchMotion& plan,
+                                         const gpatlas_msgs::PlanApproach::Response& res, std::uint64_t resets_at_start) {
+  std::vector<Eigen::Vector3d> tip_path = plan.approach;
+  tip_path.push_back(plan.probing.back());
+  visualization_msgs::Marker tip_marker = approachMarker(tip_path, world_frame_);
+  tip_marker.header.stamp = ros::Time::now();
+  std::optional<visualization_msgs::Marker> arm_marker;
+  if (approach_arm_) {
+    // The arm at a few configurations along each stretch of the approach and the probing.
+    std::vector<std::vector<gpatlas_motion::LinkCapsule>> trail;
+    std::vector<Eigen::VectorXd> path = plan.approach_joints;
+    path.push_back(plan.probing_joints.back());
+    constexpr int kSamplesPerStretch = 6;
+    for (std::size_t i = 0; i + 1 < path.size(); ++i)
+      for (int k = 0; k < kSamplesPerStretch; ++k)
+        trail.push_back(approach_arm_->linkCapsules(path[i] + (path[i + 1] - path[i]) * (double(k) / kSamplesPerStretch)));
+    trail.push_back(approach_arm_->linkCapsules(path.back()));
+    arm_marker = armTrailMarker(trail, world_frame_);
+    arm_marker->header.stamp = ros::Time::now();
+  }
+  // Under the lock a reset takes: a plan on the map a reset removed is not shown after the
+  // reset's empty displays.
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (resets_ != resets_at_start) return;
+  if (arm_marker) {
+    approach_trajectory_pub_.publish(res.approach_trajectory);
+    approach_arm_pub_.publish(*arm_marker);
+  }
+  approach_pub_.publish(tip_marker);
+}
+
+void CollisionMapServer::publishEmptyMap(const gpatlas_msgs::TrainingSet& reset) {
+  const octomap::OcTree empty_tree(map_config_.grid.resolution_m);
+  gpatlas_msgs::OctomapBinary out;
+  out.header.frame_id = world_frame_;
+  out.header.stamp = reset.header.stamp;
+  out.training_sequence = reset.sequence;
+  out.id = empty_tree.getTreeType();
+  out.resolution = empty_tree.getResolution();
+  out.binary = true;
+  std::stringstream stream;
+  empty_tree.writeBinaryData(stream);
+  const std::string bytes = stream.str();
+  out.data.assign(bytes.begin(), bytes.end());
+  octomap_pub_.publish(out);
+  visualization_msgs::MarkerArray clear_voxels = deleteAllMarkers(world_frame_);
+  clear_voxels.markers.front().header.stamp = reset.header.stamp;
+  voxels_pub_.publish(clear_voxels);
+  visualization_msgs::Marker clear = deleteAllMarker(world_frame_);
+  clear.header.stamp = reset.header.stamp;
+  approach_pub_.publish(clear);
+  approach_arm_pub_.publish(clear);
+  if (approach_trajectory_pub_) {
+    trajectory_msgs::JointTrajectory none;
+    none.header = clear.header;
+    approach_trajectory_pub_.publish(none);
+  }
 }
 
 CollisionMapServer::~CollisionMapServer() {
@@ -212,8 +254,11 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
   if (msg->points.empty()) {  // the GP node was reset
     pending_.reset();
     map_.reset();
+    publish_pending_.reset();
+    ++resets_;
     state_ = gpatlas_msgs::CollisionMapStatus::NONE;
     status_message_ = "the model was reset";
+    publishEmptyMap(*msg);
   } else {
     pending_ = msg;  // a newer training set replaces one not built yet
     state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;

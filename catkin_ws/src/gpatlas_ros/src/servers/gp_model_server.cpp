@@ -261,12 +261,19 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   history_.clear();
   view_.reset();
   SharedModels::withdraw(training_pub_.getTopic());
-  // An empty training set tells the planner and the collision map to drop their copies.
+  // An empty training set tells the planner and the collision map to drop their copies and
+  // publish their own empty outputs.
   gpatlas_msgs::TrainingSet empty;
   empty.sequence = ++training_sequence_;
   empty.header.frame_id = world_frame_;
   empty.header.stamp = ros::Time::now();
   training_pub_.publish(empty);
+  {
+    std::lock_guard<std::mutex> mesh_lock(mesh_mutex_);
+    mesh_pending_.reset();
+    ++mesh_generation_;
+    publishEmptySurface(empty.header.stamp);
+  }
   res.success = true;
   res.message = "model cleared; waiting for a new object cloud";
   return true;
@@ -377,12 +384,14 @@ void GpModelServer::meshLoop() {
   for (;;) {
     std::shared_ptr<const gpatlas_core::SurfaceModel> model;
     ros::Time stamp;
+    std::uint64_t generation = 0;
     {
       std::unique_lock<std::mutex> lock(mesh_mutex_);
       mesh_wake_.wait(lock, [this] { return mesh_stopping_ || mesh_pending_; });
       if (mesh_stopping_) return;
       model = std::move(mesh_pending_);
       stamp = mesh_stamp_;
+      generation = mesh_generation_;
     }
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
@@ -392,18 +401,38 @@ void GpModelServer::meshLoop() {
         ROS_WARN_STREAM("gp_model: no predicted surface: " << surface.message);
         continue;
       }
-      visualization_msgs::Marker marker = meshMarker(surface.mesh, display_v_max_, world_frame_);
-      marker.header.stamp = stamp;
-      mesh_marker_pub_.publish(marker);
-      mesh_shape_pub_.publish(toMsg(surface.mesh));
-      sensor_msgs::PointCloud2 cloud =
-          pointsToCloud(surface.mesh.vertices, surface.mesh.vertex_variances, display_v_max_, world_frame_);
-      cloud.header.stamp = stamp;
-      surface_pub_.publish(cloud);
+      publishSurface(surface, stamp, generation);
     } catch (const std::exception& e) {
       ROS_ERROR_STREAM("gp_model: no predicted surface: " << e.what());
     }
   }
+}
+
+void GpModelServer::publishSurface(const gpatlas_geometry::SurfaceMeshResult& surface, const ros::Time& stamp,
+                                   std::uint64_t generation) {
+  visualization_msgs::Marker marker = meshMarker(surface.mesh, display_v_max_, world_frame_);
+  marker.header.stamp = stamp;
+  const shape_msgs::Mesh shape = toMsg(surface.mesh);
+  sensor_msgs::PointCloud2 cloud =
+      pointsToCloud(surface.mesh.vertices, surface.mesh.vertex_variances, display_v_max_, world_frame_);
+  cloud.header.stamp = stamp;
+  // Checked and published under the lock a reset takes: no surface of the model before it can
+  // be published after its empty one.
+  std::lock_guard<std::mutex> lock(mesh_mutex_);
+  if (generation != mesh_generation_) return;
+  mesh_marker_pub_.publish(marker);
+  mesh_shape_pub_.publish(shape);
+  surface_pub_.publish(cloud);
+}
+
+void GpModelServer::publishEmptySurface(const ros::Time& stamp) {
+  visualization_msgs::Marker clear = deleteAllMarker(world_frame_);
+  clear.header.stamp = stamp;
+  mesh_marker_pub_.publish(clear);
+  mesh_shape_pub_.publish(shape_msgs::Mesh());
+  sensor_msgs::PointCloud2 cloud = pointsToCloud({}, {}, display_v_max_, world_frame_);
+  cloud.header.stamp = stamp;
+  surface_pub_.publish(cloud);
 }
 
 GpModelServer::~GpModelServer() {
