@@ -109,6 +109,11 @@ class SoakTest(unittest.TestCase):
             self.assertGreater(h["action_ms"], 0.0)
         for a, b in zip(history, history[1:]):
             self.assertLessEqual(b["n_train"] - a["n_train"], 4 * 500 + 1000)
+        # The plot is drawn after the report; removing the folder under it would fail the plotter.
+        plot_deadline = time.time() + 60.0
+        while not os.path.exists(os.path.join(results, "exploration.png")) and time.time() < plot_deadline:
+            time.sleep(0.5)
+        time.sleep(1.0)
         shutil.rmtree(results, ignore_errors=True)
 
 
