@@ -1,10 +1,11 @@
 // A set-up mistake with a real cloud gets one error that explains it, within a second of the
 // cloud: frame_mismatch.test (the cloud's frame against sensor_frame) and workspace.test (a
 // camera pose that puts the scene outside the crop box). ~expect lists the words the error must
-// contain.
+// contain; ~next_touch_expect, when given, the words next_touch's answer must contain.
 
 #include "mug_cloud_test.h"
 
+#include <gpatlas_msgs/GetNextTouch.h>
 #include <gtest/gtest.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
@@ -57,6 +58,26 @@ TEST(SetUpError, AnErrorExplainsTheMistakeWithinASecond) {
   const double latency_s = (error->header.stamp - *cloud_stamp).toSec();
   std::printf("[set-up error] %s\n[set-up error] %.3f s after the cloud\n", error->msg.c_str(), latency_s);
   EXPECT_LT(latency_s, 1.0);
+}
+
+// A model fitted after such a mistake is not the one the user asked for: next_touch says so in
+// its answer, not only in a log line.
+TEST(SetUpError, NextTouchSaysWhatTheModelLacks) {
+  ros::NodeHandle pnh("~");
+  std::string pcd;
+  if (mug_cloud_test::recordedCloudAbsent(&pcd)) GTEST_SKIP() << mug_cloud_test::skipMessage(pcd);
+  std::vector<std::string> expect;
+  if (!pnh.getParam("next_touch_expect", expect)) GTEST_SKIP() << "no ~next_touch_expect for this mistake";
+  ASSERT_TRUE(ros::service::waitForService("/gpatlas/atlas_planner/next_touch", ros::Duration(30.0)));
+  gpatlas_msgs::GetNextTouch srv;
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(60.0);
+  do {
+    ASSERT_TRUE(ros::service::call("/gpatlas/atlas_planner/next_touch", srv));
+    if (srv.response.status != gpatlas_msgs::GetNextTouch::Response::NO_MODEL) break;
+    ros::WallDuration(0.5).sleep();
+  } while (ros::WallTime::now() < end);
+  ASSERT_EQ(srv.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << srv.response.message;
+  EXPECT_TRUE(containsAll(srv.response.message, expect)) << srv.response.message;
 }
 
 }  // namespace

@@ -155,6 +155,11 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   res.touch.header = header;
   res.plan_time_s = (ros::WallTime::now() - start).toSec();
   res.message += reachability_note;
+  // A model without its view's free space and shadow is a model the user did not ask for (a
+  // cloud in another frame than sensor_frame): the answer says so, not only the GP's log.
+  if (!view_)
+    res.message += "; the model was fitted without the camera view's free space (the GP nodelet's sensor_frame is "
+                   "empty or had no transform to world_frame)";
   if (plan.status == gpatlas_core::PlanStatus::kTouch) touch_pub_.publish(res.touch);
   if (plan.atlas) publishAtlas(*plan.atlas, request.v_max, header);
   ROS_INFO_STREAM("atlas_planner: " << name << " -> " << gpatlas_core::toString(plan.status) << " in "
