@@ -67,7 +67,8 @@ TEST(SetUpError, NextTouchSaysWhatTheModelLacks) {
   std::string pcd;
   if (mug_cloud_test::recordedCloudAbsent(&pcd)) GTEST_SKIP() << mug_cloud_test::skipMessage(pcd);
   std::vector<std::string> expect;
-  if (!pnh.getParam("next_touch_expect", expect)) GTEST_SKIP() << "no ~next_touch_expect for this mistake";
+  ASSERT_TRUE(pnh.getParam("next_touch_expect", expect) && !expect.empty())
+      << "~next_touch_expect: the words next_touch's answer must contain";
   ASSERT_TRUE(ros::service::waitForService("/gpatlas/atlas_planner/next_touch", ros::Duration(30.0)));
   gpatlas_msgs::GetNextTouch srv;
   const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(60.0);
