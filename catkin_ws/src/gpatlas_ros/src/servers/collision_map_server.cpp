@@ -22,6 +22,27 @@ namespace gpatlas_ros {
 
 using namespace gpatlas_conversions;
 
+namespace {
+
+// The map as octomap's binary stream (OcTree::writeBinaryData), for the training set it was built on.
+gpatlas_msgs::OctomapBinary octomapMessage(const octomap::OcTree& tree, const std::string& frame_id,
+                                           const ros::Time& stamp, std::uint32_t training_sequence) {
+  gpatlas_msgs::OctomapBinary out;
+  out.header.frame_id = frame_id;
+  out.header.stamp = stamp;
+  out.training_sequence = training_sequence;
+  out.id = tree.getTreeType();
+  out.resolution = tree.getResolution();
+  out.binary = true;
+  std::stringstream stream;
+  tree.writeBinaryData(stream);
+  const std::string bytes = stream.str();
+  out.data.assign(bytes.begin(), bytes.end());
+  return out;
+}
+
+}  // namespace
+
 struct CollisionMapServer::Map {
   // Occupied or not at approach/occupied_probability: what approaches are planned on.
   std::shared_ptr<const octomap::OcTree> tree;
@@ -193,19 +214,8 @@ void CollisionMapServer::publishApproach(const gpatlas_motion::TouchMotion& plan
 }
 
 void CollisionMapServer::publishEmptyMap(const gpatlas_msgs::TrainingSet& reset) {
-  const octomap::OcTree empty_tree(map_config_.grid.resolution_m);
-  gpatlas_msgs::OctomapBinary out;
-  out.header.frame_id = world_frame_;
-  out.header.stamp = reset.header.stamp;
-  out.training_sequence = reset.sequence;
-  out.id = empty_tree.getTreeType();
-  out.resolution = empty_tree.getResolution();
-  out.binary = true;
-  std::stringstream stream;
-  empty_tree.writeBinaryData(stream);
-  const std::string bytes = stream.str();
-  out.data.assign(bytes.begin(), bytes.end());
-  octomap_pub_.publish(out);
+  octomap_pub_.publish(octomapMessage(octomap::OcTree(map_config_.grid.resolution_m), world_frame_,
+                                      reset.header.stamp, reset.sequence));
   visualization_msgs::MarkerArray clear_voxels = deleteAllMarkers(world_frame_);
   clear_voxels.markers.front().header.stamp = reset.header.stamp;
   voxels_pub_.publish(clear_voxels);
@@ -399,17 +409,7 @@ std::shared_ptr<const octomap::OcTree> CollisionMapServer::probabilitiesOf(const
 
 void CollisionMapServer::publishMap(const Map& map) {
   const octomap::OcTree& tree = *map.probabilities;
-  gpatlas_msgs::OctomapBinary out;
-  out.header.frame_id = world_frame_;
-  out.header.stamp = map.training_stamp;
-  out.training_sequence = map.training_sequence;
-  out.id = tree.getTreeType();
-  out.resolution = tree.getResolution();
-  out.binary = true;
-  std::stringstream stream;
-  tree.writeBinaryData(stream);
-  const std::string bytes = stream.str();
-  out.data.assign(bytes.begin(), bytes.end());
+  const gpatlas_msgs::OctomapBinary out = octomapMessage(tree, world_frame_, map.training_stamp, map.training_sequence);
   octomap_pub_.publish(out);
 
   visualization_msgs::MarkerArray markers;
