@@ -1,4 +1,5 @@
 #include "gpatlas_core/exploration/explorer.h"
+#include "gpatlas_core/exploration/observation_history.h"
 #include "gpatlas_core/model/gpis_model.h"
 #include "gpatlas_core/model/model_calibration.h"
 #include "gpatlas_core/model/position_uncertainty.h"
@@ -173,6 +174,115 @@ TEST(PositionCalibration, RefusesBadInputAndKeepsTheScale) {
   off.folds = 0;
   EXPECT_FALSE(gpatlas_core::calibratePositionSd(model, off).ok);
   EXPECT_EQ(model.positionSdScale(), 1.0);
+}
+
+TEST(TouchCalibration, EachFoldAndEachTouchWeighsOneWhateverItsSize) {
+  gpatlas_core::PositionSdEvidence evidence;
+  evidence.coverage = 0.95;
+  EXPECT_TRUE(std::isnan(gpatlas_core::positionSdScale(evidence)));  // no view folds: not calibrated
+  // One fold of 100 tests at 1 and one touch at 3: half the weight each, so the 95 % quantile is
+  // the touch's 3, though it is one point in 101.
+  evidence.view_folds = {std::vector<double>(100, 1.0)};
+  evidence.touches = {{3.0}};
+  EXPECT_DOUBLE_EQ(gpatlas_core::positionSdScale(evidence), 1.5);
+  // With equal groups of one point each it is quantile() of the points, over 2.
+  std::mt19937_64 rng(5);
+  std::uniform_real_distribution<double> uniform(0.0, 4.0);
+  std::vector<double> all;
+  evidence.view_folds.clear();
+  evidence.touches.clear();
+  for (int i = 0; i < 37; ++i) {
+    all.push_back(uniform(rng));
+    evidence.touches.push_back({all.back()});
+  }
+  evidence.view_folds = {{all.front()}};
+  evidence.touches.erase(evidence.touches.begin());
+  EXPECT_DOUBLE_EQ(gpatlas_core::positionSdScale(evidence), gpatlas_core::quantile(all, 0.95) / 2.0);
+  evidence.max_scale = 0.5;
+  EXPECT_DOUBLE_EQ(gpatlas_core::positionSdScale(evidence), 0.5);
+}
+
+TEST(TouchCalibration, HeldOutRatiosAreTheMeanOverTheUnscaledSd) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(100, 0.0, 0.02, 7)).ok);
+  ASSERT_TRUE(model.setPositionSdScale(0.1));  // the ratios do not depend on it
+  Points3 x(3, 3);
+  x.col(0) = sphere.centre + Vector3(0.0, 0.0, -sphere.radius);
+  x.col(1) = sphere.centre + Vector3(0.0, sphere.radius, 0.0);
+  x.col(2) = sphere.centre + Vector3(0.0, 0.0, 10.0);  // outside the domain: not a test
+  const std::vector<double> ratios = gpatlas_core::heldOutRatios(model, x);
+  ASSERT_EQ(ratios.size(), 2u);
+  for (int k = 0; k < 2; ++k) {
+    const gpatlas_core::Prediction p = model.predict(x.col(k));
+    EXPECT_NEAR(ratios[k], std::abs(p.mean) / std::sqrt(p.variance / model.varianceUnitFactor()), 1e-9);
+  }
+}
+
+// A sphere seen from above, calibrated on its view. A touch that lands where the model predicts
+// leaves the scale near the view's; touches far from the prediction raise it, and the undo of a
+// touch gives the scale of a model that never had it.
+TEST(TouchCalibration, TouchesFarFromThePredictionRaiseTheScaleAndAnUndoTakesThemBack) {
+  const AnalyticSphere sphere;
+  GpisModel model;
+  const std::vector<TrainingPoint> view = sphere.view(300, 0.3, 0.02, 9);
+  ASSERT_TRUE(model.fit(view).ok);
+  ASSERT_TRUE(gpatlas_core::calibratePositionSd(model, {}).ok);
+  const double view_scale = model.positionSdScale();
+  gpatlas_core::ObservationHistory history;
+  history.setView(view);
+  const gpatlas_core::TouchObservationConfig touch;
+  const auto touchAt = [&](const Vector3& direction, double radius) {
+    const gpatlas_core::Contact contact{sphere.centre + radius * direction.normalized(), direction.normalized()};
+    const std::uint32_t id = history.addTouch({contact}, {});
+    EXPECT_TRUE(gpatlas_core::applyTouch(model, {contact}, {}, touch).ok);
+    return id;
+  };
+  // Where the view saw it: the prediction is right.
+  touchAt(Vector3(0.2, 0.1, 1.0), sphere.radius);
+  ASSERT_EQ(model.positionSdEvidence().touches.size(), 1u);
+  const double scale_after_good_touch = model.positionSdScale();
+  EXPECT_LE(scale_after_good_touch, view_scale * 1.05);
+  // The side, 3 cm inside the true sphere: a surface the model did not predict.
+  std::vector<std::uint32_t> surprises;
+  for (const Vector3& d : {Vector3(1, 0, 0.3), Vector3(-1, 0, 0.3), Vector3(0, 1, 0.3), Vector3(0, -1, 0.3)})
+    surprises.push_back(touchAt(d, sphere.radius - 0.03));
+  EXPECT_GT(model.positionSdScale(), 1.5 * view_scale);
+  const double surprised_scale = model.positionSdScale();
+
+  // Undo the surprises: a full rebuild from the view and the good touch.
+  std::unique_ptr<gpatlas_core::SurfaceModel> undone = model.clone();
+  std::string error;
+  ASSERT_TRUE(history.remove(surprises, touch, &undone, &error)) << error;
+  EXPECT_EQ(undone->positionSdEvidence().touches.size(), 1u);
+  EXPECT_DOUBLE_EQ(undone->positionSdScale(), scale_after_good_touch);
+  EXPECT_DOUBLE_EQ(model.positionSdScale(), surprised_scale);  // the original is untouched
+
+  // A probe that passed through the predicted surface and found nothing: its free space inside
+  // the predicted object tests the model too (a lower bound on its error).
+  GpisModel missed;
+  ASSERT_TRUE(missed.fit(view).ok);
+  ASSERT_TRUE(gpatlas_core::calibratePositionSd(missed, {}).ok);
+  std::vector<Vector3> passed;
+  for (double depth = 0.0; depth <= 0.03; depth += 0.005) passed.push_back(sphere.centre + Vector3(0, 0, sphere.radius - depth));
+  ASSERT_TRUE(gpatlas_core::applyTouch(missed, {}, passed, touch).ok);
+  ASSERT_EQ(missed.positionSdEvidence().touches.size(), 1u);
+  EXPECT_GT(missed.positionSdScale(), 1.5 * view_scale);
+
+  // Without the view's calibration, or with it told not to take touches, touches do not calibrate.
+  GpisModel uncalibrated;
+  ASSERT_TRUE(uncalibrated.fit(view).ok);
+  const gpatlas_core::Contact far{sphere.centre + Vector3(sphere.radius - 0.03, 0.0, 0.0), Vector3::UnitX()};
+  ASSERT_TRUE(gpatlas_core::applyTouch(uncalibrated, {far}, {}, touch).ok);
+  EXPECT_EQ(uncalibrated.positionSdScale(), 1.0);
+  EXPECT_TRUE(uncalibrated.positionSdEvidence().touches.empty());
+  gpatlas_core::PositionCalibrationConfig folds_only;
+  folds_only.touches = false;
+  ASSERT_TRUE(gpatlas_core::calibratePositionSd(uncalibrated, folds_only).ok);
+  const double folds_scale = uncalibrated.positionSdScale();
+  ASSERT_TRUE(gpatlas_core::applyTouch(uncalibrated, {far}, {}, touch).ok);
+  EXPECT_EQ(uncalibrated.positionSdScale(), folds_scale);
+  EXPECT_TRUE(uncalibrated.positionSdEvidence().touches.empty());
 }
 
 // The default GPIS on the upper part of a sphere (seen from above), its position sd calibrated.

@@ -159,6 +159,7 @@ void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
   c->folds = r.integer("position_calibration/folds", c->folds, 0, 6);
   c->cut_fraction = r.number("position_calibration/cut_fraction", c->cut_fraction, 1e-3, 0.999);
   c->coverage = r.number("position_calibration/coverage", c->coverage, 0.01, 0.999);
+  c->touches = r.flag("position_calibration/touches", c->touches);
 }
 
 double readVMax(ParamReader& r, double fallback) { return r.number("exploration/v_max", fallback, 1e-12, 1e12); }

@@ -1,7 +1,10 @@
 #include "gpatlas_core/exploration/observation_history.h"
 
+#include "gpatlas_core/model/position_uncertainty.h"
+
 #include <algorithm>
 #include <memory>
+#include <utility>
 
 namespace gpatlas_core {
 
@@ -61,6 +64,11 @@ FitReport rebuildFrom(const std::vector<ObservationBatch>& batches, const TouchO
   }
   report = model.fit(view->view_training);
   if (!report.ok) return report;
+  // The kept touches calibrate the scale again, in order; the view's folds stay.
+  PositionSdEvidence evidence = model.positionSdEvidence();
+  evidence.touches.clear();
+  if (!evidence.view_folds.empty()) model.setPositionSdScale(positionSdScale(evidence));
+  model.setPositionSdEvidence(std::move(evidence));
   std::size_t touches = 0;
   for (const ObservationBatch& b : batches) {
     if (b.kind != ObservationBatch::Kind::kTouch) continue;

@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <sstream>
+#include <utility>
 
 namespace gpatlas_core {
 
@@ -84,17 +86,58 @@ std::vector<double> foldRatios(const SurfaceModel& model, const std::vector<Vect
   if (!trial->fitInFrame(kept, model.centroid(), model.scale()).ok) return {};
   Points3 queries(3, static_cast<Eigen::Index>(held_out.size()));
   for (std::size_t i = 0; i < held_out.size(); ++i) queries.col(static_cast<Eigen::Index>(i)) = held_out[i];
-  const BatchPrediction prediction = trial->predictBatch(queries, false, false, true);
+  return heldOutRatios(*trial, queries);
+}
+
+// The value below which `coverage` of the weight lies, each group weighing 1 in total (for equal
+// weights, quantile()'s element).
+double weightedQuantile(const std::vector<const std::vector<double>*>& groups, double coverage) {
+  std::vector<std::pair<double, double>> weighted;
+  for (const std::vector<double>* group : groups)
+    for (const double ratio : *group) weighted.emplace_back(ratio, 1.0 / static_cast<double>(group->size()));
+  if (weighted.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::sort(weighted.begin(), weighted.end());
+  const double target = coverage * static_cast<double>(groups.size());
+  double cumulative = 0.0;
+  for (const auto& [ratio, weight] : weighted) {
+    cumulative += weight;
+    if (cumulative > target) return ratio;
+  }
+  return weighted.back().first;
+}
+
+}  // namespace
+
+std::vector<double> heldOutRatios(const SurfaceModel& model, const Points3& surface_points_world) {
   std::vector<double> ratios;
-  for (Eigen::Index i = 0; i < queries.cols(); ++i) {
-    const double sd_f = std::sqrt(std::max(prediction.variance[i], 0.0) / trial->varianceUnitFactor());
+  if (!model.isFitted() || surface_points_world.cols() == 0) return ratios;
+  const BatchPrediction prediction = model.predictBatch(surface_points_world, false, false, true);
+  for (Eigen::Index i = 0; i < surface_points_world.cols(); ++i) {
+    const double sd_f = std::sqrt(std::max(prediction.variance[i], 0.0) / model.varianceUnitFactor());
     if (prediction.in_domain[i] && sd_f > 0.0 && std::isfinite(prediction.mean[i]))
       ratios.push_back(std::abs(prediction.mean[i]) / sd_f);
   }
   return ratios;
 }
 
-}  // namespace
+double positionSdScale(const PositionSdEvidence& evidence) {
+  if (evidence.view_folds.empty()) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<const std::vector<double>*> groups;
+  for (const auto* set : {&evidence.view_folds, &evidence.touches})
+    for (const std::vector<double>& group : *set)
+      if (!group.empty()) groups.push_back(&group);
+  return std::clamp(weightedQuantile(groups, evidence.coverage) / 2.0, evidence.min_scale, evidence.max_scale);
+}
+
+bool addTouchCalibration(SurfaceModel& model, const std::vector<double>& ratios) {
+  if (ratios.empty() || model.positionSdEvidence().view_folds.empty() || !model.positionSdEvidence().use_touches)
+    return false;
+  PositionSdEvidence evidence = model.positionSdEvidence();
+  evidence.touches.push_back(ratios);
+  if (!model.setPositionSdScale(positionSdScale(evidence))) return false;
+  model.setPositionSdEvidence(std::move(evidence));
+  return true;
+}
 
 PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalibrationConfig& config) {
   const auto started = std::chrono::steady_clock::now();
@@ -120,12 +163,20 @@ PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalib
     return result;
   }
   std::mt19937_64 rng(config.seed);
+  PositionSdEvidence evidence;
+  evidence.use_touches = config.touches;
+  evidence.coverage = config.coverage;
+  evidence.min_scale = config.min_scale;
+  evidence.max_scale = config.max_scale;
+  // The touches' tests stay: they tested the same kind of model where it was used.
+  if (config.touches) evidence.touches = model.positionSdEvidence().touches;
   std::vector<double> ratios;
   for (const Vector3& direction : cutDirections(surface, config.folds)) {
-    const std::vector<double> fold = foldRatios(model, surface, direction, config, rng);
+    std::vector<double> fold = foldRatios(model, surface, direction, config, rng);
     if (fold.empty()) continue;
     ++result.folds_used;
     ratios.insert(ratios.end(), fold.begin(), fold.end());
+    evidence.view_folds.push_back(std::move(fold));
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   result.test_points = ratios.size();
@@ -134,13 +185,17 @@ PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalib
     return result;
   }
   result.median_ratio = quantile(ratios, 0.5);
-  result.scale = std::clamp(quantile(ratios, config.coverage) / 2.0, config.min_scale, config.max_scale);
+  result.scale = positionSdScale(evidence);
   model.setPositionSdScale(result.scale);
+  model.setPositionSdEvidence(std::move(evidence));
   result.ok = true;
   std::ostringstream message;
   message << "position sd scale " << result.scale << " from " << result.test_points << " held-out surface points in "
           << result.folds_used << " cut-off sides of " << config.cut_fraction << " of the data (median |error| / sd "
-          << result.median_ratio << ") in " << result.seconds << " s";
+          << result.median_ratio << ")";
+  if (!model.positionSdEvidence().touches.empty())
+    message << " and " << model.positionSdEvidence().touches.size() << " touches";
+  message << " in " << result.seconds << " s";
   result.message = message.str();
   return result;
 }

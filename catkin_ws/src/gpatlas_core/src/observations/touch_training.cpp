@@ -1,5 +1,7 @@
 #include "gpatlas_core/observations/touch_training.h"
 
+#include "gpatlas_core/model/position_uncertainty.h"
+
 #include <Eigen/Geometry>
 
 #include <algorithm>
@@ -214,6 +216,34 @@ void countAccepted(const FitReport& report, const TouchPointCounts& counts, cons
 
 }  // namespace
 
+namespace {
+
+// The touch as tests of the model before it, for its calibration (addTouchCalibration): each
+// contact's |f| / sd(f) (heldOutRatios), and each free-space point the model put inside the
+// object. The probe passed there, so the true surface lies beyond it and the model's error is at
+// least its |f|: a lower bound, so a probe that passes through a predicted surface and finds
+// nothing counts, not only one that finds the surface elsewhere.
+std::vector<double> touchTests(const SurfaceModel& model, const std::vector<TrainingPoint>& points,
+                               const std::vector<Vector3>& free_space) {
+  std::vector<Vector3> contacts;
+  for (const TrainingPoint& point : points)
+    if (point.source == PointSource::kTouch && isSurfaceValue(point)) contacts.push_back(point.position);
+  Points3 x(3, static_cast<Eigen::Index>(contacts.size()));
+  for (std::size_t i = 0; i < contacts.size(); ++i) x.col(static_cast<Eigen::Index>(i)) = contacts[i];
+  std::vector<double> tests = heldOutRatios(model, x);
+  if (free_space.empty()) return tests;
+  Points3 free(3, static_cast<Eigen::Index>(free_space.size()));
+  for (std::size_t i = 0; i < free_space.size(); ++i) free.col(static_cast<Eigen::Index>(i)) = free_space[i];
+  const BatchPrediction predicted = model.predictBatch(free, false, false, true);
+  for (Eigen::Index i = 0; i < free.cols(); ++i) {
+    const double sd_f = std::sqrt(std::max(predicted.variance[i], 0.0) / model.varianceUnitFactor());
+    if (predicted.in_domain[i] && predicted.mean[i] < 0.0 && sd_f > 0.0) tests.push_back(-predicted.mean[i] / sd_f);
+  }
+  return tests;
+}
+
+}  // namespace
+
 TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts, const std::vector<Vector3>& free_space,
                        const TouchObservationConfig& config) {
   TouchUpdate update;
@@ -297,6 +327,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
   update.contacts_capped_from = counts.contacts_before_cap;
   const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
   const std::vector<Vector3> measured = measuredPositions(gated.contacts, gated.free_space);
+  const std::vector<double> calibration_tests = touchTests(model, new_points, gated.free_space);
   FitReport report = addTouchPoints(model, new_points, measured, config, &update.retraction);
   if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
     new_points.resize(num_contact_points);
@@ -307,6 +338,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
   update.warnings.insert(update.warnings.end(), report.warnings.begin(), report.warnings.end());
   if (!report.ok) return update;
   countAccepted(report, counts, new_points, update);
+  addTouchCalibration(model, calibration_tests);
   return update;
 }
 

@@ -23,8 +23,12 @@ ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view
   if (update.ok && tuning) update.tuning = model.tune(*tuning);
   if (update.ok && calibration && calibration->folds > 0) {
     update.calibration = calibratePositionSd(model, *calibration);
-    // A scale fitted to the previous view says nothing about this one: uncalibrated (vague) instead.
-    if (!update.calibration->ok) model.setPositionSdScale(1.0);
+    // A scale fitted to the previous view says nothing about this one: uncalibrated (vague)
+    // instead, and touches do not calibrate it until a view does.
+    if (!update.calibration->ok) {
+      model.setPositionSdScale(1.0);
+      model.setPositionSdEvidence({});
+    }
   }
   return update;
 }

@@ -44,6 +44,9 @@ struct PositionCalibrationConfig {
   // The share of held-out points whose error should lie within 2 sd: s is this quantile of
   // |error| / (2 sd).
   double coverage{0.95};
+  // Each touch tests the model before it and the scale is refitted with the folds
+  // (addTouchCalibration); false: the view's folds alone.
+  bool touches{true};
   // Bounds on s.
   double min_scale{0.01};
   double max_scale{10.0};
@@ -62,8 +65,23 @@ struct PositionCalibration {
   double seconds{0.0};
 };
 
-// Fits s on `model` (fitted) and sets it; on failure the model keeps its scale.
+// Fits s on `model` (fitted) and sets it, with the touches the model's evidence holds; on failure
+// the model keeps its scale and evidence.
 PositionCalibration calibratePositionSd(SurfaceModel& model, const PositionCalibrationConfig& config);
+
+// Calibration by the touches. Each contact tests the model as it was before the touch: |f| /
+// sd(f) there, as the folds test it on a cut-off side. The scale is the weighted `coverage`
+// quantile of all the tests over 2, each fold and each touch weighing 1 whatever its number of
+// points: the touches, where the model is used, take over from the view's folds as they arrive,
+// and a slide's hundred contacts count as one touch. Contacts outside the domain or with no
+// variance are not tests.
+std::vector<double> heldOutRatios(const SurfaceModel& model, const Points3& surface_points_world);
+// The scale the evidence gives (NaN without view folds).
+double positionSdScale(const PositionSdEvidence& evidence);
+// Adds one touch's tests and sets the model's scale from its evidence. False, and nothing
+// changed, when the model has no view folds (calibration off), its calibration does not take
+// touches (PositionCalibrationConfig::touches), or `ratios` is empty.
+bool addTouchCalibration(SurfaceModel& model, const std::vector<double>& ratios);
 
 // Algorithm 1's test of one predicted surface point, and so the loop's stop rule: the paper's
 // variance above V_max or, with max_position_sd_m > 0, the position sd above that bound.

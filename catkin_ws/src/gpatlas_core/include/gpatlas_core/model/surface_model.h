@@ -7,6 +7,7 @@
 #include <cmath>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace gpatlas_core {
@@ -67,6 +68,21 @@ struct SurfaceModelState {
   double scale{1.0};
   std::vector<TrainingPoint> observations;
   double position_sd_scale{1.0};  // SurfaceModel::positionSdScale
+};
+
+// The held-out tests behind SurfaceModel::positionSdScale (position_uncertainty.h): groups of
+// |f| / sd(f) at surface points the model had not seen, each group one sample, because the points
+// of a group share their error: a side of the view cut off by cross-validation, or one touch's
+// contacts as the model predicted them before the touch.
+struct PositionSdEvidence {
+  std::vector<std::vector<double>> view_folds;
+  std::vector<std::vector<double>> touches;
+  // PositionCalibrationConfig's touches, coverage and bounds on the scale, from the view's
+  // calibration.
+  bool use_touches{true};
+  double coverage{0.95};
+  double min_scale{0.01};
+  double max_scale{10.0};
 };
 
 // An implicit surface model (paper section 3.1): a posterior over a function f that is negative
@@ -152,6 +168,10 @@ class SurfaceModel {
     return true;
   }
 
+  // What the scale was fitted to; no view folds: not calibrated, and touches do not calibrate it.
+  const PositionSdEvidence& positionSdEvidence() const { return position_sd_evidence_; }
+  void setPositionSdEvidence(PositionSdEvidence evidence) { position_sd_evidence_ = std::move(evidence); }
+
   // ---- replicas
   SurfaceModelState state() const;
   // Rebuilds this model from another's state (same model name): its hyperparameters, frame and
@@ -160,6 +180,7 @@ class SurfaceModel {
 
  private:
   double position_sd_scale_{1.0};
+  PositionSdEvidence position_sd_evidence_;
 };
 
 }  // namespace gpatlas_core
