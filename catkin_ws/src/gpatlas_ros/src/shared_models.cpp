@@ -4,9 +4,26 @@
 
 #include <utility>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 namespace gpatlas_ros {
 
 using namespace gpatlas_conversions;
+
+void releaseFreedMemory() {
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
+}
+
+std::shared_ptr<const gpatlas_core::SurfaceModel> modelSnapshot(std::unique_ptr<gpatlas_core::SurfaceModel> model) {
+  return std::shared_ptr<const gpatlas_core::SurfaceModel>(model.release(), [](const gpatlas_core::SurfaceModel* m) {
+    delete m;
+    releaseFreedMemory();
+  });
+}
 
 ModelSource modelForTrainingSet(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                                 const gpatlas_core::SurfaceModelConfig& config,

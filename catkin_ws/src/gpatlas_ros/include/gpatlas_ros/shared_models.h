@@ -115,6 +115,15 @@ using SharedModels = SharedSnapshots<gpatlas_core::SurfaceModel, 1>;
 // planner may ask for the map of the model before the newest).
 using SharedCollisionMaps = SharedSnapshots<octomap::OcTree, 2>;
 
+// Gives the free pages of the process's heap back to the system (glibc's malloc_trim). glibc
+// keeps freed memory for reuse and returns only the top of a heap on its own: a model of tens
+// to hundreds of MB freed below live data (the next model, allocated meanwhile) stays resident.
+void releaseFreedMemory();
+
+// The GP nodelet's snapshot of a model: immutable, and its memory goes back to the system
+// (releaseFreedMemory) as soon as its last user lets it go, in whichever thread that is.
+std::shared_ptr<const gpatlas_core::SurfaceModel> modelSnapshot(std::unique_ptr<gpatlas_core::SurfaceModel> model);
+
 // Where the model of a received training set came from.
 enum class ModelSource {
   kShared,      // the publisher's snapshot, in this process

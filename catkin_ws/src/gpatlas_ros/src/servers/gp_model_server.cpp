@@ -274,6 +274,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
     ++mesh_generation_;
     publishEmptySurface(empty.header.stamp);
   }
+  releaseFreedMemory();  // the model just dropped (its snapshot goes when its last user lets it go)
   res.success = true;
   res.message = "model cleared; waiting for a new object cloud";
   return true;
@@ -319,6 +320,7 @@ bool GpModelServer::onRemoveObservations(gpatlas_msgs::RemoveObservations::Reque
                 std::to_string(history_.touchCount()) + " touch(es) in " +
                 std::to_string((ros::WallTime::now() - started).toSec()) + " s";
   ROS_INFO_STREAM("gp_model: remove_observations: " << res.message);
+  releaseFreedMemory();  // the model it replaced and the rebuild's working memory
   publishModel();
   return true;
 }
@@ -378,7 +380,7 @@ void GpModelServer::publishModel() {
   training.header.frame_id = world_frame_;
   training.header.stamp = ros::Time::now();
   // One immutable copy for the planner and the collision map in this manager and for the mesh.
-  const std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot = model_->clone();
+  const std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot = modelSnapshot(model_->clone());
   SharedModels::offer(training_pub_.getTopic(), training, snapshot);
   training_pub_.publish(training);
 
