@@ -77,6 +77,11 @@ TEST(SharedModels, ATrainingSetFindsItsOwnSnapshotOnly) {
   EXPECT_EQ(gpatlas_ros::modelForTrainingSet(topic, t1, gpatlas_core::SurfaceModelConfig(), &model, &error),
             gpatlas_ros::ModelSource::kSuperseded);
   EXPECT_EQ(model, nullptr);
+  // A reset offers its empty training set without a model: everything before it is superseded.
+  const auto t4 = stamped(*third, 4, 13.0);
+  gpatlas_ros::SharedModels::offer(topic, t4, nullptr);
+  EXPECT_TRUE(gpatlas_ros::SharedModels::superseded(topic, t3));
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), third);  // while the test holds it
   gpatlas_ros::SharedModels::withdraw(topic);
   EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), nullptr);
 }

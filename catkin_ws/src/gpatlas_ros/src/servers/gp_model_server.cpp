@@ -121,7 +121,10 @@ void GpModelServer::fitLoop() {
     // keeps the previous model.
     try {
       waitForPlane(cloud->header.stamp);
-      if (fitCloud(cloud))
+      const bool fitted = fitCloud(cloud);
+      // A fit's working memory (trial copies of the model, factors) is as large as the model.
+      releaseFreedMemory();
+      if (fitted)
         ROS_INFO_STREAM("gp_model: cloud to model " << (ros::Time::now() - cloud->header.stamp).toSec() << " s; "
                                                     << dropped << " newer cloud(s) replaced older ones while it waited");
       else if (dropped > 0)
@@ -260,13 +263,15 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
   history_.clear();
   view_.reset();
-  SharedModels::withdraw(training_pub_.getTopic());
   // An empty training set tells the planner and the collision map to drop their copies and
-  // publish their own empty outputs.
+  // publish their own empty outputs. Offered without a model, it supersedes the training sets
+  // before it that they have not taken yet: they skip them instead of refitting replicas of a
+  // model that is gone.
   gpatlas_msgs::TrainingSet empty;
   empty.sequence = ++training_sequence_;
   empty.header.frame_id = world_frame_;
   empty.header.stamp = ros::Time::now();
+  SharedModels::offer(training_pub_.getTopic(), empty, nullptr);
   training_pub_.publish(empty);
   {
     std::lock_guard<std::mutex> mesh_lock(mesh_mutex_);
