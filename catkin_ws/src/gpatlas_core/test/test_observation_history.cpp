@@ -5,6 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <utility>
+#include <vector>
+
 using namespace gpatlas_core;
 using gpatlas_core::testing::AnalyticSphere;
 
@@ -65,7 +68,12 @@ TEST(ObservationHistory, RemovingATouchGivesTheModelWithoutIt) {
   EXPECT_EQ(model->observations().size(), observations);
   EXPECT_EQ(history.batches().size(), 3u);
 
-  ASSERT_TRUE(history.remove({wrong_id}, touch, &model, &error)) << error;
+  // The rebuild says how far it is: after the view, then after each touch kept (here one).
+  std::vector<std::pair<std::size_t, std::size_t>> progress;
+  ASSERT_TRUE(history.remove({wrong_id}, touch, &model, &error,
+                             [&](std::size_t applied, std::size_t total) { progress.emplace_back(applied, total); }))
+      << error;
+  EXPECT_EQ(progress, (std::vector<std::pair<std::size_t, std::size_t>>{{0, 1}, {1, 1}}));
   EXPECT_FALSE(history.contains(wrong_id));
   EXPECT_EQ(history.lastTouches(5), (std::vector<std::uint32_t>{good_id}));
 

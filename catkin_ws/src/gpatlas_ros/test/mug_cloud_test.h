@@ -4,10 +4,14 @@
 
 #include <gpatlas_msgs/TrainingSet.h>
 
+#include <ros/master.h>
+#include <ros/network.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <xmlrpcpp/XmlRpc.h>
 
 #include <filesystem>
+#include <fstream>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -61,5 +65,34 @@ class Arrivals {
   std::vector<ros::WallTime> models_;
   ros::Subscriber cloud_sub_, model_sub_;
 };
+
+// The process id of a node, asked of the master and then of the node (its XML-RPC getPid);
+// 0 when either does not answer. Another test on this machine may run a manager of the same
+// name under another master: the pid is asked, not searched for.
+inline int nodePid(const std::string& node) {
+  XmlRpc::XmlRpcValue args, result, payload;
+  args[0] = ros::this_node::getName();
+  args[1] = node;
+  if (!ros::master::execute("lookupNode", args, result, payload, false)) return 0;
+  std::string host, uri = static_cast<std::string>(payload);
+  std::uint32_t port = 0;
+  if (!ros::network::splitURI(uri, host, port)) return 0;
+  XmlRpc::XmlRpcClient client(host.c_str(), static_cast<int>(port), "/");
+  XmlRpc::XmlRpcValue caller, answer;
+  caller[0] = ros::this_node::getName();
+  if (!client.execute("getPid", caller, answer) || answer.getType() != XmlRpc::XmlRpcValue::TypeArray ||
+      answer.size() < 3 || static_cast<int>(answer[0]) != 1)
+    return 0;
+  return static_cast<int>(answer[2]);
+}
+
+// A process's resident memory in MB (VmRSS), or a negative number when it is gone.
+inline double residentMb(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
+  return -1.0;
+}
 
 }  // namespace mug_cloud_test

@@ -1,5 +1,6 @@
-// SharedModels: a training set finds the snapshot it was published with, only that one, and a
-// training set from elsewhere gets a replica refitted from the message.
+// SharedModels: a training set finds the snapshot it was published with, only that one, while it
+// is the newest or a user still holds it; a training set from elsewhere gets a replica refitted
+// from the message.
 #include "gpatlas_conversions/conversions.h"
 #include "gpatlas_ros/shared_models.h"
 
@@ -40,7 +41,9 @@ gpatlas_msgs::TrainingSet stamped(const gpatlas_core::SurfaceModel& model, std::
 
 TEST(SharedModels, ATrainingSetFindsItsOwnSnapshotOnly) {
   const std::string topic = "/test/gp_model/training_set";
-  const auto first = hemisphereModel(1), second = hemisphereModel(2), third = hemisphereModel(3);
+  auto first = hemisphereModel(1);
+  const auto second = hemisphereModel(2);
+  const auto third = hemisphereModel(3);
   const auto t1 = stamped(*first, 1, 10.0), t2 = stamped(*second, 2, 11.0), t3 = stamped(*third, 3, 12.0);
   gpatlas_ros::SharedModels::offer(topic, t1, first);
   gpatlas_ros::SharedModels::offer(topic, t2, second);
@@ -51,18 +54,34 @@ TEST(SharedModels, ATrainingSetFindsItsOwnSnapshotOnly) {
   gpatlas_msgs::TrainingSet restarted = t1;
   restarted.header.stamp = ros::Time(20.0);
   EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, restarted), nullptr);
-  // The last two are kept.
+  // Only the newest is held: an earlier one is found while a user still holds it, and no longer
+  // once the last user lets it go (the registry does not keep a superseded model in memory).
   gpatlas_ros::SharedModels::offer(topic, t3, third);
-  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t1), nullptr);
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t1), first);
   EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), third);
+  const std::weak_ptr<const gpatlas_core::SurfaceModel> watched_first = first;
+  first.reset();
+  EXPECT_TRUE(watched_first.expired());
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t1), nullptr);
+  EXPECT_TRUE(gpatlas_ros::SharedModels::superseded(topic, t1));
+  EXPECT_FALSE(gpatlas_ros::SharedModels::superseded(topic, t3));
 
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
-  bool shared = false;
   std::string error;
-  ASSERT_TRUE(gpatlas_ros::modelForTrainingSet(topic, t3, gpatlas_core::SurfaceModelConfig(), &model, &error, &shared))
+  EXPECT_EQ(gpatlas_ros::modelForTrainingSet(topic, t3, gpatlas_core::SurfaceModelConfig(), &model, &error),
+            gpatlas_ros::ModelSource::kShared)
       << error;
-  EXPECT_TRUE(shared);
   EXPECT_EQ(model, third);
+  // A training set whose snapshot is gone and that a newer one follows is not refitted.
+  model.reset();
+  EXPECT_EQ(gpatlas_ros::modelForTrainingSet(topic, t1, gpatlas_core::SurfaceModelConfig(), &model, &error),
+            gpatlas_ros::ModelSource::kSuperseded);
+  EXPECT_EQ(model, nullptr);
+  // A reset offers its empty training set without a model: everything before it is superseded.
+  const auto t4 = stamped(*third, 4, 13.0);
+  gpatlas_ros::SharedModels::offer(topic, t4, nullptr);
+  EXPECT_TRUE(gpatlas_ros::SharedModels::superseded(topic, t3));
+  EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), third);  // while the test holds it
   gpatlas_ros::SharedModels::withdraw(topic);
   EXPECT_EQ(gpatlas_ros::SharedModels::find(topic, t3), nullptr);
 }
@@ -71,12 +90,11 @@ TEST(SharedModels, ATrainingSetFromElsewhereIsRefitted) {
   const auto original = hemisphereModel(4);
   const auto training = stamped(*original, 7, 30.0);
   std::shared_ptr<const gpatlas_core::SurfaceModel> replica;
-  bool shared = true;
   std::string error;
-  ASSERT_TRUE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", training, gpatlas_core::SurfaceModelConfig(),
-                                               &replica, &error, &shared))
+  ASSERT_EQ(gpatlas_ros::modelForTrainingSet("/nobody/training_set", training, gpatlas_core::SurfaceModelConfig(),
+                                             &replica, &error),
+            gpatlas_ros::ModelSource::kRefitted)
       << error;
-  EXPECT_FALSE(shared);
   ASSERT_NE(replica, original);
   for (const Eigen::Vector3d& x : {Eigen::Vector3d(0.5, 0.0, 0.16), Eigen::Vector3d(0.52, 0.03, 0.1),
                                    Eigen::Vector3d(0.5, 0.0, 0.05)}) {
@@ -86,8 +104,9 @@ TEST(SharedModels, ATrainingSetFromElsewhereIsRefitted) {
   // A message that describes no model is an error, not a model.
   gpatlas_msgs::TrainingSet empty = training;
   empty.points.clear();
-  EXPECT_FALSE(gpatlas_ros::modelForTrainingSet("/nobody/training_set", empty, gpatlas_core::SurfaceModelConfig(),
-                                                &replica, &error, &shared));
+  EXPECT_EQ(gpatlas_ros::modelForTrainingSet("/nobody/training_set", empty, gpatlas_core::SurfaceModelConfig(),
+                                             &replica, &error),
+            gpatlas_ros::ModelSource::kFailed);
 }
 
 }  // namespace

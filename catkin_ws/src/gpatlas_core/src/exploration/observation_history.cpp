@@ -54,7 +54,7 @@ std::vector<std::uint32_t> ObservationHistory::lastTouches(std::size_t n) const 
 namespace {
 
 FitReport rebuildFrom(const std::vector<ObservationBatch>& batches, const TouchObservationConfig& touch,
-                      SurfaceModel& model) {
+                      SurfaceModel& model, const RebuildProgress& progress) {
   FitReport report;
   const auto view = std::find_if(batches.begin(), batches.end(),
                                  [](const ObservationBatch& b) { return b.kind == ObservationBatch::Kind::kView; });
@@ -69,12 +69,16 @@ FitReport rebuildFrom(const std::vector<ObservationBatch>& batches, const TouchO
   evidence.touches.clear();
   if (!evidence.view_folds.empty()) model.setPositionSdScale(positionSdScale(evidence));
   model.setPositionSdEvidence(std::move(evidence));
-  std::size_t touches = 0;
+  const auto total = static_cast<std::size_t>(std::count_if(
+      batches.begin(), batches.end(), [](const ObservationBatch& b) { return b.kind == ObservationBatch::Kind::kTouch; }));
+  std::size_t applied = 0, touches = 0;
+  if (progress) progress(applied, total);
   for (const ObservationBatch& b : batches) {
     if (b.kind != ObservationBatch::Kind::kTouch) continue;
     const TouchUpdate update = applyTouch(model, b.contacts, b.free_space, touch);
     // A touch that adds nothing now (e.g. all of it refused) is no reason to fail the rebuild.
     if (update.ok) ++touches;
+    if (progress) progress(++applied, total);
   }
   report.message = "rebuilt from the view and " + std::to_string(touches) + " touch(es)";
   return report;
@@ -82,12 +86,14 @@ FitReport rebuildFrom(const std::vector<ObservationBatch>& batches, const TouchO
 
 }  // namespace
 
-FitReport ObservationHistory::rebuild(SurfaceModel& model, const TouchObservationConfig& touch) const {
-  return rebuildFrom(batches_, touch, model);
+FitReport ObservationHistory::rebuild(SurfaceModel& model, const TouchObservationConfig& touch,
+                                      const RebuildProgress& progress) const {
+  return rebuildFrom(batches_, touch, model, progress);
 }
 
 bool ObservationHistory::remove(const std::vector<std::uint32_t>& ids, const TouchObservationConfig& touch,
-                                std::unique_ptr<SurfaceModel>* model, std::string* error) {
+                                std::unique_ptr<SurfaceModel>* model, std::string* error,
+                                const RebuildProgress& progress) {
   if (ids.empty()) {
     *error = "no batch to remove";
     return false;
@@ -107,7 +113,7 @@ bool ObservationHistory::remove(const std::vector<std::uint32_t>& ids, const Tou
   for (const ObservationBatch& b : batches_)
     if (std::find(ids.begin(), ids.end(), b.id) == ids.end()) kept.push_back(b);
   std::unique_ptr<SurfaceModel> rebuilt = (*model)->clone();
-  const FitReport report = rebuildFrom(kept, touch, *rebuilt);
+  const FitReport report = rebuildFrom(kept, touch, *rebuilt, progress);
   if (!report.ok) {
     *error = "the model without them failed to fit, nothing removed: " + report.message;
     return false;

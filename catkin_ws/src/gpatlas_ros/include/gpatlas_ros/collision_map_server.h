@@ -60,7 +60,9 @@ class CollisionMapServer {
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   void buildLoop();
   // The map of one training set and what it holds, or null with the reason.
-  std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::string* error, std::string* summary);
+  // `model` is the GP nodelet's snapshot of it, null for a replica refitted from the message.
+  std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::shared_ptr<const gpatlas_core::SurfaceModel> model,
+                             std::string* error, std::string* summary);
   // Builds the probabilities of the newest map for its subscribers, latest wins.
   void publishLoop();
   bool hasMapSubscribers() const;
@@ -94,6 +96,9 @@ class CollisionMapServer {
   std::optional<gpatlas_core::SupportPlane> support_plane_;  // the table, world frame
   bool stopping_{false};
   gpatlas_msgs::TrainingSet::ConstPtr pending_;  // the newest training set not built yet
+  // Its snapshot, taken as it arrived (the GP nodelet holds only its newest one); null when the
+  // GP nodelet is in another process.
+  std::shared_ptr<const gpatlas_core::SurfaceModel> pending_model_;
   std::shared_ptr<Map> map_;                     // the newest map approaches are planned on
   std::shared_ptr<Map> publish_pending_;         // the map whose probabilities subscribers wait for
   std::uint32_t latest_sequence_{0};

@@ -78,6 +78,8 @@ class GpModelServer {
   // topic: what a late subscriber gets after a reset. With mesh_mutex_ held.
   void publishEmptySurface(const ros::Time& stamp);
   std::uint32_t training_sequence_{0};  // with mutex_
+  // A remove_observations rebuild logs how far it is this often.
+  static constexpr double kRebuildReportPeriodS{2.0};
 
   // False: only the cloud after each ~fit_next_cloud call is fitted (a streaming camera, a
   // pipeline that wants one view); true: every cloud, the newest first.

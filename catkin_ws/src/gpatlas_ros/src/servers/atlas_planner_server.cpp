@@ -87,8 +87,12 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     }
     std::shared_ptr<const gpatlas_core::SurfaceModel> model;
     std::string error;
-    bool shared = false;
-    const bool ok = modelForTrainingSet(training_sub_.getTopic(), *msg, model_config_, &model, &error, &shared);
+    const ModelSource source = modelForTrainingSet(training_sub_.getTopic(), *msg, model_config_, &model, &error);
+    if (source == ModelSource::kSuperseded) {
+      ROS_DEBUG_STREAM("atlas_planner: training set " << msg->sequence << " skipped: a newer one follows");
+      return;
+    }
+    const bool ok = source != ModelSource::kFailed;
     // A malformed view costs atlas_frontier its shadow pokes, not the model.
     std::optional<gpatlas_core::CameraView> view;
     std::string view_error;
@@ -108,7 +112,8 @@ void AtlasPlannerServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     model_sequence_ = msg->sequence;
     model_error_.clear();
     ROS_DEBUG_STREAM("atlas_planner: " << model_->name() << " model with " << model_->observations().size()
-                                       << " observations" << (shared ? " (the GP nodelet's)" : " (refitted)"));
+                                       << " observations"
+                                       << (source == ModelSource::kShared ? " (the GP nodelet's)" : " (refitted)"));
   } catch (const std::exception& e) {
     ROS_ERROR_STREAM("atlas_planner: message ignored: " << e.what());
   }

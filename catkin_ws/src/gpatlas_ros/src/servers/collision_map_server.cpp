@@ -258,11 +258,20 @@ void CollisionMapServer::publishStatus() {
 }
 
 void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr& msg) {
-  // Only hand the message over: the build runs in builder_.
+  // Only hand the message and its snapshot over: the build runs in builder_.
+  std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot;
+  if (!msg->points.empty()) {
+    snapshot = SharedModels::find(training_sub_.getTopic(), *msg);
+    if (!snapshot && SharedModels::superseded(training_sub_.getTopic(), *msg)) {
+      ROS_DEBUG_STREAM("collision_map: training set " << msg->sequence << " skipped: a newer one follows");
+      return;
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   latest_sequence_ = msg->sequence;
   if (msg->points.empty()) {  // the GP node was reset
     pending_.reset();
+    pending_model_.reset();
     map_.reset();
     publish_pending_.reset();
     ++resets_;
@@ -271,6 +280,7 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
     publishEmptyMap(*msg);
   } else {
     pending_ = msg;  // a newer training set replaces one not built yet
+    pending_model_ = std::move(snapshot);
     state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;
     status_message_ = "building the map of training set " + std::to_string(msg->sequence);
     wake_.notify_one();
@@ -283,19 +293,22 @@ void CollisionMapServer::buildLoop() {
   // at normal priority, on every core.
   for (;;) {
     gpatlas_msgs::TrainingSet::ConstPtr msg;
+    std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot;
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || pending_; });
       if (stopping_) return;
       msg = std::move(pending_);
       pending_.reset();
+      snapshot = std::move(pending_model_);
+      pending_model_.reset();
     }
     std::string error, summary;
     std::shared_ptr<Map> map;
     const ros::WallTime started = ros::WallTime::now();
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
-      map = build(*msg, &error, &summary);
+      map = build(*msg, std::move(snapshot), &error, &summary);
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -326,10 +339,14 @@ void CollisionMapServer::buildLoop() {
   }
 }
 
-std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(const gpatlas_msgs::TrainingSet& msg,
-                                                                   std::string* error, std::string* summary) {
-  std::shared_ptr<const gpatlas_core::SurfaceModel> model;
-  if (!modelForTrainingSet(training_sub_.getTopic(), msg, model_config_, &model, error)) return nullptr;
+std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(
+    const gpatlas_msgs::TrainingSet& msg, std::shared_ptr<const gpatlas_core::SurfaceModel> model, std::string* error,
+    std::string* summary) {
+  if (!model) {
+    const ModelSource source = modelForTrainingSet(training_sub_.getTopic(), msg, model_config_, &model, error);
+    if (source == ModelSource::kSuperseded) *error = "its model was superseded before it was built";
+    if (!model) return nullptr;
+  }
   const double threshold = approach_config_.occupied_probability;
   const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).buildOccupancy(*model, threshold);
   if (!grid.ok) {

@@ -121,7 +121,10 @@ void GpModelServer::fitLoop() {
     // keeps the previous model.
     try {
       waitForPlane(cloud->header.stamp);
-      if (fitCloud(cloud))
+      const bool fitted = fitCloud(cloud);
+      // A fit's working memory (trial copies of the model, factors) is as large as the model.
+      releaseFreedMemory();
+      if (fitted)
         ROS_INFO_STREAM("gp_model: cloud to model " << (ros::Time::now() - cloud->header.stamp).toSec() << " s; "
                                                     << dropped << " newer cloud(s) replaced older ones while it waited");
       else if (dropped > 0)
@@ -260,13 +263,15 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
   model_ = gpatlas_core::makeSurfaceModel(model_config_);
   history_.clear();
   view_.reset();
-  SharedModels::withdraw(training_pub_.getTopic());
   // An empty training set tells the planner and the collision map to drop their copies and
-  // publish their own empty outputs.
+  // publish their own empty outputs. Offered without a model, it supersedes the training sets
+  // before it that they have not taken yet: they skip them instead of refitting replicas of a
+  // model that is gone.
   gpatlas_msgs::TrainingSet empty;
   empty.sequence = ++training_sequence_;
   empty.header.frame_id = world_frame_;
   empty.header.stamp = ros::Time::now();
+  SharedModels::offer(training_pub_.getTopic(), empty, nullptr);
   training_pub_.publish(empty);
   {
     std::lock_guard<std::mutex> mesh_lock(mesh_mutex_);
@@ -274,6 +279,7 @@ bool GpModelServer::onReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Resp
     ++mesh_generation_;
     publishEmptySurface(empty.header.stamp);
   }
+  releaseFreedMemory();  // the model just dropped (its snapshot goes when its last user lets it go)
   res.success = true;
   res.message = "model cleared; waiting for a new object cloud";
   return true;
@@ -296,9 +302,21 @@ bool GpModelServer::onRemoveObservations(gpatlas_msgs::RemoveObservations::Reque
   }
   std::string error;
   const ros::WallTime started = ros::WallTime::now();
-  if (!history_.remove(ids, touch_config_, &model_, &error)) {
+  // The rebuild re-applies every touch kept (17 s for 149 touches): say how far it is.
+  ROS_INFO_STREAM("gp_model: remove_observations: removing " << ids.size() << " of " << history_.touchCount()
+                                                             << " touch(es); the model is rebuilt from the view and the others");
+  ros::WallTime next_report = started + ros::WallDuration(kRebuildReportPeriodS);
+  const auto progress = [&](std::size_t applied, std::size_t total) {
+    const ros::WallTime now = ros::WallTime::now();
+    if (now < next_report || applied == total) return;
+    next_report = now + ros::WallDuration(kRebuildReportPeriodS);
+    ROS_INFO_STREAM("gp_model: remove_observations: " << applied << " of " << total << " touches re-applied in "
+                                                      << (now - started).toSec() << " s");
+  };
+  if (!history_.remove(ids, touch_config_, &model_, &error, progress)) {
     res.success = false;
     res.message = error;
+    ROS_WARN_STREAM("gp_model: remove_observations: " << error);
     return true;
   }
   res.success = true;
@@ -306,6 +324,8 @@ bool GpModelServer::onRemoveObservations(gpatlas_msgs::RemoveObservations::Reque
   res.message = "removed " + std::to_string(ids.size()) + " touch(es); the model was rebuilt from the view and " +
                 std::to_string(history_.touchCount()) + " touch(es) in " +
                 std::to_string((ros::WallTime::now() - started).toSec()) + " s";
+  ROS_INFO_STREAM("gp_model: remove_observations: " << res.message);
+  releaseFreedMemory();  // the model it replaced and the rebuild's working memory
   publishModel();
   return true;
 }
@@ -365,7 +385,7 @@ void GpModelServer::publishModel() {
   training.header.frame_id = world_frame_;
   training.header.stamp = ros::Time::now();
   // One immutable copy for the planner and the collision map in this manager and for the mesh.
-  const std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot = model_->clone();
+  const std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot = modelSnapshot(model_->clone());
   SharedModels::offer(training_pub_.getTopic(), training, snapshot);
   training_pub_.publish(training);
 

@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -22,6 +23,9 @@ struct ObservationBatch {
   std::vector<Contact> contacts;             // kTouch
   std::vector<Vector3> free_space;           // kTouch
 };
+
+// Called as a rebuild goes: (touches applied so far, touches to apply).
+using RebuildProgress = std::function<void(std::size_t applied, std::size_t total)>;
 
 // What a model was built from, as numbered batches, so that one can be taken back out: a
 // wrong touch is removed without losing the others. Ids count from 1 and are never reused.
@@ -44,12 +48,15 @@ class ObservationHistory {
   // rebuilt one (a model of the same kind: clone() of it, refitted) and the batches are dropped
   // from the history; on failure (an unknown id, the view itself, or a fit that fails) the model
   // and the history are unchanged and `error` says why.
+  // A rebuild re-applies every touch kept, seconds for a hundred: `progress`, when given, is called
+  // after the view's fit and after each touch with the touches applied so far and their number.
   bool remove(const std::vector<std::uint32_t>& ids, const TouchObservationConfig& touch,
-              std::unique_ptr<SurfaceModel>* model, std::string* error);
+              std::unique_ptr<SurfaceModel>* model, std::string* error, const RebuildProgress& progress = {});
 
   // The model the history gives: the view fitted, then the touches applied in order. Fails
   // without a view.
-  FitReport rebuild(SurfaceModel& model, const TouchObservationConfig& touch) const;
+  FitReport rebuild(SurfaceModel& model, const TouchObservationConfig& touch,
+                    const RebuildProgress& progress = {}) const;
 
  private:
   std::vector<ObservationBatch>::const_iterator find(std::uint32_t id) const;
