@@ -30,11 +30,19 @@ class SharedSnapshots {
     std::lock_guard<std::mutex> lock(mutex());
     registry()[topic];
   }
-  // `snapshot` may be null: there is none for this training set (its build failed).
+  // `snapshot` may be null: there is none for this training set (its build failed). Offered
+  // again for the same training set, it replaces the one offered before.
   static void offer(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                     std::shared_ptr<const T> snapshot) {
     std::lock_guard<std::mutex> lock(mutex());
     std::deque<Entry>& kept = registry()[topic];
+    // A newer snapshot of the same training set (the collision map after a camera cloud)
+    // replaces the one before.
+    for (Entry& e : kept)
+      if (e.sequence == training.sequence && e.stamp == training.header.stamp) {
+        e.snapshot = std::move(snapshot);
+        return;
+      }
     kept.push_back(Entry{training.sequence, training.header.stamp, std::move(snapshot)});
     while (kept.size() > kPerTopic) kept.pop_front();
   }
