@@ -29,12 +29,13 @@ SegmentationServer::SegmentationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   object_pub_ = pnh_.advertise<sensor_msgs::PointCloud2>("object_points", 1, true);
   plane_pub_ = pnh_.advertise<gpatlas_msgs::SupportPlane>("support_plane", 1, true);
   objects_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("objects", 1, true);
-  select_srv_ = pnh_.advertiseService("select_object", &SegmentationServer::onSelectObject, this);
-  reset_srv_ = pnh_.advertiseService("reset", &SegmentationServer::onReset, this);
-  clicked_sub_ = nh_.subscribe("clicked_point", 1, &SegmentationServer::onClickedPoint, this);
   points_sub_ = std::make_unique<TfGatedCloudSubscriber>(
       nh_, "points", &tf_buffer_, world_frame_, "segmentation", kTfWaitWarningS,
       [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
+  // After every member the callbacks use: a selection may come as soon as they are advertised.
+  select_srv_ = pnh_.advertiseService("select_object", &SegmentationServer::onSelectObject, this);
+  reset_srv_ = pnh_.advertiseService("reset", &SegmentationServer::onReset, this);
+  clicked_sub_ = nh_.subscribe("clicked_point", 1, &SegmentationServer::onClickedPoint, this);
   ROS_INFO_STREAM("segmentation: listening on " << points_sub_->topic() << ", publishing "
                                                 << object_pub_.getTopic() << " in '" << world_frame_ << "'");
 }
