@@ -25,6 +25,7 @@ void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
   const std::vector<double> hint = r.numbers("segmentation/object_hint_m", {});
   if (hint.size() == 3) c->object_hint_m = Vector3(hint[0], hint[1], hint[2]);
   else if (!hint.empty()) r.invalid("segmentation/object_hint_m", "must be [] or a list of 3 numbers");
+  c->select_max_distance_m = r.number("segmentation/select_max_distance_m", c->select_max_distance_m, 1e-4, 1.0);
 }
 
 }  // namespace gpatlas_geometry

@@ -37,6 +37,7 @@ std::string validate(const ObjectSegmenter::Config& c) {
   if (c.cluster_min_points < 1 || c.cluster_max_points < c.cluster_min_points)
     return "need 1 <= cluster_min_points <= cluster_max_points";
   if (c.object_hint_m && !c.object_hint_m->allFinite()) return "object hint must be finite";
+  if (!(c.select_max_distance_m > 0.0)) return "select_max_distance_m must be > 0";
   return {};
 }
 
@@ -203,30 +204,6 @@ std::vector<pcl::PointIndices> euclideanClusters(const Cloud::Ptr& cloud, const 
   return clusters;
 }
 
-// The largest cluster, or the one whose centroid is closest to the hint (the first on a tie).
-std::size_t chooseCluster(const Cloud& cloud, const std::vector<pcl::PointIndices>& clusters,
-                          const ObjectSegmenter::Config& c) {
-  std::size_t best = 0;
-  double best_score = -std::numeric_limits<double>::infinity();
-  for (std::size_t i = 0; i < clusters.size(); ++i) {
-    double score = static_cast<double>(clusters[i].indices.size());
-    if (c.object_hint_m) {
-      Vector3 centroid = Vector3::Zero();
-      for (int idx : clusters[i].indices) {
-        const auto& p = cloud.points[static_cast<std::size_t>(idx)];
-        centroid += Vector3(p.x, p.y, p.z);
-      }
-      centroid /= static_cast<double>(clusters[i].indices.size());
-      score = -(centroid - *c.object_hint_m).norm();
-    }
-    if (score > best_score) {
-      best_score = score;
-      best = i;
-    }
-  }
-  return best;
-}
-
 }  // namespace
 
 SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_points) const {
@@ -270,17 +247,56 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
     result.message = msg.str();
     return result;
   }
-  const std::size_t best = chooseCluster(*filtered, clusters, c);
-  for (int idx : clusters[best].indices) {
-    const auto& p = filtered->points[static_cast<std::size_t>(idx)];
-    result.object_points.emplace_back(p.x, p.y, p.z);
-  }
+  result.clusters.resize(clusters.size());
+  for (std::size_t i = 0; i < clusters.size(); ++i)
+    for (int idx : clusters[i].indices) {
+      const auto& p = filtered->points[static_cast<std::size_t>(idx)];
+      result.clusters[i].emplace_back(p.x, p.y, p.z);
+    }
+  const std::size_t best = chooseObject(result.clusters, c.object_hint_m);
+  result.object_cluster = best;
+  result.object_points = result.clusters[best];
   result.stats.object = result.object_points.size();
   result.ok = true;
   std::ostringstream msg;
   msg << "object: " << result.stats.object << " points (cluster " << best + 1 << " of " << clusters.size() << ")";
   result.message = msg.str();
   return result;
+}
+
+std::optional<std::size_t> clusterNear(const std::vector<std::vector<Vector3>>& clusters, const Vector3& point,
+                                       double max_distance_m, double* nearest_m) {
+  double best = std::numeric_limits<double>::infinity();
+  std::size_t best_cluster = 0;
+  if (point.allFinite())
+    for (std::size_t i = 0; i < clusters.size(); ++i)
+      for (const Vector3& p : clusters[i]) {
+        const double d = (p - point).squaredNorm();
+        if (d < best) best = d, best_cluster = i;
+      }
+  best = std::sqrt(best);
+  if (nearest_m) *nearest_m = best;
+  if (!(best <= max_distance_m)) return std::nullopt;
+  return best_cluster;
+}
+
+std::size_t chooseObject(const std::vector<std::vector<Vector3>>& clusters, const std::optional<Vector3>& hint) {
+  std::size_t best = 0;
+  double best_score = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < clusters.size(); ++i) {
+    const double score = hint ? -(centroidOf(clusters[i]) - *hint).norm() : static_cast<double>(clusters[i].size());
+    if (score > best_score) {
+      best_score = score;
+      best = i;
+    }
+  }
+  return best;
+}
+
+Vector3 centroidOf(const std::vector<Vector3>& points) {
+  Vector3 sum = Vector3::Zero();
+  for (const Vector3& p : points) sum += p;
+  return points.empty() ? sum : Vector3(sum / static_cast<double>(points.size()));
 }
 
 }  // namespace gpatlas_geometry

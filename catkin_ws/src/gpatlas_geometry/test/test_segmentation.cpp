@@ -69,6 +69,37 @@ TEST(ObjectSegmenter, HintSelectsTheClosestCluster) {
   for (const auto& p : result.object_points) EXPECT_LT((p - kBoxCentre).norm(), 0.03);
 }
 
+TEST(ObjectSegmenter, EveryClusterIsKeptAndAPointPicksOne) {
+  ObjectSegmenter::Config config;
+  config.cluster_min_points = 10;
+  const auto result = ObjectSegmenter(config).segment(tableTopScene(3));
+  ASSERT_TRUE(result.ok) << result.message;
+  // The sphere (the largest, the object) and the cube: each point in one cluster, the object's
+  // cluster its points.
+  ASSERT_EQ(result.clusters.size(), 2u);
+  EXPECT_EQ(result.clusters[result.object_cluster], result.object_points);
+  const std::size_t cube = 1 - result.object_cluster;
+  for (const auto& p : result.clusters[cube]) EXPECT_LT((p - kBoxCentre).norm(), 0.03);
+  EXPECT_LT((gpatlas_geometry::centroidOf(result.clusters[cube]) - kBoxCentre).norm(), 0.016);
+
+  // A point 1 cm above the cube's top picks the cube; one on the sphere's top the sphere.
+  double nearest = 0.0;
+  const auto on_cube = gpatlas_geometry::clusterNear(result.clusters, kBoxCentre + Vector3(0, 0, 0.025), 0.03, &nearest);
+  ASSERT_TRUE(on_cube);
+  EXPECT_EQ(*on_cube, cube);
+  EXPECT_NEAR(nearest, 0.01, 0.003);
+  const auto on_sphere = gpatlas_geometry::clusterNear(result.clusters, kSphereCentre + Vector3(0, 0, kSphereRadius), 0.03);
+  ASSERT_TRUE(on_sphere);
+  EXPECT_EQ(*on_sphere, result.object_cluster);
+  // 5 cm from every cluster point, a NaN, no clusters: none, with the distance said.
+  EXPECT_FALSE(gpatlas_geometry::clusterNear(result.clusters, kBoxCentre + Vector3(0, 0, 0.065), 0.03, &nearest));
+  EXPECT_NEAR(nearest, 0.05, 0.003);
+  EXPECT_FALSE(gpatlas_geometry::clusterNear(result.clusters, Vector3(std::nan(""), 0, 0), 0.03, &nearest));
+  EXPECT_FALSE(std::isfinite(nearest));
+  EXPECT_FALSE(gpatlas_geometry::clusterNear({}, kBoxCentre, 0.03));
+  EXPECT_EQ(gpatlas_geometry::centroidOf({}), Vector3::Zero());
+}
+
 TEST(ObjectSegmenter, ObjectOnlyCloudKeepsItsHorizontalFaces) {
   // A cube seen from above without a table: its top face is a large horizontal plane, but the
   // rest of the cube lies below it, so it is not a support plane and nothing is removed.

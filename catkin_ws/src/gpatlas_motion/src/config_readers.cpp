@@ -22,4 +22,14 @@ void readApproach(gpatlas_core::ParamReader& r, ApproachConfig* c) {
   c->arm_joint_speed_rad_s = r.number("approach/arm_joint_speed_rad_s", c->arm_joint_speed_rad_s, 1e-3, 10.0);
 }
 
+void readSceneMap(gpatlas_core::ParamReader& r, SceneMapConfig* c) {
+  c->enabled = r.flag("collision_map/scene_enabled", c->enabled);
+  c->min_corner_m = r.vector3("collision_map/scene_min_corner_m", c->min_corner_m);
+  c->max_corner_m = r.vector3("collision_map/scene_max_corner_m", c->max_corner_m);
+  c->max_range_m = r.number("collision_map/scene_max_range_m", c->max_range_m, 0.05, 100.0);
+  c->hit_probability = r.number("collision_map/scene_hit_probability", c->hit_probability, 0.51, 0.999);
+  c->miss_probability = r.number("collision_map/scene_miss_probability", c->miss_probability, 0.001, 0.49);
+  c->object_margin_m = r.number("collision_map/scene_object_margin_m", c->object_margin_m, 0.0, 0.5);
+}
+
 }  // namespace gpatlas_motion

@@ -4,8 +4,13 @@
 // way a driver streams. The single cloud waits up to `~wait_for_subscriber_s` for a subscriber before
 // it is stamped. NaN points are kept: an organised cloud stays organised. A .pcd file is checked
 // (gpatlas_geometry::checkPcdFile) before PCL reads it: PCL's reader crashes on an empty or corrupt
-// one.
+// one. With `~estimate_camera_pose` (recorded_cloud.launch's camera_pose:=auto), the camera's
+// pose in `~world_frame` comes from the cloud itself (gpatlas_geometry::estimateCameraPose: the
+// table at z = 0) and is broadcast as a static transform before the cloud, its camera_pose:=
+// argument logged.
 
+#include "gpatlas_conversions/conversions.h"
+#include "gpatlas_geometry/camera_pose.h"
 #include "gpatlas_geometry/cloud_file.h"
 
 #include <pcl/PCLPointCloud2.h>
@@ -14,6 +19,7 @@
 #include <pcl_conversions/pcl_conversions.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
+#include <tf2_ros/static_transform_broadcaster.h>
 
 #include <algorithm>
 #include <cctype>
@@ -50,6 +56,36 @@ std::string readCloud(const std::string& path, sensor_msgs::PointCloud2* cloud) 
   return "";
 }
 
+// The camera's pose from the cloud, broadcast as world_frame -> the cloud's frame; empty when it
+// is, else why not.
+std::string broadcastEstimatedPose(const sensor_msgs::PointCloud2& cloud, const std::string& world_frame,
+                                   tf2_ros::StaticTransformBroadcaster* broadcaster) {
+  std::vector<Eigen::Vector3d> points;
+  std::size_t invalid = 0;
+  std::string error;
+  if (!gpatlas_conversions::cloudToPoints(cloud, &points, &invalid, &error)) return error;
+  const gpatlas_geometry::CameraPose pose = gpatlas_geometry::estimateCameraPose(points);
+  if (!pose.ok) return pose.message;
+  geometry_msgs::TransformStamped transform;
+  transform.header.stamp = ros::Time::now();
+  transform.header.frame_id = world_frame;
+  transform.child_frame_id = cloud.header.frame_id;
+  transform.transform.translation.x = pose.translation.x();
+  transform.transform.translation.y = pose.translation.y();
+  transform.transform.translation.z = pose.translation.z();
+  transform.transform.rotation.x = pose.rotation.x();
+  transform.transform.rotation.y = pose.rotation.y();
+  transform.transform.rotation.z = pose.rotation.z();
+  transform.transform.rotation.w = pose.rotation.w();
+  broadcaster->sendTransform(transform);
+  ROS_INFO_STREAM("cloud_file_publisher: camera_pose:=auto: the table is " << pose.table_offset
+                                                                          << " m below the camera, which looks "
+                                                                          << pose.looking_down_deg << " degrees down: camera_pose:=\""
+                                                                          << gpatlas_geometry::cameraPoseArgument(pose)
+                                                                          << "\"");
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -71,6 +107,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   cloud.header.frame_id = frame_id;
+  tf2_ros::StaticTransformBroadcaster broadcaster;
+  if (pnh.param("estimate_camera_pose", false)) {
+    const std::string world_frame = pnh.param<std::string>("world_frame", "world");
+    if (const std::string error = broadcastEstimatedPose(cloud, world_frame, &broadcaster); !error.empty()) {
+      ROS_FATAL_STREAM("cloud_file_publisher: camera_pose:=auto: " << error
+                                                                   << "; give the camera's pose as camera_pose:=\"x y z qx qy qz qw\"");
+      return 1;
+    }
+  }
   ROS_INFO_STREAM("cloud_file_publisher: " << path << ": " << cloud.width << " x " << cloud.height << " points in '"
                                            << frame_id << "', "
                                            << (rate_hz > 0.0 ? std::to_string(rate_hz) + " Hz" : std::string("once")));

@@ -32,6 +32,41 @@ visualization_msgs::Marker baseMarker(const std::string& frame, const std::strin
 
 }  // namespace
 
+visualization_msgs::MarkerArray objectBoxMarkers(const std::vector<std::vector<gpatlas_core::Vector3>>& clusters,
+                                                 std::size_t explored, const std::string& frame) {
+  visualization_msgs::MarkerArray out;
+  out.markers.push_back(deleteAllMarker(frame));  // the boxes of the previous cloud go
+  auto object = baseMarker(frame, "explored_object", 0, visualization_msgs::Marker::LINE_LIST);
+  auto others = baseMarker(frame, "other_objects", 0, visualization_msgs::Marker::LINE_LIST);
+  object.scale.x = 0.004;
+  others.scale.x = 0.002;
+  object.color.g = 1.0f;
+  others.color.r = 1.0f;
+  others.color.g = 0.5f;
+  for (std::size_t i = 0; i < clusters.size(); ++i) {
+    if (clusters[i].empty()) continue;
+    Eigen::Vector3d lo = clusters[i].front(), hi = lo;
+    for (const auto& p : clusters[i]) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    visualization_msgs::Marker& m = i == explored ? object : others;
+    // The 12 edges: between corners that differ in one coordinate.
+    for (int a = 0; a < 8; ++a)
+      for (int axis = 0; axis < 3; ++axis) {
+        if (a & (1 << axis)) continue;
+        const int b = a | (1 << axis);
+        for (int corner : {a, b}) {
+          geometry_msgs::Point p;
+          p.x = (corner & 1) ? hi.x() : lo.x();
+          p.y = (corner & 2) ? hi.y() : lo.y();
+          p.z = (corner & 4) ? hi.z() : lo.z();
+          m.points.push_back(p);
+        }
+      }
+  }
+  for (auto* m : {&object, &others})
+    if (!m->points.empty()) out.markers.push_back(*m);
+  return out;
+}
+
 visualization_msgs::Marker deleteAllMarker(const std::string& frame) {
   auto clear = baseMarker(frame, "", 0, visualization_msgs::Marker::CUBE);
   clear.action = visualization_msgs::Marker::DELETEALL;

@@ -6,6 +6,7 @@
 #include <gpatlas_conversions/conversions.h>
 #include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_msgs/GetNextTouch.h>
+#include <gpatlas_msgs/SupportPlane.h>
 #include <gpatlas_msgs/TrainingSet.h>
 
 #include "mug_cloud_test.h"
@@ -82,15 +83,18 @@ class RealCloud : public ::testing::Test {
         "/gpatlas/segmentation/object_points", 1, [this](const sensor_msgs::PointCloud2::ConstPtr& m) { object_.set(*m); });
     training_sub_ = nh_.subscribe<gpatlas_msgs::TrainingSet>(
         "/gpatlas/gp_model/training_set", 1, [this](const gpatlas_msgs::TrainingSet::ConstPtr& m) { training_.set(*m); });
+    plane_sub_ = nh_.subscribe<gpatlas_msgs::SupportPlane>(
+        "/gpatlas/segmentation/support_plane", 1, [this](const gpatlas_msgs::SupportPlane::ConstPtr& m) { plane_.set(*m); });
     spinner_.start();
   }
 
   ros::NodeHandle nh_;
   std::string pcd_;
   ros::AsyncSpinner spinner_{1};
-  ros::Subscriber object_sub_, training_sub_;
+  ros::Subscriber object_sub_, training_sub_, plane_sub_;
   Latest<sensor_msgs::PointCloud2> object_;
   Latest<gpatlas_msgs::TrainingSet> training_;
+  Latest<gpatlas_msgs::SupportPlane> plane_;
 };
 
 TEST_F(RealCloud, TheMugIsSegmentedFittedAndTouched) {
@@ -100,6 +104,15 @@ TEST_F(RealCloud, TheMugIsSegmentedFittedAndTouched) {
   std::string error;
   ASSERT_TRUE(gpatlas_conversions::cloudToPoints(*object_.get(), &mug, &invalid, &error)) << error;
   ASSERT_GT(mug.size(), 500u);
+  // The camera's pose (measured, or camera_pose:=auto) puts the table level at z = 0.
+  ASSERT_TRUE(waitFor(plane_, 10.0)) << "no support plane from segmentation";
+  const Eigen::Vector3d normal = gpatlas_conversions::fromMsg(plane_.get()->normal).normalized();
+  const double tilt_deg = std::acos(std::min(1.0, normal.z())) * 180.0 / M_PI;
+  RecordProperty("support_plane_tilt_deg", std::to_string(tilt_deg));
+  std::printf("[real cloud] support plane %.2f degrees from level, %.1f mm from z = 0\n", tilt_deg,
+              1000.0 * plane_.get()->offset);
+  EXPECT_LT(tilt_deg, 2.0);
+  EXPECT_LT(std::abs(plane_.get()->offset), 0.005);
 
   // A cylinder standing on the table (z = 0 in this world frame).
   const auto [centre, radius] = fitCircle(mug);

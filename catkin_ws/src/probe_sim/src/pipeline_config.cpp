@@ -20,6 +20,7 @@ void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
   readStrategy(r, &c->strategy);
   readMesher(r, &c->mesh);
   readCollisionMap(r, &c->collision_map);
+  gpatlas_motion::readSceneMap(r, &c->scene_map);
   gpatlas_motion::readApproach(r, &c->approach);
   readSegmenter(r, &c->segmentation);
 }

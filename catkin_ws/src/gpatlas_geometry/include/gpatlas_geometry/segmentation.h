@@ -32,6 +32,10 @@ struct SegmentationResult {
   double plane_offset{0.0};  // n . x + d = 0 of the removed support plane, when found
   bool plane_found{false};
   SegmentationStats stats;
+  // Every cluster (world frame), the object's at object_cluster: what a user picks from, and
+  // the other objects on the table.
+  std::vector<std::vector<Vector3>> clusters;
+  std::size_t object_cluster{0};
 };
 
 // Extracts the object from a scene cloud in the world frame (z up): crop box, voxel grid,
@@ -68,6 +72,9 @@ class ObjectSegmenter {
     std::size_t cluster_max_points{2'000'000};
     // Keep the cluster closest to this point instead of the largest one.
     std::optional<Vector3> object_hint_m;
+    // A user's pick (a clicked point on the object's visible surface) selects the cluster with
+    // a point this close to it (about a click's error on a depth cloud), else none.
+    double select_max_distance_m{0.03};
   };
 
   ObjectSegmenter() = default;
@@ -81,5 +88,18 @@ class ObjectSegmenter {
 
 // Empty when the config is usable, else what is wrong with it.
 std::string validate(const ObjectSegmenter::Config& config);
+
+// The cluster a point picks: the one with a point nearest to `point`, when that point lies
+// within max_distance_m of it; nullopt otherwise (no cluster, or all farther). `nearest_m`
+// (optional) gets that nearest distance (infinity without clusters).
+std::optional<std::size_t> clusterNear(const std::vector<std::vector<Vector3>>& clusters, const Vector3& point,
+                                       double max_distance_m, double* nearest_m = nullptr);
+
+// The object among the clusters: the largest, or the one whose centroid is closest to the hint
+// (the first on a tie; 0 for no cluster).
+std::size_t chooseObject(const std::vector<std::vector<Vector3>>& clusters, const std::optional<Vector3>& hint);
+
+// The mean of the points (zero for none): the hint that keeps a picked cluster in later clouds.
+Vector3 centroidOf(const std::vector<Vector3>& points);
 
 }  // namespace gpatlas_geometry

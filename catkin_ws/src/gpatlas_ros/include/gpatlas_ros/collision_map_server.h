@@ -3,6 +3,7 @@
 #include <gpatlas_core/model/occupancy_grid.h>
 #include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_motion/arm_approach_planner.h>
+#include <gpatlas_motion/scene_map.h>
 #include <gpatlas_motion/touch_approach.h>
 #include <gpatlas_msgs/PlanApproach.h>
 #include <gpatlas_msgs/SaveMap.h>
@@ -31,6 +32,14 @@ class OcTree;
 
 namespace gpatlas_ros {
 
+// A camera cloud in world_frame and the origin of its rays.
+struct SceneCloud {
+  std::vector<Eigen::Vector3d> points;
+  Eigen::Vector3d origin{Eigen::Vector3d::Zero()};
+  std::string frame;
+  ros::Time stamp;
+};
+
 // Probabilistic collision map (paper section 4.1): P(the object reaches into a voxel) from the GP
 // (gpatlas_core::OccupancyGridBuilder) on a coarse grid, stored in an OctoMap octree. Publishes `~octomap_binary`
 // (gpatlas_msgs/OctomapBinary) and `~occupied_voxels` (markers); `~save_map` writes a .bt file.
@@ -45,6 +54,13 @@ namespace gpatlas_ros {
 // robot_description with approach/use_arm), and shows it on `~approach_path` (the tip) and
 // `~approach_arm` (the arm's links); with the arm, `~approach_trajectory`
 // (trajectory_msgs/JointTrajectory) is the last planned approach.
+// The scene (collision_map/scene_*): every camera cloud on `points` goes into a
+// gpatlas_motion::SceneMap, cast from the cloud's frame (sensor_frame for a cloud already in
+// world_frame), and its occupied voxels join the map as obstacles, except near the explored
+// object's points and contacts (its model governs there) and where the probe went. A cloud
+// after the map of a training set re-merges that map with the scene. The scene outlasts a reset
+// of the model: the table the camera saw is unchanged (selecting another object resets the
+// model, and the object explored before stays in the scene as an obstacle).
 class CollisionMapServer {
  public:
   CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh);
@@ -58,7 +74,20 @@ class CollisionMapServer {
   bool onSaveMap(gpatlas_msgs::SaveMap::Request& req, gpatlas_msgs::SaveMap::Response& res);
   bool onPlanApproach(gpatlas_msgs::PlanApproach::Request& req, gpatlas_msgs::PlanApproach::Response& res);
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
+  // A camera cloud for the scene: moved to world_frame with its sensor's origin, handed to
+  // builder_ (latest wins).
+  void onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg);
   void buildLoop();
+  // In builder_: the cloud into the scene.
+  void insertSceneCloud(const SceneCloud& cloud);
+  // In builder_: the newest map again with the scene as it is now (after a cloud).
+  std::shared_ptr<Map> remerge(const Map& map, std::string* summary) const;
+  // In builder_, after a build or a re-merge: the new map (or the failure) becomes the current
+  // one unless a reset or a newer training set came meanwhile, and ~status says so.
+  void install(const gpatlas_msgs::TrainingSet& msg, const std::shared_ptr<Map>& map, const std::string& error,
+               const std::string& summary, const ros::WallTime& started);
+  // The scene's obstacles for a training set (its object points and the probe's free space).
+  std::shared_ptr<const std::vector<Eigen::Vector3d>> sceneObstacles(const gpatlas_msgs::TrainingSet& msg) const;
   // The map of one training set and what it holds, or null with the reason.
   // `model` is the GP nodelet's snapshot of it, null for a replica refitted from the message.
   std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::shared_ptr<const gpatlas_core::SurfaceModel> model,
@@ -84,6 +113,10 @@ class CollisionMapServer {
   std::string world_frame_;
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::CollisionMapConfig map_config_;
+  gpatlas_motion::SceneMapConfig scene_config_;
+  std::string sensor_frame_;
+  std::unique_ptr<gpatlas_motion::SceneMap> scene_;  // builder_'s only; null with scene_enabled false
+  std::size_t scene_clouds_{0};                      // clouds in the scene (builder_)
   gpatlas_motion::ApproachConfig approach_config_;
   std::shared_ptr<const gpatlas_motion::Arm> approach_arm_;  // with approach/use_arm
   std::string approach_arm_error_;                           // why there is none, when asked for
@@ -99,6 +132,7 @@ class CollisionMapServer {
   // Its snapshot, taken as it arrived (the GP nodelet holds only its newest one); null when the
   // GP nodelet is in another process.
   std::shared_ptr<const gpatlas_core::SurfaceModel> pending_model_;
+  std::shared_ptr<const SceneCloud> pending_cloud_;  // the newest cloud not in the scene yet
   std::shared_ptr<Map> map_;                     // the newest map approaches are planned on
   std::shared_ptr<Map> publish_pending_;         // the map whose probabilities subscribers wait for
   std::uint32_t latest_sequence_{0};
@@ -109,6 +143,7 @@ class CollisionMapServer {
   std::thread builder_, publisher_;
 
   ros::Subscriber training_sub_, plane_sub_;
+  std::unique_ptr<TfGatedCloudSubscriber> points_sub_;
   ros::ServiceServer save_srv_, approach_srv_;
   ros::Publisher octomap_pub_, voxels_pub_, status_pub_, approach_pub_, approach_arm_pub_, approach_trajectory_pub_;
 };

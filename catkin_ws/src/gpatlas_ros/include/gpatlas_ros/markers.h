@@ -18,6 +18,10 @@ namespace gpatlas_ros {
 visualization_msgs::Marker meshMarker(const gpatlas_core::TriangleMesh& mesh, double v_max, const std::string& frame);
 // The probe's planned approach: its tip's path as a green line.
 visualization_msgs::Marker approachMarker(const std::vector<gpatlas_core::Vector3>& tip_path, const std::string& frame);
+// The segmented objects' axis-aligned bounding boxes as lines: the explored one (cluster
+// `explored`) green in namespace explored_object, the others orange in other_objects.
+visualization_msgs::MarkerArray objectBoxMarkers(const std::vector<std::vector<gpatlas_core::Vector3>>& clusters,
+                                                 std::size_t explored, const std::string& frame);
 // The arm along a planned joint path: its links' axes at configurations sampled along it (one
 // list of link capsules each), in a colour that goes from the start's to the end's.
 visualization_msgs::Marker armTrailMarker(const std::vector<std::vector<gpatlas_motion::LinkCapsule>>& link_poses,

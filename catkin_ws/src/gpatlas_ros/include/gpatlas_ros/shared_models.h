@@ -32,11 +32,21 @@ class SharedSnapshots {
     std::lock_guard<std::mutex> lock(mutex());
     registry()[topic];
   }
-  // `snapshot` may be null: there is none for this training set (its build failed).
+  // `snapshot` may be null: there is none for this training set (its build failed). Offered
+  // again for the same training set, it replaces the one offered before.
   static void offer(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                     std::shared_ptr<const T> snapshot) {
     std::lock_guard<std::mutex> lock(mutex());
     std::deque<Entry>& kept = registry()[topic];
+    // A newer snapshot of the same training set (the collision map after a camera cloud)
+    // replaces the one before.
+    for (std::size_t i = 0; i < kept.size(); ++i)
+      if (Entry& e = kept[i]; e.sequence == training.sequence && e.stamp == training.header.stamp) {
+        e.held = kept.size() - i <= kHeld ? snapshot : nullptr;  // only the newest kHeld are held
+        e.watched = snapshot;
+        e.offered_null = snapshot == nullptr;
+        return;
+      }
     kept.push_back(Entry{training.sequence, training.header.stamp, snapshot, snapshot, snapshot == nullptr});
     while (kept.size() > kPerTopic) kept.pop_front();
     if (kept.size() > kHeld) kept[kept.size() - kHeld - 1].held.reset();

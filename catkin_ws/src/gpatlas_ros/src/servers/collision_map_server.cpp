@@ -41,11 +41,26 @@ gpatlas_msgs::OctomapBinary octomapMessage(const octomap::OcTree& tree, const st
   return out;
 }
 
+// The model's tree with the scene's obstacles; the model's own when there are none.
+std::shared_ptr<const octomap::OcTree> withObstacles(const std::shared_ptr<const octomap::OcTree>& model_tree,
+                                                     const std::vector<Eigen::Vector3d>* obstacles) {
+  if (!obstacles || obstacles->empty()) return model_tree;
+  auto merged = std::make_shared<octomap::OcTree>(*model_tree);
+  gpatlas_motion::addObstacles(merged.get(), *obstacles);
+  return merged;
+}
+
 }  // namespace
 
 struct CollisionMapServer::Map {
-  // Occupied or not at approach/occupied_probability: what approaches are planned on.
+  // Occupied or not at approach/occupied_probability: what approaches are planned on, the
+  // model's and the scene's obstacles.
   std::shared_ptr<const octomap::OcTree> tree;
+  // The model's alone, which a camera cloud re-merges with the scene.
+  std::shared_ptr<const octomap::OcTree> model_tree;
+  // The scene's obstacles in both trees (null: none).
+  std::shared_ptr<const std::vector<Eigen::Vector3d>> scene_obstacles;
+  gpatlas_msgs::TrainingSet::ConstPtr training;
   // P(occupied) per voxel, for the map's topics and save_map; null until asked for (mutex_).
   std::shared_ptr<const octomap::OcTree> probabilities;
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
@@ -65,7 +80,14 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
   if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("collision_map: approach/use_arm: " << approach_arm_error_);
   readCollisionMap(reader, &map_config_);
+  readSceneMap(reader, &scene_config_);
+  sensor_frame_ = preamble.frames.sensor_frame;
   reader.report("collision_map");
+  if (const std::string invalid = gpatlas_motion::validate(scene_config_); !invalid.empty()) {
+    ROS_ERROR_STREAM("collision_map: inconsistent scene parameters (" << invalid << "); the scene's defaults used");
+    scene_config_ = gpatlas_motion::SceneMapConfig();
+  }
+  if (scene_config_.enabled) scene_ = std::make_unique<gpatlas_motion::SceneMap>(scene_config_, map_config_.grid.resolution_m);
   // A new subscriber gets the newest map's probabilities, built then if no one asked before.
   const ros::SubscriberStatusCallback connected = [this](const ros::SingleSubscriberPublisher&) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -94,6 +116,46 @@ CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   SharedCollisionMaps::attend(training_sub_.getTopic());
   if (use_support_plane)
     plane_sub_ = nh_.subscribe("support_plane", 1, &CollisionMapServer::onSupportPlane, this);
+  if (scene_)
+    points_sub_ = std::make_unique<TfGatedCloudSubscriber>(
+        nh_, "points", &tf_buffer_, world_frame_, "collision_map", kTfWaitWarningS,
+        [this](const sensor_msgs::PointCloud2::ConstPtr& msg) { onPoints(msg); });
+}
+
+void CollisionMapServer::onPoints(const sensor_msgs::PointCloud2::ConstPtr& msg) {
+  // roscpp does not catch exceptions from callbacks: one would end the nodelet manager.
+  try {
+    auto cloud = std::make_shared<SceneCloud>();
+    std::size_t invalid = 0;
+    std::string error;
+    if (!cloudToWorld(*msg, tf_buffer_, world_frame_, tf_timeout_s_, &cloud->points, &invalid, &error)) {
+      ROS_WARN_STREAM_THROTTLE(10.0, "collision_map: cloud not added to the scene: " << error);
+      return;
+    }
+    // The rays start at the camera: the cloud's own frame, as octomap_server takes it, unless the
+    // cloud is already given in world_frame, whose origin is no camera.
+    const std::string& frame = msg->header.frame_id;
+    cloud->frame = frame.empty() || frame == world_frame_ ? sensor_frame_ : frame;
+    if (cloud->frame.empty()) {
+      ROS_ERROR_STREAM_THROTTLE(10.0, "collision_map: a cloud in '" << world_frame_
+                                          << "' with sensor_frame empty: no sensor origin to cast the scene's free "
+                                             "space from; set sensor_frame to the camera's frame");
+      return;
+    }
+    std::vector<Eigen::Vector3d> origin{Eigen::Vector3d::Zero()};
+    if (!transformToWorld(tf_buffer_, world_frame_, cloud->frame, msg->header.stamp, tf_timeout_s_, &origin, &error)) {
+      ROS_WARN_STREAM_THROTTLE(10.0, "collision_map: cloud not added to the scene: no origin for '"
+                                         << cloud->frame << "': " << error);
+      return;
+    }
+    cloud->origin = origin.front();
+    cloud->stamp = msg->header.stamp;
+    std::lock_guard<std::mutex> lock(mutex_);
+    pending_cloud_ = std::move(cloud);
+    wake_.notify_one();
+  } catch (const std::exception& e) {
+    ROS_ERROR_STREAM("collision_map: cloud ignored: " << e.what());
+  }
 }
 
 void CollisionMapServer::onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg) {
@@ -294,49 +356,116 @@ void CollisionMapServer::buildLoop() {
   for (;;) {
     gpatlas_msgs::TrainingSet::ConstPtr msg;
     std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot;
+    std::shared_ptr<const SceneCloud> cloud;
+    std::shared_ptr<Map> current;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [this] { return stopping_ || pending_; });
+      wake_.wait(lock, [this] { return stopping_ || pending_ || pending_cloud_; });
       if (stopping_) return;
       msg = std::move(pending_);
       pending_.reset();
       snapshot = std::move(pending_model_);
       pending_model_.reset();
+      cloud = std::move(pending_cloud_);
+      pending_cloud_.reset();
+      current = map_;
     }
-    std::string error, summary;
-    std::shared_ptr<Map> map;
     const ros::WallTime started = ros::WallTime::now();
     // Nothing may escape this thread: an exception would end the nodelet manager.
     try {
-      map = build(*msg, std::move(snapshot), &error, &summary);
+      if (cloud && scene_) insertSceneCloud(*cloud);
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM("collision_map: cloud not added to the scene: " << e.what());
+    }
+    std::string error, summary;
+    std::shared_ptr<Map> map;
+    try {
+      if (msg) {
+        map = build(*msg, std::move(snapshot), &error, &summary);
+        if (map) map->training = msg;
+      } else if (cloud && current) map = remerge(*current, &summary);
     } catch (const std::exception& e) {
       error = e.what();
     }
-    // Offered even when the build failed (as none), so that the planner does not wait for it.
-    SharedCollisionMaps::offer(training_sub_.getTopic(), *msg,
-                               map ? map->tree : std::shared_ptr<const octomap::OcTree>());
-    std::lock_guard<std::mutex> lock(mutex_);
-    // A reset while it was built (a newer sequence, nothing pending) makes it worthless: the
-    // status already says NONE.
-    if (!pending_ && latest_sequence_ != msg->sequence) continue;
-    if (map) {
-      map_ = map;
-      if (hasMapSubscribers()) requestProbabilities();
-      status_message_ = summary;
-      ROS_INFO_STREAM("collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec() << " s");
-    } else {
-      ROS_ERROR_STREAM("collision_map: no map for training set " << msg->sequence << ": " << error);
-    }
-    if (pending_) {
-      state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;  // a newer set is waiting
-    } else if (map) {
-      state_ = gpatlas_msgs::CollisionMapStatus::CURRENT;
-    } else {
-      state_ = map_ ? gpatlas_msgs::CollisionMapStatus::STALE : gpatlas_msgs::CollisionMapStatus::NONE;
-      status_message_ = "the map of training set " + std::to_string(msg->sequence) + " failed: " + error;
-    }
-    publishStatus();
+    if (msg) install(*msg, map, error, summary, started);
+    else if (cloud && current) install(*current->training, map, error, summary, started);
   }
+}
+
+void CollisionMapServer::insertSceneCloud(const SceneCloud& cloud) {
+  const ros::WallTime started = ros::WallTime::now();
+  const std::size_t inserted = scene_->insertCloud(cloud.points, cloud.origin);
+  ++scene_clouds_;
+  const double seconds = (ros::WallTime::now() - started).toSec();
+  if (inserted == 0 && !cloud.points.empty()) {
+    ROS_WARN_STREAM_THROTTLE(10.0, "collision_map: none of the cloud's " << cloud.points.size()
+                                       << " points lies in the scene's box (collision_map/scene_min_corner_m, "
+                                          "scene_max_corner_m, world frame) within scene_max_range_m of '"
+                                       << cloud.frame << "'");
+    return;
+  }
+  ROS_INFO_STREAM("collision_map: scene: " << inserted << " of the cloud's " << cloud.points.size()
+                                           << " points cast from '" << cloud.frame << "' in " << seconds << " s, "
+                                           << scene_->occupiedVoxels() << " occupied voxels");
+}
+
+void CollisionMapServer::install(const gpatlas_msgs::TrainingSet& msg, const std::shared_ptr<Map>& map,
+                                 const std::string& error, const std::string& summary, const ros::WallTime& started) {
+  // Offered even when the build failed (as none), so that the planner does not wait for it.
+  SharedCollisionMaps::offer(training_sub_.getTopic(), msg, map ? map->tree : std::shared_ptr<const octomap::OcTree>());
+  std::lock_guard<std::mutex> lock(mutex_);
+  // A reset while it was built (a newer sequence, nothing pending) makes it worthless: the
+  // status already says NONE.
+  if (!pending_ && latest_sequence_ != msg.sequence) return;
+  if (map) {
+    map_ = map;
+    if (hasMapSubscribers()) requestProbabilities();
+    status_message_ = summary;
+    ROS_INFO_STREAM("collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec() << " s");
+  } else {
+    ROS_ERROR_STREAM("collision_map: no map for training set " << msg.sequence << ": " << error);
+  }
+  if (pending_) {
+    state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;  // a newer set is waiting
+  } else if (map) {
+    state_ = gpatlas_msgs::CollisionMapStatus::CURRENT;
+  } else {
+    state_ = map_ ? gpatlas_msgs::CollisionMapStatus::STALE : gpatlas_msgs::CollisionMapStatus::NONE;
+    status_message_ = "the map of training set " + std::to_string(msg.sequence) + " failed: " + error;
+  }
+  publishStatus();
+}
+
+std::shared_ptr<const std::vector<Eigen::Vector3d>> CollisionMapServer::sceneObstacles(
+    const gpatlas_msgs::TrainingSet& msg) const {
+  if (!scene_) return nullptr;
+  // The explored object: what the camera saw of it and the probe's contacts, on its surface.
+  std::vector<Eigen::Vector3d> object, free;
+  for (std::size_t i = 0; i < msg.points.size() && i < msg.labels.size() && i < msg.sources.size(); ++i) {
+    const auto source = static_cast<gpatlas_core::PointSource>(msg.sources[i]);
+    const Eigen::Vector3d p = fromMsg(msg.points[i]);
+    if (msg.labels[i] == 0 && (source == gpatlas_core::PointSource::kVision || source == gpatlas_core::PointSource::kTouch))
+      object.push_back(p);
+    else if (source == gpatlas_core::PointSource::kFreeSpace)
+      free.push_back(p);
+  }
+  for (const auto& p : msg.view_points) object.emplace_back(p.x, p.y, p.z);
+  return std::make_shared<const std::vector<Eigen::Vector3d>>(scene_->obstacles(object, free));
+}
+
+std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::remerge(const Map& map, std::string* summary) const {
+  auto out = std::make_shared<Map>();
+  out->model = map.model;
+  out->model_tree = map.model_tree;
+  out->training = map.training;
+  out->training_sequence = map.training_sequence;
+  out->training_stamp = map.training_stamp;
+  out->scene_obstacles = sceneObstacles(*map.training);
+  out->tree = withObstacles(out->model_tree, out->scene_obstacles.get());
+  *summary = "training set " + std::to_string(map.training_sequence) + " with the scene of " +
+             std::to_string(scene_clouds_) + " clouds: " + std::to_string(out->scene_obstacles->size()) +
+             " scene voxels are obstacles";
+  return out;
 }
 
 std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(
@@ -358,10 +487,14 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(
   map->training_sequence = msg.sequence;
   map->training_stamp = msg.header.stamp;
   std::size_t occupied = 0;
-  map->tree = gpatlas_motion::collisionOctree(grid, threshold, &occupied);
+  map->model_tree = gpatlas_motion::collisionOctree(grid, threshold, &occupied);
+  map->scene_obstacles = sceneObstacles(msg);
+  map->tree = withObstacles(map->model_tree, map->scene_obstacles.get());
   std::ostringstream message;
   message << "training set " << msg.sequence << ": " << occupied << " of " << grid.probabilities.size()
           << " cells occupied (P > " << threshold << ") at " << grid.resolution << " m";
+  if (map->scene_obstacles)
+    message << ", " << map->scene_obstacles->size() << " scene voxels from " << scene_clouds_ << " clouds";
   *summary = message.str();
   return map;
 }
@@ -414,7 +547,9 @@ std::shared_ptr<const octomap::OcTree> CollisionMapServer::probabilitiesOf(const
       *error = grid.message;
       return nullptr;
     }
-    tree = gpatlas_motion::collisionOctree(grid, approach_config_.occupied_probability);
+    std::unique_ptr<octomap::OcTree> full = gpatlas_motion::collisionOctree(grid, approach_config_.occupied_probability);
+    if (map->scene_obstacles) gpatlas_motion::addObstacles(full.get(), *map->scene_obstacles);
+    tree = std::move(full);
   } catch (const std::exception& e) {
     *error = e.what();
     return nullptr;

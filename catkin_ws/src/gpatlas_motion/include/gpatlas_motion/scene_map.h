@@ -1,0 +1,79 @@
+#pragma once
+
+#include <Eigen/Core>
+
+#include <cstddef>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace octomap {
+class OcTree;
+}
+
+namespace gpatlas_motion {
+
+// The scene map's settings: config/pipeline.yaml's collision_map/scene_* (readSceneMap). Its
+// voxel is the collision map's (collision_map/resolution_m): both go into one octree.
+struct SceneMapConfig {
+  // Off: the collision map holds the explored object's model and nothing else of the scene.
+  bool enabled{true};
+  // The box (world frame) the camera's clouds update; a ray is cut where it leaves it, and a
+  // point outside it neither occupies nor frees anything. It holds the table, what stands on
+  // it and the arm's way there.
+  Eigen::Vector3d min_corner_m{-0.5, -1.0, -0.05};
+  Eigen::Vector3d max_corner_m{1.6, 1.0, 1.0};
+  // Points farther from the sensor than this are dropped (stereo depth is noise beyond it).
+  double max_range_m{3.0};
+  // OctoMap's sensor model (octomap_server's defaults): one hit makes a voxel occupied, a
+  // voxel seen through once after a hit is free again only after two misses.
+  double hit_probability{0.7};
+  double miss_probability{0.4};
+  // The scene's occupied voxels within this distance of the explored object's points (its
+  // view and contacts) are left to its model: the object must not block the touches on itself,
+  // whose contact zone (approach/contact_zone_m) ends at the surface; more than the probe's
+  // tip radius with its clearance, so that the table at the object's foot does not either.
+  double object_margin_m{0.03};
+};
+
+// Empty when the config is usable, else what is wrong with it.
+std::string validate(const SceneMapConfig& config);
+
+// What the camera saw, as octomap_server builds it: each cloud goes into an OctoMap with
+// insertPointCloud (discretised: one ray per voxel, not per point), its points' voxels occupied
+// and the voxels on the rays from the sensor free, within the config's box. The collision map
+// takes its occupied voxels as obstacles besides the explored object's model (obstacles(),
+// addObstacles()).
+class SceneMap {
+ public:
+  // Throws std::invalid_argument for an unusable config or resolution.
+  SceneMap(SceneMapConfig config, double resolution_m);
+  ~SceneMap();
+  SceneMap(const SceneMap&) = delete;
+  SceneMap& operator=(const SceneMap&) = delete;
+
+  // One cloud (world frame, finite points) seen from `sensor_origin` (world frame). Returns the
+  // number of points inside the box and the range, which were inserted.
+  std::size_t insertCloud(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& sensor_origin);
+  void clear();
+  std::size_t occupiedVoxels() const;
+  const SceneMapConfig& config() const { return config_; }
+  const octomap::OcTree& tree() const { return *tree_; }
+
+  // The centres of the scene's occupied voxels that are obstacles for the approach planner:
+  // every one except those within object_margin_m of an `object_points` point (the explored
+  // object, which its model governs) and those holding a `free_points` point (the probe went
+  // through it, which outweighs what the camera saw).
+  std::vector<Eigen::Vector3d> obstacles(const std::vector<Eigen::Vector3d>& object_points,
+                                         const std::vector<Eigen::Vector3d>& free_points) const;
+
+ private:
+  SceneMapConfig config_;
+  std::unique_ptr<octomap::OcTree> tree_;
+};
+
+// Marks the voxels at `centres` occupied in `map` (the collision octree, at its clamping
+// maximum, whatever the model said there). Returns how many were not occupied before.
+std::size_t addObstacles(octomap::OcTree* map, const std::vector<Eigen::Vector3d>& centres);
+
+}  // namespace gpatlas_motion

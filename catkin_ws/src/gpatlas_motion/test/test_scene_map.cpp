@@ -1,0 +1,247 @@
+// The scene map on an analytic scene: a camera above a table looking at the explored object (a
+// cube) and a neighbour (a box) beside it. What the camera saw becomes occupied, the rays to it
+// free, what it did not see unknown; the explored object's own voxels are left to its model,
+// and the approach planner avoids the neighbour, which the model alone does not hold.
+#include "gpatlas_motion/scene_map.h"
+
+#include "gpatlas_motion/probe_approach_planner.h"
+
+#include "box_octree.h"
+
+#include <octomap/OcTree.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <set>
+#include <stdexcept>
+#include <tuple>
+
+namespace {
+
+using gpatlas_motion::SceneMap;
+using gpatlas_motion::SceneMapConfig;
+using gpatlas_motion_test::Box;
+using gpatlas_motion_test::kVoxel;
+using Eigen::Vector3d;
+
+const Vector3d kSensor(0.0, 0.0, 0.5);
+const Box kObject{Vector3d(0.57, -0.03, 0.0), Vector3d(0.63, 0.03, 0.06)};
+const Box kNeighbour{Vector3d(0.57, 0.12, 0.0), Vector3d(0.63, 0.18, 0.10)};
+const Box kTable{Vector3d(0.3, -0.3, 0.0), Vector3d(0.9, 0.3, 0.0)};  // its top, z = 0
+
+// Whether the segment from a to b enters the box's interior before b (slab test).
+bool entersBefore(const Vector3d& a, const Vector3d& b, const Box& box) {
+  const Vector3d lower = box.lower.array() + 1e-6, upper = box.upper.array() - 1e-6;
+  double t0 = 0.0, t1 = 1.0 - 1e-6;
+  for (int i = 0; i < 3; ++i) {
+    const double d = b[i] - a[i];
+    if (std::abs(d) < 1e-12) {
+      if (a[i] <= lower[i] || a[i] >= upper[i]) return false;
+      continue;
+    }
+    double near = (lower[i] - a[i]) / d, far = (upper[i] - a[i]) / d;
+    if (near > far) std::swap(near, far);
+    t0 = std::max(t0, near);
+    t1 = std::min(t1, far);
+    if (t0 > t1) return false;
+  }
+  return true;
+}
+
+// Points every 2.5 mm on a box's faces (a flat box: its top) that the sensor sees: those no box
+// hides from it.
+std::vector<Vector3d> seenPoints(const Box& box, const std::vector<Box>& solids) {
+  const double step = 0.0025;
+  std::vector<Vector3d> out;
+  for (double x = box.lower.x(); x <= box.upper.x() + 1e-9; x += step)
+    for (double y = box.lower.y(); y <= box.upper.y() + 1e-9; y += step)
+      for (double z = box.lower.z(); z <= box.upper.z() + 1e-9; z += step) {
+        const Vector3d p(x, y, z);
+        const bool on_face = (p - box.lower).cwiseAbs().minCoeff() < 1e-9 || (p - box.upper).cwiseAbs().minCoeff() < 1e-9;
+        if (!on_face) continue;
+        bool hidden = false;
+        for (const Box& s : solids) hidden = hidden || entersBefore(kSensor, p, s);
+        if (!hidden) out.push_back(p);
+      }
+  return out;
+}
+
+SceneMapConfig sceneConfig() {
+  SceneMapConfig config;
+  config.min_corner_m = Vector3d(-0.2, -0.5, -0.05);
+  config.max_corner_m = Vector3d(1.2, 0.5, 0.7);
+  return config;
+}
+
+struct Scene {
+  std::vector<Vector3d> object, neighbour, table;
+  std::vector<Vector3d> all() const {
+    std::vector<Vector3d> out = object;
+    out.insert(out.end(), neighbour.begin(), neighbour.end());
+    out.insert(out.end(), table.begin(), table.end());
+    return out;
+  }
+};
+
+Scene scene() {
+  const std::vector<Box> solids = {kObject, kNeighbour};
+  return Scene{seenPoints(kObject, solids), seenPoints(kNeighbour, solids), seenPoints(kTable, solids)};
+}
+
+octomap::point3d at(const Vector3d& p) { return octomap::point3d(float(p.x()), float(p.y()), float(p.z())); }
+
+// The voxels (OctoMap's keys at kVoxel, as the maps compute them from float coordinates)
+// holding the points.
+std::set<std::tuple<int, int, int>> voxelsOf(const std::vector<Vector3d>& points) {
+  static const octomap::OcTree keys(kVoxel);
+  std::set<std::tuple<int, int, int>> out;
+  for (const Vector3d& p : points) {
+    const octomap::OcTreeKey k = keys.coordToKey(at(p));
+    out.insert({k[0], k[1], k[2]});
+  }
+  return out;
+}
+
+TEST(SceneMap, WhatTheCameraSawIsOccupiedTheRaysFreeTheRestUnknown) {
+  const Scene s = scene();
+  ASSERT_GT(s.neighbour.size(), 500u);
+  SceneMap map(sceneConfig(), kVoxel);
+  const std::vector<Vector3d> points = s.all();
+  EXPECT_EQ(map.insertCloud(points, kSensor), points.size());
+  const octomap::OcTree& tree = map.tree();
+  for (const Vector3d& p : points) {
+    const octomap::OcTreeNode* node = tree.search(at(p));
+    ASSERT_TRUE(node && tree.isNodeOccupied(node)) << "a seen point's voxel at " << p.transpose();
+  }
+  // Each voxel holding a point, once: no voxel is occupied that no point lies in.
+  EXPECT_EQ(map.occupiedVoxels(), voxelsOf(points).size());
+  // The ray to the middle of the neighbour's top is free up to three voxels before it.
+  const Vector3d face(0.6, 0.15, 0.1);
+  const double length = (face - kSensor).norm();
+  for (double t = 0.0; t < length - 3.0 * kVoxel; t += 0.5 * kVoxel) {
+    const Vector3d p = kSensor + (face - kSensor) * (t / length);
+    const octomap::OcTreeNode* node = tree.search(at(p));
+    ASSERT_TRUE(node) << "unknown on the ray at " << p.transpose();
+    EXPECT_FALSE(tree.isNodeOccupied(node)) << "occupied on the ray at " << p.transpose();
+  }
+  // Inside the neighbour, and under the table, the camera saw nothing.
+  EXPECT_EQ(tree.search(at(Vector3d(0.6, 0.15, 0.05))), nullptr);
+  EXPECT_EQ(tree.search(at(Vector3d(0.5, 0.0, -0.03))), nullptr);
+}
+
+TEST(SceneMap, KeepsToItsBoxAndRange) {
+  SceneMapConfig config = sceneConfig();
+  config.max_range_m = 1.0;
+  SceneMap map(config, kVoxel);
+  // Beyond the range, outside the box, and one inside both.
+  const std::vector<Vector3d> points = {Vector3d(1.1, 0.0, 0.0), Vector3d(0.5, 0.6, 0.3), Vector3d(0.5, 0.0, 0.2)};
+  EXPECT_EQ(map.insertCloud(points, kSensor), 1u);
+  EXPECT_EQ(map.occupiedVoxels(), 1u);
+  EXPECT_EQ(map.tree().search(at(points[0])), nullptr);
+  EXPECT_EQ(map.tree().search(at(points[1])), nullptr);
+  map.clear();
+  EXPECT_EQ(map.occupiedVoxels(), 0u);
+}
+
+TEST(SceneMap, RefusesAnUnusableConfig) {
+  SceneMapConfig config = sceneConfig();
+  config.max_corner_m.x() = config.min_corner_m.x();
+  EXPECT_NE(gpatlas_motion::validate(config).find("scene_max_corner_m"), std::string::npos);
+  EXPECT_THROW(SceneMap(config, kVoxel), std::invalid_argument);
+  EXPECT_THROW(SceneMap(sceneConfig(), 0.0), std::invalid_argument);
+  SceneMap map(sceneConfig(), kVoxel);
+  EXPECT_THROW(map.insertCloud({}, Vector3d(std::nan(""), 0.0, 0.0)), std::invalid_argument);
+}
+
+TEST(SceneMap, TheExploredObjectIsLeftToItsModelAndTheProbesFreeSpaceWins) {
+  const Scene s = scene();
+  SceneMap map(sceneConfig(), kVoxel);
+  map.insertCloud(s.all(), kSensor);
+  const double margin = map.config().object_margin_m;
+  // One of the neighbour's voxels the probe went through (above the table's).
+  const Vector3d probed = *std::find_if(s.neighbour.begin(), s.neighbour.end(), [](const Vector3d& p) { return p.z() > 0.05; });
+  const std::vector<Vector3d> obstacles = map.obstacles(s.object, {probed});
+  const auto near_object = [&](const Vector3d& c, double distance) {
+    for (const Vector3d& p : s.object)
+      if ((p - c).norm() <= distance) return true;
+    return false;
+  };
+  std::set<std::tuple<int, int, int>> kept;
+  for (const Vector3d& c : obstacles) {
+    EXPECT_FALSE(near_object(c, margin)) << c.transpose();
+    kept.merge(voxelsOf({c}));
+  }
+  // Every seen voxel of the neighbour but the probed one is an obstacle; the probed one is not.
+  const auto probed_voxel = *voxelsOf({probed}).begin();
+  EXPECT_EQ(kept.count(probed_voxel), 0u);
+  for (const auto& v : voxelsOf(s.neighbour))
+    if (v != probed_voxel) EXPECT_EQ(kept.count(v), 1u) << std::get<0>(v) << " " << std::get<1>(v) << " " << std::get<2>(v);
+  // So is the table away from the object (its voxel's centre too): everything else the camera saw.
+  std::size_t far_table = 0;
+  for (const Vector3d& p : s.table)
+    if (!near_object(p, margin + std::sqrt(3.0) * kVoxel)) far_table += kept.count(*voxelsOf({p}).begin()) ? 0 : 1;
+  EXPECT_EQ(far_table, 0u) << "table points away from the object whose voxel is no obstacle";
+}
+
+// The model's map (the object's voxels) with the scene's obstacles added.
+std::shared_ptr<octomap::OcTree> mergedMap(const Scene& s, double object_margin_m) {
+  const Box region{Vector3d(0.45, -0.15, 0.0), Vector3d(0.75, 0.15, 0.2)};  // the model's domain
+  std::shared_ptr<octomap::OcTree> merged = gpatlas_motion_test::mapOf({kObject}, region);
+  SceneMapConfig config = sceneConfig();
+  config.object_margin_m = object_margin_m;
+  SceneMap map(config, kVoxel);
+  map.insertCloud(s.all(), kSensor);
+  gpatlas_motion::addObstacles(merged.get(), map.obstacles(s.object, {}));
+  return merged;
+}
+
+TEST(SceneMap, MergedIntoTheModelsMapTheNeighbourBlocksAndTheObjectDoesNot) {
+  const Scene s = scene();
+  const std::shared_ptr<octomap::OcTree> model_only = gpatlas_motion_test::mapOf(
+      {kObject}, Box{Vector3d(0.45, -0.15, 0.0), Vector3d(0.75, 0.15, 0.2)});
+  const std::shared_ptr<octomap::OcTree> merged = mergedMap(s, sceneConfig().object_margin_m);
+  // Where the model governs (within the margin of the object), the merged map is the model's.
+  for (double x = 0.545; x < 0.66; x += kVoxel)
+    for (double z = 0.005; z < 0.1; z += kVoxel) {
+      const Vector3d p(x, 0.005, z);
+      EXPECT_EQ(merged->isNodeOccupied(merged->search(at(p))), model_only->isNodeOccupied(model_only->search(at(p))))
+          << p.transpose();
+    }
+  // The neighbour's seen faces are occupied, in the model's domain and out of it.
+  for (const Vector3d& p : s.neighbour) {
+    const octomap::OcTreeNode* node = merged->search(at(p));
+    ASSERT_TRUE(node && merged->isNodeOccupied(node)) << p.transpose();
+  }
+
+  gpatlas_motion::ApproachConfig config;
+  config.max_planning_time_s = 1.0;
+  gpatlas_motion::ProbeApproachPlanner with_scene(config), model_alone(config);
+  with_scene.setCollisionMap(merged);
+  model_alone.setCollisionMap(model_only);
+  // The object's +y side faces the neighbour, 9 cm away: the approach pose 10 cm out lies in it.
+  const Vector3d side(0.6, 0.03, 0.04), side_normal(0.0, 1.0, 0.0);
+  EXPECT_EQ(model_alone.checkApproachPose(side, side_normal), "");
+  EXPECT_NE(with_scene.checkApproachPose(side, side_normal), "");
+  // The face toward the camera is touched as before: its own seen voxels do not block it.
+  const Vector3d front(0.57, 0.0, 0.04), front_normal(-1.0, 0.0, 0.0);
+  EXPECT_EQ(with_scene.checkApproachPose(front, front_normal), "");
+  EXPECT_TRUE(model_alone.isFree(Vector3d(0.6, 0.11, 0.05), Vector3d::UnitX()));
+  EXPECT_FALSE(with_scene.isFree(Vector3d(0.6, 0.11, 0.05), Vector3d::UnitX()));
+
+  // From beyond the neighbour, the way to the front face goes around it: every tip position
+  // clears the neighbour's box by the tip's radius.
+  const gpatlas_motion::ApproachPlan plan = with_scene.plan(Vector3d(0.7, 0.35, 0.05), front, front_normal);
+  ASSERT_TRUE(plan.ok) << plan.message;
+  double clearance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < plan.approach.size(); ++i)
+    for (int k = 0; k <= 100; ++k) {
+      const Vector3d tip = plan.approach[i] + (plan.approach[i + 1] - plan.approach[i]) * (k / 100.0);
+      clearance = std::min(clearance, kNeighbour.distance(tip) - config.probe.tip_radius_m);
+    }
+  EXPECT_GE(clearance, 0.0);
+}
+
+}  // namespace
