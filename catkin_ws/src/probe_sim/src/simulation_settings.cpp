@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <stdexcept>
 
 namespace probe_sim {
 
@@ -108,6 +109,16 @@ TriangleMesh loadSimulatedObject(const SimulationSettings& s) {
   TriangleMesh mesh = s.object.rfind(kProceduralPrefix, 0) == 0
                           ? makeProceduralObject(s.object.substr(kProceduralPrefix.size()), s.procedural_size_m)
                           : loadMesh(s.object, s.object_scale);
+  // A mesh in millimetres read as metres is a thousand times too large; without this check it
+  // fails much later, in a grid that does not fit in memory.
+  const double across = mesh.vertices.empty() ? 0.0 : mesh.boundingBox().sizes().maxCoeff();
+  if (s.table && across > s.table_size_xy_m.maxCoeff()) {
+    std::ostringstream message;
+    message << "object '" << s.object << "' is " << across << " m across at simulation/object_scale "
+            << s.object_scale << ", larger than the table (" << s.table_size_xy_m.maxCoeff()
+            << " m): a mesh in millimetres needs object_scale 0.001 (gpatlas_bench --scale 0.001, make demo SCALE=0.001)";
+    throw std::runtime_error(message.str());
+  }
   placeOnTable(mesh, s.object_position_xy_m);
   return mesh;
 }

@@ -1,4 +1,5 @@
 #include "probe_sim/object_mesh.h"
+#include "probe_sim/simulation_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -188,6 +189,27 @@ TEST(MeshLoading, PlaceOnTableCentresAndGrounds) {
   const Eigen::AlignedBox3d box = mesh.boundingBox();
   EXPECT_TRUE(box.min().isApprox(Eigen::Vector3d(0.0, 0.1, 0.0), 1e-12)) << box.min().transpose();
   EXPECT_TRUE(box.max().isApprox(Eigen::Vector3d(0.2, 0.3, 0.2), 1e-12)) << box.max().transpose();
+}
+
+// A 100 mm object saved in millimetres: read as metres it is larger than the table, and the
+// error names the scale that fixes it.
+TEST(MeshLoading, AnObjectLargerThanTheTableAsksForItsScale) {
+  TempDir dir;
+  TriangleMesh millimetres = unitTetrahedron();
+  millimetres.scale(100.0);
+  probe_sim::saveStl(millimetres, dir.file("tetra_mm.stl"));
+  probe_sim::SimulationSettings settings;
+  settings.object = dir.file("tetra_mm.stl");
+  try {
+    probe_sim::loadSimulatedObject(settings);
+    ADD_FAILURE() << "a 100 m object was placed on the table";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("100 m across"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("object_scale 0.001"), std::string::npos) << e.what();
+  }
+  settings.object_scale = 0.001;
+  const TriangleMesh placed = probe_sim::loadSimulatedObject(settings);
+  EXPECT_NEAR(placed.boundingBox().sizes().maxCoeff(), 0.1, 1e-9);
 }
 
 TEST(MeshLoading, RejectsBadScale) {

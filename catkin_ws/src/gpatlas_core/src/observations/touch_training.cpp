@@ -214,10 +214,6 @@ void countAccepted(const FitReport& report, const TouchPointCounts& counts, cons
   update.free_points_added = std::max(0, accepted - static_cast<int>(num_contact_points));
 }
 
-}  // namespace
-
-namespace {
-
 // The touch as tests of the model before it, for its calibration (addTouchCalibration): each
 // contact's |f| / sd(f) (heldOutRatios), and each free-space point the model put inside the
 // object. The probe passed there, so the true surface lies beyond it and the model's error is at

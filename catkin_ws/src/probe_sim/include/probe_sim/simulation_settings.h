@@ -68,7 +68,8 @@ void readSimulation(gpatlas_core::ParamReader& reader, SimulationSettings* setti
 std::string validate(const SimulationSettings& settings);
 
 // The object as the settings place it (on the table at object_position_xy_m); throws
-// std::runtime_error with the reason when the mesh cannot be read or the name is unknown.
+// std::runtime_error with the reason when the mesh cannot be read, the name is unknown, or the
+// object is larger than the table (a mesh in millimetres without its scale).
 TriangleMesh loadSimulatedObject(const SimulationSettings& settings);
 SceneConfig sceneConfig(const SimulationSettings& settings);
 // The simulated probe of probe_sim_node and gpatlas_bench: the probe model the settings name,
