@@ -198,6 +198,18 @@ TEST(TouchCalibration, EachFoldAndEachTouchWeighsOneWhateverItsSize) {
   evidence.view_folds = {{all.front()}};
   evidence.touches.erase(evidence.touches.begin());
   EXPECT_DOUBLE_EQ(gpatlas_core::positionSdScale(evidence), gpatlas_core::quantile(all, 0.95) / 2.0);
+  // 20 groups of ten at 0.95: the target, 19, is reached by summing tenths; quantile() of the
+  // 20 values (rank 19) whatever the rounding.
+  evidence.view_folds.clear();
+  evidence.touches.clear();
+  std::vector<double> twenty;
+  for (int g = 0; g < 20; ++g) {
+    twenty.push_back(0.1 * (g + 1));
+    evidence.touches.push_back(std::vector<double>(10, twenty.back()));
+  }
+  evidence.view_folds = {evidence.touches.front()};
+  evidence.touches.erase(evidence.touches.begin());
+  EXPECT_DOUBLE_EQ(gpatlas_core::positionSdScale(evidence), gpatlas_core::quantile(twenty, 0.95) / 2.0);
   evidence.max_scale = 0.5;
   EXPECT_DOUBLE_EQ(gpatlas_core::positionSdScale(evidence), 0.5);
 }

@@ -97,7 +97,8 @@ double weightedQuantile(const std::vector<const std::vector<double>*>& groups, d
     for (const double ratio : *group) weighted.emplace_back(ratio, 1.0 / static_cast<double>(group->size()));
   if (weighted.empty()) return std::numeric_limits<double>::quiet_NaN();
   std::sort(weighted.begin(), weighted.end());
-  const double target = coverage * static_cast<double>(groups.size());
+  // Plus a little: a sum of 1/n weights that reaches the target only by rounding must not pass it.
+  const double target = coverage * static_cast<double>(groups.size()) + 1e-9;
   double cumulative = 0.0;
   for (const auto& [ratio, weight] : weighted) {
     cumulative += weight;

@@ -323,7 +323,10 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
   update.contacts_capped_from = counts.contacts_before_cap;
   const std::size_t num_contact_points = counts.contacts + counts.contact_inside + counts.contact_tangents;
   const std::vector<Vector3> measured = measuredPositions(gated.contacts, gated.free_space);
-  const std::vector<double> calibration_tests = touchTests(model, new_points, gated.free_space);
+  const PositionSdEvidence& evidence = model.positionSdEvidence();
+  const std::vector<double> calibration_tests = !evidence.view_folds.empty() && evidence.use_touches
+                                                    ? touchTests(model, new_points, gated.free_space)
+                                                    : std::vector<double>();
   FitReport report = addTouchPoints(model, new_points, measured, config, &update.retraction);
   if (!report.ok && counts.contacts > 0 && num_contact_points < new_points.size()) {
     new_points.resize(num_contact_points);

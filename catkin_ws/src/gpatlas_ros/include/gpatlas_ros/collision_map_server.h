@@ -80,8 +80,10 @@ class CollisionMapServer {
   void buildLoop();
   // In builder_: the cloud into the scene.
   void insertSceneCloud(const SceneCloud& cloud);
-  // In builder_: the newest map again with the scene as it is now (after a cloud).
-  std::shared_ptr<Map> remerge(const Map& map, std::string* summary) const;
+  // In builder_: the newest map again with the scene as it is now (after a cloud), keeping the
+  // model's probabilities when they were built (null: built when asked for).
+  std::shared_ptr<Map> remerge(const Map& map, std::shared_ptr<const octomap::OcTree> model_probabilities,
+                               std::string* summary) const;
   // In builder_, after a build or a re-merge: the new map (or the failure) becomes the current
   // one unless a reset or a newer training set came meanwhile, and ~status says so.
   void install(const gpatlas_msgs::TrainingSet& msg, const std::shared_ptr<Map>& map, const std::string& error,

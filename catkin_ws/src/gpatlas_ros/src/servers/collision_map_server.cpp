@@ -63,6 +63,9 @@ struct CollisionMapServer::Map {
   gpatlas_msgs::TrainingSet::ConstPtr training;
   // P(occupied) per voxel, for the map's topics and save_map; null until asked for (mutex_).
   std::shared_ptr<const octomap::OcTree> probabilities;
+  // The model's alone (mutex_): a camera cloud's re-merge keeps them, so that a stream of clouds
+  // does not recompute the model's grid, which has not changed.
+  std::shared_ptr<const octomap::OcTree> model_probabilities;
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
   std::uint32_t training_sequence{0};
   ros::Time training_stamp;
@@ -293,7 +296,6 @@ void CollisionMapServer::publishEmptyMap(const gpatlas_msgs::TrainingSet& reset)
 }
 
 CollisionMapServer::~CollisionMapServer() {
-  SharedCollisionMaps::withdraw(training_sub_.getTopic());
   training_sub_.shutdown();
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -303,6 +305,8 @@ CollisionMapServer::~CollisionMapServer() {
   publish_wake_.notify_all();
   if (builder_.joinable()) builder_.join();
   if (publisher_.joinable()) publisher_.join();
+  // After the builder, whose last map would offer the topic again.
+  SharedCollisionMaps::withdraw(training_sub_.getTopic());
 }
 
 void CollisionMapServer::publishStatus() {
@@ -358,6 +362,7 @@ void CollisionMapServer::buildLoop() {
     std::shared_ptr<const gpatlas_core::SurfaceModel> snapshot;
     std::shared_ptr<const SceneCloud> cloud;
     std::shared_ptr<Map> current;
+    std::shared_ptr<const octomap::OcTree> current_probabilities;  // the model's, if built
     {
       std::unique_lock<std::mutex> lock(mutex_);
       wake_.wait(lock, [this] { return stopping_ || pending_ || pending_cloud_; });
@@ -369,6 +374,7 @@ void CollisionMapServer::buildLoop() {
       cloud = std::move(pending_cloud_);
       pending_cloud_.reset();
       current = map_;
+      if (current) current_probabilities = current->model_probabilities;
     }
     const ros::WallTime started = ros::WallTime::now();
     // Nothing may escape this thread: an exception would end the nodelet manager.
@@ -383,7 +389,7 @@ void CollisionMapServer::buildLoop() {
       if (msg) {
         map = build(*msg, std::move(snapshot), &error, &summary);
         if (map) map->training = msg;
-      } else if (cloud && current) map = remerge(*current, &summary);
+      } else if (cloud && current) map = remerge(*current, current_probabilities, &summary);
     } catch (const std::exception& e) {
       error = e.what();
     }
@@ -404,7 +410,7 @@ void CollisionMapServer::insertSceneCloud(const SceneCloud& cloud) {
                                        << cloud.frame << "'");
     return;
   }
-  ROS_INFO_STREAM("collision_map: scene: " << inserted << " of the cloud's " << cloud.points.size()
+  ROS_DEBUG_STREAM("collision_map: scene: " << inserted << " of the cloud's " << cloud.points.size()
                                            << " points cast from '" << cloud.frame << "' in " << seconds << " s, "
                                            << scene_->occupiedVoxels() << " occupied voxels");
 }
@@ -421,7 +427,9 @@ void CollisionMapServer::install(const gpatlas_msgs::TrainingSet& msg, const std
     map_ = map;
     if (hasMapSubscribers()) requestProbabilities();
     status_message_ = summary;
-    ROS_INFO_STREAM("collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec() << " s");
+    // At most one line a second: a streaming camera re-merges the map with every cloud.
+    ROS_INFO_STREAM_THROTTLE(1.0, "collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec()
+                                                    << " s");
   } else {
     ROS_ERROR_STREAM("collision_map: no map for training set " << msg.sequence << ": " << error);
   }
@@ -453,9 +461,11 @@ std::shared_ptr<const std::vector<Eigen::Vector3d>> CollisionMapServer::sceneObs
   return std::make_shared<const std::vector<Eigen::Vector3d>>(scene_->obstacles(object, free));
 }
 
-std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::remerge(const Map& map, std::string* summary) const {
+std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::remerge(
+    const Map& map, std::shared_ptr<const octomap::OcTree> model_probabilities, std::string* summary) const {
   auto out = std::make_shared<Map>();
   out->model = map.model;
+  out->model_probabilities = std::move(model_probabilities);
   out->model_tree = map.model_tree;
   out->training = map.training;
   out->training_sequence = map.training_sequence;
@@ -539,22 +549,28 @@ std::shared_ptr<const octomap::OcTree> CollisionMapServer::probabilitiesOf(const
     std::lock_guard<std::mutex> lock(mutex_);
     if (map->probabilities) return map->probabilities;
   }
-  std::shared_ptr<const octomap::OcTree> tree;
+  std::shared_ptr<const octomap::OcTree> tree, model_tree;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    model_tree = map->model_probabilities;
+  }
   // Nothing may escape: this runs in the publisher thread and in save_map's callback.
   try {
-    const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*map->model);
-    if (!grid.ok) {
-      *error = grid.message;
-      return nullptr;
+    if (!model_tree) {
+      const gpatlas_core::OccupancyGrid grid = gpatlas_core::OccupancyGridBuilder(map_config_.grid).build(*map->model);
+      if (!grid.ok) {
+        *error = grid.message;
+        return nullptr;
+      }
+      model_tree = gpatlas_motion::collisionOctree(grid, approach_config_.occupied_probability);
     }
-    std::unique_ptr<octomap::OcTree> full = gpatlas_motion::collisionOctree(grid, approach_config_.occupied_probability);
-    if (map->scene_obstacles) gpatlas_motion::addObstacles(full.get(), *map->scene_obstacles);
-    tree = std::move(full);
+    tree = withObstacles(model_tree, map->scene_obstacles.get());
   } catch (const std::exception& e) {
     *error = e.what();
     return nullptr;
   }
   std::lock_guard<std::mutex> lock(mutex_);
+  if (!map->model_probabilities) map->model_probabilities = model_tree;
   if (!map->probabilities) map->probabilities = tree;
   return map->probabilities;
 }

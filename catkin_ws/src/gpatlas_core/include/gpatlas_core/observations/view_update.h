@@ -39,7 +39,8 @@ struct ViewUpdate {
 // the previous view's: a new view must not bring back a cavity's lid a touch took away. A model
 // not fitted yet takes the view alone. Then, with `tuning` (null: none), the hyperparameters are
 // tuned on the fitted model, and with `calibration` (null or 0 folds: none) its position sd is
-// calibrated (calibratePositionSd; a failed calibration sets the scale to 1); touches keep it.
+// calibrated (calibratePositionSd; a failed calibration sets the scale to 1), with the tests of the
+// touches made so far; each later touch refits it (addTouchCalibration).
 ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view_training,
                      const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning,
                      const PositionCalibrationConfig* calibration = nullptr);
