@@ -10,10 +10,17 @@
 #include <sensor_msgs/PointCloud2.h>
 #include <xmlrpcpp/XmlRpc.h>
 
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <cstddef>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace mug_cloud_test {
@@ -93,6 +100,66 @@ inline double residentMb(int pid) {
   while (std::getline(status, line))
     if (line.rfind("VmRSS:", 0) == 0) return std::stod(line.substr(6)) / 1024.0;
   return -1.0;
+}
+
+// The newest message of a topic, how many came and when the newest did, for the test's thread.
+template <typename Msg>
+class Latest {
+ public:
+  void set(const Msg& m) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    msg_ = m;
+    ++count_;
+    received_ = ros::WallTime::now();
+  }
+  std::optional<Msg> get(std::size_t* count = nullptr) const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (count) *count = count_;
+    return msg_;
+  }
+  std::size_t count() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return count_;
+  }
+  ros::WallTime received() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return received_;
+  }
+  // Any message.
+  std::optional<Msg> waitFor(double timeout_s) const {
+    return waitFor(0, [](const Msg&) { return true; }, timeout_s);
+  }
+  // Waits until a message after the `after`-th one satisfies `ok`.
+  std::optional<Msg> waitFor(std::size_t after, const std::function<bool(const Msg&)>& ok, double timeout_s) const {
+    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+    while (ros::ok() && ros::WallTime::now() < end) {
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (msg_ && count_ > after && ok(*msg_)) return msg_;
+      }
+      ros::WallDuration(0.05).sleep();
+    }
+    return std::nullopt;
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::optional<Msg> msg_;
+  std::size_t count_{0};
+  ros::WallTime received_;
+};
+
+// Least-squares circle through the points' (x, y) (Kasa's algebraic fit): centre and radius.
+inline std::pair<Eigen::Vector2d, double> fitCircle(const std::vector<Eigen::Vector3d>& points) {
+  Eigen::MatrixXd a(points.size(), 3);
+  Eigen::VectorXd b(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    a.row(static_cast<Eigen::Index>(i)) << points[i].x(), points[i].y(), 1.0;
+    b[static_cast<Eigen::Index>(i)] = points[i].head<2>().squaredNorm();
+  }
+  const Eigen::Vector3d s = a.colPivHouseholderQr().solve(b);
+  const Eigen::Vector2d centre = 0.5 * s.head<2>();
+  return {centre, std::sqrt(s[2] + centre.squaredNorm())};
 }
 
 }  // namespace mug_cloud_test

@@ -25,49 +25,13 @@
 
 namespace {
 
+using mug_cloud_test::fitCircle;
+using mug_cloud_test::Latest;
+
 // The mug, measured on the cloud by hand: its visible wall's circle in the table plane has a
 // radius of about 42 mm; its top is about 10 cm above the table.
 constexpr double kMugRadiusM = 0.042;
 constexpr double kMugRadiusToleranceM = 0.006;
-
-template <typename Msg>
-struct Latest {
-  std::mutex mutex;
-  std::optional<Msg> msg;
-  ros::WallTime received;
-  void set(const Msg& m) {
-    std::lock_guard<std::mutex> lock(mutex);
-    msg = m;
-    received = ros::WallTime::now();
-  }
-  std::optional<Msg> get() {
-    std::lock_guard<std::mutex> lock(mutex);
-    return msg;
-  }
-};
-
-template <typename Msg>
-bool waitFor(Latest<Msg>& latest, double timeout_s) {
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-  while (ros::ok() && ros::WallTime::now() < end) {
-    if (latest.get()) return true;
-    ros::WallDuration(0.05).sleep();
-  }
-  return false;
-}
-
-// Least-squares circle through the points' (x, y) (Kasa's algebraic fit): centre and radius.
-std::pair<Eigen::Vector2d, double> fitCircle(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::MatrixXd a(points.size(), 3);
-  Eigen::VectorXd b(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    a.row(static_cast<Eigen::Index>(i)) << points[i].x(), points[i].y(), 1.0;
-    b[static_cast<Eigen::Index>(i)] = points[i].head<2>().squaredNorm();
-  }
-  const Eigen::Vector3d s = a.colPivHouseholderQr().solve(b);
-  const Eigen::Vector2d centre = 0.5 * s.head<2>();
-  return {centre, std::sqrt(s[2] + centre.squaredNorm())};
-}
 
 double nearestDistance(const Eigen::Vector3d& p, const std::vector<Eigen::Vector3d>& points) {
   double best = std::numeric_limits<double>::infinity();
@@ -98,14 +62,14 @@ class RealCloud : public ::testing::Test {
 };
 
 TEST_F(RealCloud, TheMugIsSegmentedFittedAndTouched) {
-  ASSERT_TRUE(waitFor(object_, 120.0)) << "no object points from segmentation";
+  ASSERT_TRUE(object_.waitFor(120.0)) << "no object points from segmentation";
   std::vector<Eigen::Vector3d> mug;
   std::size_t invalid = 0;
   std::string error;
   ASSERT_TRUE(gpatlas_conversions::cloudToPoints(*object_.get(), &mug, &invalid, &error)) << error;
   ASSERT_GT(mug.size(), 500u);
   // The camera's pose (measured, or camera_pose:=auto) puts the table level at z = 0.
-  ASSERT_TRUE(waitFor(plane_, 10.0)) << "no support plane from segmentation";
+  ASSERT_TRUE(plane_.waitFor(10.0)) << "no support plane from segmentation";
   const Eigen::Vector3d normal = gpatlas_conversions::fromMsg(plane_.get()->normal).normalized();
   const double tilt_deg = std::acos(std::min(1.0, normal.z())) * 180.0 / M_PI;
   RecordProperty("support_plane_tilt_deg", std::to_string(tilt_deg));
@@ -126,7 +90,7 @@ TEST_F(RealCloud, TheMugIsSegmentedFittedAndTouched) {
 
   // The fit: the model's surface passes through the visible points (first-order distance
   // |f| / |grad f| at each), and the model came within 3 s of the cloud.
-  ASSERT_TRUE(waitFor(training_, 120.0)) << "no training set from the GP";
+  ASSERT_TRUE(training_.waitFor(120.0)) << "no training set from the GP";
   const gpatlas_msgs::TrainingSet training = *training_.get();
   std::unique_ptr<gpatlas_core::SurfaceModel> model;
   gpatlas_core::SurfaceModelConfig config;
@@ -144,7 +108,7 @@ TEST_F(RealCloud, TheMugIsSegmentedFittedAndTouched) {
   EXPECT_LT(mean_distance, 0.002);
   // The cloud's stamp is when the camera published it (once the pipeline listened). Printed, not
   // asserted: speed is a benchmark's to judge, on an idle machine.
-  const double cloud_to_model_s = training_.received.toSec() - object_.get()->header.stamp.toSec();
+  const double cloud_to_model_s = training_.received().toSec() - object_.get()->header.stamp.toSec();
   RecordProperty("cloud_to_model_s", std::to_string(cloud_to_model_s));
   std::printf("[real cloud] mug radius %.1f mm, visible surface error %.2f mm (mean), cloud to model %.2f s\n",
               1000.0 * radius, 1000.0 * mean_distance, cloud_to_model_s);

@@ -30,27 +30,10 @@
 
 namespace {
 
+using mug_cloud_test::fitCircle;
+using mug_cloud_test::Latest;
+
 constexpr double kWaitS = 150.0;
-
-template <typename Msg>
-class Latest {
- public:
-  void set(const Msg& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    msg_ = m;
-    ++count_;
-  }
-  std::optional<Msg> get(std::size_t* count = nullptr) const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (count) *count = count_;
-    return msg_;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::optional<Msg> msg_;
-  std::size_t count_{0};
-};
 
 std::unique_ptr<octomap::OcTree> treeOf(const gpatlas_msgs::OctomapBinary& msg) {
   auto tree = std::make_unique<octomap::OcTree>(msg.resolution);
@@ -79,19 +62,6 @@ std::vector<Voxel> occupiedVoxels(const octomap::OcTree& tree) {
 bool occupiedAt(const octomap::OcTree& tree, const Eigen::Vector3d& p) {
   const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
   return node && tree.isNodeOccupied(node);
-}
-
-// The mug's axis (x, y) and radius: a least-squares circle through its points (Kasa's fit).
-std::pair<Eigen::Vector2d, double> mugAxis(const std::vector<Eigen::Vector3d>& points) {
-  Eigen::MatrixXd a(points.size(), 3);
-  Eigen::VectorXd b(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    a.row(static_cast<Eigen::Index>(i)) << points[i].x(), points[i].y(), 1.0;
-    b[static_cast<Eigen::Index>(i)] = points[i].head<2>().squaredNorm();
-  }
-  const Eigen::Vector3d s = a.colPivHouseholderQr().solve(b);
-  const Eigen::Vector2d centre = 0.5 * s.head<2>();
-  return {centre, std::sqrt(s[2] + centre.squaredNorm())};
 }
 
 // How much of what the camera saw the map holds: the table's cells (1 cm, seen by at least two
@@ -199,7 +169,7 @@ TEST_F(RealScene, TheMapHoldsWhatTheCameraSawAndTheApproachClearsIt) {
   std::string error;
   ASSERT_TRUE(waitForScene(&error)) << error;
   ASSERT_GT(mug_.size(), 500u);
-  std::tie(axis_, radius_) = mugAxis(mug_);
+  std::tie(axis_, radius_) = fitCircle(mug_);
 
   // The map comes with the scene in it (after a re-merge if the model's map came first).
   Coverage c;

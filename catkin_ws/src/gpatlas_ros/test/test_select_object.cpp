@@ -31,43 +31,10 @@
 
 namespace {
 
+using mug_cloud_test::Latest;
+
 constexpr double kWaitS = 150.0;
 const std::string kSelect = "/gpatlas/segmentation/select_object";
-
-template <typename Msg>
-class Latest {
- public:
-  void set(const Msg& m) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    msg_ = m;
-    ++count_;
-  }
-  std::optional<Msg> get() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return msg_;
-  }
-  std::size_t count() const {
-    std::lock_guard<std::mutex> lock(mutex_);
-    return count_;
-  }
-  // Waits until a message after the `after`-th one satisfies `ok`.
-  std::optional<Msg> waitFor(std::size_t after, const std::function<bool(const Msg&)>& ok, double timeout_s) const {
-    const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
-    while (ros::ok() && ros::WallTime::now() < end) {
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (msg_ && count_ > after && ok(*msg_)) return msg_;
-      }
-      ros::WallDuration(0.05).sleep();
-    }
-    return std::nullopt;
-  }
-
- private:
-  mutable std::mutex mutex_;
-  std::optional<Msg> msg_;
-  std::size_t count_{0};
-};
 
 gpatlas_msgs::SelectObject::Response select(const std::string& service, const Eigen::Vector3d& p,
                                             const std::string& frame = "world") {
