@@ -1,12 +1,14 @@
 #!/usr/bin/env python3
 """The demo (sim_exploration.launch, running) and gpatlas_bench, at the same configuration, object,
 strategy and seed, run one exploration: the same first plan (the same observations, the same
-largest variance of the atlas before any touch), then a run of about the same length with about
-the same final shape. The camera's points and the contacts reach the demo's model through ROS
+largest variance of the atlas before any touch) under the same stop rule, then about the same
+final shape. The camera's points and the contacts reach the demo's model through ROS
 messages and tf, the bench's directly: the models agree to rounding, and the atlas, grown over the
 whole surface by the default best_score, amplifies that rounding into other charts (1612 against
 1615 at the first plan), so the touches differ from the first one on. Past the first plan the two
-are compared as two explorations of one object."""
+are compared as two explorations of one object. Not by their length: a surprising touch raises the
+position sd's scale (calibration from the touches) and so the number of touches left, and the mug
+took 29, 59 and 49 actions with seeds 0-2 in the bench."""
 import csv
 import json
 import os
@@ -20,11 +22,10 @@ import rospy
 
 SAME_FIRST_ACTIONS = 1
 VARIANCE_TOLERANCE = 1e-3
-ACTIONS_RELATIVE_TOLERANCE = 0.35
 # Past the first plan they are two explorations of one object, which differ as runs with
-# different seeds do (about 1 mm RMSE on the mug); a wider difference means that one pipeline's
-# shape is off.
-RMSE_TOLERANCE_M = 0.002
+# different seeds do (on the mug, seeds 0-2: 6.4, 4.3 and 3.9 mm predicted->truth, 5.7, 5.6 and
+# 5.4 mm truth->predicted); a wider difference means that one pipeline's shape is off.
+RMSE_TOLERANCE_M = 0.003
 
 
 class BenchMatchesDemoTest(unittest.TestCase):
@@ -68,8 +69,9 @@ class BenchMatchesDemoTest(unittest.TestCase):
             self.assertEqual(d["contacts_total"], int(b["contacts_total"]), "action %d: %s" % (d["action"], summary))
             self.assertAlmostEqual(d["max_evaluated_variance"], float(b["max_evaluated_variance"]),
                                    delta=VARIANCE_TOLERANCE, msg="action %d: %s" % (d["action"], summary))
-        self.assertLessEqual(abs(int(bench["actions"]) - demo["actions"]),
-                             ACTIONS_RELATIVE_TOLERANCE * max(int(bench["actions"]), demo["actions"]), summary)
+        self.assertAlmostEqual(float(bench["vmax"]), demo["settings"]["v_max"], delta=1e-12, msg=summary)
+        self.assertAlmostEqual(float(bench["max_position_sd_m"]), demo["settings"]["max_position_sd_m"], delta=1e-12,
+                               msg=summary)
         for key in ("rmse_pred_to_gt_m", "rmse_gt_to_pred_m"):
             self.assertLessEqual(abs(float(bench[key]) - demo["final_metrics"][key]), RMSE_TOLERANCE_M,
                                  "%s: %s" % (key, summary))
