@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <vector>
 #include <string>
 #include <utility>
 
@@ -36,20 +37,24 @@ class SharedSnapshots {
   // again for the same training set, it replaces the one offered before.
   static void offer(const std::string& topic, const gpatlas_msgs::TrainingSet& training,
                     std::shared_ptr<const T> snapshot) {
+    // What the registry lets go is freed after the lock: freeing a model, and giving its memory
+    // back, takes milliseconds that every find() would wait for.
+    std::vector<std::shared_ptr<const T>> released;
     std::lock_guard<std::mutex> lock(mutex());
     std::deque<Entry>& kept = registry()[topic];
     // A newer snapshot of the same training set (the collision map after a camera cloud)
     // replaces the one before.
     for (std::size_t i = 0; i < kept.size(); ++i)
       if (Entry& e = kept[i]; e.sequence == training.sequence && e.stamp == training.header.stamp) {
+        released.push_back(std::move(e.held));
         e.held = kept.size() - i <= kHeld ? snapshot : nullptr;  // only the newest kHeld are held
         e.watched = snapshot;
         e.offered_null = snapshot == nullptr;
         return;
       }
     kept.push_back(Entry{training.sequence, training.header.stamp, snapshot, snapshot, snapshot == nullptr});
-    while (kept.size() > kPerTopic) kept.pop_front();
-    if (kept.size() > kHeld) kept[kept.size() - kHeld - 1].held.reset();
+    for (; kept.size() > kPerTopic; kept.pop_front()) released.push_back(std::move(kept.front().held));
+    if (kept.size() > kHeld) released.push_back(std::move(kept[kept.size() - kHeld - 1].held));
   }
   // The snapshot of the training set on this topic; null when none was offered (another
   // process, not built yet, no longer kept, or offered as null). `offered`, when given, says

@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <utility>
 
 namespace gpatlas_ros {
 
@@ -333,20 +334,24 @@ void CollisionMapServer::onTrainingSet(const gpatlas_msgs::TrainingSet::ConstPtr
       return;
     }
   }
+  // What this lets go is freed after the lock (declared before it): a model and its map take
+  // milliseconds to free, which the builder and the service callbacks would wait for.
+  std::shared_ptr<const gpatlas_core::SurfaceModel> released_model;
+  std::shared_ptr<Map> released_map, released_publish;
   std::lock_guard<std::mutex> lock(mutex_);
   latest_sequence_ = msg->sequence;
   if (msg->points.empty()) {  // the GP node was reset
     pending_.reset();
-    pending_model_.reset();
-    map_.reset();
-    publish_pending_.reset();
+    released_model = std::move(pending_model_);
+    released_map = std::move(map_);
+    released_publish = std::move(publish_pending_);
     ++resets_;
     state_ = gpatlas_msgs::CollisionMapStatus::NONE;
     status_message_ = "the model was reset";
     publishEmptyMap(*msg);
   } else {
     pending_ = msg;  // a newer training set replaces one not built yet
-    pending_model_ = std::move(snapshot);
+    released_model = std::exchange(pending_model_, std::move(snapshot));
     state_ = gpatlas_msgs::CollisionMapStatus::BUILDING;
     status_message_ = "building the map of training set " + std::to_string(msg->sequence);
     wake_.notify_one();
