@@ -2,6 +2,7 @@
 
 // What the rostests on ../shared's real cloud (mug_cloud_camera.launch) share.
 
+#include <gpatlas_msgs/OctomapBinary.h>
 #include <gpatlas_msgs/TrainingSet.h>
 
 #include <ros/master.h>
@@ -11,6 +12,7 @@
 #include <xmlrpcpp/XmlRpc.h>
 
 #include <Eigen/Dense>
+#include <octomap/OcTree.h>
 
 #include <cmath>
 #include <cstddef>
@@ -18,7 +20,9 @@
 #include <fstream>
 #include <functional>
 #include <mutex>
+#include <memory>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <utility>
 #include <vector>
@@ -160,6 +164,21 @@ inline std::pair<Eigen::Vector2d, double> fitCircle(const std::vector<Eigen::Vec
   const Eigen::Vector3d s = a.colPivHouseholderQr().solve(b);
   const Eigen::Vector2d centre = 0.5 * s.head<2>();
   return {centre, std::sqrt(s[2] + centre.squaredNorm())};
+}
+
+// The octree an OctomapBinary carries, decoded as octomap_msgs' readTree does: no data is the
+// empty tree (OctoMap's readBinaryData would read a root from nothing).
+inline std::unique_ptr<octomap::OcTree> treeOf(const gpatlas_msgs::OctomapBinary& msg) {
+  auto tree = std::make_unique<octomap::OcTree>(msg.resolution);
+  if (msg.data.empty()) return tree;
+  std::stringstream stream(std::string(msg.data.begin(), msg.data.end()));
+  tree->readBinaryData(stream);
+  return tree;
+}
+
+inline bool occupiedAt(const octomap::OcTree& tree, const Eigen::Vector3d& p) {
+  const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
+  return node && tree.isNodeOccupied(node);
 }
 
 }  // namespace mug_cloud_test

@@ -32,16 +32,10 @@ namespace {
 
 using mug_cloud_test::fitCircle;
 using mug_cloud_test::Latest;
+using mug_cloud_test::occupiedAt;
+using mug_cloud_test::treeOf;
 
 constexpr double kWaitS = 150.0;
-
-std::unique_ptr<octomap::OcTree> treeOf(const gpatlas_msgs::OctomapBinary& msg) {
-  auto tree = std::make_unique<octomap::OcTree>(msg.resolution);
-  if (msg.data.empty()) return tree;
-  std::stringstream stream(std::string(msg.data.begin(), msg.data.end()));
-  tree->readBinaryData(stream);
-  return tree;
-}
 
 // The occupied voxels of the map as boxes (a pruned leaf is one larger box).
 struct Voxel {
@@ -57,11 +51,6 @@ std::vector<Voxel> occupiedVoxels(const octomap::OcTree& tree) {
   for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it)
     if (tree.isNodeOccupied(*it)) out.push_back({Eigen::Vector3d(it.getX(), it.getY(), it.getZ()), 0.5 * it.getSize()});
   return out;
-}
-
-bool occupiedAt(const octomap::OcTree& tree, const Eigen::Vector3d& p) {
-  const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
-  return node && tree.isNodeOccupied(node);
 }
 
 // How much of what the camera saw the map holds: the table's cells (1 cm, seen by at least two

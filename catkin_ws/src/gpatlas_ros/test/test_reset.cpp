@@ -59,16 +59,6 @@ std::optional<Msg> lateMessage(const std::string& topic, double timeout_s,
 
 std::size_t cloudPoints(const sensor_msgs::PointCloud2& cloud) { return std::size_t(cloud.width) * cloud.height; }
 
-// The nodes of the octree an OctomapBinary carries, decoded as octomap_msgs' readTree does: no
-// data is the empty tree (OctoMap's readBinaryData would read a root from nothing).
-std::size_t octreeNodes(const gpatlas_msgs::OctomapBinary& msg) {
-  if (msg.data.empty()) return 0;
-  octomap::OcTree tree(msg.resolution);
-  std::stringstream stream(std::string(msg.data.begin(), msg.data.end()));
-  tree.readBinaryData(stream);
-  return tree.size();
-}
-
 bool onlyDeleteAll(const visualization_msgs::MarkerArray& array) {
   if (array.markers.empty()) return false;
   for (const Marker& m : array.markers)
@@ -134,7 +124,7 @@ TEST_F(Reset, LateSubscribersGetEmptyOutputs) {
                                   [](const auto& m) { return m.action == Marker::ADD && !m.points.empty(); }));
   EXPECT_TRUE(lateMessage<shape_msgs::Mesh>(kGp + "surface_shape", 60.0, [](const auto& m) { return !m.triangles.empty(); }));
   EXPECT_TRUE(lateMessage<gpatlas_msgs::OctomapBinary>(kMap + "octomap_binary", 60.0,
-                                                       [](const auto& m) { return octreeNodes(m) > 0; }));
+                                                       [](const auto& m) { return mug_cloud_test::treeOf(m)->size() > 0; }));
   EXPECT_TRUE(lateMessage<visualization_msgs::MarkerArray>(kMap + "occupied_voxels", 60.0, showsSomething));
   EXPECT_TRUE(lateMessage<Marker>(kMap + "approach_path", 10.0, [](const auto& m) { return !m.points.empty(); }));
   EXPECT_TRUE(lateMessage<visualization_msgs::MarkerArray>(kPlanner + "atlas", 10.0, showsSomething));
@@ -166,7 +156,7 @@ TEST_F(Reset, LateSubscribersGetEmptyOutputs) {
   EXPECT_TRUE(shape->vertices.empty());
   const auto octomap = lateMessage<gpatlas_msgs::OctomapBinary>(kMap + "octomap_binary", 5.0);
   ASSERT_TRUE(octomap);
-  EXPECT_EQ(octreeNodes(*octomap), 0u);
+  EXPECT_EQ(mug_cloud_test::treeOf(*octomap)->size(), 0u);
   EXPECT_EQ(octomap->id, "OcTree");
   EXPECT_GT(octomap->resolution, 0.0);
   EXPECT_EQ(octomap->training_sequence, training->sequence);

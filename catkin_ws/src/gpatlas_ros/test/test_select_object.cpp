@@ -32,6 +32,8 @@
 namespace {
 
 using mug_cloud_test::Latest;
+using mug_cloud_test::occupiedAt;
+using mug_cloud_test::treeOf;
 
 constexpr double kWaitS = 150.0;
 const std::string kSelect = "/gpatlas/segmentation/select_object";
@@ -43,15 +45,6 @@ gpatlas_msgs::SelectObject::Response select(const std::string& service, const Ei
   srv.request.point.point = gpatlas_conversions::toPointMsg(p);
   EXPECT_TRUE(ros::service::call(service, srv)) << service;
   return srv.response;
-}
-
-bool occupiedAt(const gpatlas_msgs::OctomapBinary& msg, const Eigen::Vector3d& p) {
-  octomap::OcTree tree(msg.resolution);
-  if (msg.data.empty()) return false;
-  std::stringstream stream(std::string(msg.data.begin(), msg.data.end()));
-  tree.readBinaryData(stream);
-  const octomap::OcTreeNode* node = tree.search(p.x(), p.y(), p.z());
-  return node && tree.isNodeOccupied(node);
 }
 
 class SelectObject : public ::testing::Test {
@@ -158,7 +151,7 @@ TEST_F(SelectObject, APointPicksAClusterAndBadPointsAreRefused) {
       trainings, [&](const gpatlas_msgs::TrainingSet& t) { return t.view_points.size() == other_size; }, kWaitS);
   ASSERT_TRUE(refit) << "no model of the selected cluster";
   const auto mug_blocks = map_.waitFor(
-      maps, [&](const gpatlas_msgs::OctomapBinary& m) { return m.training_sequence == refit->sequence && occupiedAt(m, top); },
+      maps, [&](const gpatlas_msgs::OctomapBinary& m) { return m.training_sequence == refit->sequence && occupiedAt(*treeOf(m), top); },
       60.0);
   EXPECT_TRUE(mug_blocks) << "the mug is no obstacle in the map of the other object's model";
 
