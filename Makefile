@@ -33,6 +33,7 @@ build: deps
 
 lint: deps
 	@catkin_lint -W1 --strict $(WS)/src && echo "[lint] catkin_lint clean"
+	@python3 scripts/function_lengths.py $(WS)/src --over 100 && echo "[lint] no function over 100 lines"
 
 test: build
 	@bash scripts/run_tests.sh $(JOBS)

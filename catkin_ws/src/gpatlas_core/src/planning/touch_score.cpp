@@ -1,5 +1,7 @@
 #include "gpatlas_core/planning/touch_score.h"
 
+#include "gpatlas_core/model/position_uncertainty.h"
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>

@@ -9,6 +9,7 @@
 #include "gpatlas_core/common/types.h"
 #include "gpatlas_core/observations/support_plane.h"
 #include "gpatlas_core/observations/occluded_interior.h"
+#include "gpatlas_core/planning/stop_rule.h"
 
 #include <cmath>
 #include <cstdint>

@@ -1,8 +1,8 @@
 #pragma once
 
 // Where is the surface, in metres? The standard deviation of the predicted surface's position
-// along its normal, from any SurfaceModel, its calibration on the model's own data, and the
-// loop's stop rule in those units.
+// along its normal, from any SurfaceModel, and its calibration on the model's own data. The
+// loop's stop rule in those units is planning/stop_rule.h.
 
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/common/types.h"
@@ -82,22 +82,5 @@ double positionSdScale(const PositionSdEvidence& evidence);
 // changed, when the model has no view folds (calibration off), its calibration does not take
 // touches (PositionCalibrationConfig::touches), or `ratios` is empty.
 bool addTouchCalibration(SurfaceModel& model, const std::vector<double>& ratios);
-
-// Algorithm 1's test of one predicted surface point, and so the loop's stop rule: the paper's
-// variance above V_max or, with max_position_sd_m > 0, the position sd above that bound.
-struct StopRule {
-  double v_max{0.1};              // reported variance units
-  double max_position_sd_m{0.0};  // > 0: the position sd test as well as the V_max test
-
-  bool exceeded(const SurfaceModel& model, double reported_variance, double gradient_norm) const;
-  // How far past the rule a point is: the larger of variance / V_max and position sd / its bound
-  // (the latter only with a bound); exceeded() is excess > 1. Ranks points under either rule
-  // alike, and under V_max alone in the order of the variance.
-  double excess(const SurfaceModel& model, double reported_variance, double gradient_norm) const;
-  // "variance above V_max" or "position sd above 5 mm", for messages.
-  std::string describe() const;
-};
-
-std::string validate(const StopRule& rule);
 
 }  // namespace gpatlas_core

@@ -2,12 +2,12 @@
 
 #include "gpatlas_core/planning/atlas.h"
 #include "gpatlas_core/planning/chart.h"
-#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/model/surface_projection.h"
 #include "gpatlas_core/observations/touch_training.h"
 #include "gpatlas_core/planning/touch_score.h"
+#include "gpatlas_core/planning/stop_rule.h"
 
 #include <cstdint>
 #include <functional>

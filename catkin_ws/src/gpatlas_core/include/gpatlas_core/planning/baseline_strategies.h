@@ -3,6 +3,7 @@
 #include "gpatlas_core/planning/exploration_strategy.h"
 #include "gpatlas_core/planning/surface_sampler.h"
 #include "gpatlas_core/observations/surface_evidence.h"
+#include "gpatlas_core/planning/stop_rule.h"
 
 namespace gpatlas_core {
 

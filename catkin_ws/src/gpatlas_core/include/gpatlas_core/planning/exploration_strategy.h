@@ -1,11 +1,11 @@
 #pragma once
 
 #include "gpatlas_core/planning/atlas_planner.h"
-#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/planning/surface_sampler.h"
 #include "gpatlas_core/common/seeds.h"
 #include "gpatlas_core/common/types.h"
+#include "gpatlas_core/planning/stop_rule.h"
 
 #include <cstdint>
 #include <functional>

@@ -7,10 +7,10 @@
 // (Cohn's active learning by integrated variance, TruVaR's truncated variance), which favours
 // the touch that informs most of the surface over the single most uncertain point.
 
-#include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/observations/touch_training.h"
 #include "gpatlas_core/common/types.h"
+#include "gpatlas_core/planning/stop_rule.h"
 
 #include <cstdint>
 #include <string>
