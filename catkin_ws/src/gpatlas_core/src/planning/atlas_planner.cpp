@@ -504,9 +504,12 @@ class AtlasGrowth {
       const Chart& chart = previous.chart(far[k]);
       const Vector3 gradient = now.gradient.col(q);
       const double norm = gradient.norm();
+      // The evidence that let the chart be that large may have changed (a surprising contact
+      // trusts its surroundings less): a chart must not hide a point that now needs a touch.
       const bool stays = std::isfinite(now.mean(q)) && norm > 0.0 && gradient.allFinite() &&
                          std::abs(now.mean(q)) / norm <= config_.reuse.max_centre_shift_m &&
-                         gradient.dot(chart.normal) / norm >= min_cos;
+                         gradient.dot(chart.normal) / norm >= min_cos &&
+                         chart.radius <= evidence_.radiusCap(chart.centre, config_.chart.rho_min_m);
       (stays ? kept : dropped)->push_back(far[k]);
     }
     std::sort(dropped->begin(), dropped->end());
