@@ -337,7 +337,8 @@ class AtlasGrowth {
   // false, and nothing done, when none is left.
   bool adoptPrevious(const Atlas& previous, const std::vector<Vector3>& changed) {
     std::vector<int> kept, dropped;
-    splitPrevious(previous, changed, &kept, &dropped);
+    std::vector<double> slopes;
+    splitPrevious(previous, changed, &kept, &dropped, &slopes);
     if (kept.empty()) return false;
     // The holes the dropped charts leave are grown again from the kept charts around them: those
     // get back the candidates they drew there; elsewhere, those the previous growth had not used.
@@ -349,11 +350,13 @@ class AtlasGrowth {
     });
     result_.reused_charts = static_cast<int>(kept.size());
     result_.dropped_charts = static_cast<int>(dropped.size());
-    // A kept chart's variance bounds its new one from above, so only those that need a touch by
-    // it can have changed their answer: they are asked again (one batch).
+    // A kept chart's variance bounds its new one from above, so with the slope asked again (the
+    // position sd divides by it, and it may fall) only those that need a touch by it can have
+    // changed their answer: their variance is asked again (one batch).
     std::vector<int> stale;
     for (std::size_t i = 0; i < atlas_.size(); ++i) {
       Chart& chart = atlas_.chart(static_cast<int>(i));
+      chart.slope = slopes[i];
       chart.out_of_reach = false;
       chart.approach_direction = Vector3::Zero();
       if (rule_.exceeded(model_, chart.variance, chart.slope)) stale.push_back(static_cast<int>(i));
@@ -482,9 +485,10 @@ class AtlasGrowth {
   }
 
   // The previous plan's charts: dropped where surface observations changed near them or where the
-  // surface moved (one batch of the mean and its gradient at the others' centres), else kept.
+  // surface moved (one batch of the mean and its gradient at the others' centres), else kept,
+  // with the slope there now (|grad f|, in `slopes`, in the order of `kept`).
   void splitPrevious(const Atlas& previous, const std::vector<Vector3>& changed, std::vector<int>* kept,
-                     std::vector<int>* dropped) {
+                     std::vector<int>* dropped, std::vector<double>* slopes) {
     std::vector<int> far;
     for (std::size_t i = 0; i < previous.size(); ++i) {
       const Chart& chart = previous.chart(static_cast<int>(i));
@@ -511,6 +515,7 @@ class AtlasGrowth {
                          gradient.dot(chart.normal) / norm >= min_cos &&
                          chart.radius <= evidence_.radiusCap(chart.centre, config_.chart.rho_min_m);
       (stays ? kept : dropped)->push_back(far[k]);
+      if (stays) slopes->push_back(norm);
     }
     std::sort(dropped->begin(), dropped->end());
   }
