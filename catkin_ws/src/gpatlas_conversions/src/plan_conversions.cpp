@@ -71,6 +71,7 @@ gpatlas_msgs::GetNextTouch::Response toMsg(const gpatlas_core::PlanResult& resul
   msg.max_evaluated_variance = result.max_evaluated_variance;
   msg.unreachable_candidates = static_cast<std::uint32_t>(std::max(0, result.unreachable_candidates));
   msg.unreachable_area_fraction = result.unreachable_area_fraction;
+  msg.budget_exhausted = result.budget_exhausted;
   return msg;
 }
 
@@ -82,6 +83,7 @@ gpatlas_core::PlanResult fromMsg(const gpatlas_msgs::GetNextTouch::Response& msg
   result.max_evaluated_variance = msg.max_evaluated_variance;
   result.unreachable_candidates = static_cast<int>(msg.unreachable_candidates);
   result.unreachable_area_fraction = msg.unreachable_area_fraction;
+  result.budget_exhausted = msg.budget_exhausted;
   std::string malformed;
   if (result.status == gpatlas_core::PlanStatus::kTouch && !fromMsg(msg.touch, &result.touch, &malformed)) {
     result.status = gpatlas_core::PlanStatus::kError;

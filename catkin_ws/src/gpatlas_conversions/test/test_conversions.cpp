@@ -395,6 +395,7 @@ TEST(Conversions, PlanResultRoundTripForEveryStatus) {
     result.elapsed_s = 1.5;
     result.unreachable_candidates = 7;
     result.unreachable_area_fraction = 0.125;
+    result.budget_exhausted = status != PlanStatus::kConverged;
     if (status == PlanStatus::kTouch) {
       result.touch.kind = gpatlas_core::Touch::Kind::kSlide;
       result.touch.points = {{0.1, 0.2, 0.3}, {0.1, 0.25, 0.3}};
@@ -410,6 +411,7 @@ TEST(Conversions, PlanResultRoundTripForEveryStatus) {
     EXPECT_EQ(back.elapsed_s, 1.5);
     EXPECT_EQ(back.unreachable_candidates, 7);
     EXPECT_EQ(back.unreachable_area_fraction, 0.125);
+    EXPECT_EQ(back.budget_exhausted, status != PlanStatus::kConverged);
     EXPECT_EQ(back.touch.points, result.touch.points);
     EXPECT_EQ(back.touch.normals, result.touch.normals);
     EXPECT_EQ(back.touch.variances, result.touch.variances);

@@ -1,4 +1,5 @@
 #include "gpatlas_core/model/gpis_model.h"
+#include "gpatlas_core/model/multiscale_gpis_model.h"
 #include "gpatlas_core/planning/atlas_planner.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/planning/strategy_registry.h"
@@ -448,4 +449,154 @@ TEST(AtlasPlanner, TheBaselinesPassOverTheChoicesTheTouchFilterRefuses) {
     EXPECT_EQ(second.unreachable_candidates, 1) << name;
     EXPECT_EQ(asked, 2) << name;
   }
+}
+
+// ---- reuse between plans and the work budget (AtlasMemory, Config::max_charts, max_queries)
+
+// The default model on a view of the sphere from above (directions with z >= 0), and a contact
+// on the sphere.
+MultiscaleGpisModel viewedSphere(const AnalyticSphere& sphere) {
+  MultiscaleGpisModel model;
+  const FitReport report = model.fit(sphere.view(1500, 0.0, 0.1, 4));
+  EXPECT_TRUE(report.ok) << report.message;
+  return model;
+}
+
+TrainingPoint contactAt(const AnalyticSphere& sphere, const Vector3& direction) {
+  TrainingPoint contact;
+  contact.position = sphere.centre + sphere.radius * direction.normalized();
+  contact.noise_sigma = 0.1;
+  contact.source = PointSource::kTouch;
+  return contact;
+}
+
+AtlasPlanner::Config bestScoreConfig() {
+  AtlasPlanner::Config config;
+  config.selection = AtlasPlanner::Config::Selection::kBestScore;
+  config.seed = 3;
+  return config;
+}
+
+TEST(AtlasPlanner, AReusedAtlasKeepsTheChartsFarFromATouchAndRemakesThoseNearIt) {
+  const AnalyticSphere sphere;
+  MultiscaleGpisModel model = viewedSphere(sphere);
+  const StopRule rule{kVMax, 0.005};
+  const AtlasPlanner planner(bestScoreConfig());
+  AtlasMemory memory;
+  const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  ASSERT_NE(before.status, PlanStatus::kError) << before.message;
+  EXPECT_EQ(before.reused_charts, 0);
+  ASSERT_EQ(memory.atlas.size(), before.atlas.size());
+
+  // A touch where the camera saw the sphere (on its rim): the model changes near it only.
+  const TrainingPoint contact = contactAt(sphere, Vector3(0.9, 0.3, 0.1));
+  ASSERT_TRUE(model.addPoints({contact}).ok);
+  const AtlasPlanResult after = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  ASSERT_NE(after.status, PlanStatus::kError) << after.message;
+  ASSERT_GT(after.reused_charts, static_cast<int>(before.atlas.size()) / 2) << after.message;
+  EXPECT_GT(after.dropped_charts, 0);
+  const AtlasReuseConfig& reuse = planner.config().reuse;
+
+  // The kept charts come first, each one of the earlier atlas unchanged (centre, basis, radius),
+  // far from the contact, and right for the new model: on its surface within the tolerance, the
+  // normal within its angle, and the variance an upper bound of the new one (data only lower it),
+  // within a few per cent of it far from the touch.
+  Points3 centres(3, static_cast<Eigen::Index>(after.atlas.size()));
+  for (std::size_t i = 0; i < after.atlas.size(); ++i) centres.col(static_cast<Eigen::Index>(i)) = after.atlas.chart(static_cast<int>(i)).centre;
+  const BatchPrediction now = model.predictBatch(centres, true, false, true);
+  for (int i = 0; i < after.reused_charts; ++i) {
+    const Chart& chart = after.atlas.chart(i);
+    const auto same = std::find_if(before.atlas.charts().begin(), before.atlas.charts().end(),
+                                   [&](const Chart& c) { return c.centre == chart.centre; });
+    ASSERT_NE(same, before.atlas.charts().end()) << "kept chart " << i;
+    EXPECT_EQ(same->radius, chart.radius);
+    EXPECT_EQ(same->tangent_basis, chart.tangent_basis);
+    EXPECT_GE((chart.centre - contact.position).norm(), chart.radius + reuse.near_new_data_m);
+    const double slope = now.gradient.col(i).norm();
+    EXPECT_LE(std::abs(now.mean(i)) / slope, reuse.max_centre_shift_m) << "kept chart " << i;
+    EXPECT_GE(now.gradient.col(i).dot(chart.normal) / slope, std::cos(reuse.max_normal_change_rad));
+    EXPECT_LE(now.variance(i), chart.variance * (1.0 + 1e-9)) << "kept chart " << i;
+    EXPECT_NEAR(now.variance(i), chart.variance, 0.05 * chart.variance) << "kept chart " << i;
+  }
+  // Near the contact every chart is new, made on the new model: its variance is the model's.
+  int near_contact = 0;
+  for (std::size_t i = 0; i < after.atlas.size(); ++i) {
+    const Chart& chart = after.atlas.chart(static_cast<int>(i));
+    if ((chart.centre - contact.position).norm() >= chart.radius + reuse.near_new_data_m) continue;
+    ++near_contact;
+    EXPECT_GE(static_cast<int>(i), after.reused_charts);
+    EXPECT_NEAR(now.variance(static_cast<Eigen::Index>(i)), chart.variance, 1e-9 * chart.variance);
+  }
+  EXPECT_GT(near_contact, 0);
+
+  // A rebuild from scratch covers the surface as the reused atlas does: every one of its chart
+  // centres lies in a ball of the reused atlas (but at the rim of a tree's reach).
+  const AtlasPlanResult rebuilt = planner.plan(model, rule);
+  ASSERT_EQ(rebuilt.status, after.status) << rebuilt.message << " / " << after.message;
+  int covered = 0;
+  for (const Chart& chart : rebuilt.atlas.charts()) covered += after.atlas.coveredByOtherChart(chart.centre, -1) ? 1 : 0;
+  EXPECT_GE(covered, 0.97 * static_cast<double>(rebuilt.atlas.size()));
+  EXPECT_NEAR(after.needy_charts, rebuilt.needy_charts, 0.2 * rebuilt.needy_charts + 2);
+}
+
+TEST(AtlasPlanner, AnotherModelOrAChangedFrameIsPlannedAfresh) {
+  const AnalyticSphere sphere;
+  const MultiscaleGpisModel model = viewedSphere(sphere);
+  // A budget this plan does not come near: charts the budget made larger than the evidence
+  // allows are dropped by the next plan, to be made right.
+  AtlasPlanner::Config config = bestScoreConfig();
+  config.max_charts = 100000;
+  config.max_queries = 1000000;
+  const AtlasPlanner planner(config);
+  const StopRule rule{kVMax, 0.005};
+  AtlasMemory memory;
+  planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  // Unchanged: everything kept (nothing to drop).
+  const AtlasPlanResult again = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  EXPECT_EQ(again.dropped_charts, 0);
+  EXPECT_GT(again.reused_charts, 0);
+  // Another sphere's view: nothing in common.
+  AnalyticSphere moved;
+  moved.centre += Vector3(0.05, 0.0, 0.0);
+  const MultiscaleGpisModel other = viewedSphere(moved);
+  const AtlasPlanResult fresh = planner.plan(other, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  EXPECT_EQ(fresh.reused_charts, 0);
+  for (const Chart& chart : fresh.atlas.charts()) EXPECT_LT(std::abs(other.mean(chart.centre)), 1e-3);
+}
+
+TEST(AtlasPlanner, TheWorkBudgetEndsAPlanWithLargerChartsAndSaysSo) {
+  const AnalyticSphere sphere;
+  const MultiscaleGpisModel model = viewedSphere(sphere);
+  const StopRule rule{kVMax, 0.005};
+  AtlasPlanner::Config config = bestScoreConfig();
+  const AtlasPlanResult free_plan = AtlasPlanner(config).plan(model, rule);
+  ASSERT_EQ(free_plan.status, PlanStatus::kTouch) << free_plan.message;
+  EXPECT_FALSE(free_plan.budget_exhausted);
+  ASSERT_GT(free_plan.queries, 400);
+
+  config.max_queries = free_plan.queries / 6;
+  const AtlasPlanResult capped = AtlasPlanner(config).plan(model, rule);
+  EXPECT_TRUE(capped.budget_exhausted);
+  // Still a touch (the best one the smaller atlas found), and the message says why it stopped.
+  EXPECT_EQ(capped.status, PlanStatus::kTouch) << capped.message;
+  EXPECT_NE(capped.message.find("work budget ran out"), std::string::npos) << capped.message;
+  // Within the budget but for the last chart's queries (its projection and candidates).
+  EXPECT_LE(capped.queries, config.max_queries + 2 * config.chart.max_candidates + config.projection.max_iterations);
+  EXPECT_LT(capped.atlas.size(), free_plan.atlas.size());
+  // Past half the budget the charts grow: the last one is made at a floor near rho_max.
+  const Chart& last = capped.atlas.charts().back();
+  EXPECT_GT(last.radius, 0.5 * (config.chart.rho_min_m + config.chart.rho_max_m));
+  double free_mean = 0.0, capped_mean = 0.0;
+  for (const Chart& c : free_plan.atlas.charts()) free_mean += c.radius / static_cast<double>(free_plan.atlas.size());
+  for (const Chart& c : capped.atlas.charts()) capped_mean += c.radius / static_cast<double>(capped.atlas.size());
+  EXPECT_GT(capped_mean, free_mean);
+
+  // Through the strategy the plan's result says so too.
+  StrategyConfig strategy_config;
+  strategy_config.atlas.max_charts = 10;
+  PlanRequest request;
+  request.max_position_sd_m = 0.005;
+  const PlanResult strategy_plan = makeStrategy("atlas_poke", strategy_config)->plan(model, request);
+  EXPECT_TRUE(strategy_plan.budget_exhausted) << strategy_plan.message;
+  EXPECT_LE(strategy_plan.atlas->atlas.size(), 10u);
 }

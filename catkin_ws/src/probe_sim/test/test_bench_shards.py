@@ -11,7 +11,7 @@ import unittest
 # Two objects, two strategies, one seed: four jobs, so that two shards each run two.
 BENCH_ARGS = ["--object", "procedural:sphere", "--object", "procedural:box", "--size-m", "0.1",
               "--strategy", "atlas_poke,random", "--seeds", "0", "--max-actions", "3",
-              "--set", "view/max_surface_points=200", "--set", "planner/max_time_s=3600", "--no-plot"]
+              "--set", "view/max_surface_points=200", "--no-plot"]
 JOBS = [("sphere", "atlas_poke", "0"), ("sphere", "random", "0"), ("box", "atlas_poke", "0"), ("box", "random", "0")]
 
 # The wall-clock columns: the only ones that may differ between two runs of the same job.

@@ -13,7 +13,7 @@ import unittest
 
 SCRIPT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..", "..", "scripts", "slurm_bench.sh")
 BENCH_ARGS = ["--object", "procedural:sphere", "--size-m", "0.1", "--strategy", "atlas_poke,random", "--seeds", "0",
-              "--max-actions", "2", "--set", "view/max_surface_points=200", "--set", "planner/max_time_s=3600",
+              "--max-actions", "2", "--set", "view/max_surface_points=200",
               "--no-reachability", "--no-plot"]
 RUNS_TIMING = {"wall_s", "plan_ms_median", "update_ms_median", "approach_plan_ms_median"}
 

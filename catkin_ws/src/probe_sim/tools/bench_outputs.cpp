@@ -33,9 +33,22 @@ std::string csvField(const std::string& text) {
 }
 
 
-// Planning time grows with the model's size and a run's median mixes plans made on models of
-// very different sizes, so the plans are also pooled by model size: those at n_train of about 1000.
-constexpr std::size_t kPlanBandLow = 800, kPlanBandHigh = 1200;
+// The nearest-rank quantile q of the values (0 when there are none).
+double quantile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
+  return v[std::min(v.size() - 1, rank > 0 ? rank - 1 : 0)];
+}
+
+// "median m / p95 p / max x ms (n)", or "none".
+std::string distribution(const std::vector<double>& v) {
+  if (v.empty()) return "none";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(1) << "median " << median(v) << " / p95 " << quantile(v, 0.95) << " / max "
+    << quantile(v, 1.0) << " ms (" << v.size() << ")";
+  return s.str();
+}
 
 // One cell of the summary's table: sums over the runs that left a predicted surface; a run that
 // failed (an error, or no predicted surface) is counted, not averaged in.
@@ -282,7 +295,8 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
   // next action, the curve's measurement (0 where there was none).
   f << "object,strategy,seed,action,contacts_total,max_evaluated_variance,rmse_pred_to_gt_m,rmse_gt_to_pred_m,"
        "fscore_5mm,plan_ms,probe_ms,update_ms,n_train,sampled_max_variance,unreachable_touches,unreachable_candidates,"
-       "approach_collisions,retreat_collisions,approach_ms,approach_plan_ms,target_error_m,measured,measure_ms\n";
+       "approach_collisions,retreat_collisions,approach_ms,approach_plan_ms,target_error_m,measured,measure_ms,"
+       "plan_budget_exhausted\n";
   for (const auto& r : runs)
     for (std::size_t i = 0; i < r.history.size(); ++i) {
       const gpatlas_core::ExplorationRecord& h = r.history[i];
@@ -293,7 +307,8 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const fs::path& path) {
         << num(h.probe_ms, 4) << ',' << num(h.update_ms, 4) << ',' << h.n_train << ',' << num(h.sampled_max_variance)
         << ',' << h.approach_refusals << ',' << h.unreachable_candidates << ',' << h.approach_collisions << ','
         << h.retreat_collisions << ',' << num(h.approach_ms, 4) << ',' << num(h.approach_compute_ms, 4) << ','
-        << num(h.target_error_m) << ',' << measuredAs(r, i) << ',' << num(h.progress_ms, 4) << '\n';
+        << num(h.target_error_m) << ',' << measuredAs(r, i) << ',' << num(h.progress_ms, 4) << ','
+        << (h.plan_budget_exhausted ? 1 : 0) << '\n';
     }
 }
 
@@ -318,7 +333,12 @@ std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs) {
     for (const auto& h : r.history) {
       if (h.index < 0) continue;  // the initial model has no plan
       it->all_ms.push_back(h.plan_ms);
-      if (h.n_train >= kPlanBandLow && h.n_train <= kPlanBandHigh) it->band_ms.push_back(h.plan_ms);
+      const std::size_t first = h.n_train / kTimeBinObservations * kTimeBinObservations;
+      auto bin = std::find_if(it->bins.begin(), it->bins.end(), [&](const TimeBin& b) { return b.first_observations >= first; });
+      if (bin == it->bins.end() || bin->first_observations != first) bin = it->bins.insert(bin, TimeBin{first, {}, {}});
+      bin->plan_ms.push_back(h.plan_ms);
+      // An action that found nothing to add made no update.
+      if (h.update_ms > 0.0) bin->update_ms.push_back(h.update_ms);
     }
   }
   return out;
@@ -327,14 +347,24 @@ std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs) {
 std::string describePlanTimes(const PlanTimes& p) {
   std::ostringstream s;
   s << p.strategy << ": " << std::fixed << std::setprecision(1);
-  if (p.all_ms.empty()) s << "no plans";
-  else s << "median " << median(p.all_ms) << " ms over " << p.all_ms.size() << " plans";
-  s << "; at n_train " << kPlanBandLow << "-" << kPlanBandHigh << ": ";
-  if (p.band_ms.empty()) s << "no plans";
-  else s << "median " << median(p.band_ms) << " ms over " << p.band_ms.size() << " plans";
+  if (p.all_ms.empty()) return s.str() + "no plans";
+  s << "median " << median(p.all_ms) << " ms over " << p.all_ms.size() << " plans";
+  const TimeBin& largest = p.bins.back();
+  s << "; at n_train " << largest.first_observations << "-" << largest.first_observations + kTimeBinObservations
+    << ": median " << median(largest.plan_ms) << " ms over " << largest.plan_ms.size() << " plans";
   return s.str();
 }
 
+std::vector<std::string> describeTimeBins(const PlanTimes& p) {
+  std::vector<std::string> lines;
+  for (const TimeBin& bin : p.bins) {
+    std::ostringstream s;
+    s << p.strategy << ", n_train " << bin.first_observations << "-" << bin.first_observations + kTimeBinObservations
+      << ": plan " << distribution(bin.plan_ms) << "; update " << distribution(bin.update_ms);
+    lines.push_back(s.str());
+  }
+  return lines;
+}
 
 
 namespace {
@@ -366,6 +396,9 @@ void writeSummary(const std::vector<RunResult>& runs, const std::vector<GroundTr
   writeAnytimeTable(f, runs, strategies);
   f << "\nPlanning time per touch (history.csv: plan_ms, and n_train, the model size each plan saw):\n\n";
   for (const auto& p : plan_times) f << "- " << describePlanTimes(p) << '\n';
+  f << "\nPlan and update time per model size (n_train; median / p95 / max, wall clock, and the count):\n\n";
+  for (const auto& p : plan_times)
+    for (const std::string& line : describeTimeBins(p)) f << "- " << line << '\n';
   if (std::any_of(truths.begin(), truths.end(), [](const GroundTruth& g) { return g.reachability_measured; }))
     writeReachabilityTable(f, runs, truths, strategies);
 }

@@ -17,15 +17,24 @@ void writeHistoryCsv(const std::vector<RunResult>& runs, const std::filesystem::
 void writeReachabilityCsv(const std::vector<RunResult>& runs, const std::vector<GroundTruth>& objects,
                           const std::filesystem::path& path);
 
-// A strategy's planning times: every plan's, and those of the plans made on models of about a
-// thousand observations (planning time grows with the model's size, and a run's median mixes
-// plans made on models of very different sizes).
+// A strategy's planning and update times: every plan's, and per bin of model size (n_train, the
+// observations the plan saw, in bins of kTimeBinObservations): planning time grows with the
+// model's size, and a run's median mixes plans made on models of very different sizes.
+constexpr std::size_t kTimeBinObservations = 2000;
+struct TimeBin {
+  std::size_t first_observations{0};  // the bin holds n_train in [first, first + kTimeBinObservations)
+  std::vector<double> plan_ms, update_ms;
+};
 struct PlanTimes {
   std::string strategy;
-  std::vector<double> all_ms, band_ms;
+  std::vector<double> all_ms;
+  std::vector<TimeBin> bins;  // by model size, ascending; only bins with a plan
 };
 std::vector<PlanTimes> planTimesByStrategy(const std::vector<RunResult>& runs);
+// One line: the strategy's median plan over all its plans, and its largest bin's.
 std::string describePlanTimes(const PlanTimes& p);
+// One line per bin: plan and update median / p95 / max.
+std::vector<std::string> describeTimeBins(const PlanTimes& p);
 
 // The settings summary.md names: config, overlays, --set, probe, V_max, seeds, max actions, table.
 std::string summarySettings(const Options& o);

@@ -142,6 +142,7 @@ void runsFromTables(const BenchTables& t, std::vector<RunResult>* runs, std::vec
       gpatlas_core::ExplorationRecord record;
       record.index = std::atoi(t.history.field(h, "action").c_str()) - 1;
       record.plan_ms = number(t.history.field(h, "plan_ms"));
+      record.update_ms = number(t.history.field(h, "update_ms"));
       record.n_train = static_cast<std::size_t>(std::strtoull(t.history.field(h, "n_train").c_str(), nullptr, 10));
       record.contacts_total = std::atoi(t.history.field(h, "contacts_total").c_str());
       record.rmse_pred_to_gt_m = number(t.history.field(h, "rmse_pred_to_gt_m"));

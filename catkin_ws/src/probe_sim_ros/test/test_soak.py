@@ -104,10 +104,13 @@ class SoakTest(unittest.TestCase):
         history = report["history"]
         self.assertEqual(report["stop_reason"], "max_actions", report["stop_reason"])
         self.assertEqual(len(history), max_actions)
-        first, last = breakdown(history[:10]), breakdown(history[-10:])
-        print("\nsoak, mean ms per action (first 10 / last 10):")
+        window = min(20, len(history) // 2) or 1
+        first, last = breakdown(history[:window]), breakdown(history[-window:])
+        print("\nsoak, mean ms per action (first %d / last %d):" % (window, window))
         for key in STEPS + ("plan_wait_ms", "approach_wait_ms", "other_ms"):
             print("  %-16s %8.0f %8.0f" % (key, first[key], last[key]))
+        print("  time per action at the end / at the start: %.2fx (n_train %d -> %d)"
+              % (last["action_ms"] / max(first["action_ms"], 1e-9), history[0]["n_train"], history[-1]["n_train"]))
         self.assertTrue(rss, "no memory sample of %s" % MANAGER)
         quarters = [rss[min(len(rss) - 1, len(rss) * q // 4)] for q in range(5)]
         print("  manager RSS (MB) at 0, 1/4, 1/2, 3/4 and the end of the run: %s; peak %.0f, peak over the "

@@ -191,7 +191,12 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   c->atlas.depth_first_probability =
       r.number("planner/depth_first_probability", c->atlas.depth_first_probability, 0.0, 1.0);
   c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
-  c->atlas.max_time_s = r.number("planner/max_time_s", c->atlas.max_time_s, 1e-3, 3600.0);
+  c->atlas.max_queries = r.integer("planner/max_queries", static_cast<int>(c->atlas.max_queries), 1, 100000000);
+  AtlasReuseConfig& reuse = c->atlas.reuse;
+  reuse.enabled = r.flag("planner/reuse/enabled", reuse.enabled);
+  reuse.near_new_data_m = r.number("planner/reuse/near_new_data_m", reuse.near_new_data_m, 0.0, 1.0);
+  reuse.max_centre_shift_m = r.number("planner/reuse/max_centre_shift_m", reuse.max_centre_shift_m, 0.0, 1.0);
+  reuse.max_normal_change_rad = r.number("planner/reuse/max_normal_change_rad", reuse.max_normal_change_rad, 0.0, M_PI);
   c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
   const std::string selection = r.text("planner/selection", toString(c->atlas.selection));
   if (!parseSelection(selection, &c->atlas.selection))

@@ -172,7 +172,8 @@ std::string toJson(const ExplorationReport& report) {
          << ", \"free_points\": " << r.free_points_added << ", \"contacts_total\": " << r.contacts_total
          << ", \"max_evaluated_variance\": " << jsonNumber(r.max_evaluated_variance)
          << ", \"action_ms\": " << jsonNumber(r.action_ms) << ", \"plan_ms\": " << jsonNumber(r.plan_ms)
-         << ", \"plan_compute_ms\": " << jsonNumber(r.plan_compute_ms) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
+         << ", \"plan_compute_ms\": " << jsonNumber(r.plan_compute_ms)
+         << ", \"plan_budget_exhausted\": " << jsonBool(r.plan_budget_exhausted) << ", \"probe_ms\": " << jsonNumber(r.probe_ms)
          << ", \"update_ms\": " << jsonNumber(r.update_ms) << ", \"progress_ms\": " << jsonNumber(r.progress_ms)
          << ", \"approach_ms\": " << jsonNumber(r.approach_ms)
          << ", \"approach_compute_ms\": " << jsonNumber(r.approach_compute_ms)

@@ -173,6 +173,7 @@ class ExplorationRun {
       result_.unreachable_candidates += plan->unreachable_candidates;
       record.plan_ms += millisecondsSince(plan_started);
       record.plan_compute_ms += 1000.0 * plan->elapsed_s;
+      record.plan_budget_exhausted = record.plan_budget_exhausted || plan->budget_exhausted;
       record.plan_status = plan->status;
       record.max_evaluated_variance = plan->max_evaluated_variance;
       result_.final_max_evaluated_variance = plan->max_evaluated_variance;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <random>
 #include <sstream>
+#include <unordered_map>
 
 namespace gpatlas_core {
 
@@ -26,7 +27,10 @@ std::string validate(const AtlasPlanner::Config& config) {
   if (!(config.depth_first_probability >= 0.0 && config.depth_first_probability <= 1.0))
     problem << "depth_first_probability must be in [0, 1]; ";
   if (config.max_charts < 1) problem << "max_charts must be at least 1; ";
-  if (!(config.max_time_s > 0.0)) problem << "max_time_s must be positive; ";
+  if (config.max_queries < 1) problem << "max_queries must be at least 1; ";
+  if (!(config.reuse.near_new_data_m >= 0.0) || !std::isfinite(config.reuse.near_new_data_m) ||
+      !(config.reuse.max_centre_shift_m >= 0.0) || !(config.reuse.max_normal_change_rad >= 0.0))
+    problem << "reuse: near_new_data_m, max_centre_shift_m and max_normal_change_rad must be >= 0; ";
   if (!(config.max_start_distance_m > 0.0)) problem << "max_start_distance_m must be positive; ";
   if (config.max_start_attempts < 1) problem << "max_start_attempts must be at least 1; ";
   if (config.extend_path_charts < 0) problem << "extend_path_charts must be >= 0; ";
@@ -49,6 +53,75 @@ bool parseSelection(const std::string& name, AtlasPlanner::Config::Selection* se
 
 const char* toString(AtlasPlanner::Config::Selection selection) {
   return selection == AtlasPlanner::Config::Selection::kFirst ? "first" : "best_score";
+}
+
+std::uint64_t observationHash(const TrainingPoint& point) {
+  // FNV-1a over the fields' bytes.
+  std::uint64_t hash = 14695981039346656037ULL;
+  const auto mix = [&hash](const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) hash = (hash ^ p[i]) * 1099511628211ULL;
+  };
+  mix(point.position.data(), 3 * sizeof(double));
+  mix(point.slope_direction.data(), 3 * sizeof(double));
+  mix(&point.noise_sigma, sizeof(double));
+  mix(&point.target_override, sizeof(double));
+  mix(&point.surface_distance_m, sizeof(double));
+  const int tags[2] = {static_cast<int>(point.label), static_cast<int>(point.source)};
+  mix(tags, sizeof(tags));
+  return hash;
+}
+
+bool AtlasMemory::changesTo(const SurfaceModel& model, std::vector<Vector3>* changed) const {
+  changed->clear();
+  if (atlas.empty() || !model.isFitted() || model.name() != this->model) return false;
+  if (model.centroid() != centroid || model.scale() != scale) return false;
+  const Eigen::VectorXd now = model.hyperparameters();
+  if (now.size() != hyperparameters.size() || now != hyperparameters) return false;
+  // The observations as multisets of hashes: those on one side only changed (a touch adds some;
+  // a refit that retracts guessed interior removes some). Only surface observations are
+  // returned, the rest counted, so that a model rebuilt from other data is not taken for this one.
+  std::unordered_map<std::uint64_t, int> count;
+  for (std::uint64_t h : observations) ++count[h];
+  std::size_t other_changes = 0;
+  for (const TrainingPoint& point : model.observations()) {
+    const auto found = count.find(observationHash(point));
+    if (found != count.end() && found->second > 0) {
+      --found->second;
+    } else if (isSurfaceValue(point) && point.position.allFinite()) {
+      changed->push_back(point.position);
+    } else {
+      ++other_changes;
+    }
+  }
+  for (std::size_t i = 0; i < surface_hashes.size(); ++i) {
+    const auto found = count.find(surface_hashes[i]);
+    if (found != count.end() && found->second > 0) {
+      --found->second;
+      changed->push_back(surface_positions[i]);
+    }
+  }
+  for (const auto& [hash, left] : count) other_changes += static_cast<std::size_t>(std::max(0, left));
+  // Most of the data replaced: another model, not a touch's change of this one.
+  return changed->size() + other_changes <= observations.size() / 2;
+}
+
+void AtlasMemory::remember(const SurfaceModel& model, const Atlas& grown) {
+  this->model = model.name();
+  centroid = model.centroid();
+  scale = model.scale();
+  hyperparameters = model.hyperparameters();
+  observations.clear();
+  surface_positions.clear();
+  surface_hashes.clear();
+  for (const TrainingPoint& point : model.observations()) {
+    observations.push_back(observationHash(point));
+    if (isSurfaceValue(point) && point.position.allFinite()) {
+      surface_positions.push_back(point.position);
+      surface_hashes.push_back(observations.back());
+    }
+  }
+  atlas = grown;
 }
 
 namespace {
@@ -132,6 +205,10 @@ AtlasPlanResult finishPlan(AtlasPlanResult& result, PlanStatus status, std::stri
     unreachable_area += chart.out_of_reach ? discArea(chart) : 0.0;
   }
   result.unreachable_area_fraction = area > 0.0 ? unreachable_area / area : 0.0;
+  std::ostringstream work;
+  work << "; " << result.atlas.size() << " charts (" << result.reused_charts << " kept from the previous plan, "
+       << result.dropped_charts << " of its dropped), " << result.queries << " queries";
+  result.message += work.str();
   if (result.retouch_skipped > 0)
     result.message += "; " + std::to_string(result.retouch_skipped) +
                       " chart(s) that would need a touch lie right at a measurement or an earlier target";
@@ -152,16 +229,22 @@ class AtlasGrowth {
  public:
   AtlasGrowth(const SurfaceModel& model, const StopRule& rule, const AtlasPlanner::Config& config,
               const SurfaceEvidence& evidence, const AtlasPlanner::Progress& progress,
-              const TouchFilter& reachable, std::mt19937_64& rng, Clock::time_point started,
-              AtlasPlanResult& result)
+              const TouchFilter& reachable, std::mt19937_64& rng, AtlasPlanResult& result)
       : model_(model), rule_(rule), config_(config), evidence_(evidence), progress_(progress),
-        reachable_(reachable), rng_(rng), started_(started), result_(result), atlas_(result.atlas),
+        reachable_(reachable), rng_(rng), result_(result), atlas_(result.atlas),
         scoring_(config.selection == AtlasPlanner::Config::Selection::kBestScore) {}
 
   ChartCreation makeChart(const SurfacePoint& point, int parent) {
-    return createChart(model_, point, parent, config_.chart, rng_,
-                       evidence_.radiusCap(point.position, config_.chart.rho_min_m), rank_candidates_);
+    ChartConfig chart = config_.chart;
+    chart.rho_min_m = budgetRadiusFloor();
+    ChartCreation created = createChart(model_, point, parent, chart, rng_,
+                                        evidence_.radiusCap(point.position, chart.rho_min_m), rank_candidates_);
+    if (rank_candidates_) result_.queries += static_cast<long>(created.chart.candidates.size());
+    return created;
   }
+
+  // Counts a projection's queries: its iterations, and the variance at the point it found.
+  void countProjection(const SurfacePoint& projected) { result_.queries += projected.iterations + 2; }
 
   // Algorithm 1's test (StopRule: variance above V_max, or position sd above its bound), or a
   // surface nobody saw or felt. A chart right at
@@ -206,10 +289,7 @@ class AtlasGrowth {
   // ends (a touch, or a cap).
   std::optional<PlanEnd> growTree(int& continuation) {
     while (atlas_.isExpandable()) {
-      if (static_cast<int>(atlas_.size()) >= config_.max_charts)
-        return PlanEnd{PlanStatus::kCapReached, "chart cap reached without finding " + rule_.describe()};
-      if (secondsSince(started_) > config_.max_time_s)
-        return PlanEnd{PlanStatus::kCapReached, "time cap reached without finding " + rule_.describe()};
+      if (capReached()) return PlanEnd{PlanStatus::kCapReached, budgetMessage() + " without finding " + rule_.describe()};
       ChartCreation created = expand(selectChart(continuation));
       if (!created.ok) continue;
       const bool new_needs_touch = needsTouch(created.chart);
@@ -229,10 +309,12 @@ class AtlasGrowth {
     rooted = false;
     while (!rooted && next_candidate_ < uncovered_candidates_.size()) {
       if (capReached())
-        return PlanEnd{PlanStatus::kCapReached, "cap reached while covering the remaining surface observations"};
+        return PlanEnd{PlanStatus::kCapReached, budgetMessage() + " while covering the remaining surface observations"};
       const Vector3& observation = uncovered_candidates_[next_candidate_++];
       if (atlas_.coveredByOtherChart(observation, -1)) continue;
       const SurfacePoint projected = projectFreePoint(model_, observation, config_.projection);
+      countProjection(projected);
+      ++result_.queries;  // the gradient that gave the projection's line
       if (!projected.ok || atlas_.coveredByOtherChart(projected.position, -1)) continue;
       ChartCreation created = makeChart(projected, -1);
       if (!created.ok) continue;
@@ -250,6 +332,52 @@ class AtlasGrowth {
   }
 
   int trees() const { return trees_; }
+
+  // Starts from the previous plan's charts that the model's change left in place (Config::reuse):
+  // false, and nothing done, when none is left.
+  bool adoptPrevious(const Atlas& previous, const std::vector<Vector3>& changed) {
+    std::vector<int> kept, dropped;
+    std::vector<double> slopes;
+    splitPrevious(previous, changed, &kept, &dropped, &slopes);
+    if (kept.empty()) return false;
+    // The holes the dropped charts leave are grown again from the kept charts around them: those
+    // get back the candidates they drew there; elsewhere, those the previous growth had not used.
+    const Atlas holes = Atlas::keep(previous, dropped, [](int, const ChartCandidate&) { return false; });
+    atlas_ = Atlas::keep(previous, kept, [&](int old, const ChartCandidate& candidate) {
+      if (holes.coveredByOtherChart(candidate.ambient, -1)) return true;
+      const auto& left = previous.chart(old).candidates;
+      return std::any_of(left.begin(), left.end(), [&](const ChartCandidate& c) { return c.tangent == candidate.tangent; });
+    });
+    result_.reused_charts = static_cast<int>(kept.size());
+    result_.dropped_charts = static_cast<int>(dropped.size());
+    // A kept chart's variance bounds its new one from above, so with the slope asked again (the
+    // position sd divides by it, and it may fall) only those that need a touch by it can have
+    // changed their answer: their variance is asked again (one batch).
+    std::vector<int> stale;
+    for (std::size_t i = 0; i < atlas_.size(); ++i) {
+      Chart& chart = atlas_.chart(static_cast<int>(i));
+      chart.slope = slopes[i];
+      chart.out_of_reach = false;
+      chart.approach_direction = Vector3::Zero();
+      if (rule_.exceeded(model_, chart.variance, chart.slope)) stale.push_back(static_cast<int>(i));
+    }
+    if (!stale.empty()) {
+      Points3 centres(3, static_cast<Eigen::Index>(stale.size()));
+      for (std::size_t k = 0; k < stale.size(); ++k) centres.col(static_cast<Eigen::Index>(k)) = atlas_.chart(stale[k]).centre;
+      const BatchPrediction now = model_.predictBatch(centres, true, false, true);
+      result_.queries += static_cast<long>(stale.size());
+      for (std::size_t k = 0; k < stale.size(); ++k) {
+        Chart& chart = atlas_.chart(stale[k]);
+        const auto q = static_cast<Eigen::Index>(k);
+        if (std::isfinite(now.variance(q))) chart.variance = now.variance(q);
+        if (now.gradient.col(q).allFinite()) chart.slope = now.gradient.col(q).norm();
+      }
+    }
+    for (std::size_t i = 0; i < atlas_.size(); ++i)
+      endsPlan(needsTouch(atlas_.chart(static_cast<int>(i))), static_cast<int>(i));
+    if (progress_) progress_(atlas_);
+    return true;
+  }
   bool scoring() const { return scoring_; }
 
   // Whether the chart just added ends the plan: kFirst, when it needs a touch; kBestScore keeps
@@ -330,8 +458,66 @@ class AtlasGrowth {
   }
 
  private:
-  bool capReached() const {
-    return static_cast<int>(atlas_.size()) >= config_.max_charts || secondsSince(started_) > config_.max_time_s;
+  // The share of the work budget used: of the charts or of the queries, whichever is further.
+  double budgetUsed() const {
+    return std::max(static_cast<double>(atlas_.size()) / config_.max_charts,
+                    static_cast<double>(result_.queries) / static_cast<double>(config_.max_queries));
+  }
+
+  // The smallest radius a new chart gets: rho_min_m until half the budget is used, then rising
+  // to rho_max_m as the rest is, so that the atlas covers the surface with fewer, larger charts.
+  double budgetRadiusFloor() const {
+    constexpr double kCoarserFrom = 0.5;
+    const double coarser = std::clamp((budgetUsed() - kCoarserFrom) / (1.0 - kCoarserFrom), 0.0, 1.0);
+    return config_.chart.rho_min_m + coarser * (config_.chart.rho_max_m - config_.chart.rho_min_m);
+  }
+
+  bool capReached() {
+    if (budgetUsed() < 1.0) return false;
+    result_.budget_exhausted = true;
+    return true;
+  }
+
+  std::string budgetMessage() const {
+    return "the plan's work budget ran out (" + std::to_string(atlas_.size()) + " of " +
+           std::to_string(config_.max_charts) + " charts, " + std::to_string(result_.queries) + " of " +
+           std::to_string(config_.max_queries) + " queries)";
+  }
+
+  // The previous plan's charts: dropped where surface observations changed near them or where the
+  // surface moved (one batch of the mean and its gradient at the others' centres), else kept,
+  // with the slope there now (|grad f|, in `slopes`, in the order of `kept`).
+  void splitPrevious(const Atlas& previous, const std::vector<Vector3>& changed, std::vector<int>* kept,
+                     std::vector<int>* dropped, std::vector<double>* slopes) {
+    std::vector<int> far;
+    for (std::size_t i = 0; i < previous.size(); ++i) {
+      const Chart& chart = previous.chart(static_cast<int>(i));
+      const double reach = chart.radius + config_.reuse.near_new_data_m;
+      const bool near = std::any_of(changed.begin(), changed.end(),
+                                    [&](const Vector3& p) { return (p - chart.centre).squaredNorm() < reach * reach; });
+      (near ? dropped : &far)->push_back(static_cast<int>(i));
+    }
+    if (far.empty()) return;
+    Points3 centres(3, static_cast<Eigen::Index>(far.size()));
+    for (std::size_t k = 0; k < far.size(); ++k) centres.col(static_cast<Eigen::Index>(k)) = previous.chart(far[k]).centre;
+    const BatchPrediction now = model_.predictBatch(centres, true, false, false);
+    result_.queries += static_cast<long>(far.size());
+    const double min_cos = std::cos(config_.reuse.max_normal_change_rad);
+    for (std::size_t k = 0; k < far.size(); ++k) {
+      const auto q = static_cast<Eigen::Index>(k);
+      const Chart& chart = previous.chart(far[k]);
+      const Vector3 gradient = now.gradient.col(q);
+      const double norm = gradient.norm();
+      // The evidence that let the chart be that large may have changed (a surprising contact
+      // trusts its surroundings less): a chart must not hide a point that now needs a touch.
+      const bool stays = std::isfinite(now.mean(q)) && norm > 0.0 && gradient.allFinite() &&
+                         std::abs(now.mean(q)) / norm <= config_.reuse.max_centre_shift_m &&
+                         gradient.dot(chart.normal) / norm >= min_cos &&
+                         chart.radius <= evidence_.radiusCap(chart.centre, config_.chart.rho_min_m);
+      (stays ? kept : dropped)->push_back(far[k]);
+      if (stays) slopes->push_back(norm);
+    }
+    std::sort(dropped->begin(), dropped->end());
   }
 
   // The touch filter's direction for the chart, kept in it; false when it has none.
@@ -368,6 +554,7 @@ class AtlasGrowth {
     atlas_.removeCandidate(parent_index, static_cast<std::size_t>(best - parent.candidates.begin()));
     ++result_.expansions;
     const SurfacePoint projected = projectOntoSurface(model_, start_point, direction, config_.projection).front();
+    countProjection(projected);
     ChartCreation created;
     if (projected.ok) created = makeChart(projected, parent_index);
     if (!created.ok) ++result_.failed_projections;
@@ -381,6 +568,7 @@ class AtlasGrowth {
     if (!rank_candidates_) {
       rank_candidates_ = true;
       rankCandidates(model_, &atlas_.chart(last).candidates);
+      result_.queries += static_cast<long>(atlas_.chart(last).candidates.size());
     }
     for (int extra = 0; extra < config_.extend_path_charts; ++extra) {
       if (capReached()) break;
@@ -411,7 +599,6 @@ class AtlasGrowth {
   const AtlasPlanner::Progress& progress_;
   const TouchFilter& reachable_;
   std::mt19937_64& rng_;
-  const Clock::time_point started_;
   AtlasPlanResult& result_;
   Atlas& atlas_;
   std::uniform_real_distribution<double> unit_{0.0, 1.0};
@@ -427,10 +614,15 @@ class AtlasGrowth {
 
 AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
                                    const Progress& progress, const TouchFilter& reachable,
-                                   const EvidenceState& evidence_state, const TouchObservationConfig& touch) const {
+                                   const EvidenceState& evidence_state, const TouchObservationConfig& touch,
+                                   AtlasMemory* memory) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
+  const bool scoring = config_.selection == Config::Selection::kBestScore;
   const auto finish = [&](PlanStatus status, std::string message) {
+    // The next plan grows from this atlas where the model lets it (a best-scoring atlas covers
+    // the whole surface; Algorithm 1's stops at its first chart that needs a touch).
+    if (memory && scoring && status != PlanStatus::kError) memory->remember(model, result.atlas);
     return finishPlan(result, status, std::move(message), started);
   };
   if (!model.isFitted()) return finish(PlanStatus::kError, "no model: the GP is not fitted");
@@ -439,20 +631,26 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
     return finish(PlanStatus::kError, "invalid planner config: " + problem);
 
   std::mt19937_64 rng(config_.seed);
-  std::string error;
-  const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
-  if (!root_point.ok) return finish(PlanStatus::kError, error);
   const SurfaceEvidence evidence(model, config_.evidence, evidence_state);
-  AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, started, result);
-  ChartCreation root = growth.makeChart(root_point, -1);
-  if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
-  const bool root_needs_touch = growth.needsTouch(root.chart);
-  int continuation = growth.addChart(std::move(root.chart));
-  // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
-  // (its candidates may all be covered or out of the domain).
-  if (growth.endsPlan(root_needs_touch, continuation)) {
-    result.path = result.atlas.pathTo(continuation);
-    return finish(PlanStatus::kTouch, "the root chart needs a touch (" + rule.describe() + " or no evidence nearby)");
+  AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, result);
+  int continuation = 0;
+  std::vector<Vector3> changed;
+  const bool reused = memory && scoring && config_.reuse.enabled && memory->changesTo(model, &changed) &&
+                      growth.adoptPrevious(memory->atlas, changed);
+  if (!reused) {
+    std::string error;
+    const SurfacePoint root_point = selectSurfacePoint(model, start, config_, rng, &error);
+    if (!root_point.ok) return finish(PlanStatus::kError, error);
+    ChartCreation root = growth.makeChart(root_point, -1);
+    if (!root.ok) return finish(PlanStatus::kError, "root chart: " + root.message);
+    const bool root_needs_touch = growth.needsTouch(root.chart);
+    continuation = growth.addChart(std::move(root.chart));
+    // Algorithm 1 checks only new charts, but a root above V_max is itself the place to touch
+    // (its candidates may all be covered or out of the domain).
+    if (growth.endsPlan(root_needs_touch, continuation)) {
+      result.path = result.atlas.pathTo(continuation);
+      return finish(PlanStatus::kTouch, "the root chart needs a touch (" + rule.describe() + " or no evidence nearby)");
+    }
   }
   growth.collectUncoveredCandidates();
   for (;;) {
@@ -462,7 +660,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
     if (end && end->status == PlanStatus::kCapReached && growth.scoring()) {
       // A capped atlas still offers the touches it found.
       if (std::optional<PlanEnd> chosen = growth.chooseBest(touch))
-        return finish(chosen->status, chosen->message + "; the atlas stopped at its cap");
+        return finish(chosen->status, chosen->message + "; " + end->message + " (a coarser atlas)");
     }
     if (end) return finish(end->status, std::move(end->message));
     if (!rooted) break;

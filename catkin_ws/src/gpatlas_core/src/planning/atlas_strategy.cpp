@@ -19,14 +19,19 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   // that edge; the best-scoring chart lies wherever its touch removes the most error.
   if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
     config.aim_past_m = request.footprint_radius_m;
-  AtlasPlanResult planned = AtlasPlanner(config).plan(model, request.stopRule(), request.start, {}, request.reachable,
-                                                      request.evidence_state, request.touch_observations);
+  AtlasPlanResult planned;
+  {
+    const std::lock_guard<std::mutex> lock(memory_->mutex);
+    planned = AtlasPlanner(config).plan(model, request.stopRule(), request.start, {}, request.reachable,
+                                        request.evidence_state, request.touch_observations, &memory_->atlas);
+  }
 
   PlanResult result;
   result.status = planned.status;
   result.message = planned.message;
   result.max_evaluated_variance = planned.max_chart_variance;
   result.elapsed_s = planned.elapsed_s;
+  result.budget_exhausted = planned.budget_exhausted;
   result.unreachable_candidates = planned.unreachable_skipped;
   result.unreachable_area_fraction = planned.unreachable_area_fraction;
   if (const std::string note = vMaxNoiseNote(model, request.v_max); !note.empty()) result.message += "; " + note;

@@ -38,6 +38,9 @@ struct ExplorationRecord {
   double update_ms{0.0};
   // The planner's own time (PlanResult::elapsed_s): plan_ms minus this is waiting.
   double plan_compute_ms{0.0};
+  // The work budget, not convergence or a touch found, ended a plan of this action
+  // (PlanResult::budget_exhausted).
+  bool plan_budget_exhausted{false};
   // The caller's progress callback (logging, measurements it makes on the loop's thread).
   double progress_ms{0.0};
   // The whole action, wall clock, the progress callback included; set after the callback.

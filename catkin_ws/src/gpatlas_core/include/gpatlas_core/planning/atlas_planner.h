@@ -9,6 +9,8 @@
 #include "gpatlas_core/planning/touch_score.h"
 #include "gpatlas_core/planning/stop_rule.h"
 
+#include <Eigen/Core>
+
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -26,7 +28,7 @@ using TouchFilter = std::function<std::optional<Vector3>(const Vector3& point, c
 enum class PlanStatus : std::uint8_t {
   kTouch = 0,       // a touch (path) was found
   kConverged = 1,   // the predicted surface was covered without finding variance above V_max
-  kCapReached = 2,  // a chart or time budget ran out first: not a proof of convergence
+  kCapReached = 2,  // the plan's work budget (charts, queries) ran out first: not a proof of convergence
   kError = 3        // bad input or unusable model; see the message
 };
 const char* toString(PlanStatus status);
@@ -52,7 +54,53 @@ struct AtlasPlanResult {
   double predicted_reduction{0.0};
   double total_error{0.0};
   double elapsed_s{0.0};
+  // The work budget (AtlasPlanner::Config::max_charts, max_queries): the points the plan asked
+  // the model about, and whether the budget, not convergence or a touch found, ended the growth
+  // (a best-scoring plan then still offers the best touch it found: status kTouch).
+  long queries{0};
+  bool budget_exhausted{false};
+  // Charts taken over from the previous plan (AtlasMemory) unchanged, and those of it the new
+  // data (or the model's move) made the plan drop and grow again.
+  int reused_charts{0};
+  int dropped_charts{0};
 };
+
+// Which earlier charts a plan may keep (AtlasPlanner::Config::reuse). A touch changes the model
+// near it (the local GPs of the cells it lands in) and the coarse level a little everywhere; a
+// chart far from the new data keeps its centre, basis, radius and variance unless the surface
+// moved there by more than the tolerances below.
+struct AtlasReuseConfig {
+  bool enabled{true};
+  // A chart whose ball comes this close to a surface observation added (or removed) since is
+  // dropped and grown again: about a local cell's side. Free space and interior points change
+  // the surface less; where they moved it, the tolerances below catch it.
+  double near_new_data_m{0.015};
+  // Elsewhere the mean and its gradient are asked again at every chart's centre (one batch): the
+  // chart is dropped when the predicted surface moved further than this from it (|f| / |grad f|)...
+  double max_centre_shift_m{0.001};
+  // ... or its normal turned by more than this.
+  double max_normal_change_rad{0.1};
+};
+
+// What a plan leaves for the next one: its atlas, and the model state it was grown on. A GP's
+// variance only falls when data are added with the same hyperparameters, so a kept chart's
+// variance bounds the new one from above: the charts that need a touch by it are asked again.
+struct AtlasMemory {
+  std::string model;
+  Vector3 centroid{Vector3::Zero()};
+  double scale{0.0};
+  Eigen::VectorXd hyperparameters;
+  std::vector<std::uint64_t> observations;  // observationHash of each observation
+  std::vector<Vector3> surface_positions;   // where its surface observations lie, by hash
+  std::vector<std::uint64_t> surface_hashes;
+  Atlas atlas;
+  // Whether the atlas was grown on an earlier state of `model` (the same model, frame and
+  // hyperparameters); then `changed` gets the surface observations added or removed since.
+  bool changesTo(const SurfaceModel& model, std::vector<Vector3>* changed) const;
+  void remember(const SurfaceModel& model, const Atlas& grown);
+};
+// A hash of an observation (position, label, source, noise, targets, slope).
+std::uint64_t observationHash(const TrainingPoint& point);
 
 // GPAtlasRRT, paper Algorithm 1: grows an atlas over the GP's zero level set toward high
 // variance and returns the tree path to the first chart whose centre variance exceeds V_max.
@@ -65,8 +113,17 @@ class AtlasPlanner {
     // expansion (depth-first, toward variance), otherwise pick an expandable chart uniformly
     // (breadth). If the continuation chart has no candidates left, the uniform pick is used.
     double depth_first_probability{0.4};
+    // The plan's work budget: charts, and points queried (the projections' iterations, the
+    // charts' variances, ranked candidates, the reuse's checks; not the score's lookahead, which
+    // TouchScoreConfig bounds). Past half of it the charts grow larger, their radius floor rising
+    // from rho_min_m to rho_max_m as the rest is used: the atlas still covers the surface, more
+    // coarsely, rather than stopping part way. A work budget, not a clock: a plan gives the same
+    // answer on a loaded machine.
     int max_charts{3000};
-    double max_time_s{10.0};
+    long max_queries{10000};
+    // Growing from the previous plan's atlas (AtlasMemory) rather than from scratch (selection
+    // kBestScore: an atlas over the whole surface).
+    AtlasReuseConfig reuse;
     // A given start point must project onto the surface within this distance (metres).
     double max_start_distance_m{0.03};
     // Random training points tried as the root before giving up.
@@ -115,10 +172,13 @@ class AtlasPlanner {
   // counts as covered when only such charts are left. `evidence_state`: what the run has
   // learnt that the evidence test reads (Config::evidence).
   // `touch`: how a touch's measurements become observations, for the score's fantasy pokes.
+  // `memory`: the previous plan's atlas, reused where the model allows (Config::reuse), and
+  // replaced by this plan's; may be null.
   AtlasPlanResult plan(const SurfaceModel& model, const StopRule& rule,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}, const TouchFilter& reachable = {},
-                       const EvidenceState& evidence_state = {}, const TouchObservationConfig& touch = {}) const;
+                       const EvidenceState& evidence_state = {}, const TouchObservationConfig& touch = {},
+                       AtlasMemory* memory = nullptr) const;
 
  private:
   Config config_;

@@ -3,10 +3,15 @@
 #include "gpatlas_core/planning/atlas_planner.h"
 #include "gpatlas_core/planning/exploration_strategy.h"
 
+#include <memory>
+#include <mutex>
+
 namespace gpatlas_core {
 
 // GPAtlasRRT as a strategy. Poke touches the last chart of the path (the uncertain one);
-// slide follows the whole path from the root, as in the paper's sliding condition.
+// slide follows the whole path from the root, as in the paper's sliding condition. It keeps each
+// plan's atlas for the next (AtlasMemory): the charts far from the model's new data are reused.
+// Plans on another model (or the same after a refit) start afresh.
 class AtlasStrategy : public ExplorationStrategy {
  public:
   enum class Mode { kPoke, kSlide };
@@ -18,6 +23,13 @@ class AtlasStrategy : public ExplorationStrategy {
   Mode mode_;
   AtlasPlanner::Config config_;
   std::uint64_t seed_;
+  // The previous plan's atlas: plans are const (a strategy is shared), the memory is what they
+  // leave behind, one plan at a time.
+  struct Memory {
+    std::mutex mutex;
+    AtlasMemory atlas;
+  };
+  std::shared_ptr<Memory> memory_{std::make_shared<Memory>()};
 };
 
 }  // namespace gpatlas_core

@@ -54,6 +54,9 @@ struct PlanResult {
   double max_evaluated_variance{0.0};
   std::optional<AtlasPlanResult> atlas;  // the grown atlas, for the atlas strategies
   double elapsed_s{0.0};
+  // The plan's work budget, not convergence or a touch found, ended its search (the atlas
+  // strategies: AtlasPlanResult::budget_exhausted).
+  bool budget_exhausted{false};
   int unreachable_candidates{0};  // candidates passed over for PlanRequest::reachable
   // The atlas strategies: those charts' share of the atlas's area
   // (AtlasPlanResult::unreachable_area_fraction); 0 for the others. atlas_frontier counts the
