@@ -145,6 +145,17 @@ std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector
   return out;
 }
 
+std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
+                                            const std::vector<Eigen::Vector3d>& view_points) {
+  std::vector<Eigen::Vector3d> object = view_points, free;
+  for (const gpatlas_core::TrainingPoint& p : observations) {
+    const bool measured = p.source == gpatlas_core::PointSource::kVision || p.source == gpatlas_core::PointSource::kTouch;
+    if (p.label == gpatlas_core::PointLabel::kSurface && measured) object.push_back(p.position);
+    else if (p.source == gpatlas_core::PointSource::kFreeSpace) free.push_back(p.position);
+  }
+  return scene.obstacles(object, free);
+}
+
 std::size_t addObstacles(octomap::OcTree* map, const std::vector<Eigen::Vector3d>& centres) {
   if (!map) throw std::invalid_argument("addObstacles: no map");
   std::size_t added = 0;

@@ -1,5 +1,7 @@
 #pragma once
 
+#include <gpatlas_core/common/types.h>
+
 #include <Eigen/Core>
 
 #include <cstddef>
@@ -71,6 +73,12 @@ class SceneMap {
   SceneMapConfig config_;
   std::unique_ptr<octomap::OcTree> tree_;
 };
+
+// SceneMap::obstacles() for a model's training data: its surface points from the camera and the
+// probe, with `view_points` (the view's object points), are the explored object; its free-space
+// points are where the probe went.
+std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
+                                            const std::vector<Eigen::Vector3d>& view_points);
 
 // Marks the voxels at `centres` occupied in `map` (the collision octree, at its clamping
 // maximum, whatever the model said there). Returns how many were not occupied before.
