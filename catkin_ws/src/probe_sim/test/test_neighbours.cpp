@@ -157,6 +157,13 @@ TEST(Neighbours, TheCameraSeesThemAndTheProbeAndItsBodyHitThem) {
   // The probe's body on a way from the rest across the neighbour meets it once; beside it, never.
   const gpatlas_motion::ProbeGeometry body;
   const Eigen::Vector3d down(0.0, 0.0, -1.0);
-  EXPECT_EQ(probe_sim::countPathContacts(*scene, body, {{0.7, 0.4, 0.05}, {0.7, 0.12, 0.05}}, down, 0.004), 1);
-  EXPECT_EQ(probe_sim::countPathContacts(*scene, body, {{0.7, 0.4, 0.2}, {0.7, 0.12, 0.2}}, down, 0.004), 0);
+  unsigned met = 0;
+  EXPECT_EQ(probe_sim::countPathContacts(*scene, body, {{0.7, 0.4, 0.05}, {0.7, 0.12, 0.05}}, down, 0.004, &met), 1);
+  EXPECT_EQ(met, static_cast<unsigned>(SurfaceKind::kObstacle));
+  met = 0;
+  EXPECT_EQ(probe_sim::countPathContacts(*scene, body, {{0.7, 0.4, 0.2}, {0.7, 0.12, 0.2}}, down, 0.004, &met), 0);
+  EXPECT_EQ(met, 0u);
+  // On into the object, through the gap between them: two contacts, the object's too.
+  EXPECT_EQ(probe_sim::countPathContacts(*scene, body, {{0.7, 0.4, 0.05}, {0.7, 0.0, 0.05}}, down, 0.004, &met), 2);
+  EXPECT_EQ(met, static_cast<unsigned>(SurfaceKind::kObstacle) | static_cast<unsigned>(SurfaceKind::kObject));
 }

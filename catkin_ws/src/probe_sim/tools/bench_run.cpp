@@ -149,6 +149,21 @@ std::unique_ptr<probe_sim::SimulatedProber> makeProber(std::shared_ptr<probe_sim
   return prober;
 }
 
+// The simulated prober, tallying the touches whose way there or back met a neighbour.
+class NeighbourTally : public gpatlas_core::Prober {
+ public:
+  explicit NeighbourTally(probe_sim::SimulatedProber& prober) : prober_(prober) {}
+  gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override {
+    gpatlas_core::ProbeResult result = prober_.probe(touch);
+    if (prober_.lastWayCollisionKinds() & static_cast<unsigned>(probe_sim::SurfaceKind::kObstacle)) ++touches;
+    return result;
+  }
+  int touches{0};
+
+ private:
+  probe_sim::SimulatedProber& prober_;
+};
+
 // Approach planning on the model (approach/enabled), for the arm's links with approach/use_arm,
 // with the camera's scene in its map as the collision map nodelet has it (collision_map/scene_*).
 bool makeApproacher(const gpatlas_core::SurfaceModel& model, const ObjectView& view, const Options& o,
@@ -396,11 +411,13 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   }
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
   if (!makeApproacher(*model, view, o, &approacher, &why)) return failedRun(r, why);
+  NeighbourTally tally(*prober);
   gpatlas_core::ExplorationResult result =
-      gpatlas_core::Explorer(loop).run(*model, *strategy, *prober, pipeline.touch, known,
+      gpatlas_core::Explorer(loop).run(*model, *strategy, tally, pipeline.touch, known,
                                        progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());
 
   recordLoop(result, *model, r);
+  r.neighbour_collision_touches = tally.touches;
   r.position_sd_scale = model->positionSdScale();
   measureFinalModel(*model, gt, o, result, r);
   r.history.push_back(initial);
