@@ -149,19 +149,32 @@ std::unique_ptr<probe_sim::SimulatedProber> makeProber(std::shared_ptr<probe_sim
   return prober;
 }
 
-// The simulated prober, tallying the touches whose way there or back met a neighbour.
+// The simulated prober, tallying the touches whose way there or back met a neighbour; with
+// --verbose, a line saying what each collision on the way met.
 class NeighbourTally : public gpatlas_core::Prober {
  public:
-  explicit NeighbourTally(probe_sim::SimulatedProber& prober) : prober_(prober) {}
+  NeighbourTally(probe_sim::SimulatedProber& prober, const Options& o, std::string label, std::mutex& print_mutex)
+      : prober_(prober), verbose_(o.verbose), label_(std::move(label)), print_mutex_(print_mutex) {}
   gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override {
     gpatlas_core::ProbeResult result = prober_.probe(touch);
-    if (prober_.lastWayCollisionKinds() & static_cast<unsigned>(probe_sim::SurfaceKind::kObstacle)) ++touches;
+    const unsigned met = prober_.lastWayCollisionKinds();
+    if (met & static_cast<unsigned>(probe_sim::SurfaceKind::kObstacle)) ++touches;
+    if (verbose_ && met != 0) {
+      std::string what;
+      for (const auto kind : {probe_sim::SurfaceKind::kObject, probe_sim::SurfaceKind::kTable, probe_sim::SurfaceKind::kObstacle})
+        if (met & static_cast<unsigned>(kind)) what += std::string(what.empty() ? "" : ", ") + probe_sim::toString(kind);
+      std::lock_guard<std::mutex> lock(print_mutex_);
+      std::cout << "  [" << label_ << "] the way there and back met: " << what << std::endl;
+    }
     return result;
   }
   int touches{0};
 
  private:
   probe_sim::SimulatedProber& prober_;
+  bool verbose_;
+  std::string label_;
+  std::mutex& print_mutex_;
 };
 
 // Approach planning on the model (approach/enabled), for the arm's links with approach/use_arm,
@@ -411,7 +424,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   }
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
   if (!makeApproacher(*model, view, o, &approacher, &why)) return failedRun(r, why);
-  NeighbourTally tally(*prober);
+  NeighbourTally tally(*prober, o, gt.name + " " + strategy_name + " seed " + std::to_string(seed), print_mutex);
   gpatlas_core::ExplorationResult result =
       gpatlas_core::Explorer(loop).run(*model, *strategy, tally, pipeline.touch, known,
                                        progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());
