@@ -55,7 +55,7 @@ class BenchNeighboursTest(unittest.TestCase):
             self.assertLess(float(r["rmse_pred_to_gt_m"]), 0.006, (name, r))
             # No way there and back met a neighbour, and hardly any touch was refused for want of
             # one. The object itself can be met where its model is still wrong (benchmarks.md
-            # section 14), and the planner's paths depend on the machine's load: at most one touch.
+            # section 15), and the planner's paths depend on the machine's load: at most one touch.
             self.assertEqual(int(r["neighbour_collision_touches"]), 0, (name, r))
             self.assertLessEqual(int(r["approach_collisions"]) + int(r["retreat_collisions"]), 2, (name, r))
             self.assertLessEqual(int(r["unreachable_touches"]), 0.05 * int(r["actions"]), (name, r))
