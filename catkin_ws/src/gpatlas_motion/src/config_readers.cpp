@@ -30,6 +30,7 @@ void readSceneMap(gpatlas_core::ParamReader& r, SceneMapConfig* c) {
   c->hit_probability = r.number("collision_map/scene_hit_probability", c->hit_probability, 0.51, 0.999);
   c->miss_probability = r.number("collision_map/scene_miss_probability", c->miss_probability, 0.001, 0.49);
   c->object_margin_m = r.number("collision_map/scene_object_margin_m", c->object_margin_m, 0.0, 0.5);
+  c->shadow_depth_m = r.number("collision_map/scene_shadow_depth_m", c->shadow_depth_m, 0.0, 1.0);
 }
 
 }  // namespace gpatlas_motion

@@ -3,6 +3,7 @@
 #include <octomap/OcTree.h>
 
 #include <cmath>
+#include <algorithm>
 #include <cstdint>
 #include <sstream>
 #include <stdexcept>
@@ -65,6 +66,8 @@ std::string validate(const SceneMapConfig& c) {
   if (!(c.miss_probability > 0.0 && c.miss_probability < 0.5)) problems << "scene_miss_probability must be in (0, 0.5); ";
   if (!(c.object_margin_m >= 0.0) || !std::isfinite(c.object_margin_m))
     problems << "scene_object_margin_m must be finite and >= 0; ";
+  if (!(c.shadow_depth_m >= 0.0) || !std::isfinite(c.shadow_depth_m))
+    problems << "scene_shadow_depth_m must be finite and >= 0; ";
   std::string out = problems.str();
   if (!out.empty()) out.resize(out.size() - 2);
   return out;
@@ -100,10 +103,17 @@ std::size_t SceneMap::insertCloud(const std::vector<Eigen::Vector3d>& points, co
   // Discretised: the points of one voxel cast one ray, the rays of a 640 x 480 cloud are then
   // the voxels it hit, not its 300,000 points.
   tree_->insertPointCloud(cloud, toOctomap(sensor_origin), config_.max_range_m, false, true);
+  const double resolution = tree_->getResolution();
+  if (std::none_of(origins_.begin(), origins_.end(),
+                   [&](const Eigen::Vector3d& o) { return (o - sensor_origin).norm() < resolution; }))
+    origins_.push_back(sensor_origin);
   return cloud.size();
 }
 
-void SceneMap::clear() { tree_->clear(); }
+void SceneMap::clear() {
+  tree_->clear();
+  origins_.clear();
+}
 
 std::size_t SceneMap::occupiedVoxels() const {
   const double resolution = tree_->getResolution();
@@ -124,6 +134,9 @@ std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector
     octomap::OcTreeKey key;
     if (p.allFinite() && tree_->coordToKeyChecked(toOctomap(p), key)) probed.insert(key);
   }
+  const auto kept = [&](const Eigen::Vector3d& centre, const octomap::OcTreeKey& key) {
+    return !probed.count(key) && !object.anyWithin(centre, config_.object_margin_m);
+  };
   const double resolution = tree_->getResolution();
   std::vector<Eigen::Vector3d> out;
   for (auto it = tree_->begin_leafs(); it != tree_->end_leafs(); ++it) {
@@ -137,12 +150,48 @@ std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector
       for (int j = 0; j < side; ++j)
         for (int k = 0; k < side; ++k) {
           const Eigen::Vector3d centre = corner + resolution * Eigen::Vector3d(i, j, k);
-          if (!probed.empty() && probed.count(tree_->coordToKey(toOctomap(centre)))) continue;
-          if (object.anyWithin(centre, config_.object_margin_m)) continue;
-          out.push_back(centre);
+          if (kept(centre, tree_->coordToKey(toOctomap(centre)))) out.push_back(centre);
         }
   }
+  addShadows(kept, &out);
   return out;
+}
+
+void SceneMap::addShadows(const std::function<bool(const Eigen::Vector3d&, const octomap::OcTreeKey&)>& kept,
+                          std::vector<Eigen::Vector3d>* obstacles) const {
+  const double resolution = tree_->getResolution();
+  const int steps = static_cast<int>(std::floor(config_.shadow_depth_m / resolution + 1e-9));
+  if (steps == 0) return;
+  octomap::KeySet added;
+  const std::size_t casters = obstacles->size();
+  for (const Eigen::Vector3d& origin : origins_)
+    for (std::size_t i = 0; i < casters; ++i) {
+      const Eigen::Vector3d caster = (*obstacles)[i];
+      const Eigen::Vector3d step = resolution * (caster - origin).normalized();
+      for (int k = 1; k <= steps; ++k) {
+        const Eigen::Vector3d p = caster + k * step;
+        octomap::OcTreeKey key;
+        if (!tree_->coordToKeyChecked(toOctomap(p), key) || !tree_->inBBX(key)) break;
+        const octomap::OcTreeNode* node = tree_->search(key);
+        if (node && !tree_->isNodeOccupied(node)) break;  // seen through: no shadow beyond
+        if (node) continue;                               // occupied: an obstacle of its own
+        const octomap::point3d c = tree_->keyToCoord(key);
+        const Eigen::Vector3d centre(c.x(), c.y(), c.z());
+        if (!kept(centre, key)) break;
+        if (added.insert(key).second) obstacles->push_back(centre);
+      }
+    }
+}
+
+std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
+                                            const std::vector<Eigen::Vector3d>& view_points) {
+  std::vector<Eigen::Vector3d> object = view_points, free;
+  for (const gpatlas_core::TrainingPoint& p : observations) {
+    const bool measured = p.source == gpatlas_core::PointSource::kVision || p.source == gpatlas_core::PointSource::kTouch;
+    if (p.label == gpatlas_core::PointLabel::kSurface && measured) object.push_back(p.position);
+    else if (p.source == gpatlas_core::PointSource::kFreeSpace) free.push_back(p.position);
+  }
+  return scene.obstacles(object, free);
 }
 
 std::size_t addObstacles(octomap::OcTree* map, const std::vector<Eigen::Vector3d>& centres) {

@@ -141,10 +141,22 @@ std::string ModelTouchApproacher::ensureMap() {
   const gpatlas_core::OccupancyGrid grid =
       gpatlas_core::OccupancyGridBuilder(grid_).buildOccupancy(model_, config_.occupied_probability);
   if (!grid.ok) return "no collision map: " + grid.message;
-  planner_ = std::make_unique<TouchMotionPlanner>(config_, collisionOctree(grid, config_.occupied_probability), table_,
-                                                  arm_, reach_);
+  std::unique_ptr<octomap::OcTree> map = collisionOctree(grid, config_.occupied_probability);
+  last_scene_obstacles_ = 0;
+  if (scene_) {
+    const std::vector<Eigen::Vector3d> obstacles = sceneObstacles(*scene_, model_.observations(), object_view_points_);
+    addObstacles(map.get(), obstacles);
+    last_scene_obstacles_ = obstacles.size();
+  }
+  planner_ = std::make_unique<TouchMotionPlanner>(config_, std::move(map), table_, arm_, reach_);
   last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
   return "";
+}
+
+void ModelTouchApproacher::setScene(std::shared_ptr<const SceneMap> scene, std::vector<Eigen::Vector3d> object_view_points) {
+  scene_ = std::move(scene);
+  object_view_points_ = std::move(object_view_points);
+  planner_.reset();
 }
 
 std::optional<Eigen::Vector3d> ModelTouchApproacher::approachDirection(const Eigen::Vector3d& point,

@@ -15,6 +15,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <set>
 #include <stdexcept>
 #include <tuple>
@@ -184,6 +185,49 @@ TEST(SceneMap, TheExploredObjectIsLeftToItsModelAndTheProbesFreeSpaceWins) {
   for (const Vector3d& p : s.table)
     if (!near_object(p, margin + std::sqrt(3.0) * kVoxel)) far_table += kept.count(*voxelsOf({p}).begin()) ? 0 : 1;
   EXPECT_EQ(far_table, 0u) << "table points away from the object whose voxel is no obstacle";
+}
+
+TEST(SceneMap, TheUnknownBehindANeighbourIsAnObstacleAndBehindTheObjectItIsNot) {
+  const Scene s = scene();
+  SceneMapConfig config = sceneConfig();
+  SceneMap map(config, kVoxel);
+  map.insertCloud(s.all(), kSensor);
+  const std::vector<Vector3d> obstacles = map.obstacles(s.object, {});
+  const std::set<std::tuple<int, int, int>> blocked = voxelsOf(obstacles);
+  const auto holds = [](const std::set<std::tuple<int, int, int>>& voxels, const Vector3d& p) {
+    return voxels.count(*voxelsOf({p}).begin()) == 1;
+  };
+  // The neighbour's inside, which the camera did not see, and its hidden side facing away.
+  EXPECT_TRUE(holds(blocked, Vector3d(0.6, 0.15, 0.05)));
+  EXPECT_TRUE(holds(blocked, Vector3d(0.625, 0.175, 0.06)));
+  // The explored object's inside is its model's.
+  EXPECT_FALSE(holds(blocked, Vector3d(0.6, 0.0, 0.03)));
+  // No shadow reaches farther than its depth from what the camera saw (seen points bucketed in
+  // cubes of that reach: the nearest lies in one of the 27 around).
+  const double reach = config.shadow_depth_m + std::sqrt(3.0) * kVoxel;
+  const auto cube = [reach](const Vector3d& p) {
+    const Eigen::Vector3i c = (p / reach).array().floor().cast<int>();
+    return std::make_tuple(c.x(), c.y(), c.z());
+  };
+  std::map<std::tuple<int, int, int>, std::vector<Vector3d>> buckets;
+  for (const Vector3d& p : s.all()) buckets[cube(p)].push_back(p);
+  for (const Vector3d& c : obstacles) {
+    const auto [x, y, z] = cube(c);
+    double nearest = std::numeric_limits<double>::infinity();
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const auto it = buckets.find({x + dx, y + dy, z + dz});
+          if (it != buckets.end())
+            for (const Vector3d& p : it->second) nearest = std::min(nearest, (p - c).norm());
+        }
+    ASSERT_LE(nearest, reach) << c.transpose();
+  }
+  // Without shadows the inside stays unknown, so free to the planner.
+  config.shadow_depth_m = 0.0;
+  SceneMap flat(config, kVoxel);
+  flat.insertCloud(s.all(), kSensor);
+  EXPECT_FALSE(holds(voxelsOf(flat.obstacles(s.object, {})), Vector3d(0.6, 0.15, 0.05)));
 }
 
 // The model's map (the object's voxels) with the scene's obstacles added.

@@ -493,15 +493,17 @@ int countContactRuns(const std::vector<Point>& path, const Steps& steps, const C
 }  // namespace
 
 int countPathContacts(const Scene& scene, const gpatlas_motion::ProbeGeometry& body,
-                      const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m) {
+                      const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m,
+                      unsigned* kinds) {
   const Eigen::Vector3d d = direction.normalized();
   const auto collides = [&](const Eigen::Vector3d& tip) {
-    if (scene.sphereOverlaps(body.tip_radius_m, tip) != 0) return true;
     Capsule shaft;
     shaft.a = tip - body.tip_radius_m * d;
     shaft.b = tip - (body.tip_radius_m + body.shaft_length_m) * d;
     shaft.radius = body.shaft_radius_m;
-    return scene.capsuleOverlaps({shaft}).front() != 0;
+    const unsigned met = scene.sphereOverlaps(body.tip_radius_m, tip) | scene.capsuleOverlaps({shaft}).front();
+    if (kinds) *kinds |= met;
+    return met != 0;
   };
   const auto steps = [step_m](const Eigen::Vector3d& from, const Eigen::Vector3d& to) {
     return static_cast<int>(std::ceil((to - from).norm() / step_m));
@@ -510,11 +512,13 @@ int countPathContacts(const Scene& scene, const gpatlas_motion::ProbeGeometry& b
 }
 
 int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_motion::ProbeGeometry& body,
-                         const std::vector<Eigen::VectorXd>& joint_path, double step_m) {
+                         const std::vector<Eigen::VectorXd>& joint_path, double step_m, unsigned* kinds) {
   const auto collides = [&](const Eigen::VectorXd& q) {
-    if (armCollisions(arm, scene, q) != 0) return true;
+    unsigned met = armCollisions(arm, scene, q);
     const Eigen::Isometry3d tip = arm.forwardKinematics(q);
-    return countPathContacts(scene, body, {tip.translation()}, tip.linear().col(2), step_m) != 0;
+    countPathContacts(scene, body, {tip.translation()}, tip.linear().col(2), step_m, &met);
+    if (kinds) *kinds |= met;
+    return met != 0;
   };
   // No point of the arm moves farther than chainLength() times the joints' summed motion.
   const double length = arm.chainLength();
@@ -601,8 +605,9 @@ std::string SimulatedProber::moveArm(const gpatlas_core::Touch& touch, const std
   }
   if (!problem.empty()) return problem;
   result->approach_collisions =
-      countArmPathContacts(*scene_, *arm_, config_.body, approach, config_.motion_check_step_m);
-  result->retreat_collisions = countArmPathContacts(*scene_, *arm_, config_.body, retreat, config_.motion_check_step_m);
+      countArmPathContacts(*scene_, *arm_, config_.body, approach, config_.motion_check_step_m, &last_way_kinds_);
+  result->retreat_collisions =
+      countArmPathContacts(*scene_, *arm_, config_.body, retreat, config_.motion_check_step_m, &last_way_kinds_);
   last_arm_solutions_ = approach;
   last_arm_solutions_.insert(last_arm_solutions_.end(), at_waypoints.begin(), at_waypoints.end());
   last_arm_solutions_.insert(last_arm_solutions_.end(), retreat.begin(), retreat.end());
@@ -612,6 +617,7 @@ std::string SimulatedProber::moveArm(const gpatlas_core::Touch& touch, const std
 gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touch) {
   gpatlas_core::ProbeResult result;
   last_arm_solutions_.clear();
+  last_way_kinds_ = 0;
   result.reason = validate(touch);
   if (!result.reason.empty()) return result;
 
@@ -639,9 +645,9 @@ gpatlas_core::ProbeResult SimulatedProber::probe(const gpatlas_core::Touch& touc
                                     : std::vector<Eigen::Vector3d>{last.point + model_->startOffset() * last.normal,
                                                                    config_.rest_tip_position};
     result.approach_collisions = countPathContacts(*scene_, config_.body, approach, -first.normal,
-                                                   config_.motion_check_step_m);
+                                                   config_.motion_check_step_m, &last_way_kinds_);
     result.retreat_collisions = countPathContacts(*scene_, config_.body, retreat, -last.normal,
-                                                  config_.motion_check_step_m);
+                                                  config_.motion_check_step_m, &last_way_kinds_);
   }
 
   unsigned other_surfaces = 0;

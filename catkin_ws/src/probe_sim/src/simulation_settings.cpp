@@ -5,6 +5,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdlib>
+#include <iomanip>
 #include <sstream>
 #include <stdexcept>
 
@@ -38,7 +40,74 @@ std::optional<Eigen::Vector3d> optionalVector3(gpatlas_core::ParamReader& r, con
   return Eigen::Vector3d(v[0], v[1], v[2]);
 }
 
+std::vector<NeighbourConfig> readNeighbours(gpatlas_core::ParamReader& r, const std::vector<NeighbourConfig>& fallback) {
+  const std::string name = "simulation/neighbours";
+  std::vector<std::string> given;
+  for (const NeighbourConfig& n : fallback) given.push_back(formatNeighbour(n));
+  std::vector<NeighbourConfig> out;
+  for (const std::string& text : r.texts(name, given)) {
+    std::string error;
+    if (const std::optional<NeighbourConfig> n = parseNeighbour(text, &error)) out.push_back(*n);
+    else r.invalid(name, error);
+  }
+  return out;
+}
+
+// The mesh of an object spec: a file at `scale`, or procedural:NAME of that size.
+TriangleMesh loadSpec(const std::string& spec, double scale, double procedural_size_m) {
+  return spec.rfind(kProceduralPrefix, 0) == 0 ? makeProceduralObject(spec.substr(kProceduralPrefix.size()), procedural_size_m)
+                                                : loadMesh(spec, scale);
+}
+
+std::string describeBox(const Eigen::AlignedBox2d& box) {
+  std::ostringstream out;
+  out << "x " << box.min().x() << ".." << box.max().x() << ", y " << box.min().y() << ".." << box.max().y() << " m";
+  return out.str();
+}
+
+Eigen::AlignedBox2d footprint(const TriangleMesh& mesh) {
+  const Eigen::AlignedBox3d box = mesh.boundingBox();
+  return Eigen::AlignedBox2d(box.min().head<2>(), box.max().head<2>());
+}
+
 }  // namespace
+
+std::optional<NeighbourConfig> parseNeighbour(const std::string& text, std::string* error) {
+  const std::string usage = "neighbour '" + text + "' must be OBJECT@DX,DY[,YAW_RAD[,SCALE]] (metres, radians; SCALE > 0)";
+  const std::size_t at = text.rfind('@');
+  if (at == std::string::npos || at == 0) {
+    if (error) *error = usage;
+    return std::nullopt;
+  }
+  std::vector<double> numbers;
+  std::stringstream parts(text.substr(at + 1));
+  for (std::string part; std::getline(parts, part, ',');) {
+    char* end = nullptr;
+    const double v = std::strtod(part.c_str(), &end);
+    if (part.empty() || end == part.c_str() || *end != '\0' || !std::isfinite(v)) {
+      if (error) *error = usage;
+      return std::nullopt;
+    }
+    numbers.push_back(v);
+  }
+  if (numbers.size() < 2 || numbers.size() > 4 || (numbers.size() == 4 && !(numbers[3] > 0.0))) {
+    if (error) *error = usage;
+    return std::nullopt;
+  }
+  NeighbourConfig n;
+  n.object = text.substr(0, at);
+  n.offset_xy_m = {numbers[0], numbers[1]};
+  if (numbers.size() > 2) n.yaw_rad = numbers[2];
+  if (numbers.size() > 3) n.scale = numbers[3];
+  return n;
+}
+
+std::string formatNeighbour(const NeighbourConfig& n) {
+  std::ostringstream out;
+  out << std::setprecision(12) << n.object << '@' << n.offset_xy_m.x() << ',' << n.offset_xy_m.y() << ',' << n.yaw_rad
+      << ',' << n.scale;
+  return out.str();
+}
 
 void readSimulation(gpatlas_core::ParamReader& r, SimulationSettings* s) {
   s->object = r.text("simulation/object", s->object);
@@ -75,6 +144,7 @@ void readSimulation(gpatlas_core::ParamReader& r, SimulationSettings* s) {
   s->camera_depth_noise_m = r.number("simulation/camera_depth_noise_m", s->camera_depth_noise_m, 0.0, 1.0);
   s->camera_include_table = r.flag("simulation/camera_include_table", s->camera_include_table);
   s->publish_cloud_rate_hz = r.number("simulation/publish_cloud_rate_hz", s->publish_cloud_rate_hz, 0.0, 1000.0);
+  s->neighbours = readNeighbours(r, s->neighbours);
 }
 
 std::string validate(const SimulationSettings& s) {
@@ -100,15 +170,16 @@ std::string validate(const SimulationSettings& s) {
           "simulation/camera_eye_m and camera_target_m must be given together (or neither: the pose from the URDF)");
   require(!s.camera_eye_m || !s.camera_target_m || (*s.camera_eye_m - *s.camera_target_m).norm() > 1e-6,
           "simulation/camera_eye_m must differ from camera_target_m");
+  for (const NeighbourConfig& n : s.neighbours)
+    require(!n.object.empty() && n.scale > 0.0 && n.offset_xy_m.allFinite() && std::isfinite(n.yaw_rad),
+            "simulation/neighbours: '" + formatNeighbour(n) + "' needs an object, a finite place and a scale > 0");
   std::string joined;
   for (const std::string& p : problems) joined += (joined.empty() ? "" : "; ") + p;
   return joined;
 }
 
 TriangleMesh loadSimulatedObject(const SimulationSettings& s) {
-  TriangleMesh mesh = s.object.rfind(kProceduralPrefix, 0) == 0
-                          ? makeProceduralObject(s.object.substr(kProceduralPrefix.size()), s.procedural_size_m)
-                          : loadMesh(s.object, s.object_scale);
+  TriangleMesh mesh = loadSpec(s.object, s.object_scale, s.procedural_size_m);
   // A mesh in millimetres read as metres is a thousand times too large; without this check it
   // fails much later, in a grid that does not fit in memory.
   const double across = mesh.vertices.empty() ? 0.0 : mesh.boundingBox().sizes().maxCoeff();
@@ -121,6 +192,45 @@ TriangleMesh loadSimulatedObject(const SimulationSettings& s) {
   }
   placeOnTable(mesh, s.object_position_xy_m);
   return mesh;
+}
+
+std::vector<TriangleMesh> loadNeighbours(const SimulationSettings& s, const TriangleMesh& object) {
+  const Eigen::AlignedBox2d table(s.table_centre_xy_m - 0.5 * s.table_size_xy_m, s.table_centre_xy_m + 0.5 * s.table_size_xy_m);
+  std::vector<Eigen::AlignedBox2d> taken{footprint(object)};
+  const Eigen::Vector2d centre = taken.front().center();
+  std::vector<TriangleMesh> out;
+  for (std::size_t i = 0; i < s.neighbours.size(); ++i) {
+    const NeighbourConfig& n = s.neighbours[i];
+    const std::string which = "simulation/neighbours[" + std::to_string(i) + "] '" + formatNeighbour(n) + "'";
+    TriangleMesh mesh;
+    try {
+      mesh = loadSpec(n.object, n.scale, s.procedural_size_m * n.scale);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(which + ": " + e.what());
+    }
+    placeOnTable(mesh);
+    Eigen::Isometry3d turn = Eigen::Isometry3d::Identity();
+    turn.linear() = Eigen::AngleAxisd(n.yaw_rad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    mesh.transform(turn);
+    placeOnTable(mesh, centre + n.offset_xy_m);
+    const Eigen::AlignedBox2d box = footprint(mesh);
+    if (s.table && !table.contains(box))
+      throw std::runtime_error(which + " does not stand on the table (its footprint " + describeBox(box) + ")");
+    for (std::size_t j = 0; j < taken.size(); ++j)
+      if (taken[j].intersects(box))
+        throw std::runtime_error(which + "'s footprint " + describeBox(box) + " overlaps " +
+                                 (j == 0 ? std::string("the explored object's") : "neighbour " + std::to_string(j - 1) + "'s") +
+                                 " " + describeBox(taken[j]));
+    taken.push_back(box);
+    out.push_back(std::move(mesh));
+  }
+  return out;
+}
+
+std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& s, const TriangleMesh& object) {
+  auto scene = std::make_shared<Scene>(object, sceneConfig(s));
+  for (const TriangleMesh& neighbour : loadNeighbours(s, object)) scene->addObstacleMesh(neighbour);
+  return scene;
 }
 
 SceneConfig sceneConfig(const SimulationSettings& s) {
@@ -139,7 +249,8 @@ DepthCamera::Config cameraConfig(const SimulationSettings& s, std::uint32_t seed
   config.horizontal_fov_rad = s.camera_fov_deg * kPi / 180.0;
   config.depth_noise_sigma_m = s.camera_depth_noise_m;
   config.include_table = s.table && s.camera_include_table;
-  config.include_obstacles = false;
+  // The neighbours are in the cloud as a real camera sees them; segmentation picks the object.
+  config.include_obstacles = true;
   config.seed = seed;
   return config;
 }

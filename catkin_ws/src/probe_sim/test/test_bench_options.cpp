@@ -98,4 +98,29 @@ TEST(BenchOptions, ValuesInsideTheRangeReachTheOptions) {
   EXPECT_EQ(shard.shard->count, 3);
 }
 
+TEST(BenchOptions, NeighboursReplaceTheConfigsAndAMalformedOneIsRefused) {
+  EXPECT_TRUE(parse({}).simulation.neighbours.empty());  // simulation.yaml has none
+  const Options two = parse({"--neighbour", "procedural:box@0,0.22", "--neighbour", "procedural:cylinder@0.02,-0.2,1.5,0.8"});
+  ASSERT_EQ(two.simulation.neighbours.size(), 2u);
+  EXPECT_EQ(two.simulation.neighbours[1].object, "procedural:cylinder");
+  EXPECT_EQ(two.simulation.neighbours[1].offset_xy_m, Eigen::Vector2d(0.02, -0.2));
+  EXPECT_EQ(two.simulation.neighbours[1].yaw_rad, 1.5);
+  EXPECT_EQ(two.simulation.neighbours[1].scale, 0.8);
+  // The flag replaces a list given in the configuration.
+  const Options replaced = parse({"--set", "simulation/neighbours=['procedural:sphere@0.2,0']", "--neighbour", "procedural:box@0,0.22"});
+  ASSERT_EQ(replaced.simulation.neighbours.size(), 1u);
+  EXPECT_EQ(replaced.simulation.neighbours[0].object, "procedural:box");
+  EXPECT_EQ(parse({"--set", "simulation/neighbours=['procedural:sphere@0.2,0']"}).simulation.neighbours.size(), 1u);
+  for (const char* bad : {"procedural:box", "procedural:box@0", "procedural:box@0,0,0,-1"}) {
+    try {
+      parse({"--neighbour", bad});
+      ADD_FAILURE() << "--neighbour " << bad << " was accepted";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("--neighbour: neighbour '" + std::string(bad) + "' must be OBJECT@DX,DY"),
+                std::string::npos)
+          << e.what();
+    }
+  }
+}
+
 }  // namespace

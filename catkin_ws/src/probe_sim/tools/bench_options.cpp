@@ -46,6 +46,10 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
                                  [the config's strategy], or one from a --strategy-library
   --strategy-library FILE        a shared library that registers strategies of your own
                                  (GPATLAS_REGISTER_STRATEGY, gpatlas_core/planning/strategy_library.h) (repeatable)
+  --neighbour OBJECT@DX,DY[,YAW_RAD[,SCALE]]
+                                 an object beside the explored one, its centre DX, DY metres from
+                                 the explored object's (repeatable; replaces simulation/neighbours);
+                                 segmentation then picks the explored object as a user's hint would
   --probe ray|sphere|patch       simulated probe model [simulation/probe]
   --seeds 0,1,2                  seeds (camera noise, the view's subset, the planner) [the config's seed]
   --max-actions N                cap on tactile actions per run [the config's exploration/max_actions]
@@ -176,6 +180,13 @@ bool parseFlags(int argc, char** argv, Options& o) {
       for (const auto& s : splitList(next())) o.strategies.push_back(s);
     } else if (a == "--strategy-library") loadStrategyLibraryAnnounced(next());
     else if (a == "--probe") o.probe = next();
+    else if (a == "--neighbour") {
+      std::string error;
+      const std::optional<probe_sim::NeighbourConfig> neighbour = probe_sim::parseNeighbour(next(), &error);
+      if (!neighbour) throw std::invalid_argument("--neighbour: " + error);
+      if (!o.neighbours) o.neighbours.emplace();
+      o.neighbours->push_back(*neighbour);
+    }
     else if (a == "--seeds") {
       o.seeds.clear();
       for (const auto& s : splitList(next())) o.seeds.push_back(parseInt(a, s, 0, kMaxSeed));
@@ -229,6 +240,7 @@ void readConfiguration(Options& o) {
   o.simulation.world_frame = o.pipeline.frames.world_frame;
   if (!reader.ok()) throw std::invalid_argument(o.config_path + ", " + o.simulation_path + ": " + reader.errors());
   if (!o.probe.empty()) o.simulation.probe = o.probe;
+  if (o.neighbours) o.simulation.neighbours = *o.neighbours;
   if (o.procedural_size_m) o.simulation.procedural_size_m = *o.procedural_size_m;
   if (const std::string problem = probe_sim::validate(o.simulation); !problem.empty())
     throw std::invalid_argument(o.simulation_path + ": " + problem);

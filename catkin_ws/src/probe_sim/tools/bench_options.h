@@ -36,6 +36,8 @@ struct Options {
   std::string simulation_path;  // probe_sim's config/simulation.yaml unless --simulation
   std::vector<std::string> overlays;  // partial files over it, in order (e.g. config/paper.yaml)
   std::vector<std::string> overrides;  // --set key=value, in order
+  // --neighbour: they replace the config's simulation/neighbours.
+  std::optional<std::vector<probe_sim::NeighbourConfig>> neighbours;
   std::string urdf_path;  // the robot: its head camera and its arm (the build's vito.urdf unless --urdf)
   std::string urdf_xml;
   int curve_every{1};

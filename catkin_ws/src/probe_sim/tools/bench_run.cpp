@@ -43,6 +43,8 @@ struct ObjectView {
   std::optional<gpatlas_core::SupportPlane> support;
   // The camera's origin and the object's points: what the view left unobserved (its shadow).
   gpatlas_core::CameraView camera;
+  // The whole cloud (world frame): the collision map's scene.
+  std::vector<Vector3> scene_points;
 };
 
 // The cloud as probe_sim_node publishes it (float32 coordinates in the camera's frame), moved to
@@ -79,8 +81,14 @@ bool observeObject(const probe_sim::Scene& scene, const GroundTruth& gt, int see
                    std::mutex& print_mutex, ObjectView* view, std::string* why) {
   const std::optional<Eigen::Isometry3d> camera_pose = probe_sim::cameraPose(o.simulation, o.urdf_xml, why);
   if (!camera_pose) return false;
+  gpatlas_geometry::ObjectSegmenter::Config segmentation = o.pipeline.segmentation;
+  // Among neighbours the largest cluster need not be the object: the bench points at it, as a
+  // user gives segmentation/object_hint_m or calls ~select_object.
+  if (!o.simulation.neighbours.empty() && !segmentation.object_hint_m)
+    segmentation.object_hint_m = gt.mesh.boundingBox().center();
+  view->scene_points = captureCloud(scene, *camera_pose, o.simulation, seed);
   const gpatlas_geometry::SegmentationResult segmented =
-      gpatlas_geometry::ObjectSegmenter(o.pipeline.segmentation).segment(captureCloud(scene, *camera_pose, o.simulation, seed));
+      gpatlas_geometry::ObjectSegmenter(segmentation).segment(view->scene_points);
   if (!segmented.ok) {
     *why = "segmentation: " + segmented.message;
     return false;
@@ -141,10 +149,38 @@ std::unique_ptr<probe_sim::SimulatedProber> makeProber(std::shared_ptr<probe_sim
   return prober;
 }
 
-// Approach planning on the model (approach/enabled), for the arm's links with approach/use_arm.
-bool makeApproacher(const gpatlas_core::SurfaceModel& model, const std::optional<gpatlas_core::SupportPlane>& support,
-                    const Options& o, std::unique_ptr<gpatlas_motion::ModelTouchApproacher>* approacher,
-                    std::string* why) {
+// The simulated prober, tallying the touches whose way there or back met a neighbour; with
+// --verbose, a line saying what each collision on the way met.
+class NeighbourTally : public gpatlas_core::Prober {
+ public:
+  NeighbourTally(probe_sim::SimulatedProber& prober, const Options& o, std::string label, std::mutex& print_mutex)
+      : prober_(prober), verbose_(o.verbose), label_(std::move(label)), print_mutex_(print_mutex) {}
+  gpatlas_core::ProbeResult probe(const gpatlas_core::Touch& touch) override {
+    gpatlas_core::ProbeResult result = prober_.probe(touch);
+    const unsigned met = prober_.lastWayCollisionKinds();
+    if (met & static_cast<unsigned>(probe_sim::SurfaceKind::kObstacle)) ++touches;
+    if (verbose_ && met != 0) {
+      std::string what;
+      for (const auto kind : {probe_sim::SurfaceKind::kObject, probe_sim::SurfaceKind::kTable, probe_sim::SurfaceKind::kObstacle})
+        if (met & static_cast<unsigned>(kind)) what += std::string(what.empty() ? "" : ", ") + probe_sim::toString(kind);
+      std::lock_guard<std::mutex> lock(print_mutex_);
+      std::cout << "  [" << label_ << "] the way there and back met: " << what << std::endl;
+    }
+    return result;
+  }
+  int touches{0};
+
+ private:
+  probe_sim::SimulatedProber& prober_;
+  bool verbose_;
+  std::string label_;
+  std::mutex& print_mutex_;
+};
+
+// Approach planning on the model (approach/enabled), for the arm's links with approach/use_arm,
+// with the camera's scene in its map as the collision map nodelet has it (collision_map/scene_*).
+bool makeApproacher(const gpatlas_core::SurfaceModel& model, const ObjectView& view, const Options& o,
+                    std::unique_ptr<gpatlas_motion::ModelTouchApproacher>* approacher, std::string* why) {
   const gpatlas_motion::ApproachConfig& approach = o.pipeline.approach;
   if (!approach.enabled) return true;
   try {
@@ -157,7 +193,12 @@ bool makeApproacher(const gpatlas_core::SurfaceModel& model, const std::optional
       planned_arm = std::make_shared<const gpatlas_motion::Arm>(gpatlas_motion::Arm::fromUrdfString(o.urdf_xml, arm_config));
     }
     *approacher = std::make_unique<gpatlas_motion::ModelTouchApproacher>(model, approach, o.pipeline.collision_map.grid,
-                                                                         support, planned_arm);
+                                                                         view.support, planned_arm);
+    if (o.pipeline.scene_map.enabled) {
+      auto scene = std::make_shared<gpatlas_motion::SceneMap>(o.pipeline.scene_map, o.pipeline.collision_map.grid.resolution_m);
+      scene->insertCloud(view.scene_points, view.camera.origin);
+      (*approacher)->setScene(std::move(scene), view.camera.points);
+    }
   } catch (const std::exception& e) {
     *why = std::string("approach/use_arm: ") + e.what();
     return false;
@@ -351,7 +392,12 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   RunResult r = runIdentity(gt, strategy_name, seed, o);
   std::string why;
   // The scene probe_sim_node simulates, from the same simulation section.
-  auto scene = std::make_shared<probe_sim::Scene>(gt.mesh, probe_sim::sceneConfig(o.simulation));
+  std::shared_ptr<probe_sim::Scene> scene;
+  try {
+    scene = probe_sim::makeSimulatedScene(o.simulation, gt.mesh);
+  } catch (const std::exception& e) {
+    return failedRun(r, e.what());
+  }
   ObjectView view;
   std::unique_ptr<gpatlas_core::SurfaceModel> model;
   if (!observeObject(*scene, gt, seed, o, print_mutex, &view, &why) || !fitInitialModel(view, pipeline, o.verbose, &model, &why))
@@ -377,12 +423,14 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
     initial.progress_ms = 1000.0 * std::chrono::duration<double>(std::chrono::steady_clock::now() - measure_start).count();
   }
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
-  if (!makeApproacher(*model, view.support, o, &approacher, &why)) return failedRun(r, why);
+  if (!makeApproacher(*model, view, o, &approacher, &why)) return failedRun(r, why);
+  NeighbourTally tally(*prober, o, gt.name + " " + strategy_name + " seed " + std::to_string(seed), print_mutex);
   gpatlas_core::ExplorationResult result =
-      gpatlas_core::Explorer(loop).run(*model, *strategy, *prober, pipeline.touch, known,
+      gpatlas_core::Explorer(loop).run(*model, *strategy, tally, pipeline.touch, known,
                                        progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());
 
   recordLoop(result, *model, r);
+  r.neighbour_collision_touches = tally.touches;
   r.position_sd_scale = model->positionSdScale();
   measureFinalModel(*model, gt, o, result, r);
   r.history.push_back(initial);

@@ -58,6 +58,8 @@ struct RunResult {
   std::string out_of_reach_note;                // gpatlas_core::outOfReachNote
   int approach_collisions{0};
   int retreat_collisions{0};
+  // The touches whose way there or back met a neighbour (simulation/neighbours).
+  int neighbour_collision_touches{0};
   double approach_plan_ms_median{std::nan("")};
   // How far from their targets the last touches found the surface (recentTargetError).
   double recent_target_error_m{std::nan("")};

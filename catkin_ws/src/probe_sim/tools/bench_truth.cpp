@@ -47,8 +47,7 @@ GroundTruth loadObject(const std::string& spec, double scale, const Options& o) 
   // A camera the settings cannot place fails every run of the object, with the reason.
   std::string camera_error;
   if (const std::optional<Eigen::Isometry3d> camera = probe_sim::cameraPose(simulation, o.urdf_xml, &camera_error))
-    gt.sample_seen = samplesSeenFrom(probe_sim::Scene(gt.mesh, probe_sim::sceneConfig(simulation)), gt.mesh,
-                                     camera->translation());
+    gt.sample_seen = samplesSeenFrom(*probe_sim::makeSimulatedScene(simulation, gt.mesh), gt.mesh, camera->translation());
   return gt;
 }
 

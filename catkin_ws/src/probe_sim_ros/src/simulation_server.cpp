@@ -248,7 +248,6 @@ std::string SimulationServer::loadObject() {
   } catch (const std::exception& e) {
     return std::string("no object loaded: ") + e.what();
   }
-  const SceneConfig scene_config = sceneConfig(s);
   const Eigen::AlignedBox3d bounds = mesh.boundingBox();
   const Eigen::Vector2d table_min = s.table_centre_xy_m - 0.5 * s.table_size_xy_m;
   const Eigen::Vector2d table_max = s.table_centre_xy_m + 0.5 * s.table_size_xy_m;
@@ -263,7 +262,11 @@ std::string SimulationServer::loadObject() {
     ROS_WARN_STREAM("probe_sim: the object is " << largest_side_m
                     << " m across; is ~simulation/object_scale right (0.001 for a mesh in mm)?");
   }
-  scene_ = std::make_shared<Scene>(mesh, scene_config);
+  try {
+    scene_ = makeSimulatedScene(s, mesh);
+  } catch (const std::exception& e) {
+    return std::string("no scene: ") + e.what();
+  }
   return "";
 }
 

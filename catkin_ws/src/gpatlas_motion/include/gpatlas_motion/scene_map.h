@@ -1,14 +1,18 @@
 #pragma once
 
+#include <gpatlas_core/common/types.h>
+
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
 
 namespace octomap {
 class OcTree;
+class OcTreeKey;
 }
 
 namespace gpatlas_motion {
@@ -34,6 +38,11 @@ struct SceneMapConfig {
   // whose contact zone (approach/contact_zone_m) ends at the surface; more than the probe's
   // tip radius with its clearance, so that the table at the object's foot does not either.
   double object_margin_m{0.03};
+  // A camera sees an object's near side only, and the voxels behind it stay unknown, which the
+  // approach planner takes as free: a probe's shaft would pass through a neighbour's hidden
+  // side. So the unknown voxels up to this far behind each obstacle voxel, along the ray from
+  // the sensor, are obstacles too (0: none). About a small object's depth.
+  double shadow_depth_m{0.1};
 };
 
 // Empty when the config is usable, else what is wrong with it.
@@ -63,14 +72,26 @@ class SceneMap {
   // The centres of the scene's occupied voxels that are obstacles for the approach planner:
   // every one except those within object_margin_m of an `object_points` point (the explored
   // object, which its model governs) and those holding a `free_points` point (the probe went
-  // through it, which outweighs what the camera saw).
+  // through it, which outweighs what the camera saw); and the unknown voxels in their shadow
+  // (shadow_depth_m) but those.
   std::vector<Eigen::Vector3d> obstacles(const std::vector<Eigen::Vector3d>& object_points,
                                          const std::vector<Eigen::Vector3d>& free_points) const;
 
  private:
   SceneMapConfig config_;
   std::unique_ptr<octomap::OcTree> tree_;
+  std::vector<Eigen::Vector3d> origins_;  // of the clouds inserted, each once
+
+  // Adds to `obstacles` the unknown voxels behind each (shadow_depth_m) that `kept` keeps.
+  void addShadows(const std::function<bool(const Eigen::Vector3d&, const octomap::OcTreeKey&)>& kept,
+                  std::vector<Eigen::Vector3d>* obstacles) const;
 };
+
+// SceneMap::obstacles() for a model's training data: its surface points from the camera and the
+// probe, with `view_points` (the view's object points), are the explored object; its free-space
+// points are where the probe went.
+std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
+                                            const std::vector<Eigen::Vector3d>& view_points);
 
 // Marks the voxels at `centres` occupied in `map` (the collision octree, at its clamping
 // maximum, whatever the model said there). Returns how many were not occupied before.

@@ -2,6 +2,7 @@
 
 #include "gpatlas_motion/arm_approach_planner.h"
 #include "gpatlas_motion/probe_approach_planner.h"
+#include "gpatlas_motion/scene_map.h"
 
 #include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_core/model/occupancy_grid.h>
@@ -82,8 +83,8 @@ class TouchMotionPlanner {
 };
 
 // Approach planning in one process (the bench): a collision map built from the model, occupied
-// where P(occupied) exceeds ApproachConfig::occupied_probability, rebuilt after every touch the
-// model took, with the table as a static half-space, and the probe's rest at
+// where P(occupied) exceeds ApproachConfig::occupied_probability, with the scene (setScene),
+// rebuilt after every touch the model took, with the table as a static half-space, and the probe's rest at
 // ApproachConfig::rest_tip_position_m. With an arm (ApproachConfig::use_arm), the arm's
 // joint path is planned (ArmApproachPlanner) from its rest, armRestConfiguration.
 class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
@@ -102,9 +103,15 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   void modelChanged() override { planner_.reset(); }
   // Builds the map of the model as it is now (a failure is reported by plan()).
   void prepare() override { ensureMap(); }
+  // The camera's scene in every map, as the collision map nodelet merges it: its occupied voxels
+  // but the explored object's (its view's points `object_view_points` and the model's surface
+  // points) and those the probe went through are obstacles (sceneObstacles). Null: none.
+  void setScene(std::shared_ptr<const SceneMap> scene, std::vector<Eigen::Vector3d> object_view_points);
 
   // The last map's build time (ms) and size.
   double lastMapBuildMs() const { return last_map_ms_; }
+  // The scene's voxels in the last map.
+  std::size_t lastSceneObstacles() const { return last_scene_obstacles_; }
 
  private:
   const gpatlas_core::SurfaceModel& model_;
@@ -114,7 +121,10 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   std::shared_ptr<const Arm> arm_;
   std::shared_ptr<ArmReachMemory> reach_;
   std::unique_ptr<TouchMotionPlanner> planner_;  // null: the map must be (re)built
+  std::shared_ptr<const SceneMap> scene_;
+  std::vector<Eigen::Vector3d> object_view_points_;
   double last_map_ms_{0.0};
+  std::size_t last_scene_obstacles_{0};
 
   // The planner on a map of the model as it is now; empty with why when the map fails.
   std::string ensureMap();

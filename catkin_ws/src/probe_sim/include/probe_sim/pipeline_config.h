@@ -23,7 +23,7 @@ struct PipelineConfig {
   gpatlas_core::StrategyConfig strategy;
   gpatlas_geometry::SurfaceMesher::Config mesh;
   gpatlas_core::CollisionMapConfig collision_map;
-  gpatlas_motion::SceneMapConfig scene_map;  // collision_map/scene_*: the pipeline's, not the bench's
+  gpatlas_motion::SceneMapConfig scene_map;  // collision_map/scene_*: the camera's scene in the collision map, the bench's too
   gpatlas_motion::ApproachConfig approach;
   gpatlas_geometry::ObjectSegmenter::Config segmentation;
 };

@@ -202,16 +202,18 @@ struct SimulatedProberConfig {
 
 // Where the probe's body (a tip sphere and the shaft behind it, pointing along `direction`)
 // penetrates the scene along a polyline of tip positions sampled every `step_m`: the number of
-// separate contacts (a run of colliding samples counts once).
+// separate contacts (a run of colliding samples counts once). `kinds` (optional) gets the
+// SurfaceKind bits of what it met added.
 int countPathContacts(const Scene& scene, const gpatlas_motion::ProbeGeometry& body,
-                      const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m);
+                      const std::vector<Eigen::Vector3d>& tip_path, const Eigen::Vector3d& direction, double step_m,
+                      unsigned* kinds = nullptr);
 
 // Where the arm (its link capsules, ArmConfig) or the probe's body at its tip frame penetrates
 // the scene along a joint-space polyline, sampled so that no point of the arm moves more than
 // step_m between samples: the number of separate contacts (a run of colliding samples counts
-// once).
+// once). `kinds` (optional) gets the SurfaceKind bits of what it met added.
 int countArmPathContacts(const Scene& scene, const Arm& arm, const gpatlas_motion::ProbeGeometry& body,
-                         const std::vector<Eigen::VectorXd>& joint_path, double step_m);
+                         const std::vector<Eigen::VectorXd>& joint_path, double step_m, unsigned* kinds = nullptr);
 
 // gpatlas_core::Prober on the simulated scene: a poke probes the last waypoint of the touch, a
 // slide follows the path with an attempt every slide_step_m. The way there and back is judged
@@ -240,6 +242,8 @@ class SimulatedProber : public gpatlas_core::Prober {
   // approach from the rest, each probed waypoint in order, the retreat to the rest. Empty when
   // there is no arm or the last touch failed before every waypoint had a solution.
   const std::vector<Eigen::VectorXd>& lastArmSolutions() const { return last_arm_solutions_; }
+  // What the last touch's way there and back met (SurfaceKind bits; 0: no collision).
+  unsigned lastWayCollisionKinds() const { return last_way_kinds_; }
 
  private:
   // Empty when the touch is usable, else the reason it is not.
@@ -255,6 +259,7 @@ class SimulatedProber : public gpatlas_core::Prober {
   Eigen::VectorXd arm_rest_;
   Config config_;
   std::vector<Eigen::VectorXd> last_arm_solutions_;
+  unsigned last_way_kinds_ = 0;
 };
 
 }  // namespace probe_sim

@@ -14,8 +14,27 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace probe_sim {
+
+// An object standing near the explored one (simulation/neighbours, gpatlas_bench --neighbour):
+// the camera sees it, the probe and the arm can hit it, the exploration leaves it alone.
+// Written "OBJECT@DX,DY[,YAW_RAD[,SCALE]]" (parseNeighbour).
+struct NeighbourConfig {
+  std::string object;  // mesh file (.stl/.ply/.obj) or procedural:NAME
+  // Mesh file units to metres; for a procedural object, a factor on procedural_size_m.
+  double scale = 1.0;
+  // Its bounding box's centre from the explored object's (object_position_xy_m), world frame,
+  // so that a scene keeps its layout wherever the object stands.
+  Eigen::Vector2d offset_xy_m{0.0, 0.0};
+  double yaw_rad = 0.0;  // about the vertical through its centre
+};
+
+// "OBJECT@DX,DY[,YAW_RAD[,SCALE]]" (e.g. "procedural:box@0,0.2" or
+// "meshes/jug.stl@0.18,0,1.57,0.001"); nullopt with the reason in `error` when malformed.
+std::optional<NeighbourConfig> parseNeighbour(const std::string& text, std::string* error);
+std::string formatNeighbour(const NeighbourConfig& neighbour);
 
 // The simulated scene, probe, arm and camera, with the defaults: probe_sim's
 // config/simulation.yaml, which probe_sim_node and gpatlas_bench read alike (readSimulation).
@@ -60,6 +79,8 @@ struct SimulationSettings {
   // false gives the object's points only.
   bool camera_include_table = true;
   double publish_cloud_rate_hz = 0.0;  // 0: only on ~capture
+  // Objects around the explored one: in the camera's cloud and in the probe's and the arm's way.
+  std::vector<NeighbourConfig> neighbours;
 };
 
 // Reads simulation/... (all but world_frame); every problem goes to the reader.
@@ -72,6 +93,13 @@ std::string validate(const SimulationSettings& settings);
 // object is larger than the table (a mesh in millimetres without its scale).
 TriangleMesh loadSimulatedObject(const SimulationSettings& settings);
 SceneConfig sceneConfig(const SimulationSettings& settings);
+// The neighbours as the settings place them around `object` (loadSimulatedObject's), each on
+// the table; throws std::runtime_error with the reason when one cannot be loaded, leaves the
+// table, or its footprint (bounding box in x, y) overlaps the object's or another's.
+std::vector<TriangleMesh> loadNeighbours(const SimulationSettings& settings, const TriangleMesh& object);
+// The scene probe_sim_node and gpatlas_bench simulate: the object, the table, the neighbours
+// (SurfaceKind::kObstacle). Throws as loadNeighbours.
+std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& settings, const TriangleMesh& object);
 // The simulated probe of probe_sim_node and gpatlas_bench: the probe model the settings name,
 // their slide step, and the judge of the way to each touch and back with the approach
 // planner's probe body and rest (`approach`). Throws std::runtime_error for an unknown probe.
