@@ -269,7 +269,7 @@ class Launch:
 
     def text(self):
         with open(self.log, errors="replace") as f:
-            return f.read()
+            return ANSI.sub("", f.read())
 
     def tail(self, n=200):
         return self.text()[-n:]
@@ -558,8 +558,11 @@ def late_subscriber_probes(res):
                 *answer_outcome(resp, err, lambda r: r.success, [], msg_or_status))
     time.sleep(3.0)
     for name, topic, msg_type, size in outputs:
-        if before[name] is None:
-            res.add("c", "late subscriber of %s after reset" % name, "unclear", "no non-empty output before the reset")
+        if before[name] is None:  # the model is there: its output is owed to a late subscriber
+            latched = wait_message(topic, msg_type, 5)
+            res.add("c", "late subscriber of %s after reset" % name, "wrong",
+                    "before the reset, with a model, a late subscriber got %s in 240 s" %
+                    ("only an empty one (size %d)" % size(latched) if latched else "nothing"))
             continue
         m = wait_message(topic, msg_type, 15)
         old = size(before[name])
@@ -738,7 +741,7 @@ def probes_kill(res, ros, tmp):
         while time.time() < end and exploration_alive():
             time.sleep(2.0)
         manager = node_alive("/gpatlas/gpatlas_manager")
-        said = re.search(r".*(probe).*(fail|error|not|unavailable|gone).*", launch.since_mark(), re.I)
+        said = re.search(r"exploration finished: error.*probe.*", launch.since_mark(), re.I)
         if not manager:
             res.add("e", "probe_sim killed mid-exploration", "crash", "nodelet manager gone")
         elif exploration_alive():
@@ -774,6 +777,14 @@ def probes_waits(res, ros, tmp):
         said = said if said and re.search(r"wait", said, re.I) else None
         res.add("f", "exploration without collision_map_status", "correct" if said else "hang",
                 said or "60 s without a line naming the status it waits for")
+    finally:
+        launch.stop()
+    # No capture service: the exploration says which service it waits for, and gives up.
+    launch = sim_exploration(ros, tmp, ('to="/probe_sim/capture"', 'to="/hostile/no_capture"'))
+    try:
+        said = launch.wait_for(r"waiting.*/hostile/no_capture.*", 120)
+        res.add("f", "exploration without a capture service", "correct" if said else "hang",
+                said or "120 s without a line naming the service it waits for")
     finally:
         launch.stop()
 
