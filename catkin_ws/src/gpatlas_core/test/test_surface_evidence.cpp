@@ -226,6 +226,9 @@ TEST(SurfaceEvidence, ASurprisingTouchSupportsLessAroundIt) {
   EXPECT_FALSE(validate(state).empty());
   state.attempted_target_errors_m = attempted_errors;
   EXPECT_TRUE(validate(state).empty());
+  state.attempted_targets.push_back(Vector3(std::nan(""), 0.0, 0.0));
+  state.attempted_target_errors_m.push_back(0.01);
+  EXPECT_EQ(validate(state), "attempted_targets[" + std::to_string(attempted.size()) + "] is not finite");
 }
 
 // The planner's own state and a request's: the targets one after the other, the errors one per

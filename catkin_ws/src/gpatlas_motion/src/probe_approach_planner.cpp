@@ -34,6 +34,7 @@ struct ProbeApproachPlanner::Impl {
   std::shared_ptr<fcl::Sphered> tip;
   std::shared_ptr<fcl::Capsuled> shaft;
   std::shared_ptr<fcl::OcTreed> map;  // null: no map yet
+  Eigen::AlignedBox3d map_bounds;      // the map's known voxels, grown by one voxel
   std::unique_ptr<fcl::CollisionObjectd> map_object;
   std::vector<std::unique_ptr<fcl::CollisionObjectd>> static_obstacles;  // boxes, half-spaces
 
@@ -108,6 +109,11 @@ void ProbeApproachPlanner::setCollisionMap(std::shared_ptr<const octomap::OcTree
   impl_->map.reset();
   if (!map) return;
   impl_->map = std::make_shared<fcl::OcTreed>(map);
+  double lo[3], hi[3];
+  map->getMetricMin(lo[0], lo[1], lo[2]);
+  map->getMetricMax(hi[0], hi[1], hi[2]);
+  const Eigen::Vector3d voxel = Eigen::Vector3d::Constant(map->getResolution());
+  impl_->map_bounds = Eigen::AlignedBox3d(Eigen::Vector3d(lo[0], lo[1], lo[2]) - voxel, Eigen::Vector3d(hi[0], hi[1], hi[2]) + voxel);
   // Every node is free or occupied at the one threshold: FCL skips "uncertain" nodes.
   impl_->map->setOccupancyThres(impl_->config.occupied_probability);
   impl_->map->setFreeThres(impl_->config.occupied_probability);
@@ -173,6 +179,13 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
   if (impl_->map->getRoot() == nullptr) return finish("the collision map is empty");
   if (!start_tip.allFinite() || !touch_point.allFinite() || !touch_normal.allFinite() || touch_normal.norm() < 1e-9)
     return finish("the start, the touch and its normal must be finite, the normal non-zero");
+  // Outside the map nothing was seen: a path there would be free only for want of knowledge.
+  if (!impl_->map_bounds.contains(touch_point)) {
+    std::ostringstream message;
+    message << "the touch (" << touch_point.transpose() << ") is outside the collision map (" << impl_->map_bounds.min().transpose()
+            << " to " << impl_->map_bounds.max().transpose() << " m): nothing is known there";
+    return finish(message.str());
+  }
   const Eigen::Vector3d normal = touch_normal.normalized();
   plan.direction = -normal;
   const Eigen::Vector3d approach_pose = touch_point + c.approach_distance_m * normal;

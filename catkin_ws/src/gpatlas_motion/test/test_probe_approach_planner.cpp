@@ -114,6 +114,10 @@ TEST(ProbeApproachPlanner, TheTableIsAnObstacleAndBadInputGetsAReason) {
   const double nan = std::nan("");
   EXPECT_NE(planner.plan(kStart, Vector3d(nan, 0, 0), kNormal).message.find("finite"), std::string::npos);
   EXPECT_NE(planner.plan(kStart, kTouch, Vector3d::Zero()).message.find("non-zero"), std::string::npos);
+  // A touch far outside the map (issue 51's hostile set: 100 m away was planned as a straight move).
+  const ApproachPlan far = planner.plan(kStart, Vector3d(100.0, 0.0, 0.05), kNormal);
+  EXPECT_FALSE(far.ok);
+  EXPECT_NE(far.message.find("outside the collision map"), std::string::npos) << far.message;
   EXPECT_NE(planner.plan(Vector3d(0.0, 0.0, 0.0), kTouch, kNormal).message.find("start is in collision"),
             std::string::npos);
   // The object's underside, where it stands on a table: the approach pose is in the table (a

@@ -12,6 +12,7 @@
 #include <gpatlas_msgs/GetNextTouch.h>
 #include <gpatlas_msgs/OctomapBinary.h>
 #include <gpatlas_msgs/PlanApproach.h>
+#include <gpatlas_msgs/SaveMap.h>
 #include <gpatlas_msgs/Touch.h>
 #include <gpatlas_msgs/TrainingSet.h>
 #include <shape_msgs/Mesh.h>
@@ -117,6 +118,13 @@ TEST_F(Reset, LateSubscribersGetEmptyOutputs) {
                                               [](const auto& m) { return m.state == CollisionMapStatus::CURRENT; }))
       << "the collision map was not built";
   planATouchAndItsApproach();
+  // save_map computes the map's probabilities: a subscriber after it must still get them (it got
+  // none when their having been computed was taken for their having been published).
+  gpatlas_msgs::SaveMap save;
+  save.request.path = "/no_such_dir/reset_test.bt";
+  ASSERT_TRUE(ros::service::call(kMap + "save_map", save));
+  EXPECT_FALSE(save.response.success);
+  EXPECT_NE(save.response.message.find("/no_such_dir/reset_test.bt"), std::string::npos) << save.response.message;
 
   // Before the reset: each output, to a late subscriber, shows the model (the checks below can fail).
   EXPECT_TRUE(lateMessage<sensor_msgs::PointCloud2>(kGp + "surface", 60.0, [](const auto& m) { return cloudPoints(m) > 0; }));

@@ -92,6 +92,10 @@ TEST(BenchOptions, ValuesInsideTheRangeReachTheOptions) {
   const Options scaled = parse({"--scale", "0.001", "--object", "procedural:mug"});
   ASSERT_EQ(scaled.objects.size(), 1u);
   EXPECT_DOUBLE_EQ(scaled.objects[0].scale, 0.001);
+  const Options two = parse({"--object", "procedural:mug", "--scale", "0.001", "--object", "procedural:box"});
+  ASSERT_EQ(two.objects.size(), 2u);
+  EXPECT_DOUBLE_EQ(two.objects[0].scale, 1.0);
+  EXPECT_DOUBLE_EQ(two.objects[1].scale, 0.001);
   const Options shard = parse({"--shard", "2/3"});
   ASSERT_TRUE(shard.shard.has_value());
   EXPECT_EQ(shard.shard->index, 2);
@@ -119,6 +123,36 @@ TEST(BenchOptions, NeighboursReplaceTheConfigsAndAMalformedOneIsRefused) {
       EXPECT_NE(std::string(e.what()).find("--neighbour: neighbour '" + std::string(bad) + "' must be OBJECT@DX,DY"),
                 std::string::npos)
           << e.what();
+    }
+  }
+}
+
+// A --scale after the last --object scales nothing: refused, instead of a run at the config's
+// scale (issue 51's hostile set: a mesh in mm with its --scale after it).
+TEST(BenchOptions, ScaleAfterTheLastObjectIsRefused) {
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"--object", "mesh_mm.stl", "--scale", "0.001"},
+           {"--scale", "0.001"},
+           {"--scale", "0.001", "--object", "a.stl", "--scale", "1"}}) {
+    try {
+      parse(args);
+      ADD_FAILURE() << "accepted " << args.size() << " arguments ending in " << args.back();
+    } catch (const std::invalid_argument& e) {
+      const std::string message = e.what();
+      EXPECT_NE(message.find("--scale " + args.back() + " comes after every --object"), std::string::npos) << message;
+      EXPECT_NE(message.find("before the --object"), std::string::npos) << message;
+    }
+  }
+}
+
+// A value left out before the next flag is refused as such, not taken as the value.
+TEST(BenchOptions, AFlagWhereTheValueShouldBeIsRefused) {
+  for (const std::string& flag : {"--set", "--object", "--config", "--out", "--strategy", "--max-actions"}) {
+    try {
+      parse({flag, "--no-plot"});
+      ADD_FAILURE() << flag << " took --no-plot as its value";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_EQ(std::string(e.what()), flag + " needs a value, got the flag '--no-plot'");
     }
   }
 }

@@ -159,12 +159,19 @@ void loadStrategyLibraryAnnounced(const std::string& file) {
 // The flags, in order; returns whether --seeds was given.
 bool parseFlags(int argc, char** argv, Options& o) {
   bool seeds_given = false;
+  // A --scale scales the --object meshes after it: one after the last --object would scale
+  // nothing, and the run would go on at the config's scale as if it had been taken.
+  std::string unused_scale;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const int first = i;
+    // A flag where the value should be is a value left out ("--set --out DIR" would set "--out"
+    // and then call DIR an unknown argument); no value of these flags starts with "--".
     auto next = [&]() -> std::string {
       if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-      return argv[++i];
+      const std::string value = argv[++i];
+      if (value.rfind("--", 0) == 0) throw std::invalid_argument(a + " needs a value, got the flag '" + value + "'");
+      return value;
     };
     if (a == "-h" || a == "--help") {
       printUsage();
@@ -173,8 +180,13 @@ bool parseFlags(int argc, char** argv, Options& o) {
     else if (a == "--simulation") o.simulation_path = next();
     else if (a == "--overlay") o.overlays.push_back(next());
     else if (a == "--set") o.overrides.push_back(next());
-    else if (a == "--object") o.objects.push_back({next(), o.scale});
-    else if (a == "--scale") o.scale = parseNumber(a, next(), 0.0, true, kMaxScale);
+    else if (a == "--object") {
+      o.objects.push_back({next(), o.scale});
+      unused_scale.clear();
+    } else if (a == "--scale") {
+      o.scale = parseNumber(a, next(), 0.0, true, kMaxScale);
+      unused_scale = argv[i];
+    }
     else if (a == "--size-m") o.procedural_size_m = parseNumber(a, next(), 0.0, true, kMaxSizeM);
     else if (a == "--strategy") {
       for (const auto& s : splitList(next())) o.strategies.push_back(s);
@@ -214,6 +226,10 @@ bool parseFlags(int argc, char** argv, Options& o) {
     else throw std::invalid_argument("unknown argument '" + a + "' (see --help)");
     if (!leavesResultsAlone(a)) o.result_args.insert(o.result_args.end(), argv + first, argv + i + 1);
   }
+  if (!unused_scale.empty())
+    throw std::invalid_argument("--scale " + unused_scale +
+                                " comes after every --object: it scales the meshes given after it, so put it before "
+                                "the --object it is for (the config's object: simulation/object_scale, --set)");
   return seeds_given;
 }
 

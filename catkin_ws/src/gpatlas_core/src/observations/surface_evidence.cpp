@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 #include <utility>
 
 namespace gpatlas_core {
@@ -105,6 +106,9 @@ std::string validate(const EvidenceState& state) {
   if (!state.attempted_target_errors_m.empty() && state.attempted_target_errors_m.size() != state.attempted_targets.size())
     return "attempted_target_errors_m must be empty or hold one value per attempted target";
   if (state.empty_unknown_pokes < 0) return "empty_unknown_pokes must be >= 0";
+  // A target that is not a point would vouch for nothing and be passed over without a word.
+  for (std::size_t i = 0; i < state.attempted_targets.size(); ++i)
+    if (!state.attempted_targets[i].allFinite()) return "attempted_targets[" + std::to_string(i) + "] is not finite";
   for (const CameraView& view : state.views)
     if (std::string problem = validate(view); !problem.empty()) return problem;
   return "";

@@ -137,6 +137,9 @@ class CollisionMapServer {
   std::shared_ptr<const SceneCloud> pending_cloud_;  // the newest cloud not in the scene yet
   std::shared_ptr<Map> map_;                     // the newest map approaches are planned on
   std::shared_ptr<Map> publish_pending_;         // the map whose probabilities subscribers wait for
+  // The map on octomap_binary: save_map computes a map's probabilities without publishing them,
+  // so that having them does not mean a subscriber got them. Weak: it keeps no old map alive.
+  std::weak_ptr<const Map> published_;
   std::uint32_t latest_sequence_{0};
   std::uint64_t resets_{0};  // empty training sets received
   std::uint8_t state_{0};

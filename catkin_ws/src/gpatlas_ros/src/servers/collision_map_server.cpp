@@ -519,7 +519,7 @@ bool CollisionMapServer::hasMapSubscribers() const {
 }
 
 void CollisionMapServer::requestProbabilities() {
-  if (!map_ || map_->probabilities) return;
+  if (!map_ || map_ == published_.lock()) return;
   publish_pending_ = map_;
   publish_wake_.notify_one();
 }
@@ -543,6 +543,7 @@ void CollisionMapServer::publishLoop() {
     std::lock_guard<std::mutex> lock(mutex_);
     if (map != map_) continue;  // a newer map came meanwhile: its own request follows
     publishMap(*map);
+    published_ = map;
     ROS_DEBUG_STREAM("collision_map: probabilities of training set " << map->training_sequence << " in "
                                                                      << (ros::WallTime::now() - started).toSec() << " s");
   }
