@@ -396,8 +396,9 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   PlanRequest with_pad = request;
   with_pad.footprint_radius_m = 0.01;
   config.atlas.selection = AtlasPlanner::Config::Selection::kBestScore;
-  const auto poke = makeStrategy("atlas_poke", config);
-  const PlanResult point = poke->plan(model, request), pad = poke->plan(model, with_pad);
+  // A strategy each: a poke strategy keeps its last atlas for the next plan (AtlasMemory).
+  const PlanResult point = makeStrategy("atlas_poke", config)->plan(model, request);
+  const PlanResult pad = makeStrategy("atlas_poke", config)->plan(model, with_pad);
   ASSERT_EQ(point.status, PlanStatus::kTouch) << point.message;
   ASSERT_EQ(pad.status, PlanStatus::kTouch) << pad.message;
   ASSERT_EQ(pad.touch.points.size(), 1u);
@@ -406,11 +407,21 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   // The first chart lies at the edge of the supported surface: the pad aims past it.
   config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const auto first = makeStrategy("atlas_poke", config);
-  const PlanResult first_point = first->plan(model, request), first_pad = first->plan(model, with_pad);
+  const PlanResult first_point = first->plan(model, request);
+  const PlanResult first_pad = makeStrategy("atlas_poke", config)->plan(model, with_pad);
   ASSERT_EQ(first_pad.status, PlanStatus::kTouch) << first_pad.message;
   EXPECT_GT(bruteForceDistance(model, first_pad.touch.points.front()),
             bruteForceDistance(model, first_point.touch.points.front()));
   EXPECT_GT(first_pad.atlas->path.size(), first_point.atlas->path.size());
+  // A footprint that is not a radius is refused, naming the field and its value.
+  for (const double bad : {-1.0, std::nan("")}) {
+    PlanRequest broken = with_pad;
+    broken.footprint_radius_m = bad;
+    const PlanResult refused = first->plan(model, broken);
+    EXPECT_EQ(refused.status, PlanStatus::kError);
+    EXPECT_EQ(refused.message.rfind("footprint_radius_m " + std::string(bad < 0.0 ? "-1" : "nan"), 0), 0u)
+        << refused.message;
+  }
   // A slide's path runs on into the unknown by itself: the footprint changes nothing.
   const auto slide = makeStrategy("atlas_slide", config);
   const PlanResult slid = slide->plan(model, request), slid_with_pad = slide->plan(model, with_pad);

@@ -39,7 +39,10 @@ std::optional<PlanResult> checkPlanInput(const SurfaceModel& model, const PlanRe
     return error;
   }
   if (!(request.footprint_radius_m >= 0.0) || !std::isfinite(request.footprint_radius_m)) {
-    error.message = "the probe's footprint radius must be finite and >= 0";
+    std::ostringstream message;
+    message << "footprint_radius_m " << request.footprint_radius_m
+            << " is not a radius: the probe's footprint radius must be finite and >= 0 (0: a point probe)";
+    error.message = message.str();
     return error;
   }
   if (request.start && !request.start->allFinite()) {
