@@ -70,7 +70,7 @@ struct AtlasPlanResult {
 // chart far from the new data keeps its centre, basis, radius and variance unless the surface
 // moved there by more than the tolerances below.
 struct AtlasReuseConfig {
-  bool enabled{true};
+  bool enabled{false};
   // A chart whose ball comes this close to a surface observation added (or removed) since is
   // dropped and grown again: about a local cell's side. Free space and interior points change
   // the surface less; where they moved it, the tolerances below catch it.
