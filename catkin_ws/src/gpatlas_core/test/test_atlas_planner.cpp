@@ -258,14 +258,6 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
     EXPECT_EQ(plan.status, PlanStatus::kConverged) << name << ": " << plan.message;
     EXPECT_TRUE(plan.touch.points.empty());
   }
-  // Past half of a work budget the charts grow coarser than the stop rule asks: the same surface,
-  // covered that way, is no proof of convergence, and the result says the budget ended it.
-  AtlasPlanner::Config budgeted = config;
-  budgeted.max_queries = result.queries * 3 / 2;
-  const AtlasPlanResult coarse = AtlasPlanner(budgeted).plan(model, StopRule{kVMax});
-  EXPECT_EQ(coarse.status, PlanStatus::kCapReached) << coarse.message;
-  EXPECT_TRUE(coarse.budget_exhausted);
-  EXPECT_NE(coarse.message.find("not a proof of convergence"), std::string::npos) << coarse.message;
 }
 
 // Two separate objects: one seen all over (certain everywhere), one seen from above only. A

@@ -234,14 +234,9 @@ class AtlasGrowth {
         reachable_(reachable), rng_(rng), result_(result), atlas_(result.atlas),
         scoring_(config.selection == AtlasPlanner::Config::Selection::kBestScore) {}
 
-  // Whether a chart was made larger than rho_min_m allows because half the budget was used: such
-  // an atlas tests the surface more coarsely than the stop rule asks, so it proves no convergence.
-  bool coarsened() const { return coarsened_; }
-
   ChartCreation makeChart(const SurfacePoint& point, int parent) {
     ChartConfig chart = config_.chart;
     chart.rho_min_m = budgetRadiusFloor();
-    coarsened_ = coarsened_ || chart.rho_min_m > config_.chart.rho_min_m;
     ChartCreation created = createChart(model_, point, parent, chart, rng_,
                                         evidence_.radiusCap(point.position, chart.rho_min_m), rank_candidates_);
     if (rank_candidates_) result_.queries += static_cast<long>(created.chart.candidates.size());
@@ -612,7 +607,6 @@ class AtlasGrowth {
   int trees_{1};
   const bool scoring_;
   bool rank_candidates_{!scoring_};  // createChart's ranking of the candidates (eq. 16)
-  bool coarsened_{false};
   std::vector<int> needy_;  // charts that need a touch (kBestScore), in the order found
 };
 
@@ -672,13 +666,6 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
     if (!rooted) break;
   }
   if (std::optional<PlanEnd> chosen = growth.chooseBest(touch)) return finish(chosen->status, std::move(chosen->message));
-  if (growth.coarsened()) {
-    result.budget_exhausted = true;
-    return finish(PlanStatus::kCapReached,
-                  "no chart needs a touch, but past half of the plan's work budget (" + std::to_string(result.atlas.size()) +
-                      " charts, " + std::to_string(result.queries) +
-                      " queries) the charts grew coarser than the stop rule asks: not a proof of convergence");
-  }
   return finish(PlanStatus::kConverged, "no expandable chart left in " + std::to_string(growth.trees()) +
                                             " tree(s) covering the surface observations: no " + rule.describe() + ", all near evidence");
 }
