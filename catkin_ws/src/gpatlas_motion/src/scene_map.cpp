@@ -183,13 +183,19 @@ void SceneMap::addShadows(const std::function<bool(const Eigen::Vector3d&, const
     }
 }
 
+SceneRole sceneRole(gpatlas_core::PointLabel label, gpatlas_core::PointSource source) {
+  const bool measured = source == gpatlas_core::PointSource::kVision || source == gpatlas_core::PointSource::kTouch;
+  if (label == gpatlas_core::PointLabel::kSurface && measured) return SceneRole::kObject;
+  return source == gpatlas_core::PointSource::kFreeSpace ? SceneRole::kProbed : SceneRole::kNone;
+}
+
 std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
                                             const std::vector<Eigen::Vector3d>& view_points) {
   std::vector<Eigen::Vector3d> object = view_points, free;
   for (const gpatlas_core::TrainingPoint& p : observations) {
-    const bool measured = p.source == gpatlas_core::PointSource::kVision || p.source == gpatlas_core::PointSource::kTouch;
-    if (p.label == gpatlas_core::PointLabel::kSurface && measured) object.push_back(p.position);
-    else if (p.source == gpatlas_core::PointSource::kFreeSpace) free.push_back(p.position);
+    const SceneRole role = sceneRole(p.label, p.source);
+    if (role == SceneRole::kObject) object.push_back(p.position);
+    else if (role == SceneRole::kProbed) free.push_back(p.position);
   }
   return scene.obstacles(object, free);
 }

@@ -19,11 +19,19 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   // that edge; the best-scoring chart lies wherever its touch removes the most error.
   if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
     config.aim_past_m = request.footprint_radius_m;
+  const AtlasPlanner planner(config);
+  const auto planWith = [&](AtlasMemory* memory) {
+    return planner.plan(model, request.stopRule(), request.start, {}, request.reachable, request.evidence_state,
+                        request.touch_observations, memory);
+  };
+  // Without reuse a plan neither reads nor leaves a memory: plans need not wait for each other,
+  // nor hash the model's observations and copy the atlas for nobody.
   AtlasPlanResult planned;
-  {
+  if (config.reuse.enabled) {
     const std::lock_guard<std::mutex> lock(memory_->mutex);
-    planned = AtlasPlanner(config).plan(model, request.stopRule(), request.start, {}, request.reachable,
-                                        request.evidence_state, request.touch_observations, &memory_->atlas);
+    planned = planWith(&memory_->atlas);
+  } else {
+    planned = planWith(nullptr);
   }
 
   PlanResult result;

@@ -87,9 +87,14 @@ class SceneMap {
                   std::vector<Eigen::Vector3d>* obstacles) const;
 };
 
+// What an observation is to the scene map: the explored object (a surface point the camera or the
+// probe measured), where the probe went (free space), or neither.
+enum class SceneRole { kObject, kProbed, kNone };
+SceneRole sceneRole(gpatlas_core::PointLabel label, gpatlas_core::PointSource source);
+
 // SceneMap::obstacles() for a model's training data: its surface points from the camera and the
 // probe, with `view_points` (the view's object points), are the explored object; its free-space
-// points are where the probe went.
+// points are where the probe went (sceneRole).
 std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
                                             const std::vector<Eigen::Vector3d>& view_points);
 

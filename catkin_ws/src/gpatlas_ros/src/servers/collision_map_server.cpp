@@ -455,12 +455,10 @@ std::shared_ptr<const std::vector<Eigen::Vector3d>> CollisionMapServer::sceneObs
   // The explored object: what the camera saw of it and the probe's contacts, on its surface.
   std::vector<Eigen::Vector3d> object, free;
   for (std::size_t i = 0; i < msg.points.size() && i < msg.labels.size() && i < msg.sources.size(); ++i) {
-    const auto source = static_cast<gpatlas_core::PointSource>(msg.sources[i]);
-    const Eigen::Vector3d p = fromMsg(msg.points[i]);
-    if (msg.labels[i] == 0 && (source == gpatlas_core::PointSource::kVision || source == gpatlas_core::PointSource::kTouch))
-      object.push_back(p);
-    else if (source == gpatlas_core::PointSource::kFreeSpace)
-      free.push_back(p);
+    const gpatlas_motion::SceneRole role = gpatlas_motion::sceneRole(static_cast<gpatlas_core::PointLabel>(msg.labels[i]),
+                                                                     static_cast<gpatlas_core::PointSource>(msg.sources[i]));
+    if (role == gpatlas_motion::SceneRole::kObject) object.push_back(fromMsg(msg.points[i]));
+    else if (role == gpatlas_motion::SceneRole::kProbed) free.push_back(fromMsg(msg.points[i]));
   }
   for (const auto& p : msg.view_points) object.emplace_back(p.x, p.y, p.z);
   return std::make_shared<const std::vector<Eigen::Vector3d>>(scene_->obstacles(object, free));

@@ -84,7 +84,8 @@ struct AtlasReuseConfig {
 
 // What a plan leaves for the next one: its atlas, and the model state it was grown on. A GP's
 // variance only falls when data are added with the same hyperparameters, so a kept chart's
-// variance bounds the new one from above: the charts that need a touch by it are asked again.
+// variance is taken to bound the new one from above: the charts that need a touch by it are
+// asked again. Data removed (guesses a touch retracts) can raise it: hence reuse is off by default.
 struct AtlasMemory {
   std::string model;
   Vector3 centroid{Vector3::Zero()};
