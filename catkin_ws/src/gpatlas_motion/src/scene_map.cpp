@@ -85,6 +85,7 @@ SceneMap::SceneMap(SceneMapConfig config, double resolution_m) : config_(std::mo
   tree_->setBBXMin(lower);
   tree_->setBBXMax(upper);
   tree_->useBBXLimit(true);
+  tree_->enableChangeDetection(true);
 }
 
 SceneMap::~SceneMap() = default;
@@ -103,16 +104,23 @@ std::size_t SceneMap::insertCloud(const std::vector<Eigen::Vector3d>& points, co
   // Discretised: the points of one voxel cast one ray, the rays of a 640 x 480 cloud are then
   // the voxels it hit, not its 300,000 points.
   tree_->insertPointCloud(cloud, toOctomap(sensor_origin), config_.max_range_m, false, true);
+  bool changed = tree_->numChangesDetected() > 0;
+  tree_->resetChangeDetection();
   const double resolution = tree_->getResolution();
   if (std::none_of(origins_.begin(), origins_.end(),
-                   [&](const Eigen::Vector3d& o) { return (o - sensor_origin).norm() < resolution; }))
+                   [&](const Eigen::Vector3d& o) { return (o - sensor_origin).norm() < resolution; })) {
     origins_.push_back(sensor_origin);
+    changed = true;
+  }
+  if (changed) ++revision_;
   return cloud.size();
 }
 
 void SceneMap::clear() {
   tree_->clear();
+  tree_->resetChangeDetection();
   origins_.clear();
+  ++revision_;
 }
 
 std::size_t SceneMap::occupiedVoxels() const {

@@ -133,6 +133,44 @@ TEST(SceneMap, WhatTheCameraSawIsOccupiedTheRaysFreeTheRestUnknown) {
   EXPECT_EQ(tree.search(at(Vector3d(0.5, 0.0, -0.03))), nullptr);
 }
 
+// A still camera's next frame changes nothing, so the collision map need not re-merge the scene:
+// the revision moves only when the obstacles can have moved.
+TEST(SceneMap, TheRevisionMovesWhenTheSceneChangesAndOnlyThen) {
+  const Scene s = scene();
+  SceneMap map(sceneConfig(), kVoxel);
+  EXPECT_EQ(map.revision(), 0u);
+  map.insertCloud(s.all(), kSensor);
+  EXPECT_EQ(map.revision(), 1u);
+  // The same cloud again, until OctoMap's clamping leaves every voxel as it was (a hit saturates
+  // in a few frames; a voxel may flip on the way there).
+  std::uint64_t before = map.revision();
+  int frames = 0;
+  for (; frames < 20; ++frames) {
+    before = map.revision();
+    map.insertCloud(s.all(), kSensor);
+    if (map.revision() == before) break;
+  }
+  ASSERT_LT(frames, 20) << "the same cloud kept changing the scene";
+  const std::vector<Vector3d> settled = map.obstacles(s.object, {});
+  for (int i = 0; i < 3; ++i) {
+    map.insertCloud(s.all(), kSensor);
+    EXPECT_EQ(map.revision(), before);
+  }
+  // Unchanged revision, unchanged obstacles: the full recompute agrees.
+  EXPECT_EQ(voxelsOf(map.obstacles(s.object, {})), voxelsOf(settled));
+  // A new thing in view changes it, and so does a new sensor origin with the same points.
+  std::vector<Vector3d> more = s.all();
+  more.emplace_back(0.6, -0.3, 0.1);
+  map.insertCloud(more, kSensor);
+  EXPECT_GT(map.revision(), before);
+  before = map.revision();
+  map.insertCloud(more, kSensor + Vector3d(0.0, 0.1, 0.0));
+  EXPECT_GT(map.revision(), before);
+  before = map.revision();
+  map.clear();
+  EXPECT_GT(map.revision(), before);
+}
+
 TEST(SceneMap, KeepsToItsBoxAndRange) {
   SceneMapConfig config = sceneConfig();
   config.max_range_m = 1.0;
@@ -190,7 +228,6 @@ TEST(SceneMap, TheExploredObjectIsLeftToItsModelAndTheProbesFreeSpaceWins) {
 TEST(SceneMap, TheUnknownBehindANeighbourIsAnObstacleAndBehindTheObjectItIsNot) {
   const Scene s = scene();
   SceneMapConfig config = sceneConfig();
-  config.shadow_depth_m = 0.1;
   SceneMap map(config, kVoxel);
   map.insertCloud(s.all(), kSensor);
   const std::vector<Vector3d> obstacles = map.obstacles(s.object, {});

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <string>
@@ -41,8 +42,8 @@ struct SceneMapConfig {
   // A camera sees an object's near side only, and the voxels behind it stay unknown, which the
   // approach planner takes as free: a probe's shaft would pass through a neighbour's hidden
   // side. So the unknown voxels up to this far behind each obstacle voxel, along the ray from
-  // the sensor, are obstacles too (0: none; about a small object's depth keeps the shaft out).
-  double shadow_depth_m{0.0};
+  // the sensor, are obstacles too (0: none). About a small object's depth.
+  double shadow_depth_m{0.1};
 };
 
 // Empty when the config is usable, else what is wrong with it.
@@ -65,6 +66,10 @@ class SceneMap {
   // number of points inside the box and the range, which were inserted.
   std::size_t insertCloud(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& sensor_origin);
   void clear();
+  // Counts the changes: each insertCloud that made a voxel known or flipped one between occupied
+  // and not, or brought a new sensor origin, and each clear(). Obstacles taken at one revision
+  // hold until the next.
+  std::uint64_t revision() const { return revision_; }
   std::size_t occupiedVoxels() const;
   const SceneMapConfig& config() const { return config_; }
   const octomap::OcTree& tree() const { return *tree_; }
@@ -81,6 +86,7 @@ class SceneMap {
   SceneMapConfig config_;
   std::unique_ptr<octomap::OcTree> tree_;
   std::vector<Eigen::Vector3d> origins_;  // of the clouds inserted, each once
+  std::uint64_t revision_{0};
 
   // Adds to `obstacles` the unknown voxels behind each (shadow_depth_m) that `kept` keeps.
   void addShadows(const std::function<bool(const Eigen::Vector3d&, const octomap::OcTreeKey&)>& kept,

@@ -70,6 +70,9 @@ struct CollisionMapServer::Map {
   std::shared_ptr<const gpatlas_core::SurfaceModel> model;
   std::uint32_t training_sequence{0};
   ros::Time training_stamp;
+  // The scene's revision its obstacles were taken from: a cloud that changed nothing in the
+  // scene (a still camera's next frame) re-merges nothing.
+  std::uint64_t scene_revision{0};
 };
 
 CollisionMapServer::CollisionMapServer(ros::NodeHandle nh, ros::NodeHandle pnh)
@@ -394,12 +397,14 @@ void CollisionMapServer::buildLoop() {
       if (msg) {
         map = build(*msg, std::move(snapshot), &error, &summary);
         if (map) map->training = msg;
-      } else if (cloud && current) map = remerge(*current, current_probabilities, &summary);
+      } else if (cloud && current && scene_ && current->scene_revision != scene_->revision()) {
+        map = remerge(*current, current_probabilities, &summary);
+      }
     } catch (const std::exception& e) {
       error = e.what();
     }
     if (msg) install(*msg, map, error, summary, started);
-    else if (cloud && current) install(*current->training, map, error, summary, started);
+    else if (current && (map || !error.empty())) install(*current->training, map, error, summary, started);
   }
 }
 
@@ -473,6 +478,7 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::remerge(
   out->training = map.training;
   out->training_sequence = map.training_sequence;
   out->training_stamp = map.training_stamp;
+  out->scene_revision = scene_->revision();
   out->scene_obstacles = sceneObstacles(*map.training);
   out->tree = withObstacles(out->model_tree, out->scene_obstacles.get());
   *summary = "training set " + std::to_string(map.training_sequence) + " with the scene of " +
@@ -501,6 +507,7 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(
   map->training_stamp = msg.header.stamp;
   std::size_t occupied = 0;
   map->model_tree = gpatlas_motion::collisionOctree(grid, threshold, &occupied);
+  map->scene_revision = scene_ ? scene_->revision() : 0;
   map->scene_obstacles = sceneObstacles(msg);
   map->tree = withObstacles(map->model_tree, map->scene_obstacles.get());
   std::ostringstream message;
