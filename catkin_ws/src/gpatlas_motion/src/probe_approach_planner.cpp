@@ -24,6 +24,16 @@
 namespace gpatlas_motion {
 namespace {
 
+// Outside the map nothing was seen: a path there would be free only for want of knowledge.
+// Empty when `touch_point` lies within the map's known box, else the refusal.
+std::string outsideMap(const Eigen::AlignedBox3d& map_bounds, const Eigen::Vector3d& touch_point) {
+  if (map_bounds.contains(touch_point)) return "";
+  std::ostringstream message;
+  message << "the touch (" << touch_point.transpose() << ") is outside the collision map (" << map_bounds.min().transpose()
+          << " to " << map_bounds.max().transpose() << " m): nothing is known there";
+  return message.str();
+}
+
 namespace ob = ompl::base;
 namespace og = ompl::geometric;
 
@@ -142,6 +152,7 @@ std::string ProbeApproachPlanner::checkApproachPose(const Eigen::Vector3d& touch
   if (impl_->map->getRoot() == nullptr) return "the collision map is empty";
   if (!touch_point.allFinite() || !touch_normal.allFinite() || touch_normal.norm() < 1e-9)
     return "the touch and its normal must be finite, the normal non-zero";
+  if (std::string outside = outsideMap(impl_->map_bounds, touch_point); !outside.empty()) return outside;
   return impl_->approachPoseProblem(touch_point, touch_normal.normalized());
 }
 
@@ -179,13 +190,7 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
   if (impl_->map->getRoot() == nullptr) return finish("the collision map is empty");
   if (!start_tip.allFinite() || !touch_point.allFinite() || !touch_normal.allFinite() || touch_normal.norm() < 1e-9)
     return finish("the start, the touch and its normal must be finite, the normal non-zero");
-  // Outside the map nothing was seen: a path there would be free only for want of knowledge.
-  if (!impl_->map_bounds.contains(touch_point)) {
-    std::ostringstream message;
-    message << "the touch (" << touch_point.transpose() << ") is outside the collision map (" << impl_->map_bounds.min().transpose()
-            << " to " << impl_->map_bounds.max().transpose() << " m): nothing is known there";
-    return finish(message.str());
-  }
+  if (std::string outside = outsideMap(impl_->map_bounds, touch_point); !outside.empty()) return finish(std::move(outside));
   const Eigen::Vector3d normal = touch_normal.normalized();
   plan.direction = -normal;
   const Eigen::Vector3d approach_pose = touch_point + c.approach_distance_m * normal;
