@@ -1,5 +1,7 @@
 #include "bench_options.h"
 
+#include "bench_oracle.h"
+
 #include <gpatlas_core/config/parameters.h>
 #include <gpatlas_core/planning/strategy_library.h>
 #include <gpatlas_core/planning/strategy_registry.h>
@@ -43,7 +45,8 @@ with a strategy, the simulated probe) on objects with a known truth, and measure
   --scale S                      scale of the mesh files given after it (0.001 for mm) [1]
   --size-m S                     size of procedural objects in metres [simulation/procedural_size_m]
   --strategy NAME                random | max_variance | atlas_poke | atlas_slide | atlas_frontier (repeatable)
-                                 [the config's strategy], or one from a --strategy-library
+                                 [the config's strategy], or one from a --strategy-library, or
+                                 oracle_poke: an analysis that reads the truth (tools/bench_oracle.h)
   --strategy-library FILE        a shared library that registers strategies of your own
                                  (GPATLAS_REGISTER_STRATEGY, gpatlas_core/planning/strategy_library.h) (repeatable)
   --neighbour OBJECT@DX,DY[,YAW_RAD[,SCALE]]
@@ -286,9 +289,10 @@ void completeAndCheck(Options& o, bool seeds_given) {
   if (o.max_actions) o.pipeline.exploration.max_actions = *o.max_actions;
   const auto known = gpatlas_core::strategyNames();
   for (const auto& s : o.strategies)
-    if (std::find(known.begin(), known.end(), s) == known.end()) {
+    if (s != kOracleStrategy && std::find(known.begin(), known.end(), s) == known.end()) {
       std::string list;
       for (const auto& k : known) list += " " + k;
+      list += std::string(" ") + kOracleStrategy + " (an analysis)";
       throw std::invalid_argument("unknown strategy '" + s + "'; known:" + list);
     }
 }

@@ -1,5 +1,7 @@
 #include "bench_run.h"
 
+#include "bench_oracle.h"
+
 #include <gpatlas_core/common/triangle_mesh.h>
 #include <gpatlas_core/exploration/exploration_report.h>
 #include <gpatlas_core/model/surface_model_factory.h>
@@ -242,18 +244,27 @@ gpatlas_geometry::ModelMeasurement measure(const gpatlas_core::SurfaceModel& mod
 // A point of the shape's curve (history.csv): the shape error at the curve's quality
 // (Options::curve_resolution_m, curve_samples; the final model is measured again at full quality)
 // and every --variance-every actions the sampled variance.
-void measureInto(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt, const Options& o,
-                 gpatlas_core::ExplorationRecord& record) {
+gpatlas_geometry::SurfaceMesher::Config curveMesher(const Options& o) {
   gpatlas_geometry::SurfaceMesher::Config mesher = o.pipeline.mesh;
   mesher.resolution_m = o.curve_resolution_m;
+  return mesher;
+}
+
+gpatlas_geometry::MeasurementRequest curveRequest(const Options& o) {
   gpatlas_geometry::MeasurementRequest request;
-  request.sampled_max_variance = (record.index + 1) % o.variance_every == 0;
   request.shape.samples_per_mesh = static_cast<std::size_t>(o.curve_samples);
   // The distance indices shrink with the samples, as many index samples per surface sample as the
   // final measurement has (ShapeMetrics' defaults).
   const gpatlas_geometry::ShapeMetrics::Config full;
   request.shape.index.index_samples = full.index.index_samples * request.shape.samples_per_mesh / full.samples_per_mesh;
-  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, mesher, request);
+  return request;
+}
+
+void measureInto(const gpatlas_core::SurfaceModel& model, const GroundTruth& gt, const Options& o,
+                 gpatlas_core::ExplorationRecord& record) {
+  gpatlas_geometry::MeasurementRequest request = curveRequest(o);
+  request.sampled_max_variance = (record.index + 1) % o.variance_every == 0;
+  const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, curveMesher(o), request);
   record.sampled_max_variance = measured.sampled_max_variance;
   if (measured.shape.ok) {
     record.rmse_pred_to_gt_m = measured.shape.rmse_predicted_to_truth;
@@ -371,6 +382,38 @@ void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTrut
   }
 }
 
+// oracle_poke (bench_oracle.h): its own prober on the run's scene, F@5mm against the truth as the
+// curve's points measure it, and a line per plan.
+std::unique_ptr<gpatlas_core::ExplorationStrategy> makeOracle(std::shared_ptr<probe_sim::Scene> scene,
+                                                              const GroundTruth& gt, const Options& o,
+                                                              const gpatlas_core::StrategyConfig& strategy_config,
+                                                              const std::string& label, std::mutex& print_mutex,
+                                                              std::string* why) {
+  std::shared_ptr<probe_sim::SimulatedProber> prober = makeProber(std::move(scene), o, why);
+  if (!prober) return nullptr;
+  OracleStrategy::Config config;
+  config.strategy = strategy_config;
+  auto score = [&gt, &o](const gpatlas_core::SurfaceModel& model) {
+    const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, curveMesher(o), curveRequest(o));
+    return measured.shape.ok ? measured.shape.f_score : std::nan("");
+  };
+  auto plans = std::make_shared<int>(0);
+  auto report = [label, &print_mutex, plans](const OraclePlan& plan) {
+    const OracleCandidate& best = plan.candidates[plan.best];
+    std::ostringstream line;
+    line << std::setprecision(3) << "  [" << label << "] oracle plan " << ++*plans << ": " << plan.candidates.size()
+         << " candidates, F@5mm " << plan.score_before << " -> best " << best.score << " (" << describe(best)
+         << "); atlas_poke's " << plan.candidates.front().score;
+    for (const OracleCandidate& c : plan.candidates)
+      if (c.source == "max_variance 1") line << ", max_variance's " << c.score;
+    line << "; " << plan.seconds << " s";
+    std::lock_guard<std::mutex> lock(print_mutex);
+    std::cout << line.str() << std::endl;
+  };
+  return std::make_unique<OracleStrategy>(
+      config, [prober](const gpatlas_core::Touch& touch) { return prober->probe(touch); }, score, report);
+}
+
 }  // namespace
 
 RunResult runIdentity(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o) {
@@ -405,7 +448,11 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
 
   gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
   strategy_config.seed = static_cast<std::uint64_t>(seed);
-  const auto strategy = gpatlas_core::makeStrategy(strategy_name, strategy_config);
+  const std::string label = gt.name + " " + strategy_name + " seed " + std::to_string(seed);
+  const std::unique_ptr<gpatlas_core::ExplorationStrategy> strategy =
+      strategy_name == kOracleStrategy ? makeOracle(scene, gt, o, strategy_config, label, print_mutex, &why)
+                                       : gpatlas_core::makeStrategy(strategy_name, strategy_config);
+  if (!strategy) return failedRun(r, why);
   const std::unique_ptr<probe_sim::SimulatedProber> prober = makeProber(scene, o, &why);
   if (!prober) return failedRun(r, why);
   gpatlas_core::Explorer::Config loop = pipeline.exploration;
@@ -424,7 +471,7 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   }
   std::unique_ptr<gpatlas_motion::ModelTouchApproacher> approacher;
   if (!makeApproacher(*model, view, o, &approacher, &why)) return failedRun(r, why);
-  NeighbourTally tally(*prober, o, gt.name + " " + strategy_name + " seed " + std::to_string(seed), print_mutex);
+  NeighbourTally tally(*prober, o, label, print_mutex);
   gpatlas_core::ExplorationResult result =
       gpatlas_core::Explorer(loop).run(*model, *strategy, tally, pipeline.touch, known,
                                        progressOf(*model, gt, strategy_name, seed, o, print_mutex), approacher.get());

@@ -9,7 +9,8 @@
 // With --shard K/N it runs a share of the runs, and --merge joins the shards' folders (for a
 // cluster's job array: scripts/slurm_bench.sh).
 // The command line: bench_options.h; the objects: bench_truth.h; one run: bench_run.h; the
-// files: bench_outputs.h; shards and their merge: bench_shards.h.
+// files: bench_outputs.h; shards and their merge: bench_shards.h; oracle_poke, an analysis that
+// reads the truth: bench_oracle.h.
 
 #include "bench_options.h"
 #include "bench_outputs.h"

@@ -419,6 +419,7 @@ class AtlasGrowth {
     for (int index : scored) candidates.push_back({atlas_.chart(index).centre, atlas_.chart(index).normal});
     const TouchScores scores = scoreTouches(model_, rule_, patches, candidates, touch, config_.score, rng_());
     result_.scored_candidates = static_cast<int>(scored.size());
+    result_.scored_charts = scored;
     result_.total_error = scores.total_error;
     // Best first. A score within kScoreTie of the best counts as the best, and the chart the atlas
     // made first among those goes first: the fantasy's last digits (a model rebuilt from a message

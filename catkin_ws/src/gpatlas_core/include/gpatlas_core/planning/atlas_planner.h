@@ -51,6 +51,9 @@ struct AtlasPlanResult {
   // touch's predicted fall of the surface's error against the error before it (touch_score.h).
   int needy_charts{0};
   int scored_candidates{0};
+  // Those scored charts (atlas indices), in the order they were sampled: for an analysis that
+  // judges the same candidates another way (gpatlas_bench's oracle_poke).
+  std::vector<int> scored_charts;
   double predicted_reduction{0.0};
   double total_error{0.0};
   double elapsed_s{0.0};
