@@ -70,7 +70,7 @@ void printSegmentation(const GroundTruth& gt, int seed, const gpatlas_geometry::
   std::cout << "  [" << gt.name << " seed " << seed << "] segmentation: " << segmented.message << "; "
             << n.input << " points, " << n.after_crop << " in the crop box, " << n.after_voxel << " after the voxel grid, "
             << n.plane_inliers << " on the " << (segmented.plane_found ? "support plane" : "plane (not a support)")
-            << ", " << n.after_outliers << " after outlier removal; kept from " << kept.min().transpose() << " to "
+            << ", " << n.after_plane << " above it; kept from " << kept.min().transpose() << " to "
             << kept.max().transpose() << " (the truth: " << box.min().transpose() << " to " << box.max().transpose()
             << ")" << std::endl;
 }
@@ -120,8 +120,7 @@ bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pi
     return false;
   }
   const gpatlas_core::ViewUpdate fit = gpatlas_core::applyView(
-      **model, view.training.points, pipeline.touch, pipeline.tuning.enabled ? &pipeline.tuning.tuner : nullptr,
-      &pipeline.position_calibration);
+      **model, view.training.points, pipeline.touch, &pipeline.position_calibration);
   if (!fit.ok) *why = "initial fit failed: " + fit.fit.message;
   if (fit.calibration && !fit.calibration->ok)
     std::cerr << "gpatlas_bench: position sd not calibrated: " << fit.calibration->message << std::endl;
