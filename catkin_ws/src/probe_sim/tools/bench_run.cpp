@@ -297,8 +297,9 @@ void recordLoop(const gpatlas_core::ExplorationResult& result, const gpatlas_cor
     plan_ms.push_back(rec.plan_ms);
     update_ms.push_back(rec.update_ms);
   }
-  r.plan_ms_median = median(plan_ms);
-  r.update_ms_median = median(update_ms);
+  // 0, not NaN, for a run without an action: runs.csv's columns are numbers.
+  r.plan_ms_median = plan_ms.empty() ? 0.0 : gpatlas_core::median(plan_ms);
+  r.update_ms_median = update_ms.empty() ? 0.0 : gpatlas_core::median(update_ms);
   r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
   r.recent_target_error_m = gpatlas_core::recentTargetError(result);
   r.unreachable_touches = result.unreachable_touches;
@@ -436,13 +437,6 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.history.insert(r.history.end(), result.records.begin(), result.records.end());
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
 std::string measuredAs(const RunResult& r, std::size_t i) {
