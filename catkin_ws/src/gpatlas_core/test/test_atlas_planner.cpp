@@ -189,22 +189,25 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
   const double best_of_all = *std::max_element(recomputed.reduction.begin(), recomputed.reduction.end());
   EXPECT_GE(best.predicted_reduction, 0.8 * best_of_all);
 
-  // The western half refused: the touch is in the east, each refusal counted and marked.
+  // The half (in x) of the best touch refused: the touch is in the other half, each refusal
+  // counted and marked, the best touch's chart among them.
+  const double best_side = touched.centre.x() > sphere.centre.x() ? 1.0 : -1.0;
   int asked = 0;
-  const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {
+  const TouchFilter other_half = [&](const Vector3& point, const Vector3& normal) {
     ++asked;
-    return point.x() > sphere.centre.x() ? std::optional<Vector3>(normal) : std::nullopt;
+    return best_side * (point.x() - sphere.centre.x()) < 0.0 ? std::optional<Vector3>(normal) : std::nullopt;
   };
-  const AtlasPlanResult eastern = AtlasPlanner(config).plan(model, rule, std::nullopt, {}, east);
-  ASSERT_EQ(eastern.status, PlanStatus::kTouch) << eastern.message;
-  EXPECT_GT(eastern.atlas.chart(eastern.path.back()).centre.x(), sphere.centre.x());
-  EXPECT_EQ(asked, eastern.unreachable_skipped + 1);
+  const AtlasPlanResult refused = AtlasPlanner(config).plan(model, rule, std::nullopt, {}, other_half);
+  ASSERT_EQ(refused.status, PlanStatus::kTouch) << refused.message;
+  EXPECT_LT(best_side * (refused.atlas.chart(refused.path.back()).centre.x() - sphere.centre.x()), 0.0);
+  EXPECT_EQ(asked, refused.unreachable_skipped + 1);
   int marked = 0;
-  for (const Chart& chart : eastern.atlas.charts()) {
+  for (const Chart& chart : refused.atlas.charts()) {
     marked += chart.out_of_reach ? 1 : 0;
-    if (chart.out_of_reach) EXPECT_LE(chart.centre.x(), sphere.centre.x());
+    if (chart.out_of_reach) EXPECT_GE(best_side * (chart.centre.x() - sphere.centre.x()), 0.0);
   }
-  EXPECT_EQ(marked, eastern.unreachable_skipped);
+  EXPECT_EQ(marked, refused.unreachable_skipped);
+  EXPECT_GT(marked, 0);  // the best touch's chart came first and was refused
 }
 
 TEST(Atlas, CoverageDropsTheCandidatesInsideAnotherChartsBall) {

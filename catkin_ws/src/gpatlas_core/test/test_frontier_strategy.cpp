@@ -110,7 +110,7 @@ GpisModel settledModel(const Scene& scene, const std::vector<Vector3>& view) {
   const ViewTraining training = buildViewTraining(view, scene.camera, scene.table, config, 1);
   EXPECT_TRUE(training.ok) << training.message;
   GpisModel model;
-  const ViewUpdate update = applyView(model, training.points, TouchObservationConfig(), nullptr);
+  const ViewUpdate update = applyView(model, training.points, TouchObservationConfig());
   EXPECT_TRUE(update.ok) << update.fit.message;
   const ViewShadow shadow({CameraView{scene.camera, view}}, ViewShadow::Config());
   std::vector<Contact> contacts;

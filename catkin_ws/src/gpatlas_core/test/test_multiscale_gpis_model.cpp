@@ -1,5 +1,4 @@
 #include "gpatlas_core/model/multiscale_gpis_model.h"
-#include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/occupancy_grid.h"
 #include "gpatlas_core/model/surface_model_factory.h"
 
@@ -657,27 +656,6 @@ TEST(MultiscaleGpisModel, RestoreCloneAndFactory) {
   bad.model = "gpis";
   EXPECT_FALSE(replica->restore(bad).ok);
   EXPECT_EQ(replica->mean(q.col(0)), before);
-}
-
-TEST(MultiscaleGpisModel, TuneTunesTheCoarseLevelAndRefitsTheFineOne) {
-  MultiscaleGpisModel model = sphereModel();
-  const Eigen::VectorXd before = model.hyperparameters();
-  gpatlas_core::HyperparameterTunerConfig config;
-  config.max_iterations = 10;
-  const gpatlas_core::TuneReport report = model.tune(config);
-  std::cout << "tune: " << report.message << "\n";
-  ASSERT_TRUE(report.ok) << report.message;
-  const Eigen::VectorXd after = model.hyperparameters();
-  EXPECT_EQ(after.tail(3), before.tail(3)) << "the fine parameters are tuned at fit time only";
-  EXPECT_EQ(report.params_after.size(), after.size());
-  EXPECT_GE(report.log_likelihood_after, report.log_likelihood_before);
-  // The fine level was refitted against the new coarse mean: the surface stays where it was.
-  for (const Vector3d& d : randomDirections(20, 0.2, 41))
-    EXPECT_LT(std::abs(model.mean(kSphereCentre + kSphereRadius * d)) * model.scale(), 0.0005);
-  // A replica built from the state agrees exactly.
-  MultiscaleGpisModel replica;
-  ASSERT_TRUE(replica.restore(model.state()).ok);
-  EXPECT_EQ(replica.mean(kSphereCentre), model.mean(kSphereCentre));
 }
 
 TEST(MultiscaleGpisModel, ConcurrentQueriesAgreeWithSerialOnes) {

@@ -201,17 +201,21 @@ TEST(SurfaceEvidence, ASurprisingTouchSupportsLessAroundIt) {
   };
   std::mt19937 rng(9);
   std::uniform_real_distribution<double> u(-1.3, 1.3);
-  int shrunk = 0;
+  int shrunk = 0, supported = 0;
   const SurfaceEvidence unsurprised(model, max_distance, std::nullopt, 0.0, attempted, 0.01);
   for (int i = 0; i < 3000; ++i) {
     const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
     const double slack = bruteSlack(x);
-    if (slack >= 0.0) EXPECT_NEAR(evidence.supportSlack(x), slack, 1e-12);
+    if (slack >= 0.0) {
+      ++supported;
+      EXPECT_NEAR(evidence.supportSlack(x), slack, 1e-12);
+    }
     EXPECT_EQ(evidence.isUnsupported(x), slack < 0.0);
     if (evidence.isUnsupported(x) && !unsurprised.isUnsupported(x)) ++shrunk;
     EXPECT_FALSE(!evidence.isUnsupported(x) && unsurprised.isUnsupported(x));  // only ever less support
   }
   EXPECT_GT(shrunk, 20);
+  EXPECT_GT(supported, 20);  // the slack was compared
   EvidenceRule rule;
   rule.min_surprise_fraction = 0.0;
   EXPECT_FALSE(validate(rule).empty());

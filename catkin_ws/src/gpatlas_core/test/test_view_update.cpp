@@ -61,11 +61,11 @@ bool holds(const SurfaceModel& model, const TrainingPoint& point) {
 TEST(ApplyView, TheFittedZeroLevelSetLiesOnTheSeenSphere) {
   const AnalyticSphere sphere;
   const std::unique_ptr<SurfaceModel> model = makeSurfaceModel(SurfaceModelConfig());
-  const ViewUpdate update = applyView(*model, viewOfTheTop(sphere, 1), TouchObservationConfig(), nullptr);
+  const ViewUpdate update = applyView(*model, viewOfTheTop(sphere, 1), TouchObservationConfig());
   ASSERT_TRUE(update.ok) << update.fit.message;
   EXPECT_EQ(update.touch_points_kept, 0u);
   EXPECT_FALSE(update.retraction.any());
-  EXPECT_FALSE(update.tuning.has_value());
+  EXPECT_FALSE(update.calibration.has_value());
   int checked = 0;
   for (const Vector3& d : fibonacciSphere(60)) {
     if (d.z() < 0.5) continue;  // the part the camera saw
@@ -80,7 +80,7 @@ TEST(ApplyView, ANewViewReplacesTheOldOneAndKeepsTheTouches) {
   const TouchObservationConfig touch;
   const std::unique_ptr<SurfaceModel> model = makeSurfaceModel(SurfaceModelConfig());
   const std::vector<TrainingPoint> first_view = viewOfTheTop(sphere, 1);
-  ASSERT_TRUE(applyView(*model, first_view, touch, nullptr).ok);
+  ASSERT_TRUE(applyView(*model, first_view, touch).ok);
   const std::vector<Contact> contacts = contactsOnTheUnderside(sphere);
   const std::vector<Vector3> free_space{sphere.centre + Vector3(0.0, 0.0, -1.6 * sphere.radius)};
   ASSERT_TRUE(applyTouch(*model, contacts, free_space, touch).ok);
@@ -89,7 +89,7 @@ TEST(ApplyView, ANewViewReplacesTheOldOneAndKeepsTheTouches) {
     if (!fromView(p.source)) touch_points.push_back(p);
   ASSERT_FALSE(touch_points.empty());
 
-  const ViewUpdate update = applyView(*model, viewOfTheTop(sphere, 2), touch, nullptr);
+  const ViewUpdate update = applyView(*model, viewOfTheTop(sphere, 2), touch);
   ASSERT_TRUE(update.ok) << update.fit.message;
   EXPECT_EQ(update.touch_points_kept, touch_points.size());
   for (const TrainingPoint& p : touch_points) EXPECT_TRUE(holds(*model, p)) << p.position.transpose();
@@ -106,7 +106,7 @@ TEST(ApplyView, TheTouchesRetractTheNewViewsGuessesTheyContradict) {
   const AnalyticSphere sphere;
   const TouchObservationConfig touch;
   const std::unique_ptr<SurfaceModel> model = makeSurfaceModel(SurfaceModelConfig());
-  ASSERT_TRUE(applyView(*model, viewOfTheTop(sphere, 1), touch, nullptr).ok);
+  ASSERT_TRUE(applyView(*model, viewOfTheTop(sphere, 1), touch).ok);
   // The probe went through air beside the sphere...
   const Vector3 air = sphere.centre + Vector3(1.5 * sphere.radius, 0.0, 0.0);
   Contact contact;
@@ -124,35 +124,34 @@ TEST(ApplyView, TheTouchesRetractTheNewViewsGuessesTheyContradict) {
   ASSERT_TRUE(isOccludedInteriorGuess(guess));
   second_view.push_back(guess);
 
-  const ViewUpdate update = applyView(*model, second_view, touch, nullptr);
+  const ViewUpdate update = applyView(*model, second_view, touch);
   ASSERT_TRUE(update.ok) << update.fit.message;
   EXPECT_GE(update.retraction.dropped, 1u);
   EXPECT_FALSE(holds(*model, guess));
   EXPECT_GT(model->mean(air), 0.0);
 }
 
-TEST(ApplyView, TuningFollowsASuccessfulFitOnly) {
+TEST(ApplyView, CalibrationFollowsASuccessfulFitOnly) {
   const AnalyticSphere sphere;
   const TouchObservationConfig touch;
-  HyperparameterTunerConfig tuner;
-  tuner.max_iterations = 5;
+  const PositionCalibrationConfig calibration;
   SurfaceModelConfig global;
   global.type = GpisModel::kName;
   const std::unique_ptr<SurfaceModel> model = makeSurfaceModel(global);
-  // A small view: the global GPIS's tuning is O(n^3) per iteration.
-  const ViewUpdate tuned = applyView(*model, sphere.view(150, 0.3, 0.1, 1), touch, &tuner);
-  ASSERT_TRUE(tuned.ok) << tuned.fit.message;
-  ASSERT_TRUE(tuned.tuning.has_value());
-  EXPECT_GT(tuned.tuning->iterations, 0) << tuned.tuning->message;
+  const ViewUpdate calibrated = applyView(*model, sphere.view(150, 0.3, 0.1, 1), touch, &calibration);
+  ASSERT_TRUE(calibrated.ok) << calibrated.fit.message;
+  ASSERT_TRUE(calibrated.calibration.has_value());
 
-  // Three points cannot be fitted: the model stays as it was, and nothing is tuned.
+  // Three points cannot be fitted: the model stays as it was, and nothing is calibrated.
   const std::size_t held = model->observations().size();
+  const double scale = model->positionSdScale();
   const std::vector<TrainingPoint> too_few(sphere.view(3, 0.3, 0.1, 5));
-  const ViewUpdate failed = applyView(*model, too_few, touch, &tuner);
+  const ViewUpdate failed = applyView(*model, too_few, touch, &calibration);
   EXPECT_FALSE(failed.ok);
   EXPECT_FALSE(failed.fit.message.empty());
-  EXPECT_FALSE(failed.tuning.has_value());
+  EXPECT_FALSE(failed.calibration.has_value());
   EXPECT_EQ(model->observations().size(), held);
+  EXPECT_EQ(model->positionSdScale(), scale);
 }
 
 }  // namespace

@@ -1,7 +1,6 @@
 // Micro-benchmarks of the GPIS core. Run: make bench-core (or the binary in the devel space).
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/model/gpis_model.h"
-#include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/multiscale_gpis_model.h"
 
 #include <benchmark/benchmark.h>
@@ -88,20 +87,6 @@ void BM_PredictLoop(benchmark::State& state) {
     benchmark::DoNotOptimize(sum);
   }
   state.SetItemsProcessed(state.iterations() * q.cols());
-}
-
-void BM_Tune(benchmark::State& state) {
-  GpisModel base;
-  base.fit(viewOfSphere(static_cast<int>(state.range(0)), 1));
-  gpatlas_core::HyperparameterTuner::Config config;
-  config.max_iterations = 10;
-  const gpatlas_core::HyperparameterTuner tuner(config);
-  for (auto _ : state) {
-    state.PauseTiming();
-    GpisModel model(base);
-    state.ResumeTiming();
-    benchmark::DoNotOptimize(tuner.tune(model).ok);
-  }
 }
 
 // ---- MultiscaleGpisModel at the sizes it is for (a 2 mm voxel grid of a view: 10,000-40,000
@@ -230,6 +215,5 @@ BENCHMARK(BM_AddPoints)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmar
 BENCHMARK(BM_PredictMeanVariance)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PredictMean)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_PredictLoop)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Tune)->Arg(250)->Arg(500)->Arg(1000)->Arg(2000)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 BENCHMARK_MAIN();

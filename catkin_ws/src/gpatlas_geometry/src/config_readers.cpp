@@ -17,7 +17,6 @@ void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
   c->voxel_leaf_m = r.number("segmentation/voxel_leaf_m", c->voxel_leaf_m, 0.0, 1.0);
   c->remove_plane = r.flag("segmentation/remove_plane", c->remove_plane);
   c->plane_distance_m = r.number("segmentation/plane_distance_m", c->plane_distance_m, 1e-5, 1.0);
-  c->outlier_mean_k = r.integer("segmentation/outlier_mean_k", c->outlier_mean_k, 0, 1000);
   c->cluster_tolerance_m = r.number("segmentation/cluster_tolerance_m", c->cluster_tolerance_m, 1e-5, 1.0);
   c->cluster_min_points = static_cast<std::size_t>(
       r.integer("segmentation/cluster_min_points", static_cast<int>(c->cluster_min_points), 1, 100000000));

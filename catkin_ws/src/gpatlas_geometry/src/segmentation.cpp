@@ -5,7 +5,6 @@
 #include <pcl/ModelCoefficients.h>
 #include <pcl/filters/crop_box.h>
 #include <pcl/filters/extract_indices.h>
-#include <pcl/filters/statistical_outlier_removal.h>
 #include <pcl/filters/voxel_grid.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -32,7 +31,6 @@ std::string validate(const ObjectSegmenter::Config& c) {
   if (!(c.plane_max_tilt_deg > 0.0 && c.plane_max_tilt_deg <= 90.0)) return "plane_max_tilt_deg must be in (0, 90]";
   if (!(c.plane_max_fraction_below >= 0.0 && c.plane_max_fraction_below <= 1.0))
     return "plane_max_fraction_below must be in [0, 1]";
-  if (c.outlier_mean_k < 0 || !(c.outlier_stddev_multiplier > 0.0)) return "outlier removal settings must be positive";
   if (!(c.cluster_tolerance_m > 0.0)) return "cluster_tolerance_m must be > 0";
   if (c.cluster_min_points < 1 || c.cluster_max_points < c.cluster_min_points)
     return "need 1 <= cluster_min_points <= cluster_max_points";
@@ -179,17 +177,6 @@ Cloud::Ptr removeSupportPlane(const Cloud::Ptr& downsampled, const ObjectSegment
   return sides.above;
 }
 
-Cloud::Ptr removeOutliers(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) {
-  if (!(c.outlier_mean_k > 0 && cloud->size() > static_cast<std::size_t>(c.outlier_mean_k))) return cloud;
-  Cloud::Ptr filtered(new Cloud);
-  pcl::StatisticalOutlierRemoval<pcl::PointXYZ> sor;
-  sor.setMeanK(c.outlier_mean_k);
-  sor.setStddevMulThresh(c.outlier_stddev_multiplier);
-  sor.setInputCloud(cloud);
-  sor.filter(*filtered);
-  return filtered;
-}
-
 std::vector<pcl::PointIndices> euclideanClusters(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) {
   pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
   tree->setInputCloud(cloud);
@@ -235,14 +222,12 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
     result.message = "nothing left above the support plane";
     return result;
   }
-  const Cloud::Ptr filtered = removeOutliers(without_plane, c);
-  result.stats.after_outliers = filtered->size();
 
-  const std::vector<pcl::PointIndices> clusters = euclideanClusters(filtered, c);
+  const std::vector<pcl::PointIndices> clusters = euclideanClusters(without_plane, c);
   result.stats.clusters = clusters.size();
   if (clusters.empty()) {
     std::ostringstream msg;
-    msg << "no object cluster: " << filtered->size() << " points left after filtering, none in a cluster of at least "
+    msg << "no object cluster: " << without_plane->size() << " points left, none in a cluster of at least "
         << c.cluster_min_points << " points within " << c.cluster_tolerance_m << " m";
     result.message = msg.str();
     return result;
@@ -250,7 +235,7 @@ SegmentationResult ObjectSegmenter::segment(const std::vector<Vector3>& world_po
   result.clusters.resize(clusters.size());
   for (std::size_t i = 0; i < clusters.size(); ++i)
     for (int idx : clusters[i].indices) {
-      const auto& p = filtered->points[static_cast<std::size_t>(idx)];
+      const auto& p = without_plane->points[static_cast<std::size_t>(idx)];
       result.clusters[i].emplace_back(p.x, p.y, p.z);
     }
   const std::size_t best = chooseObject(result.clusters, c.object_hint_m);

@@ -165,7 +165,6 @@ TEST(ObjectSegmenter, ATableWhoseSideIsSeenIsStillTheSupport) {
       pts.push_back(kSphereCentre + kSphereRadius * Vector3(r * std::cos(phi), r * std::sin(phi), z));
     }
   ObjectSegmenter::Config config;
-  config.outlier_mean_k = 0;
   ASSERT_GT(static_cast<double>(side), config.plane_max_fraction_below * static_cast<double>(pts.size()));
   const auto result = ObjectSegmenter(config).segment(pts);
   ASSERT_TRUE(result.ok) << result.message;

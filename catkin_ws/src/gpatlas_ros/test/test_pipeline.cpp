@@ -514,8 +514,13 @@ void addAContactWithItsNormal(const PipelineOutputs& outputs, gpatlas_msgs::Trai
   EXPECT_EQ(with_normal.response.num_added, 4u);
   updated = outputs.trainingSince(before_add);
   ASSERT_TRUE(updated) << "no training set after add_observations";
+  std::size_t surface_points = 0;
   for (std::size_t i = 0; i < updated->points.size(); ++i)
-    if (updated->labels[i] == 0) EXPECT_LT(sphereError(updated->points[i]), 0.01) << "a surface point off the sphere";
+    if (updated->labels[i] == 0) {
+      ++surface_points;
+      EXPECT_LT(sphereError(updated->points[i]), 0.01) << "a surface point off the sphere";
+    }
+  EXPECT_GT(surface_points, 0u);
   const Eigen::Vector3d expected_inside = side_contact - 0.003 * side_normal;
   bool found_inside = false;
   for (std::size_t i = 0; i < updated->points.size(); ++i)

@@ -9,7 +9,6 @@ void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
   readFrames(r, &c->frames);
   c->seed = readSeed(r, c->seed);
   readSurfaceModel(r, &c->model);
-  readTuning(r, &c->tuning);
   readPositionCalibration(r, &c->position_calibration);
   readViewTraining(r, &c->view);
   c->use_support_plane = readUseSupportPlane(r);

@@ -74,7 +74,7 @@ class BenchSmokeTest(unittest.TestCase):
         for r in rows:
             self.assertEqual(r["object"], "sphere")
             actions = int(r["actions"])
-            self.assertTrue(0 <= actions <= 4, r)
+            self.assertTrue(0 < actions <= 4, r)  # the sphere is not done with its view alone
             self.assertIn(r["stop_reason"], ("converged", "max_actions", "consecutive_failures",
                                              "planner_cap_reached"), r)
             self.assertGreaterEqual(int(r["n_train"]), 200)
@@ -101,8 +101,7 @@ class BenchSmokeTest(unittest.TestCase):
                 self.assertEqual(share > 0.0, int(r["final_unreachable_candidates"]) > 0, r)
             else:
                 self.assertEqual(share, 0.0, r)
-            if actions > 0:
-                self.assertTrue(0.0 <= float(r["approach_plan_ms_median"]) < 1000.0, r)
+            self.assertTrue(0.0 <= float(r["approach_plan_ms_median"]) < 1000.0, r)
             # Where the last touches found the surface, measured from their targets: on this
             # sphere the model predicts it within its radius, and a run without a contact has none.
             error = float(r["recent_target_error_m"])

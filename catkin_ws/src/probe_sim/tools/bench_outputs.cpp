@@ -13,6 +13,9 @@
 
 namespace gpatlas_bench {
 
+using gpatlas_core::median;
+using gpatlas_core::quantile;
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -32,14 +35,6 @@ std::string csvField(const std::string& text) {
   return quoted + "\"";
 }
 
-
-// The nearest-rank quantile q of the values (0 when there are none).
-double quantile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(q * static_cast<double>(v.size())));
-  return v[std::min(v.size() - 1, rank > 0 ? rank - 1 : 0)];
-}
 
 // "median m / p95 p / max x ms (n)", or "none".
 std::string distribution(const std::vector<double>& v) {

@@ -72,7 +72,7 @@ void printSegmentation(const GroundTruth& gt, int seed, const gpatlas_geometry::
   std::cout << "  [" << gt.name << " seed " << seed << "] segmentation: " << segmented.message << "; "
             << n.input << " points, " << n.after_crop << " in the crop box, " << n.after_voxel << " after the voxel grid, "
             << n.plane_inliers << " on the " << (segmented.plane_found ? "support plane" : "plane (not a support)")
-            << ", " << n.after_outliers << " after outlier removal; kept from " << kept.min().transpose() << " to "
+            << ", " << n.after_plane << " above it; kept from " << kept.min().transpose() << " to "
             << kept.max().transpose() << " (the truth: " << box.min().transpose() << " to " << box.max().transpose()
             << ")" << std::endl;
 }
@@ -122,8 +122,7 @@ bool fitInitialModel(const ObjectView& view, const probe_sim::PipelineConfig& pi
     return false;
   }
   const gpatlas_core::ViewUpdate fit = gpatlas_core::applyView(
-      **model, view.training.points, pipeline.touch, pipeline.tuning.enabled ? &pipeline.tuning.tuner : nullptr,
-      &pipeline.position_calibration);
+      **model, view.training.points, pipeline.touch, &pipeline.position_calibration);
   if (!fit.ok) *why = "initial fit failed: " + fit.fit.message;
   if (fit.calibration && !fit.calibration->ok)
     std::cerr << "gpatlas_bench: position sd not calibrated: " << fit.calibration->message << std::endl;
@@ -309,8 +308,9 @@ void recordLoop(const gpatlas_core::ExplorationResult& result, const gpatlas_cor
     plan_ms.push_back(rec.plan_ms);
     update_ms.push_back(rec.update_ms);
   }
-  r.plan_ms_median = median(plan_ms);
-  r.update_ms_median = median(update_ms);
+  // 0, not NaN, for a run without an action: runs.csv's columns are numbers.
+  r.plan_ms_median = plan_ms.empty() ? 0.0 : gpatlas_core::median(plan_ms);
+  r.update_ms_median = update_ms.empty() ? 0.0 : gpatlas_core::median(update_ms);
   r.approach_plan_ms_median = gpatlas_core::approachPlanMsMedian(result);
   r.recent_target_error_m = gpatlas_core::recentTargetError(result);
   r.unreachable_touches = result.unreachable_touches;
@@ -484,13 +484,6 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   r.history.insert(r.history.end(), result.records.begin(), result.records.end());
   r.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return r;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t m = v.size() / 2;
-  return v.size() % 2 ? v[m] : 0.5 * (v[m - 1] + v[m]);
 }
 
 std::string measuredAs(const RunResult& r, std::size_t i) {

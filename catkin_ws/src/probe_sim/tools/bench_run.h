@@ -80,8 +80,6 @@ RunResult runIdentity(const GroundTruth& gt, const std::string& strategy_name, i
 RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int seed, const Options& o,
                  std::mutex& print_mutex);
 
-double median(std::vector<double> v);
-
 // How history entry `i` of `r` was measured: "final" (the last, as the run's runs.csv row),
 // "curve" (--curve-every, at the curve's cheaper quality) or "" (not measured).
 std::string measuredAs(const RunResult& r, std::size_t i);

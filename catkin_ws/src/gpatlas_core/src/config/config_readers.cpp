@@ -82,12 +82,6 @@ void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c) {
   }
 }
 
-void readTuning(ParamReader& r, TuningConfig* c) {
-  c->enabled = r.flag("tuning/enabled", c->enabled);
-  c->tuner.max_iterations = r.integer("tuning/max_iterations", c->tuner.max_iterations, 1, 10000);
-  c->tuner.tune_noise = r.flag("tuning/tune_noise", c->tuner.tune_noise);
-}
-
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   c->max_surface_points = r.integer("view/max_surface_points", c->max_surface_points, 4, 100000);
   c->vision_noise_sigma = r.number("view/vision_noise_sigma", c->vision_noise_sigma, 0.0, 10.0);

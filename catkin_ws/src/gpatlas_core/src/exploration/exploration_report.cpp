@@ -93,17 +93,14 @@ double approachPlanMsMedian(const ExplorationResult& result) {
   std::vector<double> times;
   for (const ExplorationRecord& r : result.records)
     if (r.approach_ms > 0.0) times.push_back(r.approach_compute_ms);
-  if (times.empty()) return std::nan("");
-  std::sort(times.begin(), times.end());
-  const std::size_t m = times.size() / 2;
-  return times.size() % 2 ? times[m] : 0.5 * (times[m - 1] + times[m]);
+  return median(times);
 }
 
 double recentTargetError(const ExplorationResult& result, std::size_t touches) {
   std::vector<double> recent;
   for (auto r = result.records.rbegin(); r != result.records.rend() && recent.size() < touches; ++r)
     if (std::isfinite(r->target_error_m)) recent.push_back(r->target_error_m);
-  return finiteMedian(recent);
+  return median(recent);
 }
 
 std::string runStatus(const ExplorationResult& result, bool has_surface, const std::string& surface_message) {

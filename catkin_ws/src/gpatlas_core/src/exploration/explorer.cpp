@@ -53,16 +53,6 @@ std::vector<double> passedTargetErrors(const Touch& touch, const std::vector<Con
   return errors;
 }
 
-double finiteMedian(std::vector<double> values) {
-  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return !std::isfinite(v); }), values.end());
-  if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const std::size_t middle = values.size() / 2;
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(middle), values.end());
-  const double upper = values[middle];
-  if (values.size() % 2 == 1) return upper;
-  return 0.5 * (upper + *std::max_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(middle)));
-}
-
 std::string validate(const Explorer::Config& config) {
   std::ostringstream problem;
   if (const std::string rule = validate(StopRule{config.v_max, config.max_position_sd_m}); !rule.empty())
@@ -305,7 +295,7 @@ class ExplorationRun {
     attempted_.attempted_targets.insert(attempted_.attempted_targets.end(), aimed.begin(), aimed.end());
     attempted_.attempted_target_errors_m.insert(attempted_.attempted_target_errors_m.end(), passed.begin(),
                                                 passed.end());
-    record.target_error_m = finiteMedian(targetErrors(aimed, probed.contacts));
+    record.target_error_m = median(targetErrors(aimed, probed.contacts));
     if (touch.explores_unknown && probed.contacts.empty()) ++attempted_.empty_unknown_pokes;
     for (const PadPress& pad : probed.pads)
       if (std::isfinite(pad.size_m)) footprint_radius_m_ = std::max(footprint_radius_m_, 0.5 * pad.size_m);

@@ -1,8 +1,6 @@
 #include "gpatlas_core/model/multiscale_gpis_model.h"
 
 #include "gpatlas_core/common/bounded_parameter.h"
-
-#include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/kernel.h"
 #include "gpatlas_core/model/observation_screen.h"
 
@@ -1361,38 +1359,6 @@ FitReport MultiscaleGpisModel::setHyperparameters(const Eigen::VectorXd& log_par
   const Vector3 centroid = impl_->coarse.centroid();
   report = trial.build(&centroid, impl_->coarse.scale(), false);
   if (report.ok) *impl_ = std::move(trial);
-  return report;
-}
-
-TuneReport MultiscaleGpisModel::tune(const HyperparameterTunerConfig& config) {
-  const auto start = std::chrono::steady_clock::now();
-  TuneReport report;
-  if (!impl_->fitted) {
-    report.message = "no fitted model to tune";
-    return report;
-  }
-  report.params_before = hyperparameters().array().exp();
-  report.params_after = report.params_before;
-  GpisModel coarse(impl_->coarse);
-  const TuneReport coarse_report = coarse.tune(config);
-  report.log_likelihood_before = coarse_report.log_likelihood_before;
-  report.log_likelihood_after = coarse_report.log_likelihood_after;
-  report.noise_scale_before = coarse_report.noise_scale_before;
-  report.noise_scale_after = coarse_report.noise_scale_after;
-  report.iterations = coarse_report.iterations;
-  if (!coarse_report.ok) {
-    report.message = "coarse GPIS: " + coarse_report.message;
-    report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    return report;
-  }
-  Eigen::VectorXd params = hyperparameters();
-  params.head(params.size() - 3) = coarse.hyperparameters();
-  const FitReport refit = setHyperparameters(params);
-  report.ok = refit.ok;
-  report.message = refit.ok ? "coarse GPIS: " + coarse_report.message + "; fine level refitted"
-                            : "refit with the tuned coarse hyperparameters failed (" + refit.message + "); previous kept";
-  report.params_after = hyperparameters().array().exp();
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return report;
 }
 

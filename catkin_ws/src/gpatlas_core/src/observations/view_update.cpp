@@ -3,8 +3,7 @@
 namespace gpatlas_core {
 
 ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view_training,
-                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning,
-                     const PositionCalibrationConfig* calibration) {
+                     const TouchObservationConfig& touch, const PositionCalibrationConfig* calibration) {
   ViewUpdate update;
   std::vector<TrainingPoint> data = view_training;
   std::vector<Vector3> touch_evidence;
@@ -20,7 +19,6 @@ ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view
         retractContradictedInterior(&data, touch_evidence, touch.guess_min_depth_fraction * model.scale());
   update.fit = model.fit(data);
   update.ok = update.fit.ok;
-  if (update.ok && tuning) update.tuning = model.tune(*tuning);
   if (update.ok && calibration && calibration->folds > 0) {
     update.calibration = calibratePositionSd(model, *calibration);
     // A scale fitted to the previous view says nothing about this one: uncalibrated (vague)

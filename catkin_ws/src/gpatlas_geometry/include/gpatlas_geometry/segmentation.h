@@ -19,7 +19,6 @@ struct SegmentationStats {
   std::size_t after_voxel{0};
   std::size_t plane_inliers{0};
   std::size_t after_plane{0};
-  std::size_t after_outliers{0};
   std::size_t clusters{0};
   std::size_t object{0};
 };
@@ -39,8 +38,9 @@ struct SegmentationResult {
 };
 
 // Extracts the object from a scene cloud in the world frame (z up): crop box, voxel grid,
-// RANSAC removal of the (near-horizontal) support plane, statistical outlier removal and
-// Euclidean clustering; keeps the largest cluster, or the one closest to a hint point.
+// RANSAC removal of the (near-horizontal) support plane and Euclidean clustering, in which
+// isolated speckle falls out (cluster_min_points); keeps the largest cluster, or the one closest
+// to a hint point.
 // Implemented with PCL in its own library (gpatlas_segmentation).
 class ObjectSegmenter {
  public:
@@ -58,12 +58,6 @@ class ObjectSegmenter {
     std::size_t plane_min_inliers{200};
     // The plane is a support only if at most this fraction of the points lies below it.
     double plane_max_fraction_below{0.05};
-    // Statistical outlier removal (PCL's), 0: off. It judges a point by its mean distance to
-    // k neighbours, so it also removes thin parts seen edge-on (a rim, a handle), whose points
-    // form a line; isolated speckle already falls out of the clustering (cluster_min_points).
-    // For sensors that leave veils at depth edges.
-    int outlier_mean_k{0};
-    double outlier_stddev_multiplier{2.5};
     // Single-linkage distance: larger than the gaps that occlusion and grazing rays leave
     // between parts of one object (a funnel's spout and its rim), smaller than the space
     // between two objects.

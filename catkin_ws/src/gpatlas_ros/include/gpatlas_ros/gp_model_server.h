@@ -2,7 +2,6 @@
 
 #include <gpatlas_core/exploration/explorer.h>
 #include <gpatlas_core/exploration/observation_history.h>
-#include <gpatlas_core/model/hyperparameter_tuner.h>
 #include <gpatlas_core/model/surface_model_factory.h>
 #include <gpatlas_core/observations/view_shadow.h>
 #include <gpatlas_geometry/surface_mesher.h>
@@ -111,7 +110,6 @@ class GpModelServer {
   gpatlas_core::ViewTrainingConfig view_config_;
   gpatlas_core::TouchObservationConfig touch_config_;
   std::uint64_t seed_{0};
-  gpatlas_core::TuningConfig tuning_;
   gpatlas_core::PositionCalibrationConfig position_calibration_;
   double display_v_max_{0.1};
   gpatlas_core::SurfaceModelConfig model_config_;

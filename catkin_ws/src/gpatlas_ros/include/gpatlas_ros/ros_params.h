@@ -32,7 +32,6 @@ using gpatlas_geometry::readSegmenter;
 using gpatlas_core::readStrategy;
 using gpatlas_core::readStrategyChoice;
 using gpatlas_core::readTouchObservations;
-using gpatlas_core::readTuning;
 using gpatlas_core::readPositionCalibration;
 using gpatlas_core::readUseSupportPlane;
 using gpatlas_core::readViewTraining;

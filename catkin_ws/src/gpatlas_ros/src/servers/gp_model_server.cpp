@@ -31,7 +31,6 @@ GpModelServer::GpModelServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   model_config_ = preamble.model;
   readViewTraining(reader, &view_config_);
   readTouchObservations(reader, &touch_config_);
-  readTuning(reader, &tuning_);
   readPositionCalibration(reader, &position_calibration_);
   display_v_max_ = readVMax(reader);
   readMesher(reader, &mesher_config_);
@@ -200,8 +199,7 @@ bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   // The same fit as the bench's: a new view replaces the previous one, the touches stay.
   const ros::WallTime start = ros::WallTime::now();
   const gpatlas_core::ViewUpdate update =
-      gpatlas_core::applyView(*model_, view.points, touch_config_, tuning_.enabled ? &tuning_.tuner : nullptr,
-                              &position_calibration_);
+      gpatlas_core::applyView(*model_, view.points, touch_config_, &position_calibration_);
   if (!update.ok) {
     ROS_ERROR_STREAM("gp_model: fit failed, previous model kept: " << update.fit.message);
     return false;
@@ -215,10 +213,6 @@ bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
   }
   for (const auto& w : update.fit.warnings) ROS_WARN_STREAM("gp_model: " << w);
   for (const auto& note : update.fit.notes) ROS_DEBUG_STREAM("gp_model: " << note);
-  std::string tuned;
-  if (update.tuning)
-    tuned = update.tuning->ok ? ", tuned: " + update.tuning->message
-                              : ", tuning kept the previous hyperparameters: " + update.tuning->message;
   std::string retracted;
   if (update.retraction.any())
     retracted = "; the touches contradicted " + std::to_string(update.retraction.shrunk + update.retraction.dropped) +
@@ -227,7 +221,7 @@ bool GpModelServer::fitCloud(const sensor_msgs::PointCloud2::ConstPtr& msg) {
     ROS_WARN_STREAM("gp_model: position sd not calibrated: " << update.calibration->message);
   const std::string calibrated = update.calibration && update.calibration->ok ? "; " + update.calibration->message : "";
   ROS_INFO_STREAM("gp_model: view: " << view.message << retracted << "; " << update.fit.message << " in "
-                                     << (ros::WallTime::now() - start).toSec() << " s" << tuned << calibrated);
+                                     << (ros::WallTime::now() - start).toSec() << " s" << calibrated);
   publishModel();
   return true;
 }

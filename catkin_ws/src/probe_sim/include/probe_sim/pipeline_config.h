@@ -13,7 +13,6 @@ struct PipelineConfig {
   gpatlas_core::PipelineFrames frames;
   std::uint64_t seed{0};
   gpatlas_core::SurfaceModelConfig model;
-  gpatlas_core::TuningConfig tuning;
   gpatlas_core::PositionCalibrationConfig position_calibration;
   gpatlas_core::ViewTrainingConfig view;
   bool use_support_plane{true};

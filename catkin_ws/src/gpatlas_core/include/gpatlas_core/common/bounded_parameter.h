@@ -7,7 +7,7 @@ namespace gpatlas_core {
 
 // A (log-)parameter kept inside [lo, hi] by a smooth change of variables,
 // theta = lo + (hi - lo) * sigmoid(z), so that an unconstrained solver (Ceres' GradientProblem)
-// never leaves the box. The tuners of the surface models share it.
+// never leaves the box. The multiscale model's tuning of its local GPs uses it.
 struct BoundedParameter {
   double lo;
   double hi;

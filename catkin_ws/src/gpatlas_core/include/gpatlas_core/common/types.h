@@ -28,8 +28,12 @@ const char* toString(PointSource source);
 std::vector<Vector3> fibonacciSphere(int count);
 
 // The q-quantile of `values` as one of them: the element of rank min(n - 1, floor(q n)) (q 0.5:
-// the median, the upper middle of an even count); NaN when there is none.
+// the upper middle of an even count); NaN when there is none. Position calibration's scale is a
+// quantile of held-out ratios, so it takes one of them.
 double quantile(std::vector<double> values, double q);
+// The median of the finite values, the mean of the two middle ones for an even count; NaN when
+// there is none.
+double median(std::vector<double> values);
 
 // Training label of a point: on the surface (f = 0), outside (f = +1) or inside (f = -1).
 enum class PointLabel : std::int8_t { kInside = -1, kSurface = 0, kOutside = 1 };

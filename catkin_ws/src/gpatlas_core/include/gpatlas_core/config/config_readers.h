@@ -8,7 +8,6 @@
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/model/surface_model_factory.h"
-#include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/occupancy_grid.h"
 #include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/config/parameters.h"
@@ -36,12 +35,6 @@ struct CollisionMapConfig {
   OccupancyGridBuilder::Config grid;
 };
 
-// The tuning step after each new view.
-struct TuningConfig {
-  bool enabled{false};
-  HyperparameterTuner::Config tuner;
-};
-
 // The exploration strategy and its plugins.
 struct StrategyChoice {
   std::string name{"atlas_poke"};
@@ -55,7 +48,6 @@ void readGpis(ParamReader& r, GpisModel::Config* c);
 // model/type and the settings of every built-in model.
 void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c);
 void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c);
-void readTuning(ParamReader& r, TuningConfig* c);
 void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c);
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
 // Whether the table found by segmentation is used (the view's below-support points, no guesses

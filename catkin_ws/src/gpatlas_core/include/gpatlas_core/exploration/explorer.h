@@ -110,8 +110,6 @@ std::vector<double> targetErrors(const std::vector<Vector3>& targets, const std:
 // wrong. NaN where the probe stopped before it (something unpredicted was in the way, the target
 // is still unreached) or found nothing: EvidenceState::attempted_target_errors_m.
 std::vector<double> passedTargetErrors(const Touch& touch, const std::vector<Contact>& contacts);
-// The median of the finite values (NaN when there is none).
-double finiteMedian(std::vector<double> values);
 
 // The three steps of Algorithm 2 that the loop delegates. In one process they act on a
 // GpisModel (ModelTouchPlanner, ModelTouchUpdater); in ROS they are the next_touch, probe and

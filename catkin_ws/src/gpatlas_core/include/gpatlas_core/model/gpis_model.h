@@ -170,16 +170,9 @@ class GpisModel : public SurfaceModel {
   std::vector<std::string> hyperparameterNames() const override;
   Eigen::VectorXd hyperparameters() const override;
   FitReport setHyperparameters(const Eigen::VectorXd& log_params) override;
-  // HyperparameterTuner on this model.
-  TuneReport tune(const HyperparameterTunerConfig& config) override;
   FitReport restore(const SurfaceModelState& state) override;
   // Log marginal likelihood of the current fit (normalised frame).
   double logMarginalLikelihood() const;
-  // Log marginal likelihood for trial hyperparameters on the current training set and its
-  // gradient with respect to [kernel log-params..., log noise_scale]; NaN if not factorisable or
-  // if the model holds slope observations (their covariances' parameter gradients are not written).
-  double logMarginalLikelihood(const Eigen::VectorXd& kernel_log_params, double log_noise_scale,
-                               Eigen::VectorXd* gradient) const;
   // Factor turning a raw posterior variance into the reported units.
   double varianceUnitFactor() const override;
 

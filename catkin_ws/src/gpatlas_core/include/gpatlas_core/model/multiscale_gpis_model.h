@@ -139,9 +139,6 @@ class MultiscaleGpisModel : public SurfaceModel {
   std::vector<std::string> hyperparameterNames() const override;
   Eigen::VectorXd hyperparameters() const override;
   FitReport setHyperparameters(const Eigen::VectorXd& log_params) override;
-  // HyperparameterTuner on the coarse model, then a refit of the fine level (whose own
-  // parameters are tuned at every full fit, see MultiscaleGpisConfig::tune_on_fit).
-  TuneReport tune(const HyperparameterTunerConfig& config) override;
   FitReport restore(const SurfaceModelState& state) override;
 
   const Config& config() const;

@@ -57,8 +57,6 @@ struct TuneReport {
   double seconds{0.0};
 };
 
-struct HyperparameterTunerConfig;
-
 // Everything a replica needs to rebuild a model exactly (gpatlas_msgs/TrainingSet carries it
 // between nodelets): which model, its hyperparameters, its normalisation frame and its data.
 struct SurfaceModelState {
@@ -148,8 +146,6 @@ class SurfaceModel {
   virtual Eigen::VectorXd hyperparameters() const = 0;
   // Sets them and refits; on failure the previous ones stay and the report says why.
   virtual FitReport setHyperparameters(const Eigen::VectorXd& log_params) = 0;
-  // Maximises the model's marginal likelihood (Ceres) within the config's bounds and refits.
-  virtual TuneReport tune(const HyperparameterTunerConfig& config) = 0;
 
   // Distance (metres) from a point to the nearest surface observation or `new_surface_points`:
   // an upper bound on its distance to the surface (TrainingPoint::surface_distance_m).

@@ -4,7 +4,6 @@
 // model nodelet and gpatlas_bench both build their model from a view with applyView.
 
 #include "gpatlas_core/common/types.h"
-#include "gpatlas_core/model/hyperparameter_tuner.h"
 #include "gpatlas_core/model/position_uncertainty.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/observations/occluded_interior.h"
@@ -18,17 +17,14 @@ namespace gpatlas_core {
 
 // What fitting a model to a new view did.
 struct ViewUpdate {
-  // False when the fit failed: the model is then unchanged, and not tuned.
+  // False when the fit failed: the model is then unchanged, and not calibrated.
   bool ok{false};
   FitReport fit;
   // The touches' observations the model held (every one not from a view), kept in the fit.
   std::size_t touch_points_kept{0};
   // The new view's occluded-interior guesses that those touches contradicted.
   InteriorRetraction retraction;
-  // Set when tuning was asked for and the fit succeeded; its `ok` is false when the model kept
-  // its hyperparameters.
-  std::optional<TuneReport> tuning;
-  // Set when calibration was asked for and the fit succeeded (after the tuning).
+  // Set when calibration was asked for and the fit succeeded.
   std::optional<PositionCalibration> calibration;
 };
 
@@ -37,12 +33,10 @@ struct ViewUpdate {
 // retract the new view's occluded-interior guesses they contradict
 // (TouchObservationConfig::guess_min_depth_fraction of the model's scale), as each touch did to
 // the previous view's: a new view must not bring back a cavity's lid a touch took away. A model
-// not fitted yet takes the view alone. Then, with `tuning` (null: none), the hyperparameters are
-// tuned on the fitted model, and with `calibration` (null or 0 folds: none) its position sd is
+// not fitted yet takes the view alone. Then, with `calibration` (null or 0 folds: none), its position sd is
 // calibrated (calibratePositionSd; a failed calibration sets the scale to 1), with the tests of the
 // touches made so far; each later touch refits it (addTouchCalibration).
 ViewUpdate applyView(SurfaceModel& model, const std::vector<TrainingPoint>& view_training,
-                     const TouchObservationConfig& touch, const HyperparameterTunerConfig* tuning,
-                     const PositionCalibrationConfig* calibration = nullptr);
+                     const TouchObservationConfig& touch, const PositionCalibrationConfig* calibration = nullptr);
 
 }  // namespace gpatlas_core
