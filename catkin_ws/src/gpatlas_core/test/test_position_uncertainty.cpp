@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <random>
+#include <vector>
 
 namespace {
 
@@ -419,3 +421,19 @@ TEST(StopRule, MaxVarianceTouchesNearTheSurfacesLargestExcess) {
 }
 
 }  // namespace
+
+// quantile() and median() against the sorted values by hand: NaN has no rank and is left out,
+// an infinity ranks last.
+TEST(Quantile, TakesTheRankedElementLeavesNaNOutAndRanksInfinityLast) {
+  const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+  const std::vector<double> values = {4.0, nan, 1.0, inf, 3.0, 2.0, nan};  // ranked: 1 2 3 4 inf
+  EXPECT_EQ(gpatlas_core::quantile(values, 0.0), 1.0);
+  EXPECT_EQ(gpatlas_core::quantile(values, 0.5), 3.0);   // rank floor(0.5 * 5) = 2
+  EXPECT_EQ(gpatlas_core::quantile(values, 0.79), 4.0);  // rank 3
+  EXPECT_EQ(gpatlas_core::quantile(values, 1.0), inf);
+  EXPECT_TRUE(std::isnan(gpatlas_core::quantile({nan, nan}, 0.5)));
+  EXPECT_TRUE(std::isnan(gpatlas_core::quantile({}, 0.5)));
+  // The median takes the finite values only: 1 2 3 4.
+  EXPECT_EQ(gpatlas_core::median(values), 2.5);
+  EXPECT_EQ(gpatlas_core::median({5.0, 1.0, 3.0}), 3.0);
+}

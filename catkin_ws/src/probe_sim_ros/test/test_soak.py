@@ -127,18 +127,18 @@ class SoakTest(unittest.TestCase):
         self.assertLessEqual(rss[-1], memory_growth * max(early),
                              "the manager's memory ended at %.0f MB, above %.2fx its peak of %.0f MB over the "
                              "first %d actions" % (rss[-1], memory_growth, max(early), early_actions))
-        # The median time per action over the first tenth (at least 5 actions, at most 10) against
+        # The median time per action over the first quarter (at least 5 actions, at most 10) against
         # the same number of actions ending at action 40 (later the planner's search grows as the
         # places left untouched get fewer: a V_max below the noise keeps it searching). Medians: a
         # single slow action (a page fault, the neighbour's burst) is not growth.
         span = max(5, min(10, len(history) // 4))
         end = min(40, len(history))
+        self.assertGreaterEqual(len(history), 2 * span, "too few actions (%d) to compare times" % len(history))
         start_ms = statistics.median(h["action_ms"] for h in history[:span])
         end_ms = statistics.median(h["action_ms"] for h in history[end - span:end])
         time_growth = rospy.get_param("~max_time_growth", 3.0)
         print("  median time per action, actions 1-%d: %.0f ms, %d-%d: %.0f ms (%.2fx, at most %.2fx)"
               % (span, start_ms, end - span + 1, end, end_ms, end_ms / max(start_ms, 1e-9), time_growth))
-        self.assertGreaterEqual(len(history), 2 * span)
         self.assertLessEqual(end_ms, time_growth * start_ms, "median time per action grew from %.0f ms (actions 1-%d) "
                              "to %.0f ms (actions %d-%d), above %.2fx" % (start_ms, span, end_ms, end - span + 1, end,
                                                                           time_growth))

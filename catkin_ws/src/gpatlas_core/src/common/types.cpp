@@ -42,6 +42,8 @@ std::size_t approachTarget(const Touch& touch) {
 std::size_t retreatTarget(const Touch& touch) { return touch.points.empty() ? 0 : touch.points.size() - 1; }
 
 double quantile(std::vector<double> values, double q) {
+  // NaN has no rank (nth_element's order would be undefined); infinities have theirs.
+  values.erase(std::remove_if(values.begin(), values.end(), [](double v) { return std::isnan(v); }), values.end());
   if (values.empty()) return std::numeric_limits<double>::quiet_NaN();
   const std::size_t k = std::min(values.size() - 1, static_cast<std::size_t>(q * static_cast<double>(values.size())));
   std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());

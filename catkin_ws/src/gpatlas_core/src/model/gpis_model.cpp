@@ -811,7 +811,6 @@ FitReport GpisModel::restore(const SurfaceModelState& state) {
 }
 
 const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
-double GpisModel::noiseScale() const { return impl_->noise_scale; }
 double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
 
 BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,

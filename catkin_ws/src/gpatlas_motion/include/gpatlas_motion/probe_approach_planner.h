@@ -52,7 +52,8 @@ class ProbeApproachPlanner {
                     const Eigen::Vector3d& touch_normal) const;
 
   // The cheap part of plan(): whether the approach pose in front of the touch and the probing
-  // segment from there are clear (empty), or why not. Needs a map, like plan().
+  // segment from there are clear (empty), or why not. Needs a map, like plan(), and refuses a
+  // touch outside it (nothing is known there).
   std::string checkApproachPose(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
 
   // Whether the probe, pointing along `direction` with its tip at `tip`, is clear of every

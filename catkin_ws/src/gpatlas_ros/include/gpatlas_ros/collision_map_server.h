@@ -57,8 +57,8 @@ struct SceneCloud {
 // The scene (collision_map/scene_*): every camera cloud on `points` goes into a
 // gpatlas_motion::SceneMap, cast from the cloud's frame (sensor_frame for a cloud already in
 // world_frame), and its occupied voxels join the map as obstacles, except near the explored
-// object's points and contacts (its model governs there) and where the probe went. A cloud
-// after the map of a training set re-merges that map with the scene. The scene outlasts a reset
+// object's points and contacts (its model governs there) and where the probe went. A cloud that
+// changed the scene (SceneMap::revision) re-merges the current map with it. The scene outlasts a reset
 // of the model: the table the camera saw is unchanged (selecting another object resets the
 // model, and the object explored before stays in the scene as an obstacle).
 class CollisionMapServer {

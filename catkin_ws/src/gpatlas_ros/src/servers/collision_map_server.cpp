@@ -437,7 +437,7 @@ void CollisionMapServer::install(const gpatlas_msgs::TrainingSet& msg, const std
     map_ = map;
     if (hasMapSubscribers()) requestProbabilities();
     status_message_ = summary;
-    // At most one line a second: a streaming camera re-merges the map with every cloud.
+    // At most one line a second: a streaming camera's clouds may re-merge the map at its rate.
     ROS_INFO_STREAM_THROTTLE(1.0, "collision_map: " << summary << " in " << (ros::WallTime::now() - started).toSec()
                                                     << " s");
   } else {

@@ -27,8 +27,8 @@ const char* toString(PointSource source);
 // isotropic (the GP's outside pseudo-points, the view hull's support planes).
 std::vector<Vector3> fibonacciSphere(int count);
 
-// The q-quantile of `values` as one of them: the element of rank min(n - 1, floor(q n)) (q 0.5:
-// the upper middle of an even count); NaN when there is none. Position calibration's scale is a
+// The q-quantile of `values` but NaNs as one of them: the element of rank min(n - 1, floor(q n))
+// (q 0.5: the upper middle of an even count); NaN when there is none. Position calibration's scale is a
 // quantile of held-out ratios, so it takes one of them.
 double quantile(std::vector<double> values, double q);
 // The median of the finite values, the mean of the two middle ones for an even count; NaN when
@@ -46,7 +46,7 @@ struct TrainingPoint {
   double noise_sigma{0.0};
   PointSource source{PointSource::kVision};
   // When finite, replaces the label's target (-1/0/+1): plain GP regression on other data,
-  // e.g. samples drawn from a known kernel in the tuner's tests.
+  // e.g. samples drawn from a known kernel in the model's tests.
   double target_override{std::numeric_limits<double>::quiet_NaN()};
   // For an outside (inside) point: the distance (metres) to the nearest known surface point.
   // The model then uses min(1, distance / scale) (its negative) as the target, in its current

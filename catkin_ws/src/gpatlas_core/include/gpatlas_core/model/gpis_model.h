@@ -159,10 +159,8 @@ class GpisModel : public SurfaceModel {
   Eigen::MatrixXd varianceAfter(const Points3& x_world,
                                 const std::vector<std::vector<TrainingPoint>>& touches) const override;
 
-
   // Hyperparameters.
   const Kernel& kernel() const;
-  double noiseScale() const;
   // Sets kernel log-parameters and the noise scale, then refits; on failure restores the
   // previous ones and returns the failing report.
   FitReport setHyperparameters(const Eigen::VectorXd& kernel_log_params, double noise_scale);

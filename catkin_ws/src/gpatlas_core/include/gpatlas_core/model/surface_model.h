@@ -51,8 +51,6 @@ struct TuneReport {
   double log_likelihood_after{0.0};
   Eigen::VectorXd params_before;  // in natural units, in the order of hyperparameterNames()
   Eigen::VectorXd params_after;
-  double noise_scale_before{1.0};
-  double noise_scale_after{1.0};
   int iterations{0};
   double seconds{0.0};
 };
