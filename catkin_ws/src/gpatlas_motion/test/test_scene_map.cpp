@@ -232,6 +232,7 @@ TEST(SceneMap, TheExploredObjectIsLeftToItsModelAndTheProbesFreeSpaceWins) {
 TEST(SceneMap, TheUnknownBehindANeighbourIsAnObstacleAndBehindTheObjectItIsNot) {
   const Scene s = scene();
   SceneMapConfig config = sceneConfig();
+  config.shadow_depth_m = 0.1;
   SceneMap map(config, kVoxel);
   map.insertCloud(s.all(), kSensor);
   const std::vector<Vector3d> obstacles = map.obstacles(s.object, {});
