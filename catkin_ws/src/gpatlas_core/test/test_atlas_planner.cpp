@@ -1,6 +1,7 @@
 #include "gpatlas_core/model/gpis_model.h"
 #include "gpatlas_core/model/multiscale_gpis_model.h"
 #include "gpatlas_core/planning/atlas_planner.h"
+#include "gpatlas_core/planning/baseline_strategies.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/model/surface_projection.h"
@@ -452,6 +453,43 @@ TEST(AtlasPlanner, TheBaselinesPassOverTheChoicesTheTouchFilterRefuses) {
     EXPECT_EQ(second.unreachable_candidates, 1) << name;
     EXPECT_EQ(asked, 2) << name;
   }
+}
+
+// max_variance's ranked pokes are what its plan chooses among: the first is its touch, each is
+// past the stop rule no less than the next (by an independent variance query), and a filter's
+// refusals and chosen direction carry over as in plan().
+TEST(AtlasPlanner, MaxVariancesRankedPokesAreItsPlansChoicesInOrder) {
+  const AnalyticSphere sphere;
+  const GpisModel model = capModel(sphere);
+  StrategyConfig config;
+  config.seed = 4;
+  const MaxVarianceStrategy max_variance(config.sampler, config.evidence, config.seed);
+  PlanRequest request;
+  request.v_max = kVMax;
+  const PlanResult plan = max_variance.plan(model, request);
+  ASSERT_EQ(plan.status, PlanStatus::kTouch) << plan.message;
+  const std::vector<Touch> ranked = max_variance.rankedPokes(model, request, 5);
+  ASSERT_EQ(ranked.size(), 5u);
+  EXPECT_EQ(ranked.front().points.front(), plan.touch.points.front());
+  for (std::size_t k = 0; k + 1 < ranked.size(); ++k)
+    EXPECT_GE(model.variance(ranked[k].points.front()), model.variance(ranked[k + 1].points.front()) * (1.0 - 1e-9))
+        << k;
+
+  const Vector3 chosen_direction = Vector3(0.3, 0.0, 1.0).normalized();
+  request.reachable = [&](const Vector3& point, const Vector3&) {
+    return point == ranked.front().points.front() ? std::nullopt : std::optional<Vector3>(chosen_direction);
+  };
+  const std::vector<Touch> filtered = max_variance.rankedPokes(model, request, 2);
+  ASSERT_EQ(filtered.size(), 2u);
+  EXPECT_EQ(filtered[0].points.front(), ranked[1].points.front());
+  EXPECT_EQ(filtered[1].points.front(), ranked[2].points.front());
+  EXPECT_LT((filtered[0].normals.front() - chosen_direction).norm(), 1e-12);
+  EXPECT_EQ(max_variance.plan(model, request).touch.points.front(), filtered[0].points.front());
+
+  // Where plan() would not touch (here an error: V_max must be positive), nothing is ranked.
+  request.v_max = 0.0;
+  EXPECT_EQ(max_variance.plan(model, request).status, PlanStatus::kError);
+  EXPECT_TRUE(max_variance.rankedPokes(model, request, 5).empty());
 }
 
 // ---- reuse between plans and the work budget (AtlasMemory, Config::max_charts, max_queries)

@@ -1,9 +1,7 @@
 #include "bench_oracle.h"
 
-#include <gpatlas_core/common/seeds.h>
-#include <gpatlas_core/observations/surface_evidence.h>
+#include <gpatlas_core/planning/baseline_strategies.h>
 #include <gpatlas_core/observations/touch_training.h>
-#include <gpatlas_core/planning/surface_sampler.h>
 
 #include <algorithm>
 #include <chrono>
@@ -33,38 +31,6 @@ std::optional<Vector3> approachDirection(const gpatlas_core::PlanRequest& reques
                                          const Vector3& normal) {
   if (!request.reachable) return normal;
   return request.reachable(point, normal);
-}
-
-// The points max_variance would poke, in its order (MaxVarianceStrategy: its sample, seed and
-// ranking; its first reachable one is its choice), the first `count` its test accepts of the 32
-// it would try.
-std::vector<OracleCandidate> maxVarianceCandidates(const gpatlas_core::SurfaceModel& model,
-                                                   const gpatlas_core::PlanRequest& request,
-                                                   const gpatlas_core::StrategyConfig& config, int count) {
-  gpatlas_core::SurfaceSampler::Config sampler = config.sampler;
-  sampler.seed = gpatlas_core::mixSeeds(gpatlas_core::mixSeeds(config.seed, config.sampler.seed), request.seed);
-  const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler(sampler).sample(model);
-  if (!sample.ok) return {};
-  const gpatlas_core::SurfaceEvidence evidence(model, config.evidence, request.evidence_state);
-  const gpatlas_core::StopRule rule = request.stopRule();
-  std::vector<std::pair<double, std::size_t>> needing;
-  for (std::size_t i = 0; i < sample.points.size(); ++i) {
-    const bool needs = evidence.isUnsupported(sample.points[i], sample.normals[i]) ||
-                       rule.exceeded(model, sample.variances[i], sample.slopes[i]);
-    if (!needs || evidence.measuredNear(sample.points[i], config.evidence.retouch_radius_m)) continue;
-    const double excess = rule.excess(model, sample.variances[i], sample.slopes[i]);
-    needing.emplace_back(std::isnan(excess) ? std::numeric_limits<double>::infinity() : excess, i);
-  }
-  std::stable_sort(needing.begin(), needing.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  constexpr std::size_t kMaxReachabilityChecks = 32;  // baseline_strategies.cpp's
-  std::vector<OracleCandidate> out;
-  for (std::size_t k = 0; k < needing.size() && k < kMaxReachabilityChecks && static_cast<int>(out.size()) < count; ++k) {
-    const std::size_t i = needing[k].second;
-    if (const auto direction = approachDirection(request, sample.points[i], sample.normals[i]))
-      out.push_back({pokeAt(sample.points[i], *direction, sample.variances[i]),
-                     "max_variance " + std::to_string(out.size() + 1)});
-  }
-  return out;
 }
 
 }  // namespace
@@ -105,8 +71,13 @@ std::vector<OracleCandidate> OracleStrategy::candidates(const gpatlas_core::Surf
       if (const auto direction = approachDirection(request, chart.centre, chart.normal))
         add({pokeAt(chart.centre, *direction, chart.variance), "scored"});
     }
-  for (OracleCandidate& c : maxVarianceCandidates(model, request, config_.strategy, config_.max_variance_candidates))
-    add(std::move(c));
+  const gpatlas_core::MaxVarianceStrategy max_variance(config_.strategy.sampler, config_.strategy.evidence,
+                                                      config_.strategy.seed);
+  int rank = 0;
+  for (gpatlas_core::Touch& touch : max_variance.rankedPokes(model, request, config_.max_variance_candidates)) {
+    touch.strategy = kOracleStrategy;
+    add({std::move(touch), "max_variance " + std::to_string(++rank)});
+  }
   return out;
 }
 

@@ -137,6 +137,23 @@ PlanResult planOnSample(const SurfaceModel& model, const PlanRequest& request, c
   return noted(pokeFirstReachable(needy, rank(needy, request, seed), request, name));
 }
 
+// The points that need a touch (one does), furthest past the stop rule first: under V_max alone,
+// by variance.
+std::vector<std::size_t> rankByExcess(const NeedySample& needy, const SurfaceModel& model, const StopRule& rule) {
+  const SurfaceSample& sample = needy.sample;
+  std::vector<std::pair<double, std::size_t>> needing;
+  for (std::size_t i = 0; i < sample.points.size(); ++i)
+    if (needy.needsTouch(i, model, rule)) {
+      // A point whose variance is unknown counts as the most uncertain.
+      const double excess = rule.excess(model, sample.variances[i], sample.slopes[i]);
+      needing.emplace_back(std::isnan(excess) ? std::numeric_limits<double>::infinity() : excess, i);
+    }
+  std::stable_sort(needing.begin(), needing.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::size_t> ranked;
+  for (const auto& [excess, i] : needing) ranked.push_back(i);
+  return ranked;
+}
+
 }  // namespace
 
 RandomStrategy::RandomStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed)
@@ -160,23 +177,26 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, Evidence
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
                       [&model](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
-                        // The points that need a touch (one does), furthest past the stop rule
-                        // first: under V_max alone, by variance.
-                        const StopRule rule = request.stopRule();
-                        const SurfaceSample& sample = needy.sample;
-                        std::vector<std::pair<double, std::size_t>> needing;
-                        for (std::size_t i = 0; i < sample.points.size(); ++i)
-                          if (needy.needsTouch(i, model, rule)) {
-                            // A point whose variance is unknown counts as the most uncertain.
-                            const double excess = rule.excess(model, sample.variances[i], sample.slopes[i]);
-                            needing.emplace_back(std::isnan(excess) ? std::numeric_limits<double>::infinity() : excess, i);
-                          }
-                        std::stable_sort(needing.begin(), needing.end(),
-                                         [](const auto& a, const auto& b) { return a.first > b.first; });
-                        std::vector<std::size_t> ranked;
-                        for (const auto& [excess, i] : needing) ranked.push_back(i);
-                        return ranked;
+                        return rankByExcess(needy, model, request.stopRule());
                       });
+}
+
+std::vector<Touch> MaxVarianceStrategy::rankedPokes(const SurfaceModel& model, const PlanRequest& request,
+                                                    int count) const {
+  NeedySample needy;
+  if (sampleOrFinish(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), &needy))
+    return {};
+  const std::vector<std::size_t> ranked = rankByExcess(needy, model, request.stopRule());
+  std::vector<Touch> pokes;
+  for (std::size_t k = 0; k < ranked.size() && k < kMaxReachabilityChecks && static_cast<int>(pokes.size()) < count;
+       ++k) {
+    const std::size_t i = ranked[k];
+    const std::optional<Vector3> direction =
+        request.reachable ? request.reachable(needy.sample.points[i], needy.sample.normals[i])
+                          : std::optional<Vector3>(needy.sample.normals[i]);
+    if (direction) pokes.push_back(pokeAt(needy.sample, i, name(), direction).touch);
+  }
+  return pokes;
 }
 
 }  // namespace gpatlas_core

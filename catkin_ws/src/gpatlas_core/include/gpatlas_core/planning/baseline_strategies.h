@@ -37,6 +37,10 @@ class MaxVarianceStrategy : public ExplorationStrategy {
   MaxVarianceStrategy(SurfaceSampler::Config config, EvidenceRule evidence, std::uint64_t seed);
   std::string name() const override { return "max_variance"; }
   PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;
+  // The pokes plan() would choose among, in its order: of the first 32 ranked points, the first
+  // `count` that PlanRequest::reachable accepts, along the direction it chose (along the normal
+  // without a test). Empty when plan() would not touch (converged or an error).
+  std::vector<Touch> rankedPokes(const SurfaceModel& model, const PlanRequest& request, int count) const;
 
  private:
   SurfaceSampler::Config config_;
