@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <iostream>
 #include <numeric>
 
@@ -703,46 +704,37 @@ class EquatorApproacher : public TouchApproacher {
   const AnalyticSphere& sphere_;
 };
 
-// Passes the touches to the sphere's prober and reports one bump on every approach, as a probe
-// judged against a scene would.
-class RecordingProber : public Prober {
+// Passes the touches to the sphere's prober and records them; `amend` then changes each result
+// (given the touch's number, from 1) as a probe driver's own report would.
+class AmendingProber : public Prober {
  public:
-  explicit RecordingProber(const AnalyticSphere& sphere) : inner_(sphere) {}
+  using Amend = std::function<void(int touch_number, ProbeResult*)>;
+  AmendingProber(const AnalyticSphere& sphere, Amend amend) : inner_(sphere), amend_(std::move(amend)) {}
   ProbeResult probe(const Touch& touch) override {
     executed.push_back(touch);
     ProbeResult result = inner_.probe(touch);
-    result.approach_collisions = 1;
+    amend_(static_cast<int>(executed.size()), &result);
     return result;
   }
   std::vector<Touch> executed;
 
  private:
   AnalyticSphereProber inner_;
+  Amend amend_;
 };
 
-}  // namespace
+// One bump on every approach, as a probe judged against a scene would report.
+void bumpEveryApproach(int, ProbeResult* result) { result->approach_collisions = 1; }
 
-namespace {
-
-// Reports a 2 cm pad with every touch after the first, as a tactile sensor's driver would.
-class PadProber : public Prober {
- public:
-  explicit PadProber(const AnalyticSphere& sphere) : inner_(sphere) {}
-  ProbeResult probe(const Touch& touch) override {
-    ProbeResult result = inner_.probe(touch);
-    if (++touches_ > 1 && result.success) {
-      PadPress pad;
-      pad.centre = result.contacts.front().position;
-      pad.size_m = 0.02;
-      result.pads.push_back(pad);
-    }
-    return result;
+// A 2 cm pad with every touch after the first, as a tactile sensor's driver would report.
+void padAfterTheFirst(int touch_number, ProbeResult* result) {
+  if (touch_number > 1 && result->success) {
+    PadPress pad;
+    pad.centre = result->contacts.front().position;
+    pad.size_m = 0.02;
+    result->pads.push_back(pad);
   }
-
- private:
-  AnalyticSphereProber inner_;
-  int touches_ = 0;
-};
+}
 
 // atlas_poke, with every request it was given.
 class RequestRecorder : public ExplorationStrategy {
@@ -766,7 +758,7 @@ class RequestRecorder : public ExplorationStrategy {
 TEST(Explorer, ThePadsFootprintReachesThePlanAfterThePadReportsIt) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 3);
-  PadProber prober(sphere);
+  AmendingProber prober(sphere, padAfterTheFirst);
   StrategyConfig strategy_config;
   strategy_config.evidence = sparseViewEvidence();
   RequestRecorder strategy(strategy_config);
@@ -792,7 +784,7 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 2);
   EquatorApproacher approacher(sphere);
-  RecordingProber prober(sphere);
+  AmendingProber prober(sphere, bumpEveryApproach);
   StrategyConfig strategy_config;
   strategy_config.seed = 2;
   // Without the surprise rule Algorithm 1's atlas reaches under the sphere within these actions;
@@ -847,7 +839,7 @@ TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 2);
   ReachableAboveTheBottom approacher(sphere);
-  RecordingProber prober(sphere);
+  AmendingProber prober(sphere, bumpEveryApproach);
   StrategyConfig strategy_config;
   strategy_config.seed = 2;
   strategy_config.evidence = sparseViewEvidence();
@@ -881,7 +873,7 @@ TEST(Explorer, AnApproacherThatRefusesEverythingEndsTheRunWithoutATouch) {
   } nowhere;
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 4);
-  RecordingProber prober(sphere);
+  AmendingProber prober(sphere, bumpEveryApproach);
   const auto strategy = makeStrategy("atlas_poke");
   Explorer::Config config;
   config.max_approach_attempts = 3;
