@@ -736,6 +736,16 @@ void padAfterTheFirst(int touch_number, ProbeResult* result) {
   }
 }
 
+// The loop under the paper's rule (on an uncalibrated model), seed 2, through `approacher`.
+ExplorationResult exploreWithApproacher(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
+                                        TouchApproacher& approacher, int max_actions) {
+  Explorer::Config config;
+  config.max_position_sd_m = 0.0;
+  config.max_actions = max_actions;
+  config.seed = 2;
+  return Explorer(config).run(model, strategy, prober, TouchObservationConfig(), {}, {}, &approacher);
+}
+
 // atlas_poke, with every request it was given.
 class RequestRecorder : public ExplorationStrategy {
  public:
@@ -794,12 +804,7 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const EvidenceRule& evidence = strategy_config.evidence;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
-  Explorer::Config config;
-  config.max_position_sd_m = 0.0;  // the paper's rule, on an uncalibrated model
-  config.max_actions = 25;
-  config.seed = 2;
-  const ExplorationResult result =
-      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), {}, {}, &approacher);
+  const ExplorationResult result = exploreWithApproacher(model, *strategy, prober, approacher, 25);
   ASSERT_FALSE(prober.executed.empty()) << result.stop_reason;
   ASSERT_FALSE(approacher.refused.empty()) << "the strategy never aimed under the sphere";
   int refusals = 0, updates = 0;
@@ -810,7 +815,7 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   EXPECT_EQ(result.unreachable_touches, static_cast<int>(approacher.refused.size()));
   // The refusals before the plan that ended the run belong to no action's record.
   EXPECT_LE(refusals, result.unreachable_touches);
-  EXPECT_GE(refusals, result.unreachable_touches - config.max_approach_attempts);
+  EXPECT_GE(refusals, result.unreachable_touches - Explorer::Config().max_approach_attempts);
   EXPECT_EQ(approacher.model_changes, updates);
   EXPECT_EQ(result.approach_collisions, result.actions);
   for (const Touch& touch : prober.executed) {
@@ -847,12 +852,7 @@ TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   // converged with none left to count, so this test of the count keeps Algorithm 1's.
   strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
-  Explorer::Config config;
-  config.max_position_sd_m = 0.0;  // the paper's rule, on an uncalibrated model
-  config.max_actions = 40;
-  config.seed = 2;
-  const ExplorationResult result =
-      Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), {}, {}, &approacher);
+  const ExplorationResult result = exploreWithApproacher(model, *strategy, prober, approacher, 40);
   ASSERT_TRUE(result.converged) << result.stop_reason;
   EXPECT_GT(result.final_unreachable_candidates, 0);
   EXPECT_GE(result.unreachable_candidates, result.final_unreachable_candidates);
