@@ -6,9 +6,6 @@ using gpatlas_core::ParamReader;
 
 void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
   c->resolution_m = r.number("mesh/resolution_m", c->resolution_m, 1e-4, 1.0);
-  c->margin_fraction_of_data_radius =
-      r.number("mesh/margin_fraction_of_data_radius", c->margin_fraction_of_data_radius, 0.0, 100.0);
-  c->coarse_stride = r.integer("mesh/coarse_stride", c->coarse_stride, 1, 64);
 }
 
 void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {

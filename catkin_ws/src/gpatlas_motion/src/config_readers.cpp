@@ -10,8 +10,6 @@ void readApproach(gpatlas_core::ParamReader& r, ApproachConfig* c) {
   c->clearance_m = r.number("approach/clearance_m", c->clearance_m, 0.0, 0.5);
   c->max_planning_time_s = r.number("approach/max_planning_time_s", c->max_planning_time_s, 1e-3, 60.0);
   c->max_tilt_deg = r.number("approach/max_tilt_deg", c->max_tilt_deg, 0.0, 89.0);
-  c->tilt_step_deg = r.number("approach/tilt_step_deg", c->tilt_step_deg, 0.1, 89.0);
-  c->tilt_azimuths = r.integer("approach/tilt_azimuths", c->tilt_azimuths, 1, 64);
   c->probe.tip_radius_m = r.number("approach/tip_radius_m", c->probe.tip_radius_m, 1e-4, 0.5);
   c->probe.shaft_radius_m = r.number("approach/shaft_radius_m", c->probe.shaft_radius_m, 1e-4, 0.5);
   c->probe.shaft_length_m = r.number("approach/shaft_length_m", c->probe.shaft_length_m, 1e-4, 2.0);

@@ -33,11 +33,8 @@ void readGpis(ParamReader& r, GpisModel::Config* c) {
   }
   // Their ordering (data < renormalise <= domain) and the kernel's range are checked by the model.
   c->data_radius = r.number("gpis/data_radius", c->data_radius, 1e-3, 100.0);
-  c->renormalise_radius = r.number("gpis/renormalise_radius", c->renormalise_radius, 1e-3, 100.0);
   c->domain_radius = r.number("gpis/domain_radius", c->domain_radius, 1e-3, 100.0);
-  c->num_outside_points = r.integer("gpis/num_outside_points", c->num_outside_points, 0, 10000);
   c->inside_point_at_centroid = r.flag("gpis/inside_point_at_centroid", c->inside_point_at_centroid);
-  c->inside_point_min_clearance = r.number("gpis/inside_point_min_clearance", c->inside_point_min_clearance, 0.0, 100.0);
   // The model checks what no single parameter can (kernel name, radii ordering, the kernel's
   // valid range): every reader falls back to the same defaults, so replicas stay exact.
   try {
@@ -63,8 +60,6 @@ void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c) {
   const MultiscaleGpisConfig defaults;
   c->coarse_max_surface_points = static_cast<std::size_t>(r.integer(
       "multiscale/coarse_max_surface_points", static_cast<int>(c->coarse_max_surface_points), 4, 100000));
-  c->coarse_max_other_points = static_cast<std::size_t>(
-      r.integer("multiscale/coarse_max_other_points", static_cast<int>(c->coarse_max_other_points), 0, 100000));
   c->coarse_probe_voxel_m = r.number("multiscale/coarse_probe_voxel_m", c->coarse_probe_voxel_m, 1e-4, 1.0);
   c->cell_size_m = r.number("multiscale/cell_size_m", c->cell_size_m, 1e-3, 1.0);
   c->overlap_m = r.number("multiscale/overlap_m", c->overlap_m, 0.0, 0.5);
@@ -88,33 +83,15 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   ViewFreeSpaceConfig& free = c->free_space;
   free.max_rays = r.integer("view/free_space/max_rays", free.max_rays, 0, 100000);
   free.samples_per_ray = r.integer("view/free_space/samples_per_ray", free.samples_per_ray, 0, 10);
-  free.min_offset_fraction = r.number("view/free_space/min_offset_fraction", free.min_offset_fraction, 1e-6, 10.0);
-  free.max_offset_fraction = r.number("view/free_space/max_offset_fraction", free.max_offset_fraction, 1e-6, 10.0);
-  if (free.max_offset_fraction < free.min_offset_fraction) {
-    r.invalid("view/free_space/max_offset_fraction", "must be >= min_offset_fraction (both defaults used)");
-    free.min_offset_fraction = ViewFreeSpaceConfig().min_offset_fraction;
-    free.max_offset_fraction = ViewFreeSpaceConfig().max_offset_fraction;
-  }
-  free.noise_sigma = r.number("view/free_space/noise_sigma", free.noise_sigma, 0.0, 10.0);
   NearSurfaceFreeSpaceConfig& near = c->near_surface_free_space;
   near.offset_m = r.number("view/near_surface_free_space/offset_m", near.offset_m, 1e-5, 0.1);
   near.max_points = r.integer("view/near_surface_free_space/max_points", near.max_points, 0, 1000000);
-  near.noise_sigma = r.number("view/near_surface_free_space/noise_sigma", near.noise_sigma, 1e-6, 10.0);
   OccludedInteriorConfig& inside = c->occluded_interior;
   inside.max_points = r.integer("view/occluded_interior/max_points", inside.max_points, 0, 100000);
-  inside.grid_cells = r.integer("view/occluded_interior/grid_cells", inside.grid_cells, 2, 100);
-  inside.margin_fraction = r.number("view/occluded_interior/margin_fraction", inside.margin_fraction, 0.0, 1.0);
-  inside.noise_sigma = r.number("view/occluded_interior/noise_sigma", inside.noise_sigma, 1e-3, 100.0);
   SupportFreeSpaceConfig& beside = c->support_free_space;
-  beside.spacing_m = r.number("view/support_free_space/spacing_m", beside.spacing_m, 1e-4, 0.1);
-  beside.min_distance_m = r.number("view/support_free_space/min_distance_m", beside.min_distance_m, 0.0, 0.1);
   beside.max_distance_m = r.number("view/support_free_space/max_distance_m", beside.max_distance_m, 1e-4, 0.5);
-  beside.max_bound_gap_m = r.number("view/support_free_space/max_bound_gap_m", beside.max_bound_gap_m, 0.0, 0.1);
   beside.max_points = r.integer("view/support_free_space/max_points", beside.max_points, 0, 1000000);
-  beside.noise_sigma = r.number("view/support_free_space/noise_sigma", beside.noise_sigma, 1e-6, 10.0);
   BelowSupportConfig& below = c->below_support;
-  below.grid_cells = r.integer("view/below_support/grid_cells", below.grid_cells, 1, 100);
-  below.noise_sigma = r.number("view/below_support/noise_sigma", below.noise_sigma, 0.0, 10.0);
 }
 
 bool readUseSupportPlane(ParamReader& r) { return r.flag("use_support_plane", true); }
@@ -146,12 +123,10 @@ void readEvidence(ParamReader& r, EvidenceRule* c) {
   c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
   c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
   c->surprise_distance_m = r.number("evidence/surprise_distance_m", c->surprise_distance_m, 0.0, 1.0);
-  c->min_surprise_fraction = r.number("evidence/min_surprise_fraction", c->min_surprise_fraction, 1e-3, 1.0);
 }
 
 void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
   c->folds = r.integer("position_calibration/folds", c->folds, 0, 6);
-  c->cut_fraction = r.number("position_calibration/cut_fraction", c->cut_fraction, 1e-3, 0.999);
   c->coverage = r.number("position_calibration/coverage", c->coverage, 0.01, 0.999);
   c->touches = r.flag("position_calibration/touches", c->touches);
 }
@@ -189,8 +164,6 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   AtlasReuseConfig& reuse = c->atlas.reuse;
   reuse.enabled = r.flag("planner/reuse/enabled", reuse.enabled);
   reuse.near_new_data_m = r.number("planner/reuse/near_new_data_m", reuse.near_new_data_m, 0.0, 1.0);
-  reuse.max_centre_shift_m = r.number("planner/reuse/max_centre_shift_m", reuse.max_centre_shift_m, 0.0, 1.0);
-  reuse.max_normal_change_rad = r.number("planner/reuse/max_normal_change_rad", reuse.max_normal_change_rad, 0.0, M_PI);
   c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
   const std::string selection = r.text("planner/selection", toString(c->atlas.selection));
   if (!parseSelection(selection, &c->atlas.selection))
@@ -203,8 +176,6 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   FrontierStrategy::Config& frontier = c->frontier;
   frontier.cell_m = r.number("frontier/cell_m", frontier.cell_m, 1e-3, 0.1);
   frontier.reach_m = r.number("frontier/reach_m", frontier.reach_m, 1e-3, 1.0);
-  frontier.min_gap_m = r.number("frontier/min_gap_m", frontier.min_gap_m, 0.0, 1.0);
-  frontier.support_clearance_m = r.number("frontier/support_clearance_m", frontier.support_clearance_m, 0.0, 1.0);
   frontier.max_empty_pokes = r.integer("frontier/max_empty_pokes", frontier.max_empty_pokes, 0, 1000);
   c->seed = readSeed(r, c->seed);
 }

@@ -2,8 +2,9 @@
 
 // The one reader of each Config. The YAML (config/pipeline.yaml) mirrors them: each reader reads
 // its Config's section, and a test checks that the file sets every name the readers read and
-// nothing else. The nodelets read them from the ROS parameter server, gpatlas_bench from the
-// file itself.
+// nothing else. A Config field no reader reads is a constant of its component's design (tests
+// vary it), not a setting: a grid's cell count, a sampling fraction, a guess's noise. The
+// nodelets read them from the ROS parameter server, gpatlas_bench from the file itself.
 
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/exploration/explorer.h"
