@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 
@@ -228,9 +229,33 @@ std::vector<TriangleMesh> loadNeighbours(const SimulationSettings& s, const Tria
 }
 
 std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& s, const TriangleMesh& object) {
-  auto scene = std::make_shared<Scene>(object, sceneConfig(s));
-  for (const TriangleMesh& neighbour : loadNeighbours(s, object)) scene->addObstacleMesh(neighbour);
+  std::vector<TriangleMesh> objects{object};
+  for (TriangleMesh& neighbour : loadNeighbours(s, object)) objects.push_back(std::move(neighbour));
+  return makeSimulatedScene(s, objects, 0);
+}
+
+std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& s, const std::vector<TriangleMesh>& objects,
+                                          std::size_t explored) {
+  if (explored >= objects.size())
+    throw std::invalid_argument("object " + std::to_string(explored) + " of " + std::to_string(objects.size()));
+  auto scene = std::make_shared<Scene>(objects[explored], sceneConfig(s));
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    if (i != explored) scene->addObstacleMesh(objects[i]);
   return scene;
+}
+
+std::size_t nearestObject(const std::vector<TriangleMesh>& objects, const Eigen::Vector3d& point, double* distance_m) {
+  std::size_t nearest = 0;
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    const double d = objects[i].boundingBox().exteriorDistance(point);
+    if (d < best) {
+      best = d;
+      nearest = i;
+    }
+  }
+  if (distance_m) *distance_m = best;
+  return nearest;
 }
 
 SceneConfig sceneConfig(const SimulationSettings& s) {

@@ -123,6 +123,29 @@ TEST(Neighbours, ThatOverlapTheObjectOrEachOtherOrLeaveTheTableAreRefused) {
   EXPECT_EQ(probe_sim::loadNeighbours(s, probe_sim::loadSimulatedObject(s)).size(), 1u);
 }
 
+// A user's pick of a neighbour: nearestObject finds it from a point beside it, and the scene made
+// with it explored has it as the object (ground truth, contacts) and the former object as an obstacle.
+TEST(Neighbours, APickedNeighbourBecomesTheExploredObject) {
+  const SimulationSettings s = settingsWith({"procedural:box@0,0.2"});
+  std::vector<probe_sim::TriangleMesh> objects{probe_sim::loadSimulatedObject(s)};
+  objects.push_back(probe_sim::loadNeighbours(s, objects.front()).front());
+  double distance = -1.0;
+  EXPECT_EQ(probe_sim::nearestObject(objects, Eigen::Vector3d(0.7, 0.2, 0.11), &distance), 1u);
+  EXPECT_NEAR(distance, 0.01, 1e-9);  // 1 cm above the neighbour's 0.1 m top
+  EXPECT_EQ(probe_sim::nearestObject(objects, Eigen::Vector3d(0.7, 0.0, 0.05), &distance), 0u);
+  EXPECT_EQ(distance, 0.0);  // inside the object's box
+
+  const auto scene = probe_sim::makeSimulatedScene(s, objects, 1);
+  EXPECT_TRUE(scene->objectMesh().boundingBox().isApprox(objects[1].boundingBox()));
+  probe_sim::RayProbe::Config ray;
+  ray.start_offset_m = 0.05;
+  probe_sim::RayProbe probe(ray);
+  // Down onto each top: the neighbour is the object now, the former object an obstacle.
+  EXPECT_EQ(probe.stroke(*scene, Eigen::Vector3d(0.7, 0.2, 0.1), Eigen::Vector3d::UnitZ()).touched, SurfaceKind::kObject);
+  EXPECT_EQ(probe.stroke(*scene, Eigen::Vector3d(0.7, 0.0, 0.1), Eigen::Vector3d::UnitZ()).touched, SurfaceKind::kObstacle);
+  EXPECT_THROW(probe_sim::makeSimulatedScene(s, objects, 2), std::invalid_argument);
+}
+
 TEST(Neighbours, TheCameraSeesThemAndTheProbeAndItsBodyHitThem) {
   const SimulationSettings s = settingsWith({"procedural:box@0,0.2"});
   const auto scene = probe_sim::makeSimulatedScene(s, probe_sim::loadSimulatedObject(s));

@@ -127,6 +127,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   probe_service_ = pnh_.advertiseService("probe", &SimulationServer::onProbe, this);
   capture_service_ = pnh_.advertiseService("capture", &SimulationServer::onCapture, this);
   ground_truth_service_ = pnh_.advertiseService("ground_truth", &SimulationServer::onGroundTruth, this);
+  select_object_service_ = pnh_.advertiseService("select_object", &SimulationServer::onSelectObject, this);
   cloud_publisher_ = pnh_.advertise<sensor_msgs::PointCloud2>("points", 1);
   marker_publisher_ = pnh_.advertise<visualization_msgs::Marker>("object_marker", 1, true);
   patch_publisher_ = pnh_.advertise<visualization_msgs::MarkerArray>("patch", 1, true);
@@ -263,7 +264,9 @@ std::string SimulationServer::loadObject() {
                     << " m across; is ~simulation/object_scale right (0.001 for a mesh in mm)?");
   }
   try {
-    scene_ = makeSimulatedScene(s, mesh);
+    objects_ = {mesh};
+    for (TriangleMesh& neighbour : loadNeighbours(s, mesh)) objects_.push_back(std::move(neighbour));
+    scene_ = makeSimulatedScene(s, objects_, 0);
   } catch (const std::exception& e) {
     return std::string("no scene: ") + e.what();
   }
@@ -388,6 +391,58 @@ bool SimulationServer::onGroundTruth(gpatlas_msgs::GetMesh::Request& /*request*/
   response.mesh = gpatlas_conversions::toMsg(mesh);
   response.success = true;
   response.message = std::to_string(mesh.triangles.size()) + " triangles in " + settings_.world_frame;
+  return true;
+}
+
+bool SimulationServer::onSelectObject(gpatlas_msgs::SelectObject::Request& request,
+                                      gpatlas_msgs::SelectObject::Response& response) {
+  // A click on an object, or beside it, picks it; farther from every object it is a mistake.
+  constexpr double kMaxDistanceM = 0.05;
+  response.success = false;
+  response.changed = false;
+  try {
+    if (!unavailable_reason_.empty()) {
+      response.message = unavailable_reason_;
+      return true;
+    }
+    const geometry_msgs::Point& p = request.point.point;
+    const Eigen::Vector3d point(p.x, p.y, p.z);
+    if (!point.allFinite()) {
+      response.message = "the point is not finite";
+      return true;
+    }
+    if (!request.point.header.frame_id.empty() && request.point.header.frame_id != settings_.world_frame) {
+      response.message = "the point must be in '" + settings_.world_frame + "' (the simulation has no tf), not '" +
+                         request.point.header.frame_id + "'";
+      return true;
+    }
+    std::lock_guard<std::mutex> lock(simulation_mutex_);
+    const std::size_t nearest = nearestObject(objects_, point, &response.distance_m);
+    if (response.distance_m > kMaxDistanceM) {
+      response.message = "no object within " + std::to_string(kMaxDistanceM) + " m of " + describe(point);
+      return true;
+    }
+    response.success = true;
+    response.object_points = static_cast<std::uint32_t>(objects_[nearest].vertices.size());
+    response.changed = nearest != explored_;
+    if (response.changed) {
+      std::shared_ptr<Scene> scene = makeSimulatedScene(settings_, objects_, nearest);
+      std::unique_ptr<SimulatedProber> prober = makeSimulatedProber(scene, settings_, approach_);
+      if (arm_) prober->setArm(arm_);  // the arm rests where it did: its rest is not the object's
+      scene_ = std::move(scene);
+      prober_ = std::move(prober);
+      explored_ = nearest;
+    }
+    response.message = nearest == 0 ? "the object" : "neighbour " + std::to_string(nearest - 1);
+    response.message += " (" + std::to_string(objects_[nearest].triangles.size()) + " triangles) is explored";
+  } catch (const std::exception& e) {
+    response.success = false;
+    response.message = std::string("selection failed: ") + e.what();
+    ROS_ERROR_STREAM("probe_sim: ~select_object: " << response.message);
+    return true;
+  }
+  ROS_INFO_STREAM("probe_sim: ~select_object: " << response.message);
+  if (response.changed) publishObjectMarker();
   return true;
 }
 

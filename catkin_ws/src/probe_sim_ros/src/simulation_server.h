@@ -12,6 +12,7 @@
 #include <gpatlas_msgs/Capture.h>
 #include <gpatlas_msgs/GetMesh.h>
 #include <gpatlas_msgs/Probe.h>
+#include <gpatlas_msgs/SelectObject.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -50,6 +51,10 @@ class SimulationServer {
 
   bool onProbe(gpatlas_msgs::Probe::Request& request, gpatlas_msgs::Probe::Response& response);
   bool onGroundTruth(gpatlas_msgs::GetMesh::Request& request, gpatlas_msgs::GetMesh::Response& response);
+  // The user's pick, told to the simulation: the object nearest the point becomes the one the
+  // probe's contacts and the ground truth are of, the others obstacles (segmentation's
+  // ~select_object picks it for the pipeline).
+  bool onSelectObject(gpatlas_msgs::SelectObject::Request& request, gpatlas_msgs::SelectObject::Response& response);
   bool onCapture(gpatlas_msgs::Capture::Request& request,
                  gpatlas_msgs::Capture::Response& response);
   void onCloudTimer(const ros::TimerEvent& event);
@@ -79,6 +84,8 @@ class SimulationServer {
   // everything below is used under simulation_mutex_.
   std::mutex simulation_mutex_;
   std::shared_ptr<Scene> scene_;
+  std::vector<TriangleMesh> objects_;  // the object, then its neighbours
+  std::size_t explored_{0};            // objects_[explored_] is the scene's object
   std::shared_ptr<const Arm> arm_;
   std::unique_ptr<DepthCamera> camera_;
   std::unique_ptr<SimulatedProber> prober_;
@@ -90,6 +97,7 @@ class SimulationServer {
   ros::ServiceServer probe_service_;
   ros::ServiceServer capture_service_;
   ros::ServiceServer ground_truth_service_;
+  ros::ServiceServer select_object_service_;
   ros::Publisher cloud_publisher_;
   ros::Publisher marker_publisher_;
   // The tactile pad's last press (probe: patch): its square and its patch's points.

@@ -100,6 +100,14 @@ std::vector<TriangleMesh> loadNeighbours(const SimulationSettings& settings, con
 // The scene probe_sim_node and gpatlas_bench simulate: the object, the table, the neighbours
 // (SurfaceKind::kObstacle). Throws as loadNeighbours.
 std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& settings, const TriangleMesh& object);
+// The same table and objects (`objects`: the object, then its neighbours, as loadNeighbours
+// placed them), with objects[explored] the one the probe's contacts and the ground truth are of,
+// the others obstacles: the scene after a user picked another object to explore.
+std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& settings, const std::vector<TriangleMesh>& objects,
+                                          std::size_t explored);
+// The index of the object in `objects` whose bounding box is nearest to `point` (0 inside
+// one), and that distance in *distance_m; `objects` must not be empty.
+std::size_t nearestObject(const std::vector<TriangleMesh>& objects, const Eigen::Vector3d& point, double* distance_m);
 // The simulated probe of probe_sim_node and gpatlas_bench: the probe model the settings name,
 // their slide step, and the judge of the way to each touch and back with the approach
 // planner's probe body and rest (`approach`). Throws std::runtime_error for an unknown probe.
