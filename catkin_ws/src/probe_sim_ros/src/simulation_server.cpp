@@ -128,6 +128,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   capture_service_ = pnh_.advertiseService("capture", &SimulationServer::onCapture, this);
   ground_truth_service_ = pnh_.advertiseService("ground_truth", &SimulationServer::onGroundTruth, this);
   select_object_service_ = pnh_.advertiseService("select_object", &SimulationServer::onSelectObject, this);
+  clicked_point_subscriber_ = nh_.subscribe("clicked_point", 1, &SimulationServer::onClickedPoint, this);
   cloud_publisher_ = pnh_.advertise<sensor_msgs::PointCloud2>("points", 1);
   marker_publisher_ = pnh_.advertise<visualization_msgs::Marker>("object_marker", 1, true);
   patch_publisher_ = pnh_.advertise<visualization_msgs::MarkerArray>("patch", 1, true);
@@ -444,6 +445,14 @@ bool SimulationServer::onSelectObject(gpatlas_msgs::SelectObject::Request& reque
   ROS_INFO_STREAM("probe_sim: ~select_object: " << response.message);
   if (response.changed) publishObjectMarker();
   return true;
+}
+
+void SimulationServer::onClickedPoint(const geometry_msgs::PointStamped::ConstPtr& point) {
+  gpatlas_msgs::SelectObject::Request request;
+  gpatlas_msgs::SelectObject::Response response;
+  request.point = *point;
+  onSelectObject(request, response);
+  if (!response.success) ROS_WARN_STREAM("probe_sim: clicked_point: " << response.message);
 }
 
 bool SimulationServer::onCapture(gpatlas_msgs::Capture::Request& /*request*/,

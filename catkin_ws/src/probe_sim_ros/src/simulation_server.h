@@ -13,6 +13,7 @@
 #include <gpatlas_msgs/GetMesh.h>
 #include <gpatlas_msgs/Probe.h>
 #include <gpatlas_msgs/SelectObject.h>
+#include <geometry_msgs/PointStamped.h>
 #include <ros/ros.h>
 #include <sensor_msgs/PointCloud2.h>
 #include <tf2_ros/static_transform_broadcaster.h>
@@ -55,6 +56,8 @@ class SimulationServer {
   // probe's contacts and the ground truth are of, the others obstacles (segmentation's
   // ~select_object picks it for the pipeline).
   bool onSelectObject(gpatlas_msgs::SelectObject::Request& request, gpatlas_msgs::SelectObject::Response& response);
+  // rviz's "Publish Point" (clicked_point), as segmentation takes it: the same pick.
+  void onClickedPoint(const geometry_msgs::PointStamped::ConstPtr& point);
   bool onCapture(gpatlas_msgs::Capture::Request& request,
                  gpatlas_msgs::Capture::Response& response);
   void onCloudTimer(const ros::TimerEvent& event);
@@ -98,6 +101,7 @@ class SimulationServer {
   ros::ServiceServer capture_service_;
   ros::ServiceServer ground_truth_service_;
   ros::ServiceServer select_object_service_;
+  ros::Subscriber clicked_point_subscriber_;
   ros::Publisher cloud_publisher_;
   ros::Publisher marker_publisher_;
   // The tactile pad's last press (probe: patch): its square and its patch's points.
