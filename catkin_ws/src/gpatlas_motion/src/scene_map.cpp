@@ -5,6 +5,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -87,7 +88,7 @@ struct SceneVoxel {
 
 struct SceneMap::LastCloud {
   octomap::KeySet hits;
-  Eigen::Vector3d origin;
+  Eigen::Vector3d origin{Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())};  // none yet
   std::size_t repeats{0};  // of the same hits from the same origin, in a row, cast
 };
 
