@@ -5,6 +5,7 @@
 #include <cmath>
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -54,6 +55,12 @@ class PointBuckets {
   std::unordered_map<std::int64_t, std::vector<Eigen::Vector3d>> buckets_;
 };
 
+// OctoMap's KeySet is std::tr1's, which has no operator==.
+bool sameKeys(const octomap::KeySet& a, const octomap::KeySet& b) {
+  if (a.size() != b.size()) return false;
+  return std::all_of(a.begin(), a.end(), [&](const octomap::OcTreeKey& k) { return b.count(k) > 0; });
+}
+
 }  // namespace
 
 std::string validate(const SceneMapConfig& c) {
@@ -73,6 +80,38 @@ std::string validate(const SceneMapConfig& c) {
   return out;
 }
 
+// One voxel of the finest level: its key and its centre.
+struct SceneVoxel {
+  octomap::OcTreeKey key;
+  Eigen::Vector3d centre;
+};
+
+struct SceneMap::LastCloud {
+  octomap::KeySet hits;
+  Eigen::Vector3d origin{Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN())};  // none yet
+  std::size_t repeats{0};  // of the same hits from the same origin, in a row, cast
+};
+
+struct SceneMap::Candidates {
+  std::uint64_t revision{0};
+  std::vector<SceneVoxel> occupied;
+  // The unknown voxels behind occupied[i] seen from origins_[o], nearest first, up to
+  // shadow_depth_m or to the first voxel seen free or outside the box:
+  // shadows[begin[o * occupied.size() + i], begin[o * occupied.size() + i + 1]).
+  std::vector<SceneVoxel> shadows;
+  std::vector<std::size_t> begin;
+  // shadows[s] is the voxel numbered unique[s] (of `distinct`): chains cross, and each voxel is
+  // one obstacle.
+  std::vector<std::uint32_t> unique;
+  std::size_t distinct{0};
+};
+
+struct SceneMap::NearObject {
+  std::shared_ptr<const Candidates> candidates;
+  std::vector<Eigen::Vector3d> object_points;
+  std::vector<char> occupied, shadows;  // per candidate: within the margin
+};
+
 SceneMap::SceneMap(SceneMapConfig config, double resolution_m) : config_(std::move(config)) {
   const std::string invalid = validate(config_);
   if (!invalid.empty()) throw std::invalid_argument("scene map: " + invalid);
@@ -86,6 +125,7 @@ SceneMap::SceneMap(SceneMapConfig config, double resolution_m) : config_(std::mo
   tree_->setBBXMax(upper);
   tree_->useBBXLimit(true);
   tree_->enableChangeDetection(true);
+  last_cloud_ = std::make_unique<LastCloud>();
 }
 
 SceneMap::~SceneMap() = default;
@@ -94,12 +134,35 @@ std::size_t SceneMap::insertCloud(const std::vector<Eigen::Vector3d>& points, co
   if (!sensor_origin.allFinite()) throw std::invalid_argument("scene map: the sensor origin is not finite");
   octomap::Pointcloud cloud;
   cloud.reserve(points.size());
+  octomap::KeySet hits;
   const Eigen::Array3d lo = config_.min_corner_m.array(), hi = config_.max_corner_m.array();
   for (const Eigen::Vector3d& p : points) {
     // OctoMap would drop these too (range, box); counted here for the caller.
     if (!p.allFinite() || (p - sensor_origin).norm() > config_.max_range_m) continue;
     if ((p.array() < lo).any() || (p.array() > hi).any()) continue;
     cloud.push_back(toOctomap(p));
+    octomap::OcTreeKey key;
+    if (tree_->coordToKeyChecked(cloud.back(), key)) hits.insert(key);
+  }
+  // Discretised, OctoMap casts one ray from the origin to each hit voxel's centre, and updates
+  // each voxel once (a hit, else a miss): the same hits from the same origin update the same
+  // voxels the same way. Each cast moves a voxel's log-odds by at least the smaller step toward
+  // its clamping bound, so after `converged` casts in a row every voxel is at its bound and
+  // OctoMap leaves it there: another cast is a no-op, and costs a core at a camera's rate.
+  LastCloud& last = *last_cloud_;
+  if (sensor_origin == last.origin && sameKeys(hits, last.hits)) {
+    const double span = tree_->getClampingThresMaxLog() - tree_->getClampingThresMinLog();
+    const double step = std::min(std::abs(tree_->getProbHitLog()), std::abs(tree_->getProbMissLog()));
+    const auto converged = static_cast<std::size_t>(std::ceil(span / step)) + 1;
+    if (last.repeats >= converged) {
+      ++skipped_clouds_;
+      return cloud.size();
+    }
+    ++last.repeats;
+  } else {
+    last.hits = std::move(hits);
+    last.origin = sensor_origin;
+    last.repeats = 1;
   }
   // Discretised: the points of one voxel cast one ray, the rays of a 640 x 480 cloud are then
   // the voxels it hit, not its 300,000 points.
@@ -120,6 +183,7 @@ void SceneMap::clear() {
   tree_->clear();
   tree_->resetChangeDetection();
   origins_.clear();
+  *last_cloud_ = LastCloud();
   ++revision_;
 }
 
@@ -134,19 +198,12 @@ std::size_t SceneMap::occupiedVoxels() const {
   return count;
 }
 
-std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector3d>& object_points,
-                                                 const std::vector<Eigen::Vector3d>& free_points) const {
-  const PointBuckets object(object_points, config_.object_margin_m);
-  octomap::KeySet probed;
-  for (const Eigen::Vector3d& p : free_points) {
-    octomap::OcTreeKey key;
-    if (p.allFinite() && tree_->coordToKeyChecked(toOctomap(p), key)) probed.insert(key);
-  }
-  const auto kept = [&](const Eigen::Vector3d& centre, const octomap::OcTreeKey& key) {
-    return !probed.count(key) && !object.anyWithin(centre, config_.object_margin_m);
-  };
+std::shared_ptr<const SceneMap::Candidates> SceneMap::candidates() const {
+  std::lock_guard<std::mutex> lock(candidates_mutex_);
+  if (candidates_ && candidates_->revision == revision_) return candidates_;
+  auto out = std::make_shared<Candidates>();
+  out->revision = revision_;
   const double resolution = tree_->getResolution();
-  std::vector<Eigen::Vector3d> out;
   for (auto it = tree_->begin_leafs(); it != tree_->end_leafs(); ++it) {
     if (!tree_->isNodeOccupied(*it)) continue;
     // A pruned leaf stands for side^3 voxels of the finest level; each is judged on its own.
@@ -158,37 +215,90 @@ std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector
       for (int j = 0; j < side; ++j)
         for (int k = 0; k < side; ++k) {
           const Eigen::Vector3d centre = corner + resolution * Eigen::Vector3d(i, j, k);
-          if (kept(centre, tree_->coordToKey(toOctomap(centre)))) out.push_back(centre);
+          out->occupied.push_back({tree_->coordToKey(toOctomap(centre)), centre});
         }
   }
-  addShadows(kept, &out);
-  return out;
-}
-
-void SceneMap::addShadows(const std::function<bool(const Eigen::Vector3d&, const octomap::OcTreeKey&)>& kept,
-                          std::vector<Eigen::Vector3d>* obstacles) const {
-  const double resolution = tree_->getResolution();
   const int steps = static_cast<int>(std::floor(config_.shadow_depth_m / resolution + 1e-9));
-  if (steps == 0) return;
-  octomap::KeySet added;
-  const std::size_t casters = obstacles->size();
+  out->begin.reserve(origins_.size() * out->occupied.size() + 1);
+  out->begin.push_back(0);
   for (const Eigen::Vector3d& origin : origins_)
-    for (std::size_t i = 0; i < casters; ++i) {
-      const Eigen::Vector3d caster = (*obstacles)[i];
-      const Eigen::Vector3d step = resolution * (caster - origin).normalized();
+    for (const SceneVoxel& caster : out->occupied) {
+      const Eigen::Vector3d step = resolution * (caster.centre - origin).normalized();
       for (int k = 1; k <= steps; ++k) {
-        const Eigen::Vector3d p = caster + k * step;
         octomap::OcTreeKey key;
-        if (!tree_->coordToKeyChecked(toOctomap(p), key) || !tree_->inBBX(key)) break;
+        if (!tree_->coordToKeyChecked(toOctomap(caster.centre + k * step), key) || !tree_->inBBX(key)) break;
         const octomap::OcTreeNode* node = tree_->search(key);
         if (node && !tree_->isNodeOccupied(node)) break;  // seen through: no shadow beyond
         if (node) continue;                               // occupied: an obstacle of its own
         const octomap::point3d c = tree_->keyToCoord(key);
-        const Eigen::Vector3d centre(c.x(), c.y(), c.z());
-        if (!kept(centre, key)) break;
-        if (added.insert(key).second) obstacles->push_back(centre);
+        out->shadows.push_back({key, Eigen::Vector3d(c.x(), c.y(), c.z())});
+      }
+      out->begin.push_back(out->shadows.size());
+    }
+  std::unordered_map<octomap::OcTreeKey, std::uint32_t, octomap::OcTreeKey::KeyHash> numbers;
+  out->unique.reserve(out->shadows.size());
+  for (const SceneVoxel& v : out->shadows)
+    out->unique.push_back(numbers.emplace(v.key, static_cast<std::uint32_t>(numbers.size())).first->second);
+  out->distinct = numbers.size();
+  candidates_ = std::move(out);
+  return candidates_;
+}
+
+std::shared_ptr<const SceneMap::NearObject> SceneMap::nearObject(const std::shared_ptr<const Candidates>& candidates,
+                                                                const std::vector<Eigen::Vector3d>& object_points) const {
+  {
+    std::lock_guard<std::mutex> lock(candidates_mutex_);
+    if (near_object_ && near_object_->candidates == candidates && near_object_->object_points == object_points)
+      return near_object_;
+  }
+  auto out = std::make_shared<NearObject>();
+  out->candidates = candidates;
+  out->object_points = object_points;
+  const PointBuckets object(object_points, config_.object_margin_m);
+  const auto near = [&](const std::vector<SceneVoxel>& voxels, std::vector<char>* verdicts) {
+    verdicts->reserve(voxels.size());
+    for (const SceneVoxel& v : voxels) verdicts->push_back(object.anyWithin(v.centre, config_.object_margin_m));
+  };
+  near(candidates->occupied, &out->occupied);
+  near(candidates->shadows, &out->shadows);
+  std::lock_guard<std::mutex> lock(candidates_mutex_);
+  near_object_ = out;
+  return out;
+}
+
+std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector3d>& object_points,
+                                                 const std::vector<Eigen::Vector3d>& free_points) const {
+  const std::shared_ptr<const Candidates> candidates = this->candidates();
+  const std::shared_ptr<const NearObject> near = nearObject(candidates, object_points);
+  octomap::KeySet probed;
+  for (const Eigen::Vector3d& p : free_points) {
+    octomap::OcTreeKey key;
+    if (p.allFinite() && tree_->coordToKeyChecked(toOctomap(p), key)) probed.insert(key);
+  }
+  std::vector<Eigen::Vector3d> out;
+  std::vector<std::size_t> casters;  // the kept occupied voxels, which cast shadows
+  const std::vector<SceneVoxel>& occupied = candidates->occupied;
+  for (std::size_t i = 0; i < occupied.size(); ++i)
+    if (!near->occupied[i] && !probed.count(occupied[i].key)) {
+      out.push_back(occupied[i].centre);
+      casters.push_back(i);
+    }
+  // Behind a kept caster, its unknown voxels up to the first one the object's model or the
+  // probe governs.
+  std::vector<char> added(candidates->distinct, 0);
+  for (std::size_t o = 0; o < origins_.size() && !candidates->shadows.empty(); ++o)
+    for (const std::size_t i : casters) {
+      const std::size_t chain = o * occupied.size() + i;
+      for (std::size_t s = candidates->begin[chain]; s < candidates->begin[chain + 1]; ++s) {
+        const SceneVoxel& v = candidates->shadows[s];
+        if (near->shadows[s] || probed.count(v.key)) break;
+        if (!added[candidates->unique[s]]) {
+          added[candidates->unique[s]] = 1;
+          out.push_back(v.centre);
+        }
       }
     }
+  return out;
 }
 
 SceneRole sceneRole(gpatlas_core::PointLabel label, gpatlas_core::PointSource source) {
@@ -212,12 +322,16 @@ std::size_t addObstacles(octomap::OcTree* map, const std::vector<Eigen::Vector3d
   if (!map) throw std::invalid_argument("addObstacles: no map");
   std::size_t added = 0;
   const float occupied = map->getClampingThresMaxLog();
+  // In bulk: the inner nodes' occupancy once at the end, not up the tree at every voxel.
   for (const Eigen::Vector3d& c : centres) {
-    const octomap::point3d p = toOctomap(c);
-    const octomap::OcTreeNode* before = map->search(p);
+    octomap::OcTreeKey key;
+    if (!map->coordToKeyChecked(toOctomap(c), key)) continue;
+    const octomap::OcTreeNode* before = map->search(key);
     if (!before || !map->isNodeOccupied(before)) ++added;
-    map->setNodeValue(p, occupied);
+    map->setNodeValue(key, occupied, true);
   }
+  map->updateInnerOccupancy();
+  map->prune();  // as the voxel-by-voxel update left it
   return added;
 }
 

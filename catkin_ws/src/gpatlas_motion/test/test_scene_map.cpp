@@ -13,6 +13,9 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <memory>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -271,6 +274,173 @@ TEST(SceneMap, TheUnknownBehindANeighbourIsAnObstacleAndBehindTheObjectItIsNot) 
   SceneMap flat(config, kVoxel);
   flat.insertCloud(s.all(), kSensor);
   EXPECT_FALSE(holds(voxelsOf(flat.obstacles(s.object, {})), Vector3d(0.6, 0.15, 0.05)));
+}
+
+// The old paths, written out, as the truth for the new ones and their timings' baseline.
+namespace reference {
+
+double seconds(const std::chrono::steady_clock::time_point& since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// A plain OctoMap with the scene map's settings, which casts every cloud.
+std::unique_ptr<octomap::OcTree> plainTree(const SceneMapConfig& config) {
+  auto tree = std::make_unique<octomap::OcTree>(kVoxel);
+  tree->setProbHit(config.hit_probability);
+  tree->setProbMiss(config.miss_probability);
+  octomap::point3d lower = at(config.min_corner_m), upper = at(config.max_corner_m);
+  tree->setBBXMin(lower);
+  tree->setBBXMax(upper);
+  tree->useBBXLimit(true);
+  return tree;
+}
+
+// SceneMap::obstacles as it was: the tree searched along every caster's ray at every call.
+std::set<std::tuple<int, int, int>> obstacles(const octomap::OcTree& tree, const SceneMapConfig& config,
+                                              const std::vector<Vector3d>& origins, const std::vector<Vector3d>& object) {
+  const auto near = [&](const Vector3d& c) {
+    return std::any_of(object.begin(), object.end(), [&](const Vector3d& p) { return (p - c).norm() <= config.object_margin_m; });
+  };
+  std::vector<Vector3d> casters;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const int side = static_cast<int>(std::lround(it.getSize() / kVoxel));
+    const Vector3d corner = Vector3d(it.getX(), it.getY(), it.getZ()) - Vector3d::Constant(0.5 * it.getSize() - 0.5 * kVoxel);
+    for (int i = 0; i < side; ++i)
+      for (int j = 0; j < side; ++j)
+        for (int k = 0; k < side; ++k) {
+          const Vector3d c = corner + kVoxel * Vector3d(i, j, k);
+          if (!near(c)) casters.push_back(c);
+        }
+  }
+  std::vector<Vector3d> out = casters;
+  const int steps = static_cast<int>(std::floor(config.shadow_depth_m / kVoxel + 1e-9));
+  for (const Vector3d& origin : origins)
+    for (const Vector3d& caster : casters)
+      for (int k = 1; k <= steps; ++k) {
+        const Vector3d p = caster + k * kVoxel * (caster - origin).normalized();
+        octomap::OcTreeKey key;
+        if (!tree.coordToKeyChecked(at(p), key) || !tree.inBBX(key)) break;
+        const octomap::OcTreeNode* node = tree.search(key);
+        if (node && !tree.isNodeOccupied(node)) break;
+        if (node) continue;
+        const octomap::point3d c = tree.keyToCoord(key);
+        if (near(Vector3d(c.x(), c.y(), c.z()))) break;
+        out.emplace_back(c.x(), c.y(), c.z());
+      }
+  return voxelsOf(out);
+}
+
+}  // namespace reference
+
+// A still camera's frames: each is cast until the voxels it touches sit at OctoMap's clamping
+// bounds, then skipped, and the map is what casting them all makes it.
+TEST(SceneMap, AStillCamerasFramesAreCastUntilTheyCanChangeNothing) {
+  const Scene s = scene();
+  const std::vector<Vector3d> points = s.all();
+  const SceneMapConfig config = sceneConfig();
+  SceneMap map(config, kVoxel);
+  std::unique_ptr<octomap::OcTree> plain = reference::plainTree(config);
+  double cast_s = 0.0, scene_s = 0.0;
+  constexpr int kFrames = 20;
+  for (int i = 0; i < kFrames; ++i) {
+    auto started = std::chrono::steady_clock::now();
+    plain->insertPointCloud([&] {
+      octomap::Pointcloud cloud;
+      for (const Vector3d& p : points) cloud.push_back(at(p));
+      return cloud;
+    }(), at(kSensor), config.max_range_m, false, true);
+    cast_s += reference::seconds(started);
+    started = std::chrono::steady_clock::now();
+    map.insertCloud(points, kSensor);
+    scene_s += reference::seconds(started);
+  }
+  // Log-odds from 0.12 to 0.97, steps of at least |log(0.4 / 0.6)|: 14 casts reach a bound.
+  EXPECT_GE(map.skippedClouds(), 3u);
+  EXPECT_LE(map.skippedClouds(), 6u);
+  std::size_t leaves = 0;
+  for (auto it = plain->begin_leafs(); it != plain->end_leafs(); ++it, ++leaves) {
+    const octomap::OcTreeNode* node = map.tree().search(it.getKey(), it.getDepth());
+    ASSERT_TRUE(node) << "a voxel the plain map knows is unknown at " << it.getCoordinate();
+    ASSERT_NEAR(node->getLogOdds(), it->getLogOdds(), 1e-5) << "at " << it.getCoordinate();
+  }
+  EXPECT_EQ(map.tree().getNumLeafNodes(), leaves);
+  // A new origin casts again.
+  map.insertCloud(points, kSensor + Vector3d(0.0, 0.0, 0.05));
+  const std::size_t skipped = map.skippedClouds();
+  map.insertCloud(points, kSensor);
+  EXPECT_EQ(map.skippedClouds(), skipped) << "the first frame after another view was skipped";
+  std::printf("[scene] %d frames of %zu points: every one cast %.3f s, the scene map %.3f s (%zu skipped)\n", kFrames,
+              points.size(), cast_s, scene_s, skipped);
+}
+
+// obstacles() keeps what it takes from the tree for a revision, and the object's margin for
+// the same object points: each call is the old computation's answer, whatever came between.
+TEST(SceneMap, ObstaclesKeptForARevisionAreTheOnesComputedAfresh) {
+  const Scene s = scene();
+  SceneMapConfig config = sceneConfig();
+  config.shadow_depth_m = 0.1;
+  SceneMap map(config, kVoxel);
+  std::vector<Vector3d> origins{kSensor};
+  map.insertCloud(s.all(), kSensor);
+  const std::vector<Vector3d> no_object;
+  for (int round = 0; round < 2; ++round) {
+    std::vector<double> times;
+    for (const std::vector<Vector3d>* object : {&s.object, &s.object, &no_object, &s.object}) {
+      const auto started = std::chrono::steady_clock::now();
+      const std::vector<Vector3d> obstacles = map.obstacles(*object, {});
+      times.push_back(reference::seconds(started));
+      EXPECT_EQ(voxelsOf(obstacles).size(), obstacles.size()) << "a voxel twice";
+      ASSERT_EQ(voxelsOf(obstacles), reference::obstacles(map.tree(), config, origins, *object)) << "round " << round;
+    }
+    auto started = std::chrono::steady_clock::now();
+    reference::obstacles(map.tree(), config, origins, s.object);
+    std::printf("[scene] obstacles (%zu occupied voxels): first %.4f s, same object %.4f s, another %.4f s; "
+                "the reference %.4f s\n", map.occupiedVoxels(), times[0], times[1], times[2], reference::seconds(started));
+    // A second view, from elsewhere: a new revision, more shadows.
+    const Vector3d second(0.0, 0.4, 0.5);
+    map.insertCloud(seenPoints(kNeighbour, {kObject, kNeighbour}), second);
+    origins.push_back(second);
+  }
+}
+
+// Obstacles added in bulk make the map that adding them voxel by voxel made, inner nodes too
+// (what FCL and search at a coarser depth read).
+TEST(SceneMap, ObstaclesAddedInBulkAreTheVoxelByVoxelMap) {
+  const Scene s = scene();
+  SceneMapConfig config = sceneConfig();
+  config.shadow_depth_m = 0.1;
+  SceneMap scene_map(config, kVoxel);
+  scene_map.insertCloud(s.all(), kSensor);
+  const std::vector<Vector3d> obstacles = scene_map.obstacles(s.object, {});
+  const std::shared_ptr<octomap::OcTree> model = gpatlas_motion_test::mapOf(
+      {kObject}, Box{Vector3d(0.45, -0.15, 0.0), Vector3d(0.75, 0.15, 0.2)});
+  octomap::OcTree bulk(*model), one_by_one(*model);
+  auto started = std::chrono::steady_clock::now();
+  const std::size_t added = gpatlas_motion::addObstacles(&bulk, obstacles);
+  const double bulk_s = reference::seconds(started);
+  started = std::chrono::steady_clock::now();
+  std::size_t expected_added = 0;
+  for (const Vector3d& c : obstacles) {
+    const octomap::OcTreeNode* before = one_by_one.search(at(c));
+    if (!before || !one_by_one.isNodeOccupied(before)) ++expected_added;
+    one_by_one.setNodeValue(at(c), one_by_one.getClampingThresMaxLog());
+  }
+  const double one_by_one_s = reference::seconds(started);
+  EXPECT_EQ(added, expected_added);
+  EXPECT_GT(added, 1000u);
+  for (unsigned depth = 10; depth <= 16; depth += 2) {
+    std::size_t nodes = 0;
+    for (auto it = one_by_one.begin_leafs(depth); it != one_by_one.end_leafs(); ++it, ++nodes) {
+      const octomap::OcTreeNode* node = bulk.search(it.getKey(), depth);
+      ASSERT_TRUE(node) << "depth " << depth << " at " << it.getCoordinate();
+      ASSERT_NEAR(node->getLogOdds(), it->getLogOdds(), 1e-6) << "depth " << depth << " at " << it.getCoordinate();
+    }
+    EXPECT_GT(nodes, 0u);
+  }
+  EXPECT_EQ(bulk.size(), one_by_one.size());
+  std::printf("[scene] %zu obstacles into the model's map: in bulk %.4f s, voxel by voxel %.4f s\n", obstacles.size(),
+              bulk_s, one_by_one_s);
 }
 
 // The model's map (the object's voxels) with the scene's obstacles added.

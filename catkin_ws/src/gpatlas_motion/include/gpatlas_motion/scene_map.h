@@ -6,8 +6,8 @@
 
 #include <cstddef>
 #include <cstdint>
-#include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -42,9 +42,8 @@ struct SceneMapConfig {
   // A camera sees an object's near side only, and the voxels behind it stay unknown, which the
   // approach planner takes as free: a probe's shaft would pass through a neighbour's hidden
   // side. So the unknown voxels up to this far behind each obstacle voxel, along the ray from
-  // the sensor, are obstacles too (0: none; about a small object's depth, 0.1, keeps a shaft out,
-  // but every training set's map then costs a 30 Hz stream's fits).
-  double shadow_depth_m{0.0};
+  // the sensor, are obstacles too (0: none; about a small object's depth keeps a shaft out).
+  double shadow_depth_m{0.1};
 };
 
 // Empty when the config is usable, else what is wrong with it.
@@ -64,13 +63,17 @@ class SceneMap {
   SceneMap& operator=(const SceneMap&) = delete;
 
   // One cloud (world frame, finite points) seen from `sensor_origin` (world frame). Returns the
-  // number of points inside the box and the range, which were inserted.
+  // number of points inside the box and the range, which were inserted. A still camera's frames
+  // hit the same voxels from the same origin: once enough of them have driven every voxel they
+  // touch to OctoMap's clamping bounds, another changes nothing and is not cast (skippedClouds()).
   std::size_t insertCloud(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& sensor_origin);
   void clear();
   // Counts the changes: each insertCloud that made a voxel known or flipped one between occupied
   // and not, or brought a new sensor origin, and each clear(). Obstacles taken at one revision
   // hold until the next.
   std::uint64_t revision() const { return revision_; }
+  // The clouds insertCloud did not cast, as they could not change the map.
+  std::size_t skippedClouds() const { return skipped_clouds_; }
   std::size_t occupiedVoxels() const;
   const SceneMapConfig& config() const { return config_; }
   const octomap::OcTree& tree() const { return *tree_; }
@@ -88,10 +91,23 @@ class SceneMap {
   std::unique_ptr<octomap::OcTree> tree_;
   std::vector<Eigen::Vector3d> origins_;  // of the clouds inserted, each once
   std::uint64_t revision_{0};
-
-  // Adds to `obstacles` the unknown voxels behind each (shadow_depth_m) that `kept` keeps.
-  void addShadows(const std::function<bool(const Eigen::Vector3d&, const octomap::OcTreeKey&)>& kept,
-                  std::vector<Eigen::Vector3d>* obstacles) const;
+  // The last cloud cast, as the voxels it hit and its origin, and how often in a row it came.
+  struct LastCloud;
+  std::unique_ptr<LastCloud> last_cloud_;
+  std::size_t skipped_clouds_{0};
+  // What obstacles() takes from the tree, which only a new revision changes: the occupied
+  // voxels and the unknown ones in each one's shadow, in the order of the rays (computed when
+  // first asked for at a revision; the lock keeps obstacles() const and callable from threads).
+  struct Candidates;
+  mutable std::shared_ptr<const Candidates> candidates_;
+  // Which candidates lie within object_margin_m of the object's points at the last call: the
+  // training sets of one view (a still camera's) repeat them.
+  struct NearObject;
+  mutable std::shared_ptr<const NearObject> near_object_;
+  mutable std::mutex candidates_mutex_;
+  std::shared_ptr<const Candidates> candidates() const;
+  std::shared_ptr<const NearObject> nearObject(const std::shared_ptr<const Candidates>& candidates,
+                                               const std::vector<Eigen::Vector3d>& object_points) const;
 };
 
 // What an observation is to the scene map: the explored object (a surface point the camera or the

@@ -508,13 +508,17 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(
   std::size_t occupied = 0;
   map->model_tree = gpatlas_motion::collisionOctree(grid, threshold, &occupied);
   map->scene_revision = scene_ ? scene_->revision() : 0;
+  const ros::WallTime scene_started = ros::WallTime::now();
   map->scene_obstacles = sceneObstacles(msg);
   map->tree = withObstacles(map->model_tree, map->scene_obstacles.get());
+  const double scene_s = (ros::WallTime::now() - scene_started).toSec();
   std::ostringstream message;
   message << "training set " << msg.sequence << ": " << occupied << " of " << grid.probabilities.size()
           << " cells occupied (P > " << threshold << ") at " << grid.resolution << " m";
+  // The scene's share of the build: what a shadow costs shows here.
   if (map->scene_obstacles)
-    message << ", " << map->scene_obstacles->size() << " scene voxels from " << scene_clouds_ << " clouds";
+    message << ", " << map->scene_obstacles->size() << " scene voxels from " << scene_clouds_ << " clouds ("
+            << scene_->skippedClouds() << " not cast: unchanged) merged in " << scene_s << " s";
   *summary = message.str();
   return map;
 }
