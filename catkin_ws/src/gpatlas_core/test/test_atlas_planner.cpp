@@ -166,11 +166,13 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
   // The touched chart, every 4th other chart above V_max, and (last) the chart Algorithm 1 touches.
   const Chart& touched = best.atlas.chart(best.path.back());
   const Chart& first_touched = first.atlas.chart(first.path.back());
-  std::vector<TouchCandidate> candidates{{touched.centre, touched.normal}};
+  // Each poke's fantasy holds its approach's free space, from the approach pose's distance in.
+  const double approach_m = config.evidence.approach_distance_m;
+  std::vector<TouchCandidate> candidates{{touched.centre, touched.normal, approach_m}};
   int above = 0;
   for (const Chart& chart : best.atlas.charts())
-    if (chart.variance > kVMax && ++above % 4 == 0) candidates.push_back({chart.centre, chart.normal});
-  candidates.push_back({first_touched.centre, first_touched.normal});
+    if (chart.variance > kVMax && ++above % 4 == 0) candidates.push_back({chart.centre, chart.normal, approach_m});
+  candidates.push_back({first_touched.centre, first_touched.normal, approach_m});
 
   // The clone's way: SurfaceModel's own varianceAfter, through a model that does not override it.
   class CloneOnly : public GpisModel {

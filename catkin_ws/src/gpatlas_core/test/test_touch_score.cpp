@@ -30,13 +30,20 @@ Points3 spherePoints(const AnalyticSphere& sphere, int count, unsigned seed) {
 }
 
 // What a poke of the true sphere at `direction` adds (its contact, the point behind it, its
-// normal's slopes), a contact alone on the other side, and a free-space point off the front.
+// normal's slopes), the same with its approach's free space (as scoreTouches fantasises it), a
+// contact alone on the other side, and a free-space point off the front.
 std::vector<std::vector<TrainingPoint>> batches(const SurfaceModel& model, const AnalyticSphere& sphere) {
   const Vector3 back = Vector3(0.2, -0.3, -0.9).normalized();
   const Vector3 side = Vector3(-0.9, 0.1, -0.3).normalized();
   const gpatlas_core::TouchObservationConfig touch;
   std::vector<std::vector<TrainingPoint>> out;
   out.push_back(gpatlas_core::touchTrainingPoints(model, {Contact{sphere.centre + sphere.radius * back, back}}, {}, touch));
+  const gpatlas_core::TouchCandidate poke{sphere.centre + sphere.radius * side, side, 0.1};
+  gpatlas_core::TouchPointCounts counts;
+  out.push_back(gpatlas_core::touchTrainingPoints(model, {Contact{poke.point, poke.normal}},
+                                                  gpatlas_core::approachFreeSpace(poke, touch.min_free_space_spacing_m),
+                                                  touch, &counts));
+  EXPECT_GE(counts.free_space, 4u);  // the approach's free space is in the batch
   TrainingPoint contact;
   contact.position = sphere.centre + sphere.radius * side;
   contact.noise_sigma = touch.contact_noise_sigma;
@@ -170,6 +177,68 @@ TEST(TouchScore, PredictsTheFallOfTheErrorThatTheTouchBrings) {
   ASSERT_TRUE(gpatlas_core::applyTouch(model, probed.contacts, probed.free_space, touch).ok);
   const double actual = before - summedError(model);
   EXPECT_NEAR(scores.reduction[0], actual, 0.2 * actual);
+}
+
+TEST(TouchScore, ApproachFreeSpaceLiesAlongTheNormalOutToTheApproachStart) {
+  const gpatlas_core::TouchCandidate poke{Vector3(0.5, 0.1, 0.2), Vector3(0.0, 3.0, 4.0), 0.1};
+  const std::vector<Vector3> line = gpatlas_core::approachFreeSpace(poke, 0.015);
+  ASSERT_EQ(line.size(), 6u);  // 0.015 ... 0.09 m out; none at the contact, none past the start
+  for (std::size_t k = 0; k < line.size(); ++k)
+    EXPECT_LT((line[k] - (poke.point + 0.015 * static_cast<double>(k + 1) * Vector3(0.0, 0.6, 0.8))).norm(), 1e-12);
+  EXPECT_TRUE(gpatlas_core::approachFreeSpace({poke.point, poke.normal, 0.0}, 0.015).empty());
+  EXPECT_TRUE(gpatlas_core::approachFreeSpace({poke.point, Vector3::Zero(), 0.1}, 0.015).empty());
+}
+
+// A poke's way in is free space the model learns from too: the score with the approach counts it
+// (more fall than the contact alone), and equals the error's fall under a model refitted with the
+// contact and that free space.
+TEST(TouchScore, CountsTheApproachsFreeSpace) {
+  const AnalyticSphere sphere;
+  gpatlas_core::GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(150, 0.0, 0.1, 3)).ok);
+  const gpatlas_core::StopRule rule{0.1, 0.0};
+  const Points3 points = spherePoints(sphere, 300, 7);
+  const double area = 4.0 * M_PI * sphere.radius * sphere.radius / 300.0;
+  const auto patchesOf = [&](const SurfaceModel& m) {
+    const gpatlas_core::BatchPrediction p = m.predictBatch(points, true, false, true);
+    std::vector<gpatlas_core::SurfacePatch> patches;
+    for (Eigen::Index i = 0; i < points.cols(); ++i)
+      patches.push_back({points.col(i), area, p.variance[i], p.gradient.col(i).norm()});
+    return patches;
+  };
+  const auto summedError = [&](const SurfaceModel& m) {
+    double sum = 0.0;
+    for (const gpatlas_core::SurfacePatch& patch : patchesOf(m))
+      sum += patch.area_m2 * gpatlas_core::surfaceError(m, rule, patch.variance, patch.slope);
+    return sum;
+  };
+  const Vector3 side = Vector3(0.3, 1.0, -0.6).normalized();
+  const gpatlas_core::TouchCandidate bare{sphere.centre + sphere.radius * side, side, 0.0};
+  const gpatlas_core::TouchCandidate approached{bare.point, bare.normal, 0.1};
+  gpatlas_core::TouchScoreConfig config;
+  config.max_reference_points = 300;
+  const gpatlas_core::TouchObservationConfig touch;
+  const gpatlas_core::TouchScores scores =
+      gpatlas_core::scoreTouches(model, rule, patchesOf(model), {bare, approached}, touch, config, 1);
+  ASSERT_TRUE(scores.ok) << scores.message;
+  // Free space only adds information: more fall than the contact alone, by more than round-off.
+  EXPECT_GT(scores.reduction[1], scores.reduction[0] + 1e-3 * scores.total_error);
+
+  const std::vector<TrainingPoint> added = gpatlas_core::touchTrainingPoints(
+      model, {Contact{approached.point, approached.normal}},
+      gpatlas_core::approachFreeSpace(approached, touch.min_free_space_spacing_m), touch);
+  gpatlas_core::SurfaceModelState state = model.state();
+  state.observations.insert(state.observations.end(), added.begin(), added.end());
+  gpatlas_core::GpisModel refit;
+  ASSERT_TRUE(refit.restore(state).ok);
+  // The variance after the refit, with the slopes of the model before (the score keeps them).
+  const std::vector<gpatlas_core::SurfacePatch> now = patchesOf(model);
+  const gpatlas_core::BatchPrediction later = refit.predictBatch(points, false, false, true);
+  double fall = 0.0;
+  for (std::size_t i = 0; i < now.size(); ++i)
+    fall += area * (gpatlas_core::surfaceError(model, rule, now[i].variance, now[i].slope) -
+                    gpatlas_core::surfaceError(model, rule, later.variance[static_cast<Eigen::Index>(i)], now[i].slope));
+  EXPECT_NEAR(scores.reduction[1], fall, 1e-6 * summedError(model));
 }
 
 }  // namespace

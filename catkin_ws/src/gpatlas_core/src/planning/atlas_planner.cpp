@@ -415,8 +415,11 @@ class AtlasGrowth {
     patches.reserve(atlas_.size());
     for (const Chart& chart : atlas_.charts())
       patches.push_back({chart.centre, discArea(chart), chart.variance, chart.slope});
+    // The poke's fantasy holds its approach's free space: the probe starts approach_distance_m
+    // out along the normal (the evidence rule's distance, the approach pose's too).
     std::vector<TouchCandidate> candidates;
-    for (int index : scored) candidates.push_back({atlas_.chart(index).centre, atlas_.chart(index).normal});
+    for (int index : scored)
+      candidates.push_back({atlas_.chart(index).centre, atlas_.chart(index).normal, config_.evidence.approach_distance_m});
     const TouchScores scores = scoreTouches(model_, rule_, patches, candidates, touch, config_.score, rng_());
     result_.scored_candidates = static_cast<int>(scored.size());
     result_.scored_charts = scored;

@@ -29,6 +29,17 @@ double surfaceError(const SurfaceModel& model, const StopRule& rule, double repo
   return std::max(0.0, (reported_variance - rule.v_max) / rule.v_max);
 }
 
+std::vector<Vector3> approachFreeSpace(const TouchCandidate& candidate, double spacing_m) {
+  std::vector<Vector3> points;
+  const double norm = candidate.normal.norm();
+  if (!(candidate.approach_m > 0.0) || !(spacing_m > 0.0) || !(norm > 0.0) || !std::isfinite(candidate.approach_m))
+    return points;
+  const Vector3 n = candidate.normal / norm;
+  const auto count = static_cast<int>(std::floor(candidate.approach_m / spacing_m + 1e-9));
+  for (int k = 1; k <= count; ++k) points.push_back(candidate.point + (k * spacing_m) * n);
+  return points;
+}
+
 TouchScores scoreTouches(const SurfaceModel& model, const StopRule& rule, const std::vector<SurfacePatch>& patches,
                          const std::vector<TouchCandidate>& candidates, const TouchObservationConfig& touch,
                          const TouchScoreConfig& config, std::uint64_t seed) {
@@ -68,8 +79,13 @@ TouchScores scoreTouches(const SurfaceModel& model, const StopRule& rule, const 
 
   std::vector<std::vector<TrainingPoint>> fantasies;
   fantasies.reserve(candidates.size());
+  // The probe samples its way in more densely than the loop keeps (min_free_space_spacing_m):
+  // sampled at that spacing, the fantasy holds about the points the loop's thinning would keep.
+  constexpr double kProbeSpacing = 0.01;
+  const double spacing = touch.min_free_space_spacing_m > 0.0 ? touch.min_free_space_spacing_m : kProbeSpacing;
   for (const TouchCandidate& candidate : candidates)
-    fantasies.push_back(touchTrainingPoints(model, {Contact{candidate.point, candidate.normal}}, {}, touch));
+    fantasies.push_back(touchTrainingPoints(model, {Contact{candidate.point, candidate.normal}},
+                                            approachFreeSpace(candidate, spacing), touch));
   const Eigen::MatrixXd after = model.varianceAfter(references, fantasies);
   for (std::size_t c = 0; c < candidates.size(); ++c) {
     double fall = 0.0;

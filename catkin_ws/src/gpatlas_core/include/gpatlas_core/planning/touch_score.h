@@ -47,11 +47,18 @@ struct SurfacePatch {
   double slope{0.0};
 };
 
-// A candidate touch: where it would touch, along which outward normal.
+// A candidate touch: where it would touch, along which outward normal, and how far out along it
+// the probe starts (0: the contact alone). The probe's way in is free space, and it is what
+// carves a wrong prediction away, so the fantasy holds it as the loop would (approachFreeSpace).
 struct TouchCandidate {
   Vector3 point{Vector3::Zero()};
   Vector3 normal{Vector3::UnitZ()};
+  double approach_m{0.0};
 };
+
+// The free space a poke passes through on its way in: points along the normal from the contact
+// out to `approach_m`, every `spacing_m` (none at the contact itself, where the probe stops).
+std::vector<Vector3> approachFreeSpace(const TouchCandidate& candidate, double spacing_m);
 
 struct TouchScores {
   bool ok{false};
@@ -65,7 +72,7 @@ struct TouchScores {
 
 // Scores every candidate against the surface `patches` (a sample of them, see the config). The
 // candidate's fantasy observations are those a poke there would add (touchTrainingPoints of one
-// contact with the candidate's normal, under `touch`).
+// contact with the candidate's normal and its approach's free space, under `touch`).
 TouchScores scoreTouches(const SurfaceModel& model, const StopRule& rule, const std::vector<SurfacePatch>& patches,
                          const std::vector<TouchCandidate>& candidates, const TouchObservationConfig& touch,
                          const TouchScoreConfig& config, std::uint64_t seed);
