@@ -477,11 +477,8 @@ const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/tru
 FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) { return fitFrom(points, nullptr, 0.0); }
 
 FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) {
-  if (!centroid.allFinite() || !(scale > 0.0) || !std::isfinite(scale)) {
-    FitReport report;
-    report.message = "invalid normalisation frame (centroid must be finite, scale > 0)";
-    return report;
-  }
+  FitReport report;
+  if (!checkFrame(centroid, scale, &report)) return report;
   return fitFrom(points, &centroid, scale);
 }
 
@@ -743,9 +740,6 @@ const Vector3& GpisModel::centroid() const { return impl_->centroid; }
 double GpisModel::scale() const { return impl_->scale; }
 Vector3 GpisModel::toNormalised(const Vector3& x_world) const { return impl_->normalise(x_world); }
 Vector3 GpisModel::toWorld(const Vector3& x_normalised) const { return impl_->centroid + impl_->scale * x_normalised; }
-bool GpisModel::inDomain(const Vector3& x_world) const {
-  return impl_->fitted && impl_->normalise(x_world).norm() <= impl_->config.domain_radius;
-}
 double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
 double GpisModel::dataRadiusWorld() const { return impl_->config.data_radius * impl_->scale; }
 
@@ -779,10 +773,7 @@ FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& log_params) {
 FitReport GpisModel::restore(const SurfaceModelState& state) {
   FitReport report;
   const Eigen::Index k = impl_->kernel->numParams();
-  if (state.model != name()) {
-    report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
-    return report;
-  }
+  if (!checkStateModel(state, &report)) return report;
   const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(),
                                                                     static_cast<Eigen::Index>(state.hyperparameters.size()));
   if (params.size() != k + 1 || !params.allFinite()) {
@@ -982,17 +973,6 @@ Eigen::MatrixXd GpisModel::varianceAfter(const Points3& x_world,
       after.col(static_cast<Eigen::Index>(by_refit[i])) = cloned.col(static_cast<Eigen::Index>(i));
   }
   return after;
-}
-
-Prediction GpisModel::predict(const Vector3& x_world) const {
-  const BatchPrediction batch = predictBatch(x_world, true, true);
-  Prediction p;
-  p.mean = batch.mean[0];
-  p.variance = batch.variance[0];
-  p.gradient = batch.gradient.col(0);
-  p.variance_gradient = batch.variance_gradient.col(0);
-  p.in_domain = batch.in_domain[0];
-  return p;
 }
 
 

@@ -754,10 +754,7 @@ FitReport MultiscaleGpisModel::fit(const std::vector<TrainingPoint>& points) {
 FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid,
                                           double scale) {
   FitReport screen;
-  if (!centroid.allFinite() || !(scale > 0.0) || !std::isfinite(scale)) {
-    screen.message = "invalid normalisation frame (centroid must be finite, scale > 0)";
-    return screen;
-  }
+  if (!checkFrame(centroid, scale, &screen)) return screen;
   Impl trial(impl_->config, impl_->coarse_config);
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
@@ -939,7 +936,6 @@ bool MultiscaleGpisModel::isFitted() const { return impl_->fitted; }
 const std::vector<TrainingPoint>& MultiscaleGpisModel::observations() const { return impl_->observations; }
 const Vector3& MultiscaleGpisModel::centroid() const { return impl_->coarse.centroid(); }
 double MultiscaleGpisModel::scale() const { return impl_->coarse.scale(); }
-bool MultiscaleGpisModel::inDomain(const Vector3& x_world) const { return impl_->coarse.inDomain(x_world); }
 double MultiscaleGpisModel::domainRadiusWorld() const { return impl_->coarse.domainRadiusWorld(); }
 double MultiscaleGpisModel::dataRadiusWorld() const { return impl_->coarse.dataRadiusWorld(); }
 double MultiscaleGpisModel::varianceUnitFactor() const { return impl_->coarse.varianceUnitFactor(); }
@@ -1264,17 +1260,6 @@ Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
   return after;
 }
 
-Prediction MultiscaleGpisModel::predict(const Vector3& x_world) const {
-  const BatchPrediction batch = predictBatch(x_world, true, true, true);
-  Prediction p;
-  p.mean = batch.mean[0];
-  p.variance = batch.variance[0];
-  p.gradient = batch.gradient.col(0);
-  p.variance_gradient = batch.variance_gradient.col(0);
-  p.in_domain = batch.in_domain[0];
-  return p;
-}
-
 std::vector<std::string> MultiscaleGpisModel::hyperparameterNames() const {
   std::vector<std::string> names;
   for (const std::string& n : impl_->coarse.hyperparameterNames()) names.push_back("coarse_" + n);
@@ -1307,14 +1292,7 @@ FitReport MultiscaleGpisModel::setHyperparameters(const Eigen::VectorXd& log_par
 
 FitReport MultiscaleGpisModel::restore(const SurfaceModelState& state) {
   FitReport report;
-  if (state.model != name()) {
-    report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
-    return report;
-  }
-  if (!state.centroid.allFinite() || !(state.scale > 0.0)) {
-    report.message = "invalid normalisation frame in the state";
-    return report;
-  }
+  if (!checkStateModel(state, &report) || !checkFrame(state.centroid, state.scale, &report)) return report;
   const Eigen::VectorXd params =
       Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(), static_cast<Eigen::Index>(state.hyperparameters.size()));
   Impl trial(impl_->config, impl_->coarse_config);

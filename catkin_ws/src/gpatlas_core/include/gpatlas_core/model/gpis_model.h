@@ -141,12 +141,10 @@ class GpisModel : public SurfaceModel {
   double scale() const override;
   Vector3 toNormalised(const Vector3& x_world) const;
   Vector3 toWorld(const Vector3& x_normalised) const;
-  bool inDomain(const Vector3& x_world) const override;
   // Centre and radius (metres) of the ball in which the model is valid.
   double domainRadiusWorld() const override;
   double dataRadiusWorld() const override;
 
-  Prediction predict(const Vector3& x_world) const override;
   // One matrix solve for the whole batch. Gradients are computed only when asked for; without
   // `with_variance` (and without the variance gradient) the O(n^2) per point solve is skipped
   // and `variance` is NaN: mean-only queries (meshing, projection) cost O(n) per point.
