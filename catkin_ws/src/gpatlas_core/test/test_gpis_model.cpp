@@ -644,17 +644,15 @@ TEST(GpisModel, ContradictoryPointsEscalateJitterThenFailClearly) {
   contradiction.label = PointLabel::kOutside;
   pts.push_back(contradiction);
 
-  GpisModel::Config no_initial_jitter;  // the ladder then climbs from 1e-12 to max_jitter
-  no_initial_jitter.jitter = 0.0;
-  GpisModel tolerant(no_initial_jitter);
+  GpisModel tolerant;  // no jitter first, then the ladder climbs from 1e-12 of the prior variance
+
   FitReport r = tolerant.fit(pts);
   ASSERT_TRUE(r.ok) << r.message;
   EXPECT_GT(r.jitter, 0.0);
   ASSERT_FALSE(r.warnings.empty());
 
   GpisModel::Config strict;
-  strict.jitter = 0.0;
-  strict.max_jitter = 0.0;
+  strict.cholesky.jitter_max_relative = 0.0;
   GpisModel model(strict);
   r = model.fit(pts);
   EXPECT_FALSE(r.ok);
@@ -668,7 +666,7 @@ TEST(GpisModel, AnUpdateNeedingMoreJitterEqualsAFullRefit) {
   auto pts = sphereCap(40, -0.3, 18);
   for (auto& p : pts) p.noise_sigma = 0.0;
   GpisModel::Config config;
-  config.jitter = 0.0;  // exact data fit without jitter; the ladder climbs from 1e-12
+  ASSERT_EQ(config.cholesky.jitter_first_relative, 0.0);  // an exact data fit without jitter first
   GpisModel model(config);
   ASSERT_TRUE(model.fit(pts).ok);
   ASSERT_EQ(model.fit(pts).jitter, 0.0);

@@ -1,6 +1,7 @@
 #include "gpatlas_core/model/gpis_model.h"
 
 #include "gpatlas_core/common/dense_solve.h"
+#include "gpatlas_core/model/gp_numerics.h"
 #include "gpatlas_core/model/observation_screen.h"
 
 #include <Eigen/Cholesky>
@@ -24,8 +25,6 @@ double gpisTarget(const TrainingPoint& p, double scale) {
 }
 
 namespace {
-
-constexpr double kLog2Pi = 1.8378770664093453;
 
 // Covariance between two observations at normalised positions a and b: of f itself where the
 // direction is zero, else of f's slope along that unit direction. With d = a - b and k' = dk/dr:
@@ -189,37 +188,30 @@ struct GpisModel::Impl {
     return config.noise_in_reported_units ? k.value(0.0) / config.reference_prior_variance : 1.0;
   }
 
-  // A pivot that is tiny relative to the prior variance means a numerically rank-deficient
-  // matrix: LLT may still "succeed" on rounding noise, but its solution would be garbage.
-  bool wellConditioned(const Eigen::Ref<const Eigen::VectorXd>& pivots) const {
-    const double floor = 1e-13 * kernel->value(0.0);
-    return (pivots.array().square() > floor).all();
-  }
-
   void solveAlpha() {
     alpha = y.head(n);
     solveLowerInPlace(chol, n, alpha);
     solveLowerInPlace(chol, n, alpha, /*transposed=*/true);
   }
 
-  // Factorises K for the first n points, escalating jitter. Returns false when even the largest
-  // jitter fails.
+  // Factorises K for the first n points with the jitter ladder (CholeskyConfig). Returns false
+  // when even the largest jitter fails.
   bool factorise(std::string* message) {
-    // Jitter ladder: the configured value, then x10 steps up to max_jitter.
-    std::vector<double> ladder{config.jitter};
-    for (double j = std::max(config.jitter * 10.0, 1e-12); j <= config.max_jitter * 1.0001; j *= 10.0) ladder.push_back(j);
-    for (double trial : ladder) {
-      jitter = trial;
-      auto block = chol.topLeftCorner(n, n);
-      for (Eigen::Index j = 0; j < n; ++j) {
-        for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = covariance(i, j);
-        block(j, j) = diagonal(j);
-      }
-      if (choleskyLowerInPlace(block) && wellConditioned(block.diagonal())) return true;
+    jitter = 0.0;
+    auto block = chol.topLeftCorner(n, n);
+    for (Eigen::Index j = 0; j < n; ++j) {
+      for (Eigen::Index i = j + 1; i < n; ++i) block(i, j) = covariance(i, j);
+      block(j, j) = diagonal(j);
+    }
+    const double used = factoriseWithJitter(block, kernel->value(0.0), config.cholesky);
+    if (used >= 0.0) {
+      jitter = used;
+      return true;
     }
     std::ostringstream msg;
     msg << "covariance matrix of " << n << " points is not positive definite even with jitter "
-        << config.max_jitter << " (duplicate or contradictory points, or a kernel outside its valid range)";
+        << config.cholesky.jitter_max_relative << " of the prior variance (duplicate or contradictory points, or a "
+        << "kernel outside its valid range)";
     *message = msg.str();
     return false;
   }
@@ -430,10 +422,9 @@ bool GpisModel::Impl::extendFactor(const ObservationRows& rows) {
     schur(j, j) = diagonal(old_n + j);
   }
   schur.triangularView<Eigen::Lower>() -= cross.transpose() * cross;
-  Eigen::LLT<Eigen::MatrixXd> llt(schur.selfadjointView<Eigen::Lower>());
-  if (!(llt.info() == Eigen::Success && wellConditioned(Eigen::MatrixXd(llt.matrixL()).diagonal()))) return false;
+  if (!choleskyWellConditioned(schur, kernel->value(0.0), config.cholesky)) return false;
   chol.block(old_n, 0, k, old_n) = cross.transpose();
-  chol.block(old_n, old_n, k, k) = llt.matrixL();
+  chol.block(old_n, old_n, k, k) = schur.triangularView<Eigen::Lower>();
   n = old_n + k;
   return true;
 }
@@ -486,11 +477,8 @@ const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/tru
 FitReport GpisModel::fit(const std::vector<TrainingPoint>& points) { return fitFrom(points, nullptr, 0.0); }
 
 FitReport GpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid, double scale) {
-  if (!centroid.allFinite() || !(scale > 0.0) || !std::isfinite(scale)) {
-    FitReport report;
-    report.message = "invalid normalisation frame (centroid must be finite, scale > 0)";
-    return report;
-  }
+  FitReport report;
+  if (!checkFrame(centroid, scale, &report)) return report;
   return fitFrom(points, &centroid, scale);
 }
 
@@ -654,7 +642,7 @@ FitReport GpisModel::refit(bool renormalise) {
     report.message = error;
     return report;
   }
-  if (m.jitter > c.jitter)
+  if (m.jitter > c.cholesky.jitter_first_relative * m.kernel->value(0.0))
     report.warnings.push_back("covariance needed jitter " + std::to_string(m.jitter) + " to factorise");
   m.solveAlpha();
   m.fitted = true;
@@ -752,9 +740,6 @@ const Vector3& GpisModel::centroid() const { return impl_->centroid; }
 double GpisModel::scale() const { return impl_->scale; }
 Vector3 GpisModel::toNormalised(const Vector3& x_world) const { return impl_->normalise(x_world); }
 Vector3 GpisModel::toWorld(const Vector3& x_normalised) const { return impl_->centroid + impl_->scale * x_normalised; }
-bool GpisModel::inDomain(const Vector3& x_world) const {
-  return impl_->fitted && impl_->normalise(x_world).norm() <= impl_->config.domain_radius;
-}
 double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
 double GpisModel::dataRadiusWorld() const { return impl_->config.data_radius * impl_->scale; }
 
@@ -788,10 +773,7 @@ FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& log_params) {
 FitReport GpisModel::restore(const SurfaceModelState& state) {
   FitReport report;
   const Eigen::Index k = impl_->kernel->numParams();
-  if (state.model != name()) {
-    report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
-    return report;
-  }
+  if (!checkStateModel(state, &report)) return report;
   const Eigen::VectorXd params = Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(),
                                                                     static_cast<Eigen::Index>(state.hyperparameters.size()));
   if (params.size() != k + 1 || !params.allFinite()) {
@@ -993,24 +975,11 @@ Eigen::MatrixXd GpisModel::varianceAfter(const Points3& x_world,
   return after;
 }
 
-Prediction GpisModel::predict(const Vector3& x_world) const {
-  const BatchPrediction batch = predictBatch(x_world, true, true);
-  Prediction p;
-  p.mean = batch.mean[0];
-  p.variance = batch.variance[0];
-  p.gradient = batch.gradient.col(0);
-  p.variance_gradient = batch.variance_gradient.col(0);
-  p.in_domain = batch.in_domain[0];
-  return p;
-}
-
 
 double GpisModel::logMarginalLikelihood() const {
   const Impl& m = *impl_;
   if (!m.fitted) return std::numeric_limits<double>::quiet_NaN();
-  const double data_fit = m.y.head(m.n).dot(m.alpha);
-  const double log_det = 2.0 * m.chol.topLeftCorner(m.n, m.n).diagonal().array().log().sum();
-  return -0.5 * data_fit - 0.5 * log_det - 0.5 * static_cast<double>(m.n) * kLog2Pi;
+  return gpatlas_core::logMarginalLikelihood(m.chol.topLeftCorner(m.n, m.n), m.y.head(m.n), m.alpha);
 }
 
 FitReport GpisModel::setHyperparameters(const Eigen::VectorXd& kernel_log_params, double noise_scale) {

@@ -171,11 +171,6 @@ void Matern32Kernel::paramGradient(double r, double* out) const {
   out[1] = sigma_ * sigma_ * a * a * std::exp(-a);  // dk/da * da/dlog(l), da/dlog(l) = -a
 }
 
-double Matern52Kernel::value(double r) const {
-  const double a = kSqrt5 * r / length_;
-  return sigma_ * sigma_ * (1.0 + a + a * a / 3.0) * std::exp(-a);
-}
-
 double Matern52Kernel::derivative(double r) const {
   const double a = kSqrt5 * r / length_;
   const double dk_da = -sigma_ * sigma_ * a * (1.0 + a) / 3.0 * std::exp(-a);

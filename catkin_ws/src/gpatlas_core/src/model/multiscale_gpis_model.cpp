@@ -1,12 +1,11 @@
 #include "gpatlas_core/model/multiscale_gpis_model.h"
 
-#include "gpatlas_core/common/bounded_parameter.h"
+#include "gpatlas_core/model/gp_numerics.h"
 #include "gpatlas_core/model/kernel.h"
 #include "gpatlas_core/model/observation_screen.h"
 
 #include <Eigen/Cholesky>
 #include <Eigen/Dense>
-#include <ceres/ceres.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -26,8 +25,6 @@ namespace gpatlas_core {
 
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093453;
-constexpr double kSqrt5 = 2.23606797749979;
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
 using CellKey = std::int64_t;
@@ -106,26 +103,13 @@ std::vector<std::size_t> mergeSorted(std::vector<std::size_t> a, const std::vect
 // observations() and state() report the caller's points.
 const ObservationScreenOptions kScreenOptions{/*normalise_slope_directions=*/false};
 
-// Matern 5/2 in metres, k = s2 (1 + a + a^2/3) e^-a with a = sqrt(5) r / l (Matern52Kernel's
-// formula), and (dk/dr) / r = -s2 (5 / (3 l^2)) (1 + a) e^-a.
-struct LocalKernel {
-  double s2;
-  double length;
-  double value(double r) const {
-    const double a = kSqrt5 * r / length;
-    return s2 * (1.0 + a + a * a / 3.0) * std::exp(-a);
-  }
-  double derivativeOverDistance(double r) const {
-    const double a = kSqrt5 * r / length;
-    return -s2 * (5.0 / (3.0 * length * length)) * (1.0 + a) * std::exp(-a);
-  }
-};
-
 struct FineParams {
   double sigma, length_m, noise_m;
   static FineParams fromLog(const Eigen::Vector3d& log_params) {
     return {std::exp(log_params[0]), std::exp(log_params[1]), std::exp(log_params[2])};
   }
+  // The local kernel, in metres.
+  Matern52Kernel kernel() const { return Matern52Kernel(sigma, length_m); }
 };
 
 // What a batch of queries asks for; `slope`: the kernel's derivative, for either gradient.
@@ -203,10 +187,10 @@ BatchPrediction coarseBatch(const GpisModel& coarse_model, const Points3& x_worl
 // gradients by the quotient rule (the zero expert's weight is constant), added to the coarse
 // level's mean and variance (the latter in reported units, x unit).
 void blendLevels(const BatchPrediction& coarse, const QuerySlots& query_slots, const CellPredictions& cells,
-                 const LocalKernel& kernel, double w0, double unit, const BatchNeeds& needs, BatchPrediction& out) {
+                 const Matern52Kernel& kernel, double w0, double unit, const BatchNeeds& needs, BatchPrediction& out) {
   tbb::parallel_for(Eigen::Index{0}, coarse.mean.size(), [&](Eigen::Index col) {
     const std::size_t jq = static_cast<std::size_t>(col);
-    double sum_w = w0, sum_wr = 0.0, sum_wv = w0 * kernel.s2;
+    double sum_w = w0, sum_wr = 0.0, sum_wv = w0 * kernel.value(0.0);
     Vector3 sum_gw = Vector3::Zero(), sum_g_wr = Vector3::Zero(), sum_g_wv = Vector3::Zero();
     for (int k = 0; k < query_slots.count[jq]; ++k) {
       const Slot& slot = query_slots.slots[jq][static_cast<std::size_t>(k)];
@@ -256,53 +240,41 @@ Eigen::MatrixXd cellCovariance(const Points3& x, const Matern52Kernel& kernel, d
   return k;
 }
 
-// Factorises a cell's covariance, escalating a diagonal jitter (relative to the prior variance)
-// when rounding makes it indefinite.
-bool factoriseCell(Cell* cell, const Matern52Kernel& kernel, double noise_var) {
-  const double prior = kernel.value(0.0);
-  for (double relative : {0.0, 1e-10, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4}) {
-    Eigen::MatrixXd k = cellCovariance(cell->x, kernel, noise_var + relative * prior);
-    Eigen::LLT<Eigen::Ref<Eigen::MatrixXd>, Eigen::Lower> llt(k);
-    if (llt.info() != Eigen::Success || !((k.diagonal().array().square() > 1e-13 * prior).all())) continue;
-    cell->chol = k.triangularView<Eigen::Lower>();
-    cell->jitter = relative * prior;
-    cell->alpha = llt.solve(cell->y);
-    return true;
-  }
-  return false;
+// Factorises a cell's covariance with the jitter ladder.
+bool factoriseCell(Cell* cell, const Matern52Kernel& kernel, double noise_var, const CholeskyConfig& cholesky) {
+  Eigen::MatrixXd k = cellCovariance(cell->x, kernel, noise_var);
+  const double jitter = factoriseWithJitter(k, kernel.value(0.0), cholesky);
+  if (jitter < 0.0) return false;
+  cell->chol = k.triangularView<Eigen::Lower>();
+  cell->jitter = jitter;
+  cell->alpha = solveWithFactor(cell->chol, cell->y);
+  return true;
 }
 
 // Log marginal likelihood of one cell's targets and its gradient in (log sigma, log length,
-// log noise): dL/dtheta = 0.5 tr((alpha alpha^T - K^-1) dK/dtheta).
-double cellLogLikelihood(const Cell& cell, const FineParams& p, double scale, Eigen::Vector3d* gradient) {
-  const Matern52Kernel kernel(p.sigma, p.length_m);
+// log noise); NaN when the covariance does not factorise without jitter.
+double cellLogLikelihood(const Cell& cell, const FineParams& p, double scale, const CholeskyConfig& cholesky,
+                         Eigen::Vector3d* gradient) {
+  const Matern52Kernel kernel = p.kernel();
   const double noise_f = p.noise_m / scale;
-  const Eigen::Index n = cell.x.cols();
   Eigen::MatrixXd k = cellCovariance(cell.x, kernel, noise_f * noise_f);
-  Eigen::LLT<Eigen::MatrixXd, Eigen::Lower> llt(k.selfadjointView<Eigen::Lower>());
-  if (llt.info() != Eigen::Success) return kNaN;
-  const Eigen::VectorXd alpha = llt.solve(cell.y);
-  const double log_det = 2.0 * llt.matrixLLT().diagonal().array().log().sum();
-  const double lml = -0.5 * cell.y.dot(alpha) - 0.5 * log_det - 0.5 * static_cast<double>(n) * kLog2Pi;
+  if (!choleskyWellConditioned(k, kernel.value(0.0), cholesky)) return kNaN;
+  const Eigen::VectorXd alpha = solveWithFactor(k, cell.y);
   if (gradient) {
-    Eigen::MatrixXd weight = -llt.solve(Eigen::MatrixXd::Identity(n, n));
-    weight.noalias() += alpha * alpha.transpose();
-    double g_sigma = 0.0, g_length = 0.0, g_noise = 0.0;
-    double d0[2], d[2];
+    double d0[2];
     kernel.paramGradient(0.0, d0);
-    for (Eigen::Index j = 0; j < n; ++j) {
-      g_sigma += 0.5 * weight(j, j) * d0[0];
-      g_length += 0.5 * weight(j, j) * d0[1];
-      g_noise += 0.5 * weight(j, j) * 2.0 * noise_f * noise_f;
-      for (Eigen::Index i = j + 1; i < n; ++i) {
+    *gradient = logMarginalLikelihoodGradient(k, alpha, 3, [&](Eigen::Index i, Eigen::Index j, double* d) {
+      if (i == j) {
+        d[0] = d0[0];
+        d[1] = d0[1];
+        d[2] = 2.0 * noise_f * noise_f;  // the noise variance's derivative in log noise
+      } else {
         kernel.paramGradient((cell.x.col(i) - cell.x.col(j)).norm(), d);
-        g_sigma += weight(i, j) * d[0];
-        g_length += weight(i, j) * d[1];
+        d[2] = 0.0;
       }
-    }
-    *gradient = Eigen::Vector3d(g_sigma, g_length, g_noise);
+    });
   }
-  return lml;
+  return logMarginalLikelihood(k, cell.y, alpha);
 }
 
 
@@ -506,7 +478,8 @@ struct MultiscaleGpisModel::Impl {
     std::vector<double> values(sample.size());
     std::vector<Eigen::Vector3d> grads(sample.size());
     tbb::parallel_for(std::size_t{0}, sample.size(), [&](std::size_t i) {
-      values[i] = cellLogLikelihood(cells[sample[i]], p, coarse.scale(), gradient ? &grads[i] : nullptr);
+      values[i] = cellLogLikelihood(cells[sample[i]], p, coarse.scale(), coarse_config.cholesky,
+                                    gradient ? &grads[i] : nullptr);
     });
     double sum = 0.0;
     if (gradient) gradient->setZero();
@@ -591,7 +564,7 @@ struct MultiscaleGpisModel::Impl {
   double blendedFineVariance(const Vector3& x, const std::array<Slot, kMaxSlots>& slots, int count,
                              const double* slot_variance, const std::vector<Cell>& built) const;
   // Each cell's residual mean and variance (and gradients) at the queries that fall in it.
-  CellPredictions predictCells(const Points3& x_world, const CellGroups& groups, const LocalKernel& kernel,
+  CellPredictions predictCells(const Points3& x_world, const CellGroups& groups, const Matern52Kernel& kernel,
                                const BatchNeeds& needs) const;
 
   FitReport factorCells(std::vector<Cell*> targets) const {
@@ -601,7 +574,7 @@ struct MultiscaleGpisModel::Impl {
     const double noise_var = noiseVar(p);
     std::vector<char> ok(targets.size(), 0);
     tbb::parallel_for(std::size_t{0}, targets.size(),
-                      [&](std::size_t i) { ok[i] = factoriseCell(targets[i], kernel, noise_var) ? 1 : 0; });
+                      [&](std::size_t i) { ok[i] = factoriseCell(targets[i], kernel, noise_var, coarse_config.cholesky) ? 1 : 0; });
     std::size_t failed = 0, jittered = 0;
     for (std::size_t i = 0; i < targets.size(); ++i) {
       failed += ok[i] ? 0 : 1;
@@ -627,50 +600,19 @@ TuneReport MultiscaleGpisModel::Impl::tuneFine() {
     report.message = "fine tuning skipped: no cell";
     return report;
   }
-  const std::array<BoundedParameter, 3> boxes{BoundedParameter{std::log(config.sigma_min), std::log(config.sigma_max)},
-                                 BoundedParameter{std::log(config.length_min_m), std::log(lengthMax())},
-                                 BoundedParameter{std::log(config.noise_min_m), std::log(config.noise_max_m)}};
   report.log_likelihood_before = sampleLogLikelihood(sample, log_fine, nullptr);
-
-  class Objective : public ceres::FirstOrderFunction {
-   public:
-    Objective(const Impl& m, const std::vector<std::size_t>& sample, const std::array<BoundedParameter, 3>& boxes)
-        : m_(m), sample_(sample), boxes_(boxes) {}
-    int NumParameters() const override { return 3; }
-    bool Evaluate(const double* z, double* cost, double* gradient) const override {
-      Eigen::Vector3d theta;
-      for (int i = 0; i < 3; ++i) theta[i] = boxes_[static_cast<std::size_t>(i)].fromUnbounded(z[i]);
-      Eigen::Vector3d grad;
-      const double lml = m_.sampleLogLikelihood(sample_, theta, gradient ? &grad : nullptr);
-      if (!std::isfinite(lml)) return false;
-      *cost = -lml;
-      if (gradient)
-        for (int i = 0; i < 3; ++i) {
-          gradient[i] = -grad[i] * boxes_[static_cast<std::size_t>(i)].derivative(z[i]);
-        }
-      return true;
-    }
-
-   private:
-    const Impl& m_;
-    const std::vector<std::size_t>& sample_;
-    std::array<BoundedParameter, 3> boxes_;
+  const Eigen::Vector3d lower(std::log(config.sigma_min), std::log(config.length_min_m), std::log(config.noise_min_m));
+  const Eigen::Vector3d upper(std::log(config.sigma_max), std::log(lengthMax()), std::log(config.noise_max_m));
+  const BoundedObjective objective = [&](const Eigen::VectorXd& theta, Eigen::VectorXd* gradient) {
+    Eigen::Vector3d grad;
+    const double lml = sampleLogLikelihood(sample, theta, gradient ? &grad : nullptr);
+    if (gradient) *gradient = grad;
+    return lml;
   };
-
-  double z[3];
-  for (int i = 0; i < 3; ++i) z[i] = boxes[static_cast<std::size_t>(i)].toUnbounded(log_fine[i]);
-  ceres::GradientProblem problem(new Objective(*this, sample, boxes));
-  ceres::GradientProblemSolver::Options options;
-  options.line_search_direction_type = ceres::LBFGS;
-  options.max_num_iterations = std::max(1, config.tune_max_iterations);
-  options.function_tolerance = 1e-6;
-  options.logging_type = ceres::SILENT;
-  ceres::GradientProblemSolver::Summary summary;
-  ceres::Solve(options, problem, z, &summary);
-  report.iterations = static_cast<int>(summary.iterations.size());
-  Eigen::Vector3d tuned;
-  for (int i = 0; i < 3; ++i) tuned[i] = boxes[static_cast<std::size_t>(i)].fromUnbounded(z[i]);
-  const double after = summary.IsSolutionUsable() ? sampleLogLikelihood(sample, tuned, nullptr) : kNaN;
+  const BoundedMaximum best = maximiseBounded(objective, log_fine, lower, upper, config.tune_max_iterations);
+  report.iterations = best.iterations;
+  const Eigen::Vector3d tuned = best.x;
+  const double after = best.value;
   std::ostringstream msg;
   if (std::isfinite(after) && after > report.log_likelihood_before) {
     log_fine = tuned;
@@ -680,7 +622,7 @@ TuneReport MultiscaleGpisModel::Impl::tuneFine() {
         << ", length " << std::exp(tuned[1]) * 1e3 << " mm, noise " << std::exp(tuned[2]) * 1e3 << " mm";
     report.log_likelihood_after = after;
   } else {
-    msg << "fine tuning did not improve the log likelihood (" << summary.message << "); defaults kept";
+    msg << "fine tuning did not improve the log likelihood (" << best.message << "); defaults kept";
     report.log_likelihood_after = report.log_likelihood_before;
   }
   report.message = msg.str();
@@ -812,10 +754,7 @@ FitReport MultiscaleGpisModel::fit(const std::vector<TrainingPoint>& points) {
 FitReport MultiscaleGpisModel::fitInFrame(const std::vector<TrainingPoint>& points, const Vector3& centroid,
                                           double scale) {
   FitReport screen;
-  if (!centroid.allFinite() || !(scale > 0.0) || !std::isfinite(scale)) {
-    screen.message = "invalid normalisation frame (centroid must be finite, scale > 0)";
-    return screen;
-  }
+  if (!checkFrame(centroid, scale, &screen)) return screen;
   Impl trial(impl_->config, impl_->coarse_config);
   trial.coarse.setHyperparameters(impl_->coarse.hyperparameters());
   trial.log_fine = impl_->log_fine;
@@ -997,7 +936,6 @@ bool MultiscaleGpisModel::isFitted() const { return impl_->fitted; }
 const std::vector<TrainingPoint>& MultiscaleGpisModel::observations() const { return impl_->observations; }
 const Vector3& MultiscaleGpisModel::centroid() const { return impl_->coarse.centroid(); }
 double MultiscaleGpisModel::scale() const { return impl_->coarse.scale(); }
-bool MultiscaleGpisModel::inDomain(const Vector3& x_world) const { return impl_->coarse.inDomain(x_world); }
 double MultiscaleGpisModel::domainRadiusWorld() const { return impl_->coarse.domainRadiusWorld(); }
 double MultiscaleGpisModel::dataRadiusWorld() const { return impl_->coarse.dataRadiusWorld(); }
 double MultiscaleGpisModel::varianceUnitFactor() const { return impl_->coarse.varianceUnitFactor(); }
@@ -1056,7 +994,7 @@ QuerySlots MultiscaleGpisModel::Impl::querySlots(const Points3& x_world) const {
 }
 
 CellPredictions MultiscaleGpisModel::Impl::predictCells(const Points3& x_world, const CellGroups& groups,
-                                                        const LocalKernel& kernel, const BatchNeeds& needs) const {
+                                                        const Matern52Kernel& kernel, const BatchNeeds& needs) const {
   const std::size_t num_entries = static_cast<std::size_t>(x_world.cols()) * kMaxSlots;
   CellPredictions out;
   out.mean.resize(num_entries);
@@ -1065,6 +1003,7 @@ CellPredictions MultiscaleGpisModel::Impl::predictCells(const Points3& x_world, 
   out.variance_gradient.resize(needs.variance_gradient ? num_entries : 0);
   const std::vector<std::size_t>& offset = groups.offset;
   const std::vector<std::size_t>& entries = groups.entries;
+  const double prior = kernel.value(0.0);
   // Only the cells some query falls in (a single query must not pay for a pass over every cell).
   std::vector<std::size_t> active;
   for (std::size_t c = 0; c < cells.size(); ++c)
@@ -1099,7 +1038,7 @@ CellPredictions MultiscaleGpisModel::Impl::predictCells(const Points3& x_world, 
     const auto lower = cell.chol.triangularView<Eigen::Lower>();
     lower.solveInPlace(k);  // L^-1 k*
     for (Eigen::Index j = 0; j < mq; ++j)
-      out.variance[entries[begin + static_cast<std::size_t>(j)]] = std::max(0.0, kernel.s2 - k.col(j).squaredNorm());
+      out.variance[entries[begin + static_cast<std::size_t>(j)]] = std::max(0.0, prior - k.col(j).squaredNorm());
     if (!needs.variance_gradient) return;
     lower.transpose().solveInPlace(k);  // K^-1 k*
     for (Eigen::Index j = 0; j < mq; ++j)
@@ -1124,7 +1063,7 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   if (q == 0) return out;
 
   const FineParams p = m.fine();
-  const LocalKernel kernel{p.sigma * p.sigma, p.length_m};
+  const Matern52Kernel kernel = p.kernel();
   const BatchPrediction coarse = coarseBatch(m.coarse, x_world, needs);
   const QuerySlots query_slots = m.querySlots(x_world);
   const CellPredictions cells = m.predictCells(x_world, groupByCell(query_slots, m.cells.size()), kernel, needs);
@@ -1230,7 +1169,7 @@ std::vector<Cell> MultiscaleGpisModel::Impl::buildFantasyCells(const std::vector
     cell.x.resize(3, static_cast<Eigen::Index>(members.size()));
     for (std::size_t i = 0; i < members.size(); ++i) cell.x.col(static_cast<Eigen::Index>(i)) = members[i] - cell.centre;
     cell.y = Eigen::VectorXd::Zero(cell.x.cols());
-    if (factoriseCell(&cell, kernel, noiseVar(p))) built.push_back(std::move(cell));
+    if (factoriseCell(&cell, kernel, noiseVar(p), coarse_config.cholesky)) built.push_back(std::move(cell));
   }
   return built;
 }
@@ -1276,7 +1215,7 @@ Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
   const QuerySlots slots = m.querySlots(x_world);
   const CellGroups groups = groupByCell(slots, m.cells.size());
   const CellPredictions before =
-      m.predictCells(x_world, groups, LocalKernel{p.sigma * p.sigma, p.length_m}, BatchNeeds{false, false, true, false});
+      m.predictCells(x_world, groups, kernel, BatchNeeds{false, false, true, false});
   std::vector<Impl::FantasyCells> fantasy(num_batches);
   std::unordered_map<std::size_t, Eigen::MatrixXd> solved_queries;  // L^-1 k(X_c, x) of a changed cell's queries
   for (std::size_t b = 0; b < num_batches; ++b) {
@@ -1321,17 +1260,6 @@ Eigen::MatrixXd MultiscaleGpisModel::varianceAfter(const Points3& x_world,
   return after;
 }
 
-Prediction MultiscaleGpisModel::predict(const Vector3& x_world) const {
-  const BatchPrediction batch = predictBatch(x_world, true, true, true);
-  Prediction p;
-  p.mean = batch.mean[0];
-  p.variance = batch.variance[0];
-  p.gradient = batch.gradient.col(0);
-  p.variance_gradient = batch.variance_gradient.col(0);
-  p.in_domain = batch.in_domain[0];
-  return p;
-}
-
 std::vector<std::string> MultiscaleGpisModel::hyperparameterNames() const {
   std::vector<std::string> names;
   for (const std::string& n : impl_->coarse.hyperparameterNames()) names.push_back("coarse_" + n);
@@ -1364,14 +1292,7 @@ FitReport MultiscaleGpisModel::setHyperparameters(const Eigen::VectorXd& log_par
 
 FitReport MultiscaleGpisModel::restore(const SurfaceModelState& state) {
   FitReport report;
-  if (state.model != name()) {
-    report.message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
-    return report;
-  }
-  if (!state.centroid.allFinite() || !(state.scale > 0.0)) {
-    report.message = "invalid normalisation frame in the state";
-    return report;
-  }
+  if (!checkStateModel(state, &report) || !checkFrame(state.centroid, state.scale, &report)) return report;
   const Eigen::VectorXd params =
       Eigen::Map<const Eigen::VectorXd>(state.hyperparameters.data(), static_cast<Eigen::Index>(state.hyperparameters.size()));
   Impl trial(impl_->config, impl_->coarse_config);

@@ -11,6 +11,35 @@ double SurfaceModel::variance(const Vector3& x_world) const {
   return predictBatch(x_world, false, false, true).variance[0];
 }
 
+bool SurfaceModel::inDomain(const Vector3& x_world) const {
+  return isFitted() && (x_world - centroid()).norm() <= domainRadiusWorld();
+}
+
+Prediction SurfaceModel::predict(const Vector3& x_world) const {
+  const BatchPrediction batch = predictBatch(x_world, true, true, true);
+  Prediction p;
+  p.mean = batch.mean[0];
+  p.variance = batch.variance[0];
+  p.gradient = batch.gradient.col(0);
+  p.variance_gradient = batch.variance_gradient.col(0);
+  p.in_domain = batch.in_domain[0];
+  return p;
+}
+
+bool SurfaceModel::checkFrame(const Vector3& centroid, double scale, FitReport* report) {
+  if (centroid.allFinite() && scale > 0.0 && std::isfinite(scale)) return true;
+  report->ok = false;
+  report->message = "invalid normalisation frame (centroid must be finite, scale > 0)";
+  return false;
+}
+
+bool SurfaceModel::checkStateModel(const SurfaceModelState& state, FitReport* report) const {
+  if (state.model == name()) return true;
+  report->ok = false;
+  report->message = "the state is of a '" + state.model + "' model, this is a '" + name() + "' model";
+  return false;
+}
+
 double SurfaceModel::nearestSurfaceDistance(const Vector3& point_world,
                                             const std::vector<Vector3>& new_surface_points) const {
   double nearest = std::numeric_limits<double>::infinity();

@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_core/model/gp_numerics.h"
 #include "gpatlas_core/model/kernel.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/common/types.h"
@@ -60,9 +61,9 @@ struct GpisModelConfig {
   double noise_scale{1.0};
   // Noise sigmas are in reference units (see above); false: in units of f.
   bool noise_in_reported_units{true};
-  // Diagonal jitter first tried, escalated x10 up to max_jitter on a failed factorisation.
-  double jitter{1e-9};
-  double max_jitter{1e-4};
+  // The jitter ladder of the factorisation (relative to the kernel's prior variance); the
+  // multiscale model's local cells use the same.
+  CholeskyConfig cholesky;
   // Two points closer than this (normalised) with the same label are duplicates.
   double duplicate_distance{1e-6};
   // Prior variance of the reference model (see above): reported = raw * this / k(0).
@@ -140,12 +141,10 @@ class GpisModel : public SurfaceModel {
   double scale() const override;
   Vector3 toNormalised(const Vector3& x_world) const;
   Vector3 toWorld(const Vector3& x_normalised) const;
-  bool inDomain(const Vector3& x_world) const override;
   // Centre and radius (metres) of the ball in which the model is valid.
   double domainRadiusWorld() const override;
   double dataRadiusWorld() const override;
 
-  Prediction predict(const Vector3& x_world) const override;
   // One matrix solve for the whole batch. Gradients are computed only when asked for; without
   // `with_variance` (and without the variance gradient) the O(n^2) per point solve is skipped
   // and `variance` is NaN: mean-only queries (meshing, projection) cost O(n) per point.

@@ -2,6 +2,7 @@
 
 #include <Eigen/Core>
 
+#include <cmath>
 #include <functional>
 #include <memory>
 #include <string>
@@ -148,15 +149,29 @@ class Matern32Kernel : public ScaledKernel {
   void paramGradient(double r, double* out) const override;
 };
 
-class Matern52Kernel : public ScaledKernel {
+// k(r) = sigma^2 (1 + a + a^2 / 3) e^-a, a = sqrt(5) r / length. Final, with value() and
+// derivativeOverDistance() inline: the multiscale model's local cells call them in their inner
+// loops through this type.
+class Matern52Kernel final : public ScaledKernel {
  public:
   explicit Matern52Kernel(double sigma = 1.0, double length = 0.3) : ScaledKernel(sigma, length) {}
   std::string name() const override { return "matern52"; }
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<Matern52Kernel>(*this); }
-  double value(double r) const override;
+  double value(double r) const override {
+    const double a = kSqrt5 * r / length_;
+    return sigma_ * sigma_ * (1.0 + a + a * a / 3.0) * std::exp(-a);
+  }
+  // (dk/dr) / r = -sigma^2 (5 / (3 length^2)) (1 + a) e^-a, finite at r = 0.
+  double derivativeOverDistance(double r) const {
+    const double a = kSqrt5 * r / length_;
+    return -sigma_ * sigma_ * (5.0 / (3.0 * length_ * length_)) * (1.0 + a) * std::exp(-a);
+  }
   double derivative(double r) const override;
   double secondDerivative(double r) const override;
   void paramGradient(double r, double* out) const override;
+
+ private:
+  static constexpr double kSqrt5 = 2.23606797749979;
 };
 
 }  // namespace gpatlas_core

@@ -117,12 +117,10 @@ class MultiscaleGpisModel : public SurfaceModel {
 
   const Vector3& centroid() const override;
   double scale() const override;
-  bool inDomain(const Vector3& x_world) const override;
   double domainRadiusWorld() const override;
   double dataRadiusWorld() const override;
   double varianceUnitFactor() const override;
 
-  Prediction predict(const Vector3& x_world) const override;
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true, bool with_variance_gradient = true,
                                bool with_variance = true) const override;
   // Both levels' low-rank updates, blended as predictBatch blends them: the coarse level's

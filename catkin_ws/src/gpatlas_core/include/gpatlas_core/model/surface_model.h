@@ -112,8 +112,8 @@ class SurfaceModel {
   // ---- frame
   virtual const Vector3& centroid() const = 0;
   virtual double scale() const = 0;
-  // Queries are valid within the ball of domainRadiusWorld() (metres) around centroid().
-  virtual bool inDomain(const Vector3& x_world) const = 0;
+  // Queries are valid within the ball of domainRadiusWorld() (metres) around centroid(), once fitted.
+  bool inDomain(const Vector3& x_world) const;
   virtual double domainRadiusWorld() const = 0;
   // Radius (metres) of the ball around centroid() that holds the surface data.
   virtual double dataRadiusWorld() const = 0;
@@ -121,7 +121,8 @@ class SurfaceModel {
   virtual double varianceUnitFactor() const = 0;
 
   // ---- queries (world coordinates; throw std::logic_error before the first fit)
-  virtual Prediction predict(const Vector3& x_world) const = 0;
+  // predictBatch of one point, with gradients and variance.
+  Prediction predict(const Vector3& x_world) const;
   // One call for the whole batch. Gradients only when asked for; without `with_variance` (and
   // without the variance gradient) `variance` is NaN and models may skip its cost.
   virtual BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true,
@@ -147,8 +148,7 @@ class SurfaceModel {
 
   // Distance (metres) from a point to the nearest surface observation or `new_surface_points`:
   // an upper bound on its distance to the surface (TrainingPoint::surface_distance_m).
-  virtual double nearestSurfaceDistance(const Vector3& point_world,
-                                        const std::vector<Vector3>& new_surface_points = {}) const;
+  double nearestSurfaceDistance(const Vector3& point_world, const std::vector<Vector3>& new_surface_points = {}) const;
 
   // ---- position uncertainty (position_uncertainty.h)
   // The factor on sd(f) that calibratePositionSd fits: the common scale of the prior's and the
@@ -171,6 +171,11 @@ class SurfaceModel {
   // Rebuilds this model from another's state (same model name): its hyperparameters, frame and
   // data, fitted once. On failure the model is unchanged.
   virtual FitReport restore(const SurfaceModelState& state) = 0;
+
+ protected:
+  // The checks every model's fitInFrame() and restore() make; false with the reason in `report`.
+  static bool checkFrame(const Vector3& centroid, double scale, FitReport* report);
+  bool checkStateModel(const SurfaceModelState& state, FitReport* report) const;
 
  private:
   double position_sd_scale_{1.0};
