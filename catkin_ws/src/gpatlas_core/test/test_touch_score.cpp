@@ -29,6 +29,28 @@ Points3 spherePoints(const AnalyticSphere& sphere, int count, unsigned seed) {
   return points;
 }
 
+// `count` points of the true sphere as the predicted surface's patches (close enough for a
+// score), each with the sphere's area over the count, and the error they carry under a model.
+struct SpherePatches {
+  SpherePatches(const AnalyticSphere& sphere, int count)
+      : points(spherePoints(sphere, count, 7)), area(4.0 * M_PI * sphere.radius * sphere.radius / count) {}
+  std::vector<gpatlas_core::SurfacePatch> of(const SurfaceModel& m) const {
+    const gpatlas_core::BatchPrediction p = m.predictBatch(points, true, false, true);
+    std::vector<gpatlas_core::SurfacePatch> patches;
+    for (Eigen::Index i = 0; i < points.cols(); ++i)
+      patches.push_back({points.col(i), area, p.variance[i], p.gradient.col(i).norm()});
+    return patches;
+  }
+  double summedError(const SurfaceModel& m, const gpatlas_core::StopRule& rule) const {
+    double sum = 0.0;
+    for (const gpatlas_core::SurfacePatch& patch : of(m))
+      sum += patch.area_m2 * gpatlas_core::surfaceError(m, rule, patch.variance, patch.slope);
+    return sum;
+  }
+  Points3 points;
+  double area;
+};
+
 // What a poke of the true sphere at `direction` adds (its contact, the point behind it, its
 // normal's slopes), the same with its approach's free space (as scoreTouches fantasises it), a
 // contact alone on the other side, and a free-space point off the front.
@@ -139,23 +161,9 @@ TEST(TouchScore, PredictsTheFallOfTheErrorThatTheTouchBrings) {
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(150, 0.0, 0.1, 3)).ok);
   const gpatlas_core::StopRule rule{0.1, 0.0};
-  // The predicted surface as patches: the true sphere's points projected along the normal
-  // are close enough for a score; their area is the sphere's over their count.
-  const Points3 points = spherePoints(sphere, 400, 7);
-  const double area = 4.0 * M_PI * sphere.radius * sphere.radius / 400.0;
-  const auto patchesOf = [&](const SurfaceModel& m) {
-    const gpatlas_core::BatchPrediction p = m.predictBatch(points, true, false, true);
-    std::vector<gpatlas_core::SurfacePatch> patches;
-    for (Eigen::Index i = 0; i < points.cols(); ++i)
-      patches.push_back({points.col(i), area, p.variance[i], p.gradient.col(i).norm()});
-    return patches;
-  };
-  const auto summedError = [&](const SurfaceModel& m) {
-    double sum = 0.0;
-    for (const gpatlas_core::SurfacePatch& patch : patchesOf(m))
-      sum += patch.area_m2 * gpatlas_core::surfaceError(m, rule, patch.variance, patch.slope);
-    return sum;
-  };
+  const SpherePatches patches(sphere, 400);
+  const auto patchesOf = [&](const SurfaceModel& m) { return patches.of(m); };
+  const auto summedError = [&](const SurfaceModel& m) { return patches.summedError(m, rule); };
   const Vector3 back = Vector3(0.1, 0.2, -1.0).normalized();
   const gpatlas_core::TouchCandidate candidate{sphere.centre + sphere.radius * back, back};
   gpatlas_core::TouchScoreConfig config;
@@ -197,21 +205,9 @@ TEST(TouchScore, CountsTheApproachsFreeSpace) {
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(150, 0.0, 0.1, 3)).ok);
   const gpatlas_core::StopRule rule{0.1, 0.0};
-  const Points3 points = spherePoints(sphere, 300, 7);
-  const double area = 4.0 * M_PI * sphere.radius * sphere.radius / 300.0;
-  const auto patchesOf = [&](const SurfaceModel& m) {
-    const gpatlas_core::BatchPrediction p = m.predictBatch(points, true, false, true);
-    std::vector<gpatlas_core::SurfacePatch> patches;
-    for (Eigen::Index i = 0; i < points.cols(); ++i)
-      patches.push_back({points.col(i), area, p.variance[i], p.gradient.col(i).norm()});
-    return patches;
-  };
-  const auto summedError = [&](const SurfaceModel& m) {
-    double sum = 0.0;
-    for (const gpatlas_core::SurfacePatch& patch : patchesOf(m))
-      sum += patch.area_m2 * gpatlas_core::surfaceError(m, rule, patch.variance, patch.slope);
-    return sum;
-  };
+  const SpherePatches patches(sphere, 300);
+  const auto patchesOf = [&](const SurfaceModel& m) { return patches.of(m); };
+  const auto summedError = [&](const SurfaceModel& m) { return patches.summedError(m, rule); };
   const Vector3 side = Vector3(0.3, 1.0, -0.6).normalized();
   const gpatlas_core::TouchCandidate bare{sphere.centre + sphere.radius * side, side, 0.0};
   const gpatlas_core::TouchCandidate approached{bare.point, bare.normal, 0.1};
@@ -233,10 +229,10 @@ TEST(TouchScore, CountsTheApproachsFreeSpace) {
   ASSERT_TRUE(refit.restore(state).ok);
   // The variance after the refit, with the slopes of the model before (the score keeps them).
   const std::vector<gpatlas_core::SurfacePatch> now = patchesOf(model);
-  const gpatlas_core::BatchPrediction later = refit.predictBatch(points, false, false, true);
+  const gpatlas_core::BatchPrediction later = refit.predictBatch(patches.points, false, false, true);
   double fall = 0.0;
   for (std::size_t i = 0; i < now.size(); ++i)
-    fall += area * (gpatlas_core::surfaceError(model, rule, now[i].variance, now[i].slope) -
+    fall += patches.area * (gpatlas_core::surfaceError(model, rule, now[i].variance, now[i].slope) -
                     gpatlas_core::surfaceError(model, rule, later.variance[static_cast<Eigen::Index>(i)], now[i].slope));
   EXPECT_NEAR(scores.reduction[1], fall, 1e-6 * summedError(model));
 }
