@@ -138,6 +138,63 @@ TEST(SceneMap, WhatTheCameraSawIsOccupiedTheRaysFreeTheRestUnknown) {
 
 // A still camera's next frame changes nothing, so the collision map need not re-merge the scene:
 // the revision moves only when the obstacles can have moved.
+// The old paths, written out, as the truth for the new ones and their timings' baseline.
+namespace reference {
+
+double seconds(const std::chrono::steady_clock::time_point& since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// A plain OctoMap with the scene map's settings, which casts every cloud.
+std::unique_ptr<octomap::OcTree> plainTree(const SceneMapConfig& config) {
+  auto tree = std::make_unique<octomap::OcTree>(kVoxel);
+  tree->setProbHit(config.hit_probability);
+  tree->setProbMiss(config.miss_probability);
+  octomap::point3d lower = at(config.min_corner_m), upper = at(config.max_corner_m);
+  tree->setBBXMin(lower);
+  tree->setBBXMax(upper);
+  tree->useBBXLimit(true);
+  return tree;
+}
+
+// SceneMap::obstacles as it was: the tree searched along every caster's ray at every call.
+std::set<std::tuple<int, int, int>> obstacles(const octomap::OcTree& tree, const SceneMapConfig& config,
+                                              const std::vector<Vector3d>& origins, const std::vector<Vector3d>& object) {
+  const auto near = [&](const Vector3d& c) {
+    return std::any_of(object.begin(), object.end(), [&](const Vector3d& p) { return (p - c).norm() <= config.object_margin_m; });
+  };
+  std::vector<Vector3d> casters;
+  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
+    if (!tree.isNodeOccupied(*it)) continue;
+    const int side = static_cast<int>(std::lround(it.getSize() / kVoxel));
+    const Vector3d corner = Vector3d(it.getX(), it.getY(), it.getZ()) - Vector3d::Constant(0.5 * it.getSize() - 0.5 * kVoxel);
+    for (int i = 0; i < side; ++i)
+      for (int j = 0; j < side; ++j)
+        for (int k = 0; k < side; ++k) {
+          const Vector3d c = corner + kVoxel * Vector3d(i, j, k);
+          if (!near(c)) casters.push_back(c);
+        }
+  }
+  std::vector<Vector3d> out = casters;
+  const int steps = static_cast<int>(std::floor(config.shadow_depth_m / kVoxel + 1e-9));
+  for (const Vector3d& origin : origins)
+    for (const Vector3d& caster : casters)
+      for (int k = 1; k <= steps; ++k) {
+        const Vector3d p = caster + k * kVoxel * (caster - origin).normalized();
+        octomap::OcTreeKey key;
+        if (!tree.coordToKeyChecked(at(p), key) || !tree.inBBX(key)) break;
+        const octomap::OcTreeNode* node = tree.search(key);
+        if (node && !tree.isNodeOccupied(node)) break;
+        if (node) continue;
+        const octomap::point3d c = tree.keyToCoord(key);
+        if (near(Vector3d(c.x(), c.y(), c.z()))) break;
+        out.emplace_back(c.x(), c.y(), c.z());
+      }
+  return voxelsOf(out);
+}
+
+}  // namespace reference
+
 TEST(SceneMap, TheRevisionMovesWhenTheSceneChangesAndOnlyThen) {
   const Scene s = scene();
   SceneMap map(sceneConfig(), kVoxel);
@@ -159,8 +216,9 @@ TEST(SceneMap, TheRevisionMovesWhenTheSceneChangesAndOnlyThen) {
     map.insertCloud(s.all(), kSensor);
     EXPECT_EQ(map.revision(), before);
   }
-  // Unchanged revision, unchanged obstacles: the full recompute agrees.
+  // Unchanged revision, unchanged obstacles, and the old full recompute agrees.
   EXPECT_EQ(voxelsOf(map.obstacles(s.object, {})), voxelsOf(settled));
+  EXPECT_EQ(voxelsOf(settled), reference::obstacles(map.tree(), sceneConfig(), {kSensor}, s.object));
   // A new thing in view changes it.
   std::vector<Vector3d> more = s.all();
   more.emplace_back(0.6, -0.3, 0.1);
@@ -276,62 +334,6 @@ TEST(SceneMap, TheUnknownBehindANeighbourIsAnObstacleAndBehindTheObjectItIsNot) 
   EXPECT_FALSE(holds(voxelsOf(flat.obstacles(s.object, {})), Vector3d(0.6, 0.15, 0.05)));
 }
 
-// The old paths, written out, as the truth for the new ones and their timings' baseline.
-namespace reference {
-
-double seconds(const std::chrono::steady_clock::time_point& since) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
-}
-
-// A plain OctoMap with the scene map's settings, which casts every cloud.
-std::unique_ptr<octomap::OcTree> plainTree(const SceneMapConfig& config) {
-  auto tree = std::make_unique<octomap::OcTree>(kVoxel);
-  tree->setProbHit(config.hit_probability);
-  tree->setProbMiss(config.miss_probability);
-  octomap::point3d lower = at(config.min_corner_m), upper = at(config.max_corner_m);
-  tree->setBBXMin(lower);
-  tree->setBBXMax(upper);
-  tree->useBBXLimit(true);
-  return tree;
-}
-
-// SceneMap::obstacles as it was: the tree searched along every caster's ray at every call.
-std::set<std::tuple<int, int, int>> obstacles(const octomap::OcTree& tree, const SceneMapConfig& config,
-                                              const std::vector<Vector3d>& origins, const std::vector<Vector3d>& object) {
-  const auto near = [&](const Vector3d& c) {
-    return std::any_of(object.begin(), object.end(), [&](const Vector3d& p) { return (p - c).norm() <= config.object_margin_m; });
-  };
-  std::vector<Vector3d> casters;
-  for (auto it = tree.begin_leafs(); it != tree.end_leafs(); ++it) {
-    if (!tree.isNodeOccupied(*it)) continue;
-    const int side = static_cast<int>(std::lround(it.getSize() / kVoxel));
-    const Vector3d corner = Vector3d(it.getX(), it.getY(), it.getZ()) - Vector3d::Constant(0.5 * it.getSize() - 0.5 * kVoxel);
-    for (int i = 0; i < side; ++i)
-      for (int j = 0; j < side; ++j)
-        for (int k = 0; k < side; ++k) {
-          const Vector3d c = corner + kVoxel * Vector3d(i, j, k);
-          if (!near(c)) casters.push_back(c);
-        }
-  }
-  std::vector<Vector3d> out = casters;
-  const int steps = static_cast<int>(std::floor(config.shadow_depth_m / kVoxel + 1e-9));
-  for (const Vector3d& origin : origins)
-    for (const Vector3d& caster : casters)
-      for (int k = 1; k <= steps; ++k) {
-        const Vector3d p = caster + k * kVoxel * (caster - origin).normalized();
-        octomap::OcTreeKey key;
-        if (!tree.coordToKeyChecked(at(p), key) || !tree.inBBX(key)) break;
-        const octomap::OcTreeNode* node = tree.search(key);
-        if (node && !tree.isNodeOccupied(node)) break;
-        if (node) continue;
-        const octomap::point3d c = tree.keyToCoord(key);
-        if (near(Vector3d(c.x(), c.y(), c.z()))) break;
-        out.emplace_back(c.x(), c.y(), c.z());
-      }
-  return voxelsOf(out);
-}
-
-}  // namespace reference
 
 // A still camera's frames: each is cast until the voxels it touches sit at OctoMap's clamping
 // bounds, then skipped, and the map is what casting them all makes it.

@@ -5,6 +5,7 @@
 #include <gpatlas_conversions/conversions.h>
 #include <gpatlas_conversions/ros_parameters.h>
 #include <gpatlas_core/config/config_readers.h>
+#include <gpatlas_geometry/config_readers.h>
 #include <gpatlas_motion/config_readers.h>
 
 #include <geometry_msgs/TransformStamped.h>
@@ -162,7 +163,7 @@ SimulationServer::SimulationServer(ros::NodeHandle nh, ros::NodeHandle pnh)
 
 std::string SimulationServer::readSettings() {
   // probe_sim's config/simulation.yaml and, from config/pipeline.yaml, the world frame, the
-  // probe's body and rest (approach/) and the seed: read as gpatlas_bench reads them.
+  // probe's body and rest (approach/), segmentation/ and the seed: read as gpatlas_bench reads them.
   const gpatlas_conversions::RosParameterSource source(pnh_);
   gpatlas_core::ParamReader reader(source);
   readSimulation(reader, &settings_);
@@ -170,6 +171,10 @@ std::string SimulationServer::readSettings() {
   gpatlas_core::readFrames(reader, &frames);
   settings_.world_frame = frames.world_frame;
   gpatlas_motion::readApproach(reader, &approach_);
+  // A pick reaches as far as segmentation's, so that one click picks for both.
+  gpatlas_geometry::ObjectSegmenter::Config segmentation;
+  gpatlas_geometry::readSegmenter(reader, &segmentation);
+  select_max_distance_m_ = segmentation.select_max_distance_m;
   seed_ = gpatlas_core::readSeed(reader);
   std::string errors = reader.errors();
   const std::string invalid = validate(settings_);
@@ -386,7 +391,9 @@ bool SimulationServer::onGroundTruth(gpatlas_msgs::GetMesh::Request& /*request*/
     response.message = unavailable_reason_;
     return true;
   }
-  const TriangleMesh& mesh = scene_->objectMesh();
+  // A pick may replace the scene meanwhile: this one stays alive while its mesh is sent.
+  const std::shared_ptr<const Scene> scene = currentScene();
+  const TriangleMesh& mesh = scene->objectMesh();
   response.header.frame_id = settings_.world_frame;
   response.header.stamp = ros::Time::now();
   response.mesh = gpatlas_conversions::toMsg(mesh);
@@ -397,8 +404,6 @@ bool SimulationServer::onGroundTruth(gpatlas_msgs::GetMesh::Request& /*request*/
 
 bool SimulationServer::onSelectObject(gpatlas_msgs::SelectObject::Request& request,
                                       gpatlas_msgs::SelectObject::Response& response) {
-  // A click on an object, or beside it, picks it; farther from every object it is a mistake.
-  constexpr double kMaxDistanceM = 0.05;
   response.success = false;
   response.changed = false;
   try {
@@ -419,21 +424,22 @@ bool SimulationServer::onSelectObject(gpatlas_msgs::SelectObject::Request& reque
     }
     std::lock_guard<std::mutex> lock(simulation_mutex_);
     const std::size_t nearest = nearestObject(objects_, point, &response.distance_m);
-    if (response.distance_m > kMaxDistanceM) {
-      response.message = "no object within " + std::to_string(kMaxDistanceM) + " m of " + describe(point);
+    // Segmentation's bound, to the object's box (which holds every point of it the camera saw).
+    if (response.distance_m > select_max_distance_m_) {
+      response.message = "no object within " + std::to_string(select_max_distance_m_) + " m of " + describe(point);
       return true;
     }
-    response.success = true;
-    response.object_points = static_cast<std::uint32_t>(objects_[nearest].vertices.size());
-    response.changed = nearest != explored_;
-    if (response.changed) {
+    if (nearest != explored_) {
       std::shared_ptr<Scene> scene = makeSimulatedScene(settings_, objects_, nearest);
       std::unique_ptr<SimulatedProber> prober = makeSimulatedProber(scene, settings_, approach_);
       if (arm_) prober->setArm(arm_);  // the arm rests where it did: its rest is not the object's
       scene_ = std::move(scene);
       prober_ = std::move(prober);
       explored_ = nearest;
+      response.changed = true;
     }
+    response.success = true;
+    response.object_points = static_cast<std::uint32_t>(objects_[nearest].vertices.size());
     response.message = nearest == 0 ? "the object" : "neighbour " + std::to_string(nearest - 1);
     response.message += " (" + std::to_string(objects_[nearest].triangles.size()) + " triangles) is explored";
   } catch (const std::exception& e) {
@@ -510,8 +516,14 @@ bool SimulationServer::renderCloud(sensor_msgs::PointCloud2* cloud, std::string*
   return true;
 }
 
+std::shared_ptr<const Scene> SimulationServer::currentScene() {
+  std::lock_guard<std::mutex> lock(simulation_mutex_);
+  return scene_;
+}
+
 void SimulationServer::publishObjectMarker() {
-  const TriangleMesh& mesh = scene_->objectMesh();
+  const std::shared_ptr<const Scene> scene = currentScene();
+  const TriangleMesh& mesh = scene->objectMesh();
   visualization_msgs::Marker marker;
   marker.header.frame_id = settings_.world_frame;
   marker.header.stamp = ros::Time::now();

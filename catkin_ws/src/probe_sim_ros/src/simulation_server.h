@@ -66,6 +66,8 @@ class SimulationServer {
   // Renders the depth cloud (camera frame); false with *message when there is nothing to send.
   bool renderCloud(sensor_msgs::PointCloud2* cloud, std::string* message);
   void publishObjectMarker();
+  // The scene now; a pick may replace scene_ while the caller still uses this one.
+  std::shared_ptr<const Scene> currentScene();
   // Queues the displayed arm motion: from where it is now through the waypoint solutions of
   // the left arm and back to the ready pose.
   void animateArm(const std::vector<Eigen::VectorXd>& arm_solutions);
@@ -74,6 +76,7 @@ class SimulationServer {
   ros::NodeHandle pnh_;
   SimulationSettings settings_;
   gpatlas_motion::ApproachConfig approach_;  // the judged probe body and its rest (approach/)
+  double select_max_distance_m_{0.0};  // segmentation/select_max_distance_m: a pick's reach
   std::uint64_t seed_{0};  // the run's seed (config/pipeline.yaml `seed`): the camera's noise
   std::string unavailable_reason_;
 

@@ -31,9 +31,10 @@ void readGpis(ParamReader& r, GpisModel::Config* c) {
     }
     c->initial_params.push_back(std::log(p));
   }
-  // Their ordering (data < renormalise <= domain) and the kernel's range are checked by the model.
-  c->data_radius = r.number("gpis/data_radius", c->data_radius, 1e-3, 100.0);
-  c->domain_radius = r.number("gpis/domain_radius", c->domain_radius, 1e-3, 100.0);
+  // The fixed renormalise_radius lies between them (data < renormalise <= domain); the kernel's
+  // range is checked by the model.
+  c->data_radius = r.number("gpis/data_radius", c->data_radius, 1e-3, std::nextafter(c->renormalise_radius, 0.0));
+  c->domain_radius = r.number("gpis/domain_radius", c->domain_radius, c->renormalise_radius, 100.0);
   c->inside_point_at_centroid = r.flag("gpis/inside_point_at_centroid", c->inside_point_at_centroid);
   // The model checks what no single parameter can (kernel name, radii ordering, the kernel's
   // valid range): every reader falls back to the same defaults, so replicas stay exact.
@@ -89,7 +90,9 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   OccludedInteriorConfig& inside = c->occluded_interior;
   inside.max_points = r.integer("view/occluded_interior/max_points", inside.max_points, 0, 100000);
   SupportFreeSpaceConfig& beside = c->support_free_space;
-  beside.max_distance_m = r.number("view/support_free_space/max_distance_m", beside.max_distance_m, 1e-4, 0.5);
+  // Beyond the fixed min_distance_m, where the band of table points begins.
+  beside.max_distance_m = r.number("view/support_free_space/max_distance_m", beside.max_distance_m,
+                                   std::nextafter(beside.min_distance_m, 1.0), 0.5);
   beside.max_points = r.integer("view/support_free_space/max_points", beside.max_points, 0, 1000000);
   BelowSupportConfig& below = c->below_support;
 }
@@ -175,7 +178,8 @@ void readStrategy(ParamReader& r, StrategyConfig* c) {
   c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
   FrontierStrategy::Config& frontier = c->frontier;
   frontier.cell_m = r.number("frontier/cell_m", frontier.cell_m, 1e-3, 0.1);
-  frontier.reach_m = r.number("frontier/reach_m", frontier.reach_m, 1e-3, 1.0);
+  // Beyond the fixed min_gap_m, nearer than which the atlas's own touches measure.
+  frontier.reach_m = r.number("frontier/reach_m", frontier.reach_m, std::nextafter(frontier.min_gap_m, 1.0), 1.0);
   frontier.max_empty_pokes = r.integer("frontier/max_empty_pokes", frontier.max_empty_pokes, 0, 1000);
   c->seed = readSeed(r, c->seed);
 }

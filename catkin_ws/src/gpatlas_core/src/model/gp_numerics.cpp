@@ -18,7 +18,9 @@ constexpr double kLog2Pi = 1.8378770664093453;
 std::vector<double> jitterLadder(const CholeskyConfig& config, double prior_variance) {
   std::vector<double> ladder{config.jitter_first_relative * prior_variance};
   const double top = config.jitter_max_relative * 1.0001;
-  for (double j = std::max(config.jitter_first_relative * 10.0, config.jitter_step_relative); j <= top; j *= 10.0)
+  // A rung of 0 would never climb (a step of 0, or of a first rung of 0): the ladder ends there.
+  for (double j = std::max(config.jitter_first_relative * 10.0, config.jitter_step_relative); j > 0.0 && j <= top;
+       j *= 10.0)
     ladder.push_back(j * prior_variance);
   return ladder;
 }

@@ -145,7 +145,6 @@ double SquaredExponentialKernel::secondDerivative(double r) const {
 
 namespace {
 constexpr double kSqrt3 = 1.7320508075688772;
-constexpr double kSqrt5 = 2.23606797749979;
 }  // namespace
 
 double Matern32Kernel::value(double r) const {
