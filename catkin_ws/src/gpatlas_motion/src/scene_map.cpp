@@ -100,6 +100,9 @@ struct SceneMap::Candidates {
   // shadows[begin[o * occupied.size() + i], begin[o * occupied.size() + i + 1]).
   std::vector<SceneVoxel> shadows;
   std::vector<std::size_t> begin;
+  // How many of origins_ the chains were cast from (the chains' count, whatever origins_ holds
+  // by the time they are read); none without shadows.
+  std::size_t origins{0};
   // shadows[s] is the voxel numbered unique[s] (of `distinct`): chains cross, and each voxel is
   // one obstacle.
   std::vector<std::uint32_t> unique;
@@ -219,10 +222,12 @@ std::shared_ptr<const SceneMap::Candidates> SceneMap::candidates() const {
         }
   }
   const int steps = static_cast<int>(std::floor(config_.shadow_depth_m / resolution + 1e-9));
-  out->begin.reserve(origins_.size() * out->occupied.size() + 1);
+  out->origins = steps > 0 ? origins_.size() : 0;
+  out->begin.reserve(out->origins * out->occupied.size() + 1);
   out->begin.push_back(0);
-  for (const Eigen::Vector3d& origin : origins_)
+  for (std::size_t o = 0; o < out->origins; ++o)
     for (const SceneVoxel& caster : out->occupied) {
+      const Eigen::Vector3d& origin = origins_[o];
       const Eigen::Vector3d step = resolution * (caster.centre - origin).normalized();
       for (int k = 1; k <= steps; ++k) {
         octomap::OcTreeKey key;
@@ -286,7 +291,7 @@ std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector
   // Behind a kept caster, its unknown voxels up to the first one the object's model or the
   // probe governs.
   std::vector<char> added(candidates->distinct, 0);
-  for (std::size_t o = 0; o < origins_.size() && !candidates->shadows.empty(); ++o)
+  for (std::size_t o = 0; o < candidates->origins && !candidates->shadows.empty(); ++o)
     for (const std::size_t i : casters) {
       const std::size_t chain = o * occupied.size() + i;
       for (std::size_t s = candidates->begin[chain]; s < candidates->begin[chain + 1]; ++s) {
