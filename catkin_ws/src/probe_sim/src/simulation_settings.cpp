@@ -228,10 +228,14 @@ std::vector<TriangleMesh> loadNeighbours(const SimulationSettings& s, const Tria
   return out;
 }
 
-std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& s, const TriangleMesh& object) {
+std::vector<TriangleMesh> sceneObjects(const SimulationSettings& s, const TriangleMesh& object) {
   std::vector<TriangleMesh> objects{object};
   for (TriangleMesh& neighbour : loadNeighbours(s, object)) objects.push_back(std::move(neighbour));
-  return makeSimulatedScene(s, objects, 0);
+  return objects;
+}
+
+std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& s, const TriangleMesh& object) {
+  return makeSimulatedScene(s, sceneObjects(s, object), 0);
 }
 
 std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& s, const std::vector<TriangleMesh>& objects,

@@ -127,8 +127,8 @@ TEST(Neighbours, ThatOverlapTheObjectOrEachOtherOrLeaveTheTableAreRefused) {
 // with it explored has it as the object (ground truth, contacts) and the former object as an obstacle.
 TEST(Neighbours, APickedNeighbourBecomesTheExploredObject) {
   const SimulationSettings s = settingsWith({"procedural:box@0,0.2"});
-  std::vector<probe_sim::TriangleMesh> objects{probe_sim::loadSimulatedObject(s)};
-  objects.push_back(probe_sim::loadNeighbours(s, objects.front()).front());
+  const std::vector<probe_sim::TriangleMesh> objects = probe_sim::sceneObjects(s, probe_sim::loadSimulatedObject(s));
+  ASSERT_EQ(objects.size(), 2u);
   double distance = -1.0;
   EXPECT_EQ(probe_sim::nearestObject(objects, Eigen::Vector3d(0.7, 0.2, 0.11), &distance), 1u);
   EXPECT_NEAR(distance, 0.01, 1e-9);  // 1 cm above the neighbour's 0.1 m top

@@ -270,8 +270,7 @@ std::string SimulationServer::loadObject() {
                     << " m across; is ~simulation/object_scale right (0.001 for a mesh in mm)?");
   }
   try {
-    objects_ = {mesh};
-    for (TriangleMesh& neighbour : loadNeighbours(s, mesh)) objects_.push_back(std::move(neighbour));
+    objects_ = sceneObjects(s, mesh);
     scene_ = makeSimulatedScene(s, objects_, 0);
   } catch (const std::exception& e) {
     return std::string("no scene: ") + e.what();

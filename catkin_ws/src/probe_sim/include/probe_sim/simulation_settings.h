@@ -100,8 +100,10 @@ std::vector<TriangleMesh> loadNeighbours(const SimulationSettings& settings, con
 // The scene probe_sim_node and gpatlas_bench simulate: the object, the table, the neighbours
 // (SurfaceKind::kObstacle). Throws as loadNeighbours.
 std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& settings, const TriangleMesh& object);
-// The same table and objects (`objects`: the object, then its neighbours, as loadNeighbours
-// placed them), with objects[explored] the one the probe's contacts and the ground truth are of,
+// The scene's objects: the object, then its neighbours as loadNeighbours places them around it.
+// Throws as loadNeighbours.
+std::vector<TriangleMesh> sceneObjects(const SimulationSettings& settings, const TriangleMesh& object);
+// The same table and objects (`objects`, as sceneObjects gives them), with objects[explored] the one the probe's contacts and the ground truth are of,
 // the others obstacles: the scene after a user picked another object to explore.
 std::shared_ptr<Scene> makeSimulatedScene(const SimulationSettings& settings, const std::vector<TriangleMesh>& objects,
                                           std::size_t explored);
