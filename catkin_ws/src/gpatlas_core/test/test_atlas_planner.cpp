@@ -583,6 +583,61 @@ TEST(AtlasPlanner, AReusedAtlasKeepsTheChartsFarFromATouchAndRemakesThoseNearIt)
   EXPECT_NEAR(after.needy_charts, rebuilt.needy_charts, 0.2 * rebuilt.needy_charts + 2);
 }
 
+// Removed data raise the variance far from any surface observation (the guesses a touch
+// retracts are interior and free-space points): the kept charts take the model's variance now,
+// and none is kept larger than that variance allows.
+TEST(AtlasPlanner, AReusedAtlasTakesTheVarianceThatRemovedDataRaised) {
+  const AnalyticSphere sphere;
+  const MultiscaleGpisModel viewed = viewedSphere(sphere);
+  // Interior points deep under the unseen lower half: they hardly move its surface, but lower
+  // its variance.
+  std::vector<TrainingPoint> guesses;
+  for (const Vector3& d : gpatlas_core::fibonacciSphere(60)) {
+    if (d.z() > -0.3) continue;
+    TrainingPoint inside;
+    inside.position = sphere.centre + 0.5 * sphere.radius * d;
+    inside.label = PointLabel::kInside;
+    inside.noise_sigma = 0.1;
+    inside.source = PointSource::kPseudo;
+    guesses.push_back(inside);
+  }
+  ASSERT_GT(guesses.size(), 10u);
+  SurfaceModelState state = viewed.state();
+  const std::size_t view_size = state.observations.size();
+  state.observations.insert(state.observations.end(), guesses.begin(), guesses.end());
+  MultiscaleGpisModel model;
+  ASSERT_TRUE(model.restore(state).ok);
+  // V_max alone, low enough that the lower half's charts are on either side of it.
+  const StopRule rule{0.03, 0.0};
+  const AtlasPlanner planner(bestScoreConfig());
+  AtlasMemory memory;
+  const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  ASSERT_NE(before.status, PlanStatus::kError) << before.message;
+
+  state.observations.resize(view_size);
+  ASSERT_TRUE(model.restore(state).ok);
+  const AtlasPlanResult after = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  ASSERT_NE(after.status, PlanStatus::kError) << after.message;
+  ASSERT_GT(after.reused_charts, 0) << after.message;
+  Points3 centres(3, after.reused_charts);
+  for (int i = 0; i < after.reused_charts; ++i) centres.col(i) = after.atlas.chart(i).centre;
+  const BatchPrediction now = model.predictBatch(centres, true, false, true);
+  int raised = 0;
+  const double tolerance = planner.config().reuse.max_centre_shift_m;
+  for (int i = 0; i < after.reused_charts; ++i) {
+    const Chart& chart = after.atlas.chart(i);
+    EXPECT_NEAR(chart.variance, now.variance(i), 1e-9 * now.variance(i)) << "kept chart " << i;
+    EXPECT_LE(chart.radius, gpatlas_core::chartRadius(now.variance(i), planner.config().chart) + tolerance) << "kept chart " << i;
+    const auto same = std::find_if(before.atlas.charts().begin(), before.atlas.charts().end(),
+                                   [&](const Chart& c) { return c.centre == chart.centre; });
+    ASSERT_NE(same, before.atlas.charts().end());
+    raised += !rule.exceeded(model, same->variance, chart.slope) && now.variance(i) > 1.01 * same->variance ? 1 : 0;
+  }
+  // The test means something: the removal raised the variance under kept charts that did not
+  // need a touch before it.
+  EXPECT_GT(raised, 3) << after.reused_charts << " kept, " << after.dropped_charts << " dropped of " << before.atlas.size();
+}
+
 TEST(AtlasPlanner, AnotherModelOrAChangedFrameIsPlannedAfresh) {
   const AnalyticSphere sphere;
   const MultiscaleGpisModel model = viewedSphere(sphere);

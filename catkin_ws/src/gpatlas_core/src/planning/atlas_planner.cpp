@@ -337,8 +337,8 @@ class AtlasGrowth {
   // false, and nothing done, when none is left.
   bool adoptPrevious(const Atlas& previous, const std::vector<Vector3>& changed) {
     std::vector<int> kept, dropped;
-    std::vector<double> slopes;
-    splitPrevious(previous, changed, &kept, &dropped, &slopes);
+    std::vector<double> variances, slopes;
+    splitPrevious(previous, changed, &kept, &dropped, &variances, &slopes);
     if (kept.empty()) return false;
     // The holes the dropped charts leave are grown again from the kept charts around them: those
     // get back the candidates they drew there; elsewhere, those the previous growth had not used.
@@ -350,28 +350,12 @@ class AtlasGrowth {
     });
     result_.reused_charts = static_cast<int>(kept.size());
     result_.dropped_charts = static_cast<int>(dropped.size());
-    // A kept chart's variance bounds its new one from above, so with the slope asked again (the
-    // position sd divides by it, and it may fall) only those that need a touch by it can have
-    // changed their answer: their variance is asked again (one batch).
-    std::vector<int> stale;
     for (std::size_t i = 0; i < atlas_.size(); ++i) {
       Chart& chart = atlas_.chart(static_cast<int>(i));
+      chart.variance = variances[i];
       chart.slope = slopes[i];
       chart.out_of_reach = false;
       chart.approach_direction = Vector3::Zero();
-      if (rule_.exceeded(model_, chart.variance, chart.slope)) stale.push_back(static_cast<int>(i));
-    }
-    if (!stale.empty()) {
-      Points3 centres(3, static_cast<Eigen::Index>(stale.size()));
-      for (std::size_t k = 0; k < stale.size(); ++k) centres.col(static_cast<Eigen::Index>(k)) = atlas_.chart(stale[k]).centre;
-      const BatchPrediction now = model_.predictBatch(centres, true, false, true);
-      result_.queries += static_cast<long>(stale.size());
-      for (std::size_t k = 0; k < stale.size(); ++k) {
-        Chart& chart = atlas_.chart(stale[k]);
-        const auto q = static_cast<Eigen::Index>(k);
-        if (std::isfinite(now.variance(q))) chart.variance = now.variance(q);
-        if (now.gradient.col(q).allFinite()) chart.slope = now.gradient.col(q).norm();
-      }
     }
     for (std::size_t i = 0; i < atlas_.size(); ++i)
       endsPlan(needsTouch(atlas_.chart(static_cast<int>(i))), static_cast<int>(i));
@@ -488,11 +472,14 @@ class AtlasGrowth {
            std::to_string(config_.max_queries) + " queries)";
   }
 
-  // The previous plan's charts: dropped where surface observations changed near them or where the
-  // surface moved (one batch of the mean and its gradient at the others' centres), else kept,
-  // with the slope there now (|grad f|, in `slopes`, in the order of `kept`).
+  // The previous plan's charts: dropped where surface observations changed near them, where the
+  // surface moved, or where the variance rose so that the chart's radius would now be smaller by
+  // more than the shift tolerance (one batch of the mean, its gradient and the variance at the
+  // others' centres: removed data, such as the guesses a touch retracts or the coarse level's
+  // re-thinning, can raise the variance far from any new surface data); else kept, with the
+  // variance and slope there now (`variances`, `slopes`, in the order of `kept`).
   void splitPrevious(const Atlas& previous, const std::vector<Vector3>& changed, std::vector<int>* kept,
-                     std::vector<int>* dropped, std::vector<double>* slopes) {
+                     std::vector<int>* dropped, std::vector<double>* variances, std::vector<double>* slopes) {
     std::vector<int> far;
     for (std::size_t i = 0; i < previous.size(); ++i) {
       const Chart& chart = previous.chart(static_cast<int>(i));
@@ -504,7 +491,7 @@ class AtlasGrowth {
     if (far.empty()) return;
     Points3 centres(3, static_cast<Eigen::Index>(far.size()));
     for (std::size_t k = 0; k < far.size(); ++k) centres.col(static_cast<Eigen::Index>(k)) = previous.chart(far[k]).centre;
-    const BatchPrediction now = model_.predictBatch(centres, true, false, false);
+    const BatchPrediction now = model_.predictBatch(centres, true, false, true);
     result_.queries += static_cast<long>(far.size());
     const double min_cos = std::cos(config_.reuse.max_normal_change_rad);
     for (std::size_t k = 0; k < far.size(); ++k) {
@@ -512,14 +499,21 @@ class AtlasGrowth {
       const Chart& chart = previous.chart(far[k]);
       const Vector3 gradient = now.gradient.col(q);
       const double norm = gradient.norm();
+      const double variance = now.variance(q);
       // The evidence that let the chart be that large may have changed (a surprising contact
-      // trusts its surroundings less): a chart must not hide a point that now needs a touch.
-      const bool stays = std::isfinite(now.mean(q)) && norm > 0.0 && gradient.allFinite() &&
+      // trusts its surroundings less), and so may the variance its radius was made for: a chart
+      // must not hide a point that now needs a touch.
+      const bool stays = std::isfinite(now.mean(q)) && norm > 0.0 && gradient.allFinite() && std::isfinite(variance) &&
                          std::abs(now.mean(q)) / norm <= config_.reuse.max_centre_shift_m &&
                          gradient.dot(chart.normal) / norm >= min_cos &&
+                         chartRadius(chart.variance, config_.chart) - chartRadius(variance, config_.chart) <=
+                             config_.reuse.max_centre_shift_m &&
                          chart.radius <= evidence_.radiusCap(chart.centre, config_.chart.rho_min_m);
       (stays ? kept : dropped)->push_back(far[k]);
-      if (stays) slopes->push_back(norm);
+      if (stays) {
+        variances->push_back(variance);
+        slopes->push_back(norm);
+      }
     }
     std::sort(dropped->begin(), dropped->end());
   }

@@ -70,25 +70,24 @@ struct AtlasPlanResult {
 
 // Which earlier charts a plan may keep (AtlasPlanner::Config::reuse). A touch changes the model
 // near it (the local GPs of the cells it lands in) and the coarse level a little everywhere; a
-// chart far from the new data keeps its centre, basis, radius and variance unless the surface
-// moved there by more than the tolerances below.
+// chart far from the new data keeps its centre, basis and radius unless the surface moved there
+// by more than the tolerances below, and takes the model's variance and slope there now.
 struct AtlasReuseConfig {
   bool enabled{false};
   // A chart whose ball comes this close to a surface observation added (or removed) since is
   // dropped and grown again: about a local cell's side. Free space and interior points change
   // the surface less; where they moved it, the tolerances below catch it.
   double near_new_data_m{0.015};
-  // Elsewhere the mean and its gradient are asked again at every chart's centre (one batch): the
-  // chart is dropped when the predicted surface moved further than this from it (|f| / |grad f|)...
+  // Elsewhere the mean, its gradient and the variance are asked again at every chart's centre
+  // (one batch): the chart is dropped when the predicted surface moved further than this from it
+  // (|f| / |grad f|), or when its variance rose so that its radius (eq. 14) would now be smaller
+  // by more than this (removed data, such as guesses a touch retracts, raise the variance)...
   double max_centre_shift_m{0.001};
   // ... or its normal turned by more than this.
   double max_normal_change_rad{0.1};
 };
 
-// What a plan leaves for the next one: its atlas, and the model state it was grown on. A GP's
-// variance only falls when data are added with the same hyperparameters, so a kept chart's
-// variance is taken to bound the new one from above: the charts that need a touch by it are
-// asked again. Data removed (guesses a touch retracts) can raise it: hence reuse is off by default.
+// What a plan leaves for the next one: its atlas, and the model state it was grown on.
 struct AtlasMemory {
   std::string model;
   Vector3 centroid{Vector3::Zero()};
