@@ -167,6 +167,16 @@ TEST(PipelineYaml, ThePapersOverlaySetsOnlyParametersAndSelectsTheGlobalGpis) {
   EXPECT_TRUE(reader.ok()) << reader.errors();
   EXPECT_EQ(pipeline.model.type, "gpis");
   EXPECT_EQ(pipeline.view.max_surface_points, 600);
+  // Its offs reach the Configs as absent limits, where the file's are set.
+  EXPECT_FALSE(pipeline.exploration.max_position_sd_m.has_value());
+  EXPECT_FALSE(pipeline.touch.contact_tangent_noise_sigma.has_value());
+  EXPECT_FALSE(pipeline.strategy.evidence.surprise_distance_m.has_value());
+  probe_sim::PipelineConfig file_only;
+  gpatlas_core::ParamReader file_reader(*gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error));
+  probe_sim::readPipeline(file_reader, &file_only);
+  EXPECT_EQ(file_only.exploration.max_position_sd_m, std::optional<double>(0.005));
+  EXPECT_TRUE(file_only.touch.contact_tangent_noise_sigma.has_value());
+  EXPECT_TRUE(file_only.strategy.evidence.surprise_distance_m.has_value());
 }
 
 // The file's values reach the Configs (a second, independent parse of the text).
