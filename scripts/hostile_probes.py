@@ -215,6 +215,8 @@ def probes_bench_flags(res, tmp):
                               ("--set with a flag for its value", ["--set", "--no-plot"], ["--set", "--no-plot"]),
                               ("--set unknown key", ["--set", "exploration/v_maxx=1"], ["v_maxx"]),
                               ("--set v_max=nan", ["--set", "exploration/v_max=nan"], ["v_max"]),
+                              ("--set max_position_sd_m=0", ["--set", "exploration/max_position_sd_m=0"],
+                               ["max_position_sd_m", "write off"]),
                               ("--strategy unknown", ["--strategy", "nope"], ["nope"]),
                               ("--probe unknown", ["--probe", "finger"], ["finger"]),
                               ("--shard 3/2", ["--shard", "3/2"], ["--shard", "3/2"])]:
