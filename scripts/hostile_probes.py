@@ -215,6 +215,8 @@ def probes_bench_flags(res, tmp):
                               ("--set with a flag for its value", ["--set", "--no-plot"], ["--set", "--no-plot"]),
                               ("--set unknown key", ["--set", "exploration/v_maxx=1"], ["v_maxx"]),
                               ("--set v_max=nan", ["--set", "exploration/v_max=nan"], ["v_max"]),
+                              ("--set max_position_sd_m=0", ["--set", "exploration/max_position_sd_m=0"],
+                               ["max_position_sd_m", "write off"]),
                               ("--strategy unknown", ["--strategy", "nope"], ["nope"]),
                               ("--probe unknown", ["--probe", "finger"], ["finger"]),
                               ("--shard 3/2", ["--shard", "3/2"], ["--shard", "3/2"])]:
@@ -412,13 +414,17 @@ def next_touch_probes():
     some = lambda r: r.status in (TOUCH, CONVERGED, CAP)  # noqa: E731
     never = lambda r: False  # noqa: E731
     return [
-        ("next_touch v_max -1", {"v_max": -1.0}, never, ["v_max"]),
-        ("next_touch v_max NaN", {"v_max": NAN}, never, ["v_max"]),
-        ("next_touch v_max inf", {"v_max": INF}, some, ["v_max"]),
-        ("next_touch v_max 1e10", {"v_max": 1e10}, some, ["v_max"]),
-        ("next_touch max_position_sd_m NaN", {"max_position_sd_m": NAN}, never, ["max_position_sd_m"]),
-        ("next_touch max_position_sd_m -1 (V_max alone)", {"max_position_sd_m": -1.0}, some, ["max_position_sd_m"]),
-        ("next_touch max_position_sd_m inf", {"max_position_sd_m": INF}, some, ["max_position_sd_m"]),
+        ("next_touch v_max -1", {"use_v_max": True, "v_max": -1.0}, never, ["v_max"]),
+        ("next_touch v_max NaN", {"use_v_max": True, "v_max": NAN}, never, ["v_max"]),
+        ("next_touch v_max inf", {"use_v_max": True, "v_max": INF}, some, ["v_max"]),
+        ("next_touch v_max 1e10", {"use_v_max": True, "v_max": 1e10}, some, ["v_max"]),
+        ("next_touch v_max -1 unused", {"v_max": -1.0}, some, ["v_max"]),
+        ("next_touch max_position_sd_m NaN", {"stop_rule": 1, "max_position_sd_m": NAN}, never, ["max_position_sd_m"]),
+        ("next_touch max_position_sd_m 0", {"stop_rule": 1, "max_position_sd_m": 0.0}, never, ["max_position_sd_m"]),
+        ("next_touch max_position_sd_m inf", {"stop_rule": 1, "max_position_sd_m": INF}, never, ["max_position_sd_m"]),
+        ("next_touch stop_rule V_max alone", {"stop_rule": 2}, some, ["stop_rule"]),
+        ("next_touch stop_rule 9", {"stop_rule": 9}, never, ["stop_rule"]),
+        ("next_touch seed 0", {"use_seed": True, "seed": 0}, some, ["seed"]),
         ("next_touch strategy unknown", {"strategy": "no_such_strategy"}, never, ["no_such_strategy"]),
         ("next_touch start NaN", {"use_start": True, "start": point(NAN, 0, 0)}, never, ["start"]),
         ("next_touch start 100 m away", {"use_start": True, "start": point(100, 0, 0)}, some, ["start"]),

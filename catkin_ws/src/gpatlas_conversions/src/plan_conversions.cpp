@@ -10,6 +10,7 @@ namespace gpatlas_conversions {
 
 namespace {
 
+using Request = gpatlas_msgs::GetNextTouch::Request;
 using Response = gpatlas_msgs::GetNextTouch::Response;
 
 std::uint8_t toStatusMsg(gpatlas_core::PlanStatus status) {
@@ -35,30 +36,35 @@ gpatlas_core::PlanStatus fromStatusMsg(std::uint8_t status) {
 
 gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& request) {
   gpatlas_msgs::GetNextTouch::Request msg;
+  msg.use_v_max = true;
   msg.v_max = request.v_max;
-  msg.max_position_sd_m = request.max_position_sd_m > 0.0 ? request.max_position_sd_m : -1.0;
+  msg.stop_rule = request.max_position_sd_m ? Request::STOP_RULE_POSITION_SD : Request::STOP_RULE_V_MAX_ONLY;
+  msg.max_position_sd_m = request.max_position_sd_m.value_or(0.0);
   msg.use_start = request.start.has_value();
   if (request.start) msg.start = toPointMsg(*request.start);
   for (const auto& p : request.evidence_state.attempted_targets) msg.attempted_targets.push_back(toPointMsg(p));
   msg.attempted_target_errors_m = request.evidence_state.attempted_target_errors_m;
   msg.empty_unknown_pokes = request.evidence_state.empty_unknown_pokes;
   msg.footprint_radius_m = request.footprint_radius_m;
+  msg.use_seed = true;
   msg.seed = request.seed;
   return msg;
 }
 
-gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg) {
+gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg, const NodePlanDefaults& node) {
   gpatlas_core::PlanRequest request;
-  request.v_max = msg.v_max;
-  // < 0: the V_max rule alone (0 in a PlanRequest); 0 (the node's parameter, which the server
-  // fills in) and anything not finite (refused by the plan's validation) pass as they are.
-  request.max_position_sd_m = msg.max_position_sd_m < 0.0 ? 0.0 : msg.max_position_sd_m;
+  request.v_max = msg.use_v_max ? msg.v_max : node.v_max;
+  switch (msg.stop_rule) {
+    case Request::STOP_RULE_POSITION_SD: request.max_position_sd_m = msg.max_position_sd_m; break;
+    case Request::STOP_RULE_V_MAX_ONLY: request.max_position_sd_m = std::nullopt; break;
+    default: request.max_position_sd_m = node.max_position_sd_m; break;
+  }
   if (msg.use_start) request.start = fromMsg(msg.start);
   for (const auto& p : msg.attempted_targets) request.evidence_state.attempted_targets.push_back(fromMsg(p));
   request.evidence_state.attempted_target_errors_m = msg.attempted_target_errors_m;
   request.evidence_state.empty_unknown_pokes = msg.empty_unknown_pokes;
   request.footprint_radius_m = msg.footprint_radius_m;
-  request.seed = msg.seed;
+  request.seed = msg.use_seed ? msg.seed : node.seed;
   return request;
 }
 

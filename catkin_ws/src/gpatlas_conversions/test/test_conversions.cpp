@@ -359,7 +359,9 @@ TEST(Conversions, PlanRequestRoundTrip) {
   request.seed = 0x9e3779b97f4a7c15ull;
   const gpatlas_msgs::GetNextTouch::Request msg = toMsg(request);
   EXPECT_TRUE(msg.use_start);
-  const gpatlas_core::PlanRequest back = fromMsg(msg);
+  // The node's own values, which no field of this request asks for.
+  const gpatlas_conversions::NodePlanDefaults node{0.3, 0.007, 12345};
+  const gpatlas_core::PlanRequest back = fromMsg(msg, node);
   EXPECT_EQ(back.v_max, request.v_max);
   ASSERT_TRUE(back.start.has_value());
   EXPECT_EQ(*back.start, *request.start);
@@ -370,16 +372,46 @@ TEST(Conversions, PlanRequestRoundTrip) {
   EXPECT_EQ(back.evidence_state.empty_unknown_pokes, 3);
   EXPECT_EQ(back.footprint_radius_m, request.footprint_radius_m);
   EXPECT_EQ(back.seed, request.seed);
-  // The stop rule travels: the position rule, and the V_max rule (0), which the message says
-  // with a negative value because 0 asks for the node's parameter.
-  EXPECT_EQ(back.max_position_sd_m, 0.0);
-  EXPECT_LT(msg.max_position_sd_m, 0.0);
+  // The stop rule travels: the V_max rule alone (no bound) is said by its own constant, not by
+  // the node's parameter, and a bound travels as itself.
+  EXPECT_EQ(msg.stop_rule, gpatlas_msgs::GetNextTouch::Request::STOP_RULE_V_MAX_ONLY);
+  EXPECT_FALSE(back.max_position_sd_m.has_value());
   request.max_position_sd_m = 0.004;
-  EXPECT_EQ(fromMsg(toMsg(request)).max_position_sd_m, 0.004);
+  EXPECT_EQ(toMsg(request).stop_rule, gpatlas_msgs::GetNextTouch::Request::STOP_RULE_POSITION_SD);
+  EXPECT_EQ(fromMsg(toMsg(request), node).max_position_sd_m, std::optional<double>(0.004));
+  // A seed of 0 is a seed like any other.
+  request.seed = 0;
+  EXPECT_EQ(fromMsg(toMsg(request), node).seed, 0u);
 
   request.start.reset();
   EXPECT_FALSE(toMsg(request).use_start);
-  EXPECT_FALSE(fromMsg(toMsg(request)).start.has_value());
+  EXPECT_FALSE(fromMsg(toMsg(request), node).start.has_value());
+}
+
+// What a request leaves to the node (an empty request: every one) comes from the node's values,
+// and a request's own values override them one by one.
+TEST(Conversions, PlanRequestLeavesToTheNode) {
+  const gpatlas_conversions::NodePlanDefaults node{0.3, 0.007, 12345};
+  gpatlas_msgs::GetNextTouch::Request msg;
+  msg.v_max = 0.02;             // not used without use_v_max
+  msg.max_position_sd_m = 0.5;  // not used with STOP_RULE_PARAMETER
+  msg.seed = 9;                 // not used without use_seed
+  gpatlas_core::PlanRequest request = fromMsg(msg, node);
+  EXPECT_EQ(request.v_max, 0.3);
+  EXPECT_EQ(request.max_position_sd_m, std::optional<double>(0.007));
+  EXPECT_EQ(request.seed, 12345u);
+  msg.use_v_max = true;
+  msg.use_seed = true;
+  msg.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_POSITION_SD;
+  request = fromMsg(msg, node);
+  EXPECT_EQ(request.v_max, 0.02);
+  EXPECT_EQ(request.max_position_sd_m, std::optional<double>(0.5));
+  EXPECT_EQ(request.seed, 9u);
+  msg.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_V_MAX_ONLY;
+  EXPECT_FALSE(fromMsg(msg, node).max_position_sd_m.has_value());
+  // A node whose own rule is V_max alone passes that on.
+  msg.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_PARAMETER;
+  EXPECT_FALSE(fromMsg(msg, {0.3, std::nullopt, 1}).max_position_sd_m.has_value());
 }
 
 // The planner's answer, for every status: the cap reached stays the cap reached (the exploration

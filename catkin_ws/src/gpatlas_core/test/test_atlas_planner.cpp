@@ -244,7 +244,7 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   config.seed = 5;
   // 400 points over the whole sphere are farther apart than a camera's: here view points
   // vouch as far as contacts.
-  config.evidence.view_max_distance = config.evidence.max_distance;
+  config.evidence.view_max_distance = *config.evidence.max_distance;
   const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax});
   EXPECT_EQ(result.status, PlanStatus::kConverged) << result.message;
   EXPECT_TRUE(result.path.empty());

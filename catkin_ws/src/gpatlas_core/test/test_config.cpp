@@ -8,6 +8,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <utility>
 #include <set>
 
 namespace {
@@ -76,6 +78,84 @@ TEST(Readers, VMaxHasOneReader) {
   ParamReader strict(*params);
   EXPECT_DOUBLE_EQ(gpatlas_core::readVMax(strict), gpatlas_core::Explorer::Config().v_max);
   EXPECT_NE(strict.errors().find("exploration/v_max"), std::string::npos) << strict.errors();
+}
+
+// An optional limit is a positive value or `off`, whichever reader reads it; 0 and negatives,
+// which meant "off" for some keys and themselves for others, are refused with the key, the value
+// and the word to write, and the default stays.
+TEST(Readers, AnOptionalLimitIsPositiveOrOff) {
+  std::string error;
+  auto params = YamlParameters::fromString(
+      "exploration: {max_position_sd_m: off}\n"
+      "evidence: {max_distance: 0.2, surprise_distance_m: off}\n"
+      "touch: {max_contacts_per_touch: off, max_free_space_per_touch: 7, max_touch_observations: off,\n"
+      "        contact_tangent_noise_sigma: off, gate: {max_contact_distance_m: off}}\n",
+      &error);
+  ASSERT_TRUE(params) << error;
+  ParamReader reader(*params);
+  gpatlas_core::Explorer::Config loop;
+  gpatlas_core::EvidenceRule evidence;
+  gpatlas_core::TouchObservationConfig touch;
+  gpatlas_core::readExplorer(reader, &loop);
+  gpatlas_core::readEvidence(reader, &evidence);
+  gpatlas_core::readTouchObservations(reader, &touch);
+  EXPECT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_FALSE(loop.max_position_sd_m.has_value());
+  EXPECT_FALSE(gpatlas_core::readMaxPositionSd(reader).has_value());
+  EXPECT_EQ(evidence.max_distance, std::optional<double>(0.2));
+  EXPECT_FALSE(evidence.surprise_distance_m.has_value());
+  EXPECT_FALSE(touch.max_contacts_per_touch.has_value());
+  EXPECT_EQ(touch.max_free_space_per_touch, std::optional<std::size_t>(7));
+  EXPECT_FALSE(touch.max_touch_observations.has_value());
+  EXPECT_FALSE(touch.contact_tangent_noise_sigma.has_value());
+  EXPECT_FALSE(touch.gate.max_contact_distance_m.has_value());
+
+  // rosparam reads a bare off as YAML 1.1's false: the same.
+  ASSERT_TRUE(params->set("exploration/max_position_sd_m=false", &error)) << error;
+  ParamReader as_ros(*params);
+  EXPECT_FALSE(gpatlas_core::readMaxPositionSd(as_ros, 0.005).has_value());
+  EXPECT_TRUE(as_ros.ok()) << as_ros.errors();
+
+  // Absent: the code's default, which a Config states as a value or as empty.
+  auto empty = YamlParameters::fromString("{}", &error);
+  ASSERT_TRUE(empty) << error;
+  ParamReader defaults(*empty);
+  EXPECT_EQ(gpatlas_core::readMaxPositionSd(defaults), std::optional<double>(0.005));
+  EXPECT_FALSE(gpatlas_core::readMaxPositionSd(defaults, std::nullopt).has_value());
+  EXPECT_EQ(defaults.defaults().back(), std::make_pair(std::string("exploration/max_position_sd_m"), std::string("off")));
+
+  // 0, negatives, a word other than off and true are refused, each with its key and value.
+  for (const char* bad : {"0", "-0.005", "none", "true", "0.0"}) {
+    ASSERT_TRUE(params->set(std::string("exploration/max_position_sd_m=") + bad, &error)) << error;
+    ASSERT_TRUE(params->set(std::string("touch/max_contacts_per_touch=") + bad, &error)) << error;
+    ParamReader strict(*params);
+    gpatlas_core::Explorer::Config refused;
+    gpatlas_core::TouchObservationConfig refused_touch;
+    gpatlas_core::readExplorer(strict, &refused);
+    gpatlas_core::readTouchObservations(strict, &refused_touch);
+    EXPECT_FALSE(strict.ok()) << bad;
+    EXPECT_EQ(refused.max_position_sd_m, gpatlas_core::Explorer::Config().max_position_sd_m) << bad;
+    EXPECT_EQ(refused_touch.max_contacts_per_touch, gpatlas_core::TouchObservationConfig().max_contacts_per_touch);
+    EXPECT_NE(strict.errors().find("exploration/max_position_sd_m"), std::string::npos) << strict.errors();
+    EXPECT_NE(strict.errors().find("touch/max_contacts_per_touch"), std::string::npos) << strict.errors();
+  }
+  ASSERT_TRUE(params->set("exploration/max_position_sd_m=0", &error)) << error;
+  ASSERT_TRUE(params->set("touch/max_contacts_per_touch=-3", &error)) << error;
+  ParamReader zero(*params);
+  gpatlas_core::readExplorer(zero, &loop);
+  gpatlas_core::readTouchObservations(zero, &touch);
+  EXPECT_NE(zero.errors().find("exploration/max_position_sd_m: = 0 is not a limit (it must be > 0): write off for none"),
+            std::string::npos)
+      << zero.errors();
+  EXPECT_NE(zero.errors().find("touch/max_contacts_per_touch: = -3 is not a limit (it must be > 0): write off for none"),
+            std::string::npos)
+      << zero.errors();
+  // Above the range: refused like any number.
+  ASSERT_TRUE(params->set("evidence/surprise_distance_m=5", &error)) << error;
+  ParamReader high(*params);
+  gpatlas_core::readEvidence(high, &evidence);
+  EXPECT_NE(high.errors().find("evidence/surprise_distance_m: = 5 is outside (0, 1]"), std::string::npos)
+      << high.errors();
 }
 
 // The part of a 5 cm sphere at (0.7, 0, 0.05) that a camera at `eye` sees (on a convex

@@ -33,7 +33,7 @@ GpisModel initialModel(const AnalyticSphere& sphere, unsigned seed) {
 // are farther apart than a camera's, and the tests that use it are about other rules.
 EvidenceRule sparseViewEvidence() {
   EvidenceRule rule;
-  rule.view_max_distance = rule.max_distance;
+  rule.view_max_distance = *rule.max_distance;
   return rule;
 }
 
@@ -96,11 +96,11 @@ ExplorationResult explore(const std::string& strategy_name, std::uint64_t seed, 
   strategy_config.seed = seed;
   // The paper's loop: V_max alone decides (no evidence distance), so that every touch is planned
   // above V_max.
-  strategy_config.evidence.max_distance = 0.0;
+  strategy_config.evidence.max_distance = std::nullopt;
   const auto strategy = makeStrategy(strategy_name, strategy_config);
   Explorer::Config config;
   config.v_max = 0.1;
-  config.max_position_sd_m = 0.0;  // the paper's rule
+  config.max_position_sd_m = std::nullopt;  // the paper's rule
   config.max_actions = 60;
   config.seed = seed;
   return Explorer(config).run(model, *strategy, prober, TouchObservationConfig(), EvidenceState(), progress);
@@ -160,7 +160,7 @@ TEST(Explorer, AContactRecordsHowFarItLayFromThePredictedSurface) {
     contacts.push_back({sphere.centre + sphere.radius * direction.normalized(), direction.normalized()});
   TouchObservationConfig config;
   config.contact_inside_depth_m = 0.0;
-  config.contact_tangent_noise_sigma = -1.0;  // the contacts alone
+  config.contact_tangent_noise_sigma = std::nullopt;  // the contacts alone
   const std::vector<TrainingPoint> points = touchTrainingPoints(model, contacts, {}, config);
   ASSERT_EQ(points.size(), contacts.size());
   int near = 0, far = 0;
@@ -305,7 +305,7 @@ TEST(Explorer, DenseSlideContactsAndFreeSpaceAreThinned) {
   TouchObservationConfig config;
   config.min_point_spacing_m = 0.004;
   config.min_free_space_spacing_m = 0.015;
-  config.contact_tangent_noise_sigma = -1.0;  // values alone: contacts, the points behind them, free space
+  config.contact_tangent_noise_sigma = std::nullopt;  // values alone: contacts, the points behind them, free space
   const auto strategy = makeStrategy("atlas_poke");
   const ExplorationResult result = Explorer(loop).run(model, *strategy, prober, config);
   ASSERT_EQ(result.actions, 1) << result.stop_reason;
@@ -360,7 +360,7 @@ TEST(Explorer, ContactNormalsAsTangentSlopesFixTheModelsNormal) {
     contacts.push_back({sphere.centre + sphere.radius * normal, normal});
   }
   TouchObservationConfig without;
-  without.contact_tangent_noise_sigma = -1.0;
+  without.contact_tangent_noise_sigma = std::nullopt;
   TouchObservationConfig with = without;
   with.contact_tangent_noise_sigma = 0.05;
   TouchPointCounts counts;
@@ -537,7 +537,7 @@ TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
     strategy_config.evidence = sparseViewEvidence();
     // The rule under test is the retouch radius. With the surprise rule a slide's extension past
     // its target (the touch's last point checked below) can run back over the view.
-    strategy_config.evidence.surprise_distance_m = 0.0;
+    strategy_config.evidence.surprise_distance_m = std::nullopt;
     const EvidenceRule& evidence = strategy_config.evidence;
     const auto strategy = makeStrategy(strategy_name, strategy_config);
     Explorer::Config config;
@@ -613,7 +613,7 @@ TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration
   }
   ASSERT_GT(contacts.size(), 40u);
   TouchObservationConfig config;
-  config.max_touch_observations = 0;  // no bound: what the touch gives
+  config.max_touch_observations = std::nullopt;  // no bound: what the touch gives
   GpisModel unbounded = model;
   const TouchUpdate whole = applyTouch(unbounded, contacts, free_space, config);
   ASSERT_TRUE(whole.ok) << whole.message;
@@ -740,7 +740,7 @@ void padAfterTheFirst(int touch_number, ProbeResult* result) {
 ExplorationResult exploreWithApproacher(GpisModel& model, const ExplorationStrategy& strategy, Prober& prober,
                                         TouchApproacher& approacher, int max_actions) {
   Explorer::Config config;
-  config.max_position_sd_m = 0.0;
+  config.max_position_sd_m = std::nullopt;
   config.max_actions = max_actions;
   config.seed = 2;
   return Explorer(config).run(model, strategy, prober, TouchObservationConfig(), {}, {}, &approacher);
@@ -800,7 +800,7 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   // Without the surprise rule Algorithm 1's atlas reaches under the sphere within these actions;
   // with it, it first goes back to where the touches surprised it. best_score's order did not
   // get there within them, so this test of the refusals keeps Algorithm 1's.
-  strategy_config.evidence.surprise_distance_m = 0.0;
+  strategy_config.evidence.surprise_distance_m = std::nullopt;
   strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
   const EvidenceRule& evidence = strategy_config.evidence;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);

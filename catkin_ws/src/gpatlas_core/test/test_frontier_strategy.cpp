@@ -143,7 +143,7 @@ PlanRequest surfaceSettled(const EvidenceState& state) {
 
 StrategyConfig frontierConfig() {
   StrategyConfig config;
-  config.evidence.max_distance = 0.0;
+  config.evidence.max_distance = std::nullopt;
   return config;
 }
 
@@ -204,7 +204,7 @@ TEST(FrontierStrategy, FirstPokeTargetsTheShadowAndFindsTheHiddenPart) {
   SceneProber prober(scene);
   Explorer::Config loop;
   loop.v_max = 1e6;
-  loop.max_position_sd_m = 0.0;  // the atlas's part converges at once: the shadow's part is under test
+  loop.max_position_sd_m = std::nullopt;  // the atlas's part converges at once: the shadow's part is under test
   loop.max_actions = 20;
   const ExplorationResult run = Explorer(loop).run(model, *strategy, prober, TouchObservationConfig(), state);
   std::cout << "hidden part: " << prober.hidden_contacts << " contacts on it in " << run.actions << " touches, stop "
@@ -263,7 +263,7 @@ TEST(FrontierStrategy, AnEmptyPokeClearsItsPathAndTheStrategyConverges) {
   // Poking on clears the band until no poke can reach what is left.
   Explorer::Config loop;
   loop.v_max = 1e6;
-  loop.max_position_sd_m = 0.0;  // the atlas's part converges at once: the shadow's part is under test
+  loop.max_position_sd_m = std::nullopt;  // the atlas's part converges at once: the shadow's part is under test
   loop.max_actions = 60;
   SceneProber loop_prober(scene);
   GpisModel fresh = settledModel(scene, view);

@@ -53,7 +53,7 @@ TEST(ObservationGate, AFarOutlierContactIsRefusedAndTheModelIsUnchanged) {
 
   // With the gate off the same contact is taken, and it does move the frame: the test above is
   // the gate's doing.
-  config.gate.max_contact_distance_m = 0.0;
+  config.gate.max_contact_distance_m = std::nullopt;
   MultiscaleGpisModel ungated = before;
   const TouchUpdate taken =
       applyTouch(ungated, {contactAt(sphere.centre + Vector3(0.5, 0.0, 0.0), Vector3::UnitX())}, {}, config);

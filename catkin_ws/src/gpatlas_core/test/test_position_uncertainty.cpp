@@ -311,7 +311,7 @@ GpisModel calibratedHalfSeenSphere(const AnalyticSphere& sphere) {
 // alone decides.
 std::unique_ptr<gpatlas_core::ExplorationStrategy> withoutEvidenceRule(const std::string& name) {
   gpatlas_core::StrategyConfig config;
-  config.evidence.max_distance = 0.0;
+  config.evidence.max_distance = std::nullopt;
   return gpatlas_core::makeStrategy(name, config);
 }
 
@@ -327,7 +327,7 @@ TEST(StopRule, AHalfSeenSphereDoesNotConvergeBeforeItsBackIsTouched) {
 
   gpatlas_core::Explorer::Config lax;
   lax.v_max = 10.0;
-  lax.max_position_sd_m = 0.0;
+  lax.max_position_sd_m = std::nullopt;
   GpisModel paper_rule(model);
   gpatlas_core::testing::AnalyticSphereProber unused(sphere);
   const gpatlas_core::ExplorationResult vmax_run = gpatlas_core::Explorer(lax).run(paper_rule, *strategy, unused);
@@ -369,7 +369,7 @@ TEST(StopRule, ExcessIsTheLargerRatioAndExceededIsExcessAboveOne) {
   const AnalyticSphere sphere;
   GpisModel model = calibratedHalfSeenSphere(sphere);
   ASSERT_TRUE(model.isFitted());
-  const gpatlas_core::StopRule paper{0.05, 0.0}, in_mm{0.05, 0.005};
+  const gpatlas_core::StopRule paper{0.05, std::nullopt}, in_mm{0.05, 0.005};
   int position_bound = 0;
   for (const Vector3& d : gpatlas_core::fibonacciSphere(200)) {
     const Vector3 x = sphere.centre + sphere.radius * d;

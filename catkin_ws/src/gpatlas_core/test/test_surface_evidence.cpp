@@ -316,13 +316,13 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
   config.seed = 3;
-  config.evidence.max_distance = 0.0;  // variance alone (Algorithm 1)
+  config.evidence.max_distance = std::nullopt;  // variance alone (Algorithm 1)
   const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
   config.evidence.max_distance = 0.3;
   config.evidence.view_max_distance = 0.3;  // view points vouch as far as contacts here
-  const double max_distance_m = config.evidence.max_distance * model.scale();
+  const double max_distance_m = *config.evidence.max_distance * model.scale();
   for (const auto selection : {AtlasPlanner::Config::Selection::kFirst, AtlasPlanner::Config::Selection::kBestScore})
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     config.seed = seed;
@@ -353,7 +353,7 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
   config.selection = AtlasPlanner::Config::Selection::kFirst;  // the first chart, at the edge
   config.evidence.max_distance = 0.3;
   config.evidence.view_max_distance = 0.3;
-  const double max_distance_m = config.evidence.max_distance * model.scale();
+  const double max_distance_m = *config.evidence.max_distance * model.scale();
   for (const double fraction : {0.25, 0.5}) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
       SCOPED_TRACE(::testing::Message() << "fraction " << fraction << ", seed " << seed);
@@ -442,7 +442,7 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceOfItsRule) {
   request.v_max = kHugeVMax;
   for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"}) {
     StrategyConfig config;
-    config.evidence.max_distance = 0.0;
+    config.evidence.max_distance = std::nullopt;
     const PlanResult converged = makeStrategy(name, config)->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
 
@@ -485,11 +485,11 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
   strategy_config.evidence.view_max_distance = 0.3;
   // The prober's contacts lie beyond the targets: a surprise the rule would answer with more
   // touches (ATouchThatWentThroughTheTargetSupportsLess); this test is about the aim alone.
-  strategy_config.evidence.surprise_distance_m = 0.0;
+  strategy_config.evidence.surprise_distance_m = std::nullopt;
   const auto strategy = makeStrategy("atlas_poke", strategy_config);
   Explorer::Config config;
   config.v_max = kHugeVMax;
-  config.max_position_sd_m = 0.0;  // the V_max rule: the evidence rule alone asks for touches
+  config.max_position_sd_m = std::nullopt;  // the V_max rule: the evidence rule alone asks for touches
   config.max_actions = 40;
   // The loop passes where earlier touches aimed; a planner that drops them shows what they buy.
   struct ForgetfulPlanner : TouchPlanner {

@@ -149,8 +149,8 @@ TEST(SurfaceError, IsZeroWithinTheBoundAndGrowsWithThePositionSd) {
   EXPECT_NEAR(at_2b, 0.617075 - 0.317311, 1e-4);
   EXPECT_NEAR(at_10b, 0.920344 - 0.317311, 1e-4);
   // Under V_max alone: the variance's relative excess.
-  EXPECT_NEAR(gpatlas_core::surfaceError(model, {0.1, 0.0}, 0.3, 1.0), 2.0, 1e-12);
-  EXPECT_EQ(gpatlas_core::surfaceError(model, {0.1, 0.0}, 0.05, 1.0), 0.0);
+  EXPECT_NEAR(gpatlas_core::surfaceError(model, {0.1, std::nullopt}, 0.3, 1.0), 2.0, 1e-12);
+  EXPECT_EQ(gpatlas_core::surfaceError(model, {0.1, std::nullopt}, 0.05, 1.0), 0.0);
 }
 
 // The first touch of a half-seen sphere: the score's predicted fall of the summed error, and the
@@ -160,7 +160,7 @@ TEST(TouchScore, PredictsTheFallOfTheErrorThatTheTouchBrings) {
   const AnalyticSphere sphere;
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(150, 0.0, 0.1, 3)).ok);
-  const gpatlas_core::StopRule rule{0.1, 0.0};
+  const gpatlas_core::StopRule rule{0.1, std::nullopt};
   const SpherePatches patches(sphere, 400);
   const auto patchesOf = [&](const SurfaceModel& m) { return patches.of(m); };
   const auto summedError = [&](const SurfaceModel& m) { return patches.summedError(m, rule); };
@@ -204,7 +204,7 @@ TEST(TouchScore, CountsTheApproachsFreeSpace) {
   const AnalyticSphere sphere;
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(150, 0.0, 0.1, 3)).ok);
-  const gpatlas_core::StopRule rule{0.1, 0.0};
+  const gpatlas_core::StopRule rule{0.1, std::nullopt};
   const SpherePatches patches(sphere, 300);
   const auto patchesOf = [&](const SurfaceModel& m) { return patches.of(m); };
   const auto summedError = [&](const SurfaceModel& m) { return patches.summedError(m, rule); };

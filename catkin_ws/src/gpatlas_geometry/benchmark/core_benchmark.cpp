@@ -147,7 +147,7 @@ void BM_MultiscaleApplyPatch(benchmark::State& state) {
   gpatlas_core::TouchObservationConfig config;
   if (state.range(2) == 0) {
     config.min_point_spacing_m = 0.0;
-    config.max_contacts_per_touch = 0;
+    config.max_contacts_per_touch = std::nullopt;
   }
   int added = 0;
   for (auto _ : state) {

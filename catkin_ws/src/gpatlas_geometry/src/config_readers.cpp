@@ -11,7 +11,7 @@ void readMesher(ParamReader& r, SurfaceMesher::Config* c) {
 void readSegmenter(ParamReader& r, ObjectSegmenter::Config* c) {
   c->crop_min_m = r.vector3("segmentation/crop_min_m", c->crop_min_m);
   c->crop_max_m = r.vector3("segmentation/crop_max_m", c->crop_max_m);
-  c->voxel_leaf_m = r.number("segmentation/voxel_leaf_m", c->voxel_leaf_m, 0.0, 1.0);
+  c->voxel_leaf_m = r.optionalNumber("segmentation/voxel_leaf_m", c->voxel_leaf_m, 1.0);
   c->remove_plane = r.flag("segmentation/remove_plane", c->remove_plane);
   c->plane_distance_m = r.number("segmentation/plane_distance_m", c->plane_distance_m, 1e-5, 1.0);
   c->cluster_tolerance_m = r.number("segmentation/cluster_tolerance_m", c->cluster_tolerance_m, 1e-5, 1.0);

@@ -25,7 +25,7 @@ using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 std::string validate(const ObjectSegmenter::Config& c) {
   if (!c.crop_min_m.allFinite() || !c.crop_max_m.allFinite() || (c.crop_max_m.array() <= c.crop_min_m.array()).any())
     return "crop box: every component of crop_max_m must exceed crop_min_m";
-  if (!(c.voxel_leaf_m >= 0.0)) return "voxel_leaf_m must be >= 0";
+  if (c.voxel_leaf_m && !(*c.voxel_leaf_m > 0.0)) return "voxel_leaf_m must be > 0, or empty (no voxel grid)";
   if (c.remove_plane && !(c.plane_distance_m > 0.0)) return "plane_distance_m must be > 0";
   if (c.remove_plane && c.plane_max_iterations < 1) return "plane_max_iterations must be >= 1";
   if (!(c.plane_max_tilt_deg > 0.0 && c.plane_max_tilt_deg <= 90.0)) return "plane_max_tilt_deg must be in (0, 90]";
@@ -62,10 +62,10 @@ Cloud::Ptr cropToBox(const Cloud::Ptr& cloud, const ObjectSegmenter::Config& c) 
 
 // One point per voxel_leaf_m voxel (the cloud itself when the voxel grid is off).
 Cloud::Ptr downsample(const Cloud::Ptr& cropped, const ObjectSegmenter::Config& c) {
-  if (!(c.voxel_leaf_m > 0.0)) return cropped;
+  if (!c.voxel_leaf_m) return cropped;
   Cloud::Ptr downsampled(new Cloud);
   pcl::VoxelGrid<pcl::PointXYZ> voxel;
-  const float leaf = static_cast<float>(c.voxel_leaf_m);
+  const float leaf = static_cast<float>(*c.voxel_leaf_m);
   voxel.setLeafSize(leaf, leaf, leaf);
   voxel.setInputCloud(cropped);
   voxel.filter(*downsampled);

@@ -109,12 +109,12 @@ class ExplorationNode {
     ServiceUpdater updater(services);
     ServiceApproacher approacher(services);
     const gpatlas_core::Explorer explorer(settings_.loop);
-    const int metrics_every = settings_.node.metrics_every;
+    const std::optional<int> metrics_every = settings_.node.metrics_every;
     measurements_.start();
     gpatlas_core::ExplorationResult result =
         explorer.run(planner, prober, updater, [this, metrics_every](gpatlas_core::ExplorationRecord& record) {
           ROS_INFO_STREAM("exploration: " << gpatlas_core::describeAction(record));
-          if (metrics_every > 0 && (record.index + 1) % metrics_every == 0)
+          if (metrics_every && (record.index + 1) % *metrics_every == 0)
             measurements_.request(record.index, watch_.latestTraining());
         }, settings_.approach.enabled ? &approacher : nullptr);
     measurements_.mergeInto(&result, metrics_every);
@@ -185,7 +185,7 @@ class ExplorationNode {
         return true;
       }
       const double silent_s = (ros::WallTime::now() - last_published).toSec();
-      if (captured_cloud_ && config.republish_view_after_s > 0.0 && silent_s > config.republish_view_after_s) {
+      if (captured_cloud_ && config.republish_view_after_s && silent_s > *config.republish_view_after_s) {
         ROS_WARN_STREAM("exploration: no model " << silent_s << " s after the view was published; publishing it again");
         cloud_pub_.publish(*captured_cloud_);
         last_published = ros::WallTime::now();

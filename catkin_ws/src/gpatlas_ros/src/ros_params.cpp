@@ -10,8 +10,8 @@ void readExplorationNode(gpatlas_core::ParamReader& r, ExplorationNodeConfig* c)
   c->service_timeout_s = r.number("service_timeout_s", c->service_timeout_s, 0.1, 3600.0);
   c->call_timeout_s = r.number("call_timeout_s", c->call_timeout_s, 0.1, 86400.0);
   c->capture = r.flag("capture", c->capture);
-  c->republish_view_after_s = r.number("republish_view_after_s", c->republish_view_after_s, 0.0, 3600.0);
-  c->metrics_every = r.integer("metrics_every", c->metrics_every, 0, 100000);
+  c->republish_view_after_s = r.optionalNumber("republish_view_after_s", c->republish_view_after_s, 3600.0);
+  c->metrics_every = r.optionalInteger("metrics_every", c->metrics_every, 100000);
   c->results_dir = r.text("results_dir", c->results_dir);
 }
 

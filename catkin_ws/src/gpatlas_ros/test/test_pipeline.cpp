@@ -108,6 +108,7 @@ TEST(Pipeline, BadCloudsLeaveNoModelAndTheManagerAlive) {
   pub.publish(frameless);
   ros::Duration(2.0).sleep();
   gpatlas_msgs::GetNextTouch touch;
+  touch.request.use_v_max = true;
   touch.request.v_max = 0.1;
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", touch));
   EXPECT_EQ(touch.response.status, gpatlas_msgs::GetNextTouch::Response::NO_MODEL);
@@ -120,6 +121,7 @@ TEST(Pipeline, BadCloudsLeaveNoModelAndTheManagerAlive) {
 
 TEST(Pipeline, AnswersBeforeTheModelExists) {
   gpatlas_msgs::GetNextTouch touch;
+  touch.request.use_v_max = true;
   touch.request.v_max = 0.1;
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", touch));
   EXPECT_EQ(touch.response.status, gpatlas_msgs::GetNextTouch::Response::NO_MODEL);
@@ -315,8 +317,10 @@ void expectTrainingFromTheView(const gpatlas_msgs::TrainingSet& training) {
 void planTheFirstTouch(gpatlas_msgs::GetNextTouch& touch) {
   // The planner needs the latched training set too; retry while it reports no model.
   for (int attempt = 0; attempt < 20; ++attempt) {
+    touch.request.use_v_max = true;
     touch.request.v_max = 0.1;
-    touch.request.max_position_sd_m = -1.0;  // the paper's rule: the touch the approach test below is laid out for
+    // The paper's rule: the touch the approach test below is laid out for.
+    touch.request.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_V_MAX_ONLY;
     touch.request.strategy = "atlas_poke";
     ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", touch));
     if (touch.response.status != gpatlas_msgs::GetNextTouch::Response::NO_MODEL) break;
@@ -368,6 +372,7 @@ void expectAtlasMapAndShape(const PipelineOutputs& outputs) {
 void expectPlannerAnswers() {
   // A strategy from a library named in strategy_libraries answers like the built-in ones.
   gpatlas_msgs::GetNextTouch own;
+  own.request.use_v_max = true;
   own.request.v_max = 0.1;
   own.request.strategy = "farthest_from_evidence";
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", own));
@@ -378,18 +383,29 @@ void expectPlannerAnswers() {
 
   // Bad requests get a status and a message, and the nodelets keep answering.
   gpatlas_msgs::GetNextTouch bad;
+  bad.request.use_v_max = true;
   bad.request.v_max = -1.0;
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
   EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
-  // A stop rule that is not a number: the refusal says what 0 means as GetNextTouch.srv does.
+  EXPECT_NE(bad.response.message.find("use_v_max"), std::string::npos) << bad.response.message;
+  // A position sd bound that is not a number, or 0: the refusal names the stop rules as
+  // GetNextTouch.srv does.
   bad.request.v_max = 0.1;
-  bad.request.max_position_sd_m = std::numeric_limits<double>::quiet_NaN();
+  bad.request.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_POSITION_SD;
+  for (const double bound : {std::numeric_limits<double>::quiet_NaN(), 0.0}) {
+    bad.request.max_position_sd_m = bound;
+    ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
+    EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
+    EXPECT_NE(bad.response.message.find("STOP_RULE_V_MAX_ONLY: the V_max rule alone"), std::string::npos)
+        << bad.response.message;
+    EXPECT_NE(bad.response.message.find("STOP_RULE_PARAMETER: the parameter exploration/max_position_sd_m"),
+              std::string::npos) << bad.response.message;
+  }
+  bad.request.stop_rule = 7;
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
   EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
-  EXPECT_NE(bad.response.message.find("0 uses the parameter exploration/max_position_sd_m"), std::string::npos)
-      << bad.response.message;
-  EXPECT_EQ(bad.response.message.find("0: the V_max rule"), std::string::npos) << bad.response.message;
-  bad.request.max_position_sd_m = 0.0;
+  EXPECT_NE(bad.response.message.find("stop_rule must be"), std::string::npos) << bad.response.message;
+  bad.request.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_PARAMETER;
   bad.request.strategy = "no_such_strategy";
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", bad));
   EXPECT_EQ(bad.response.status, gpatlas_msgs::GetNextTouch::Response::ERROR);
@@ -398,6 +414,7 @@ void expectPlannerAnswers() {
   // A request for a model newer than the planner's (its training set not rebuilt yet) is told so,
   // and one for the model it holds is planned.
   gpatlas_msgs::GetNextTouch fresh;
+  fresh.request.use_v_max = true;
   fresh.request.v_max = 0.1;
   fresh.request.model_stamp = ros::Time::now() + ros::Duration(3600.0);
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", fresh));
@@ -411,8 +428,9 @@ void expectPlannerAnswers() {
   // 1e9, the V_max rule alone), the unseen side still needs a touch (max_evidence_distance),
   // until the request says that touches aimed all over the sphere.
   gpatlas_msgs::GetNextTouch evidence_only;
+  evidence_only.request.use_v_max = true;
   evidence_only.request.v_max = 1e9;
-  evidence_only.request.max_position_sd_m = -1.0;
+  evidence_only.request.stop_rule = gpatlas_msgs::GetNextTouch::Request::STOP_RULE_V_MAX_ONLY;
   evidence_only.request.strategy = "atlas_poke";
   ASSERT_TRUE(call("/gpatlas/atlas_planner/next_touch", evidence_only));
   EXPECT_EQ(evidence_only.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << evidence_only.response.message;

@@ -187,6 +187,7 @@ TEST_F(RealScene, TheMapHoldsWhatTheCameraSawAndTheApproachClearsIt) {
   EXPECT_GE(c.offTableFraction(), 0.99) << c.off_table << " points off the table and the mug";
 
   gpatlas_msgs::GetNextTouch next;
+  next.request.use_v_max = true;
   next.request.v_max = 0.1;
   ASSERT_TRUE(ros::service::waitForService("/gpatlas/atlas_planner/next_touch", ros::Duration(30.0)));
   ASSERT_TRUE(ros::service::call("/gpatlas/atlas_planner/next_touch", next));

@@ -90,6 +90,7 @@ class Reset : public ::testing::Test {
     ASSERT_TRUE(ros::service::waitForService(kPlanner + "next_touch", ros::Duration(30.0)));
     for (std::uint32_t seed = 1; seed <= 5; ++seed) {
       gpatlas_msgs::GetNextTouch touch;
+      touch.request.use_seed = true;
       touch.request.seed = seed;
       ASSERT_TRUE(ros::service::call(kPlanner + "next_touch", touch));
       ASSERT_EQ(touch.response.status, gpatlas_msgs::GetNextTouch::Response::TOUCH) << touch.response.message;

@@ -167,6 +167,18 @@ TEST(PipelineYaml, ThePapersOverlaySetsOnlyParametersAndSelectsTheGlobalGpis) {
   EXPECT_TRUE(reader.ok()) << reader.errors();
   EXPECT_EQ(pipeline.model.type, "gpis");
   EXPECT_EQ(pipeline.view.max_surface_points, 600);
+  // Its offs reach the Configs as absent limits, where the file's are set.
+  EXPECT_FALSE(pipeline.exploration.max_position_sd_m.has_value());
+  EXPECT_FALSE(pipeline.touch.contact_tangent_noise_sigma.has_value());
+  EXPECT_FALSE(pipeline.strategy.evidence.surprise_distance_m.has_value());
+  probe_sim::PipelineConfig file_only;
+  const auto file = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
+  ASSERT_TRUE(file) << error;
+  gpatlas_core::ParamReader file_reader(*file);
+  probe_sim::readPipeline(file_reader, &file_only);
+  EXPECT_EQ(file_only.exploration.max_position_sd_m, std::optional<double>(0.005));
+  EXPECT_TRUE(file_only.touch.contact_tangent_noise_sigma.has_value());
+  EXPECT_TRUE(file_only.strategy.evidence.surprise_distance_m.has_value());
 }
 
 // The file's values reach the Configs (a second, independent parse of the text).
@@ -174,7 +186,8 @@ TEST(PipelineYaml, ValuesReachTheConfigs) {
   std::string error;
   const auto params = gpatlas_core::YamlParameters::fromString(
       "seed: 7\nexploration: {v_max: 0.05, max_actions: 12}\nview:\n  free_space: {max_rays: 10}\n"
-      "segmentation: {crop_min_m: [0.1, -0.2, 0.0], object_hint_m: [1, 2, 3]}\ngpis: {kernel_params: [2.5]}\n",
+      "segmentation: {crop_min_m: [0.1, -0.2, 0.0], object_hint_m: [1, 2, 3], voxel_leaf_m: off}\n"
+      "gpis: {kernel_params: [2.5]}\n",
       &error);
   ASSERT_TRUE(params) << error;
   gpatlas_core::ParamReader reader(*params);
@@ -190,6 +203,7 @@ TEST(PipelineYaml, ValuesReachTheConfigs) {
   EXPECT_EQ(c.segmentation.crop_min_m, gpatlas_core::Vector3(0.1, -0.2, 0.0));
   ASSERT_TRUE(c.segmentation.object_hint_m.has_value());
   EXPECT_EQ(*c.segmentation.object_hint_m, gpatlas_core::Vector3(1, 2, 3));
+  EXPECT_FALSE(c.segmentation.voxel_leaf_m.has_value());
   ASSERT_EQ(c.model.gpis.initial_params.size(), 1u);
   EXPECT_NEAR(std::exp(c.model.gpis.initial_params[0]), 2.5, 1e-12);
   // Unset sections keep the Configs' own defaults.

@@ -251,8 +251,10 @@ std::string summarySettings(const Options& o) {
   f << "config `" << o.config_path << "`";
   for (const auto& overlay : o.overlays) f << " --overlay " << overlay;
   for (const auto& assignment : o.overrides) f << " --set " << assignment;
-  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", max position sd "
-    << o.pipeline.exploration.max_position_sd_m << " m, seeds";
+  f << ", probe `" << o.simulation.probe << "`, V_max " << o.pipeline.exploration.v_max << ", max position sd ";
+  if (o.pipeline.exploration.max_position_sd_m) f << *o.pipeline.exploration.max_position_sd_m << " m";
+  else f << "off";
+  f << ", seeds";
   for (int s : o.seeds) f << ' ' << s;
   f << ", max actions " << o.pipeline.exploration.max_actions << (o.simulation.table ? ", on a table" : ", no table") << ".";
   return f.str();
@@ -268,7 +270,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
        "approach_plan_ms_median,recent_target_error_m\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
-    f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << num(r.max_position_sd_m) << ',' << r.actions
+    f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << (r.max_position_sd_m ? num(*r.max_position_sd_m) : "off") << ',' << r.actions
       << ',' << r.contacts << ',' << (r.converged ? 1 : 0) << ',' << csvField(r.status) << ',' << csvField(r.stop_reason)
       << ',' << r.n_train << ','
       << (ok ? num(r.metrics.rmse_predicted_to_truth) : "nan") << ','

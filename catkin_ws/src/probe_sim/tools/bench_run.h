@@ -23,7 +23,7 @@ struct RunResult {
   std::string status;
   int seed{0};
   double v_max{0.0};
-  double max_position_sd_m{0.0};
+  std::optional<double> max_position_sd_m;  // empty: V_max alone ("off" in runs.csv)
   int curve_every{0};  // --curve-every: which history entries were measured
   int actions{0};
   int contacts{0};

@@ -32,6 +32,7 @@
 
 #include <Eigen/Geometry>
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -101,10 +102,17 @@ bool fromMsg(const shape_msgs::Mesh& msg, gpatlas_core::TriangleMesh* mesh, std:
 // The next_touch service (GetNextTouch): a plan request and the planner's answer. The request's
 // strategy, model_stamp and reachable_only are the caller's to fill; the plan request's
 // reachable test, support plane and camera views do not travel (the planner nodelet has its
-// own: the views come with the training set). v_max 0
-// in a message means the nodelet's own, which the caller puts in.
+// own: the views come with the training set). A plan request's message sets its V_max, stop
+// rule and seed explicitly; what a message leaves to the node (use_v_max false,
+// STOP_RULE_PARAMETER, use_seed false) comes from `node`. The server refuses a message whose
+// values are unusable (an unknown stop_rule, a v_max or bound <= 0) before it converts it.
+struct NodePlanDefaults {
+  double v_max{0.1};
+  std::optional<double> max_position_sd_m;
+  std::uint64_t seed{0};
+};
 gpatlas_msgs::GetNextTouch::Request toMsg(const gpatlas_core::PlanRequest& request);
-gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg);
+gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg, const NodePlanDefaults& node);
 // The touch's header is the caller's; the atlas travels on its own topic.
 gpatlas_msgs::GetNextTouch::Response toMsg(const gpatlas_core::PlanResult& result);
 // NO_MODEL, STALE_MODEL, ERROR and an unknown status are kError, and so is a TOUCH whose touch

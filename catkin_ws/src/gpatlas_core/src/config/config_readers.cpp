@@ -4,6 +4,15 @@
 
 namespace gpatlas_core {
 
+namespace {
+std::optional<std::size_t> optionalCount(ParamReader& r, const std::string& name, std::optional<std::size_t> fallback,
+                                         int max) {
+  const std::optional<int> value =
+      r.optionalInteger(name, fallback ? std::optional<int>(static_cast<int>(*fallback)) : std::nullopt, max);
+  return value ? std::optional<std::size_t>(static_cast<std::size_t>(*value)) : std::nullopt;
+}
+}  // namespace
+
 void readFrames(ParamReader& r, PipelineFrames* c) {
   c->world_frame = r.text("world_frame", c->world_frame);
   if (c->world_frame.empty()) {
@@ -106,26 +115,25 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
   c->min_free_space_spacing_m = r.number("touch/min_free_space_spacing_m", c->min_free_space_spacing_m, 0.0, 1.0);
   c->contact_inside_depth_m = r.number("touch/contact_inside_depth_m", c->contact_inside_depth_m, 0.0, 0.1);
   c->contact_tangent_noise_sigma =
-      r.number("touch/contact_tangent_noise_sigma", c->contact_tangent_noise_sigma, -1.0, 10.0);
-  c->max_contacts_per_touch = static_cast<std::size_t>(
-      r.integer("touch/max_contacts_per_touch", static_cast<int>(c->max_contacts_per_touch), 0, 1000000));
-  c->max_free_space_per_touch = static_cast<std::size_t>(
-      r.integer("touch/max_free_space_per_touch", static_cast<int>(c->max_free_space_per_touch), 0, 1000000));
-  c->max_touch_observations = static_cast<std::size_t>(
-      r.integer("touch/max_touch_observations", static_cast<int>(c->max_touch_observations), 0, 10000000));
+      r.optionalNumber("touch/contact_tangent_noise_sigma", c->contact_tangent_noise_sigma, 10.0);
+  c->max_contacts_per_touch = optionalCount(r, "touch/max_contacts_per_touch", c->max_contacts_per_touch, 1000000);
+  c->max_free_space_per_touch =
+      optionalCount(r, "touch/max_free_space_per_touch", c->max_free_space_per_touch, 1000000);
+  c->max_touch_observations = optionalCount(r, "touch/max_touch_observations", c->max_touch_observations, 10000000);
   c->gate.workspace_min_m = r.vector3("touch/gate/workspace_min_m", c->gate.workspace_min_m);
   c->gate.workspace_max_m = r.vector3("touch/gate/workspace_max_m", c->gate.workspace_max_m);
-  c->gate.max_contact_distance_m = r.number("touch/gate/max_contact_distance_m", c->gate.max_contact_distance_m, 0.0, 100.0);
+  c->gate.max_contact_distance_m =
+      r.optionalNumber("touch/gate/max_contact_distance_m", c->gate.max_contact_distance_m, 100.0);
   c->gate.max_inconsistency_sigma =
       r.number("touch/gate/max_inconsistency_sigma", c->gate.max_inconsistency_sigma, 1e-3, 1e6);
 }
 
 void readEvidence(ParamReader& r, EvidenceRule* c) {
-  c->max_distance = r.number("evidence/max_distance", c->max_distance, 0.0, 100.0);
+  c->max_distance = r.optionalNumber("evidence/max_distance", c->max_distance, 100.0);
   c->view_max_distance = r.number("evidence/view_max_distance", c->view_max_distance, 0.0, 100.0);
   c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
   c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
-  c->surprise_distance_m = r.number("evidence/surprise_distance_m", c->surprise_distance_m, 0.0, 1.0);
+  c->surprise_distance_m = r.optionalNumber("evidence/surprise_distance_m", c->surprise_distance_m, 1.0);
 }
 
 void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
@@ -136,8 +144,8 @@ void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
 
 double readVMax(ParamReader& r, double fallback) { return r.number("exploration/v_max", fallback, 1e-12, 1e12); }
 
-double readMaxPositionSd(ParamReader& r, double fallback) {
-  return r.number("exploration/max_position_sd_m", fallback, 0.0, 10.0);
+std::optional<double> readMaxPositionSd(ParamReader& r, std::optional<double> fallback) {
+  return r.optionalNumber("exploration/max_position_sd_m", fallback, 10.0);
 }
 
 void readExplorer(ParamReader& r, Explorer::Config* c) {

@@ -140,6 +140,57 @@ Vector3 ParamReader::vector3(const std::string& name, const Vector3& fallback) {
   return v;
 }
 
+bool ParamReader::isOff(const std::string& name) const {
+  if (source_.text(name) == std::optional<std::string>("off")) return true;
+  const std::optional<bool> value = source_.flag(name);  // rosparam's false for a bare off
+  return value && !*value;
+}
+
+void ParamReader::refuseNonPositive(const std::string& name, const std::string& value) {
+  invalid(name, "= " + value + " is not a limit (it must be > 0): write off for none");
+}
+
+std::optional<double> ParamReader::optionalNumber(const std::string& name, std::optional<double> fallback,
+                                                  double max) {
+  defaults_.emplace_back(name, fallback ? formatted(*fallback) : std::string("off"));
+  if (!present(name)) return fallback;
+  if (isOff(name)) return std::nullopt;
+  const std::optional<double> value = source_.number(name);
+  if (!value || !std::isfinite(*value)) {
+    invalid(name, "is neither a finite number nor off");
+    return fallback;
+  }
+  if (*value <= 0.0) {
+    refuseNonPositive(name, formatted(*value));
+    return fallback;
+  }
+  if (*value > max) {
+    invalid(name, "= " + formatted(*value) + " is outside (0, " + formatted(max) + "]");
+    return fallback;
+  }
+  return *value;
+}
+
+std::optional<int> ParamReader::optionalInteger(const std::string& name, std::optional<int> fallback, int max) {
+  defaults_.emplace_back(name, fallback ? std::to_string(*fallback) : std::string("off"));
+  if (!present(name)) return fallback;
+  if (isOff(name)) return std::nullopt;
+  const std::optional<int> value = source_.integer(name);
+  if (!value) {
+    invalid(name, "is neither an integer nor off");
+    return fallback;
+  }
+  if (*value <= 0) {
+    refuseNonPositive(name, std::to_string(*value));
+    return fallback;
+  }
+  if (*value > max) {
+    invalid(name, "= " + std::to_string(*value) + " is outside [1, " + std::to_string(max) + "]");
+    return fallback;
+  }
+  return *value;
+}
+
 // ---------------------------------------------------------------- YamlParameters
 
 struct YamlParameters::Impl {

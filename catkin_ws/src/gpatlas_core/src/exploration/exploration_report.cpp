@@ -129,8 +129,9 @@ std::string outOfReachNote(const ExplorationResult& result) {
 std::string toJson(const ExplorationReport& report) {
   const ExplorationResult& result = report.result;
   std::ostringstream json;
+  // max_position_sd_m null: the V_max rule alone.
   json << "{\n  \"settings\": {\"strategy\": " << jsonString(report.strategy) << ", \"v_max\": "
-       << jsonNumber(report.loop.v_max) << ", \"max_position_sd_m\": " << jsonNumber(report.loop.max_position_sd_m)
+       << jsonNumber(report.loop.v_max) << ", \"max_position_sd_m\": " << jsonNumber(report.loop.max_position_sd_m.value_or(NAN))
        << ", \"max_actions\": " << report.loop.max_actions
        << ", \"max_consecutive_failures\": " << report.loop.max_consecutive_failures << ", \"seed\": " << report.loop.seed
        << ", \"model\": " << jsonString(report.model) << "},\n";

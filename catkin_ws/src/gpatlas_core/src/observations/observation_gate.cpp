@@ -25,8 +25,8 @@ std::string validate(const ObservationGateConfig& c) {
   if (c.workspace_min_m.array().isNaN().any() || c.workspace_max_m.array().isNaN().any() ||
       !(c.workspace_min_m.array() <= c.workspace_max_m.array()).all())
     problem << "workspace_min_m must be <= workspace_max_m on every axis; ";
-  if (!(c.max_contact_distance_m >= 0.0) || !std::isfinite(c.max_contact_distance_m))
-    problem << "max_contact_distance_m must be finite and >= 0; ";
+  if (c.max_contact_distance_m && (!(*c.max_contact_distance_m > 0.0) || !std::isfinite(*c.max_contact_distance_m)))
+    problem << "max_contact_distance_m must be finite and > 0, or empty (no consistency test); ";
   if (!(c.max_inconsistency_sigma > 0.0) || !std::isfinite(c.max_inconsistency_sigma))
     problem << "max_inconsistency_sigma must be finite and > 0; ";
   return problem.str();
@@ -35,7 +35,7 @@ std::string validate(const ObservationGateConfig& c) {
 GatedObservations gateObservations(const SurfaceModel& model, const std::vector<Contact>& contacts,
                                    const std::vector<Vector3>& free_space, const ObservationGateConfig& config) {
   GatedObservations out;
-  const bool consistency = config.max_contact_distance_m > 0.0 && model.isFitted();
+  const bool consistency = config.max_contact_distance_m && model.isFitted();
   const double unit = consistency ? model.varianceUnitFactor() : 1.0;
   // The worst refused contact, for the message.
   double worst_distance = -1.0;
@@ -53,7 +53,7 @@ GatedObservations gateObservations(const SurfaceModel& model, const std::vector<
     }
     if (consistency) {
       const double distance = model.nearestSurfaceDistance(c.position);
-      if (distance > config.max_contact_distance_m) {
+      if (distance > *config.max_contact_distance_m) {
         const bool outside_domain = !model.inDomain(c.position);
         double sigmas = 0.0;
         if (!outside_domain) {

@@ -52,9 +52,10 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
 }
 
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule, const EvidenceState& state)
-    : SurfaceEvidence(model, rule.max_distance * model.scale(), state.support_plane, rule.approach_distance_m,
-                      state.attempted_targets, rule.view_max_distance * model.scale(), state.attempted_target_errors_m,
-                      rule.surprise_distance_m, rule.min_surprise_fraction) {}
+    : SurfaceEvidence(model, rule.max_distance.value_or(0.0) * model.scale(), state.support_plane,
+                      rule.approach_distance_m, state.attempted_targets, rule.view_max_distance * model.scale(),
+                      state.attempted_target_errors_m, rule.surprise_distance_m.value_or(0.0),
+                      rule.min_surprise_fraction) {}
 
 double SurfaceEvidence::surpriseFraction(double error_m) const {
   if (!(surprise_distance_m_ > 0.0) || !std::isfinite(error_m) || error_m <= surprise_distance_m_) return 1.0;
@@ -91,12 +92,12 @@ std::string validate(const EvidenceRule& rule) {
     return "retouch_radius_m must be finite and >= 0";
   if (!(rule.approach_distance_m >= 0.0) || !std::isfinite(rule.approach_distance_m))
     return "approach_distance_m must be finite and >= 0";
-  if (!(rule.max_distance >= 0.0) || !std::isfinite(rule.max_distance))
-    return "max_evidence_distance must be finite and >= 0";
+  if (rule.max_distance && (!(*rule.max_distance > 0.0) || !std::isfinite(*rule.max_distance)))
+    return "max_distance must be finite and > 0, or empty (V_max alone)";
   if (!(rule.view_max_distance >= 0.0) && !std::isnan(rule.view_max_distance))
     return "view_max_distance must be >= 0 (NaN: max_distance)";
-  if (!(rule.surprise_distance_m >= 0.0) || !std::isfinite(rule.surprise_distance_m))
-    return "surprise_distance_m must be finite and >= 0";
+  if (rule.surprise_distance_m && (!(*rule.surprise_distance_m > 0.0) || !std::isfinite(*rule.surprise_distance_m)))
+    return "surprise_distance_m must be finite and > 0, or empty (every contact supports max_distance)";
   if (!(rule.min_surprise_fraction > 0.0 && rule.min_surprise_fraction <= 1.0))
     return "min_surprise_fraction must be in (0, 1]";
   return "";

@@ -18,13 +18,13 @@ namespace {
 // slide), again at 1.5 times the spacing until it fits, so that one touch cannot make the model
 // arbitrarily large. `before` and `capped_spacing` say so (0 when the cap did not bind).
 template <typename Thin>
-std::vector<Vector3> thinToCap(Thin thin, double spacing, std::size_t cap, std::size_t* before,
+std::vector<Vector3> thinToCap(Thin thin, double spacing, std::optional<std::size_t> cap, std::size_t* before,
                                double* capped_spacing) {
   std::vector<Vector3> kept = thin(spacing);
-  if (cap == 0 || kept.size() <= cap) return kept;
+  if (!cap || kept.size() <= *cap) return kept;
   *before = kept.size();
   if (!(spacing > 0.0)) spacing = 0.001;
-  while (kept.size() > cap) {
+  while (kept.size() > *cap) {
     spacing *= 1.5;
     kept = thin(spacing);
   }
@@ -100,7 +100,7 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
         points[i].prediction_error_m = std::abs(predicted.mean[k]) / slope;
     }
   }
-  const bool tangents = config.contact_tangent_noise_sigma >= 0.0;
+  const bool tangents = config.contact_tangent_noise_sigma.has_value();
   std::vector<TrainingPoint> slope_points;  // after the inside points, as TouchPointCounts says
   if (config.contact_inside_depth_m > 0.0 || tangents) {
     // thinToSpacing keeps the first of near-duplicates in order, so the kept contacts are a
@@ -129,7 +129,7 @@ std::vector<TrainingPoint> touchTrainingPoints(const SurfaceModel& model, const 
           TrainingPoint point;
           point.position = kept;
           point.label = PointLabel::kSurface;
-          point.noise_sigma = config.contact_tangent_noise_sigma;
+          point.noise_sigma = *config.contact_tangent_noise_sigma;
           point.source = PointSource::kTouch;
           point.slope_direction = tangent;
           point.target_override = 0.0;
@@ -261,10 +261,10 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
     update.message = "no observation inside the model's domain";
     return update;
   }
-  if (config.max_touch_observations > 0) {
+  if (config.max_touch_observations) {
     std::size_t held = 0;
     for (const TrainingPoint& p : model.observations()) held += fromView(p.source) ? 0 : 1;
-    const std::size_t room = held < config.max_touch_observations ? config.max_touch_observations - held : 0;
+    const std::size_t room = held < *config.max_touch_observations ? *config.max_touch_observations - held : 0;
     const std::size_t wanted = new_points.size();
     if (wanted > room) {
       // The free space goes first (the contacts pin the surface down): what fits of it is kept,
@@ -293,7 +293,7 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
       }
       std::ostringstream note;
       note << "the model holds " << held << " observations from touches (touch/max_touch_observations "
-           << config.max_touch_observations << ")";
+           << *config.max_touch_observations << ")";
       if (new_points.empty()) {
         update.budget_full = true;
         update.message = "observation budget full: " + note.str() +
@@ -308,12 +308,12 @@ TouchUpdate applyTouch(SurfaceModel& model, const std::vector<Contact>& contacts
       counts.free_space_before_cap = 0;
     }
   }
-  const auto capped = [&](std::size_t before, std::size_t after, double spacing, std::size_t cap, const char* what,
-                          const char* key) {
-    if (before == 0) return;
+  const auto capped = [&](std::size_t before, std::size_t after, double spacing, std::optional<std::size_t> cap,
+                          const char* what, const char* key) {
+    if (before == 0 || !cap) return;
     std::ostringstream note;
     note << "the touch's " << before << " " << what << " (after thinning) were thinned to " << after << " at "
-         << 1000.0 * spacing << " mm spacing (touch/" << key << " " << cap << ")";
+         << 1000.0 * spacing << " mm spacing (touch/" << key << " " << *cap << ")";
     update.warnings.push_back(note.str());
   };
   capped(counts.contacts_before_cap, counts.contacts, counts.capped_contact_spacing_m, config.max_contacts_per_touch,
@@ -353,8 +353,13 @@ std::string validate(const TouchObservationConfig& config) {
   nonNegative(config.contact_inside_depth_m, "contact_inside_depth_m");
   nonNegative(config.contact_inside_noise_sigma, "contact_inside_noise_sigma");
   nonNegative(config.guess_min_depth_fraction, "guess_min_depth_fraction");
-  if (!std::isfinite(config.contact_tangent_noise_sigma))
-    problem << "contact_tangent_noise_sigma must be finite (negative: no tangent slopes); ";
+  if (config.contact_tangent_noise_sigma &&
+      (!(*config.contact_tangent_noise_sigma > 0.0) || !std::isfinite(*config.contact_tangent_noise_sigma)))
+    problem << "contact_tangent_noise_sigma must be finite and > 0, or empty (no tangent slopes); ";
+  for (const auto& [cap, name] : {std::pair{config.max_contacts_per_touch, "max_contacts_per_touch"},
+                                  std::pair{config.max_free_space_per_touch, "max_free_space_per_touch"},
+                                  std::pair{config.max_touch_observations, "max_touch_observations"}})
+    if (cap == std::optional<std::size_t>(0)) problem << name << " must be > 0, or empty (no cap); ";
   const std::string gate = validate(config.gate);
   if (!gate.empty()) problem << "gate: " << gate;
   return problem.str();

@@ -20,11 +20,11 @@ std::string validate(const TouchScoreConfig& config) {
 }
 
 double surfaceError(const SurfaceModel& model, const StopRule& rule, double reported_variance, double gradient_norm) {
-  if (rule.max_position_sd_m > 0.0) {
+  if (rule.max_position_sd_m) {
     const double sd = positionSd(model, reported_variance, gradient_norm);
-    if (!(sd > rule.max_position_sd_m)) return 0.0;
+    if (!(sd > *rule.max_position_sd_m)) return 0.0;
     // 2 Phi(-b / sd) = erfc(b / (sqrt(2) sd)); at sd = b it is erfc(1 / sqrt(2)).
-    return std::erfc(rule.max_position_sd_m / (std::sqrt(2.0) * sd)) - std::erfc(1.0 / std::sqrt(2.0));
+    return std::erfc(*rule.max_position_sd_m / (std::sqrt(2.0) * sd)) - std::erfc(1.0 / std::sqrt(2.0));
   }
   return std::max(0.0, (reported_variance - rule.v_max) / rule.v_max);
 }

@@ -47,7 +47,7 @@ class ObjectSegmenter {
   struct Config {
     Vector3 crop_min_m{0.2, -0.5, -0.05};
     Vector3 crop_max_m{1.4, 0.5, 0.6};
-    double voxel_leaf_m{0.002};  // 0 disables the voxel grid
+    std::optional<double> voxel_leaf_m{0.002};  // empty: no voxel grid
     bool remove_plane{true};
     // Points within this distance of the support plane are the table: about 4 depth-noise
     // sigmas (the simulated camera's is 1 mm). Larger removes the foot of every object and most

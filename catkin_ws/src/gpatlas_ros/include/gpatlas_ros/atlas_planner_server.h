@@ -58,7 +58,7 @@ class AtlasPlannerServer {
   std::string world_frame_;
   std::string default_strategy_;
   double default_v_max_{0.1};
-  double default_max_position_sd_m_{0.0};
+  std::optional<double> default_max_position_sd_m_;
   gpatlas_core::SurfaceModelConfig model_config_;
   gpatlas_core::StrategyConfig strategy_config_;  // with the evidence rule of every plan
   gpatlas_core::TouchObservationConfig touch_config_;  // touch/, as the GP nodelet reads it: the score's fantasy touches

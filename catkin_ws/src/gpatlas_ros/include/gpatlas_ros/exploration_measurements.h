@@ -56,7 +56,7 @@ class BackgroundMeasurements {
   void request(int action_index, gpatlas_msgs::TrainingSet::ConstPtr training);
   // Waits for the measurement in progress and the one waiting, then copies every measurement
   // into the action's record; `metrics_every` is for the log.
-  void mergeInto(gpatlas_core::ExplorationResult* result, int metrics_every);
+  void mergeInto(gpatlas_core::ExplorationResult* result, std::optional<int> metrics_every);
   void stop();
 
  private:

@@ -15,6 +15,7 @@
 #include <ros/node_handle.h>
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,9 +46,9 @@ struct ExplorationNodeConfig {
   double call_timeout_s{600.0};    // for a call to answer (a touch on a slow arm takes minutes)
   bool capture{true};              // ask ~capture for the first view (false: wait for a cloud)
   // No model this long after the capture: publish the captured cloud again (a message lost on
-  // its way through segmentation and the GP must not end the run); 0: never.
-  double republish_view_after_s{20.0};
-  int metrics_every{1};            // measure the model every k actions (0: only at the end)
+  // its way through segmentation and the GP must not end the run); off: never.
+  std::optional<double> republish_view_after_s{20.0};
+  std::optional<int> metrics_every{1};  // measure the model every k actions (off: only at the end)
   std::string results_dir;         // empty: ./results/exploration_DATE_TIME
 };
 

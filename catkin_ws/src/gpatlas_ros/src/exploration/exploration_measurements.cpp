@@ -89,7 +89,7 @@ void BackgroundMeasurements::measureJob(const std::pair<int, gpatlas_msgs::Train
   measure_busy_ = false;
 }
 
-void BackgroundMeasurements::mergeInto(gpatlas_core::ExplorationResult* result, int metrics_every) {
+void BackgroundMeasurements::mergeInto(gpatlas_core::ExplorationResult* result, std::optional<int> metrics_every) {
   std::map<int, gpatlas_core::ExplorationRecord> measured;
   int skipped = 0;
   {
@@ -109,9 +109,9 @@ void BackgroundMeasurements::mergeInto(gpatlas_core::ExplorationResult* result, 
     record.rmse_gt_to_pred_m = it->second.rmse_gt_to_pred_m;
     record.fscore_5mm = it->second.fscore_5mm;
   }
-  if (skipped > 0)
+  if (skipped > 0 && metrics_every)
     ROS_INFO_STREAM("exploration: " << measured.size() << " models measured after actions, " << skipped
-                                    << " skipped (metrics_every " << metrics_every
+                                    << " skipped (metrics_every " << *metrics_every
                                     << ": a measurement took longer than the actions in between)");
 }
 

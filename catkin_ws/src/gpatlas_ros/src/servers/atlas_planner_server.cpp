@@ -131,10 +131,10 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   const std::string name = req.strategy.empty() ? default_strategy_ : req.strategy;
   std::string error;
   const gpatlas_core::ExplorationStrategy* chosen = strategy(name, &error);
-  const gpatlas_core::PlanRequest asked = fromMsg(req);
+  // The exploration loop numbers its plans (use_seed); a call by hand gets the planner's own
+  // count of the plans it made, this one included.
+  const gpatlas_core::PlanRequest asked = fromMsg(req, {default_v_max_, default_max_position_sd_m_, plan_count_ + 1});
   gpatlas_core::PlanRequest request = asked;
-  request.v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
-  if (req.max_position_sd_m == 0.0) request.max_position_sd_m = default_max_position_sd_m_;
   if (name == "atlas_frontier" && !view_)
     ROS_WARN_THROTTLE(60.0, "atlas_planner: atlas_frontier plans as atlas_poke: the training set carries no camera "
                             "view (the GP nodelet's sensor_frame is empty or had no transform)");
@@ -151,9 +151,7 @@ bool AtlasPlannerServer::onNextTouch(gpatlas_msgs::GetNextTouch::Request& req,
   std::unique_ptr<gpatlas_motion::TouchMotionPlanner> approach_check;
   std::string reachability_note;
   if (req.reachable_only && !addReachability(&request, &approach_check, &reachability_note, res)) return true;
-  // The exploration loop numbers its plans; a call by hand gets the planner's own count.
   ++plan_count_;
-  request.seed = req.seed != 0 ? req.seed : plan_count_;
   request.touch_observations = touch_config_;
   const gpatlas_core::PlanResult plan = planWith(*chosen, name, request);
   res = toMsg(plan);
@@ -188,20 +186,25 @@ bool AtlasPlannerServer::answeredWithoutAPlan(const gpatlas_msgs::GetNextTouch::
     res.message = message.str();
     return true;
   }
-  const double v_max = req.v_max == 0.0 ? default_v_max_ : req.v_max;
-  if (!(v_max > 0.0) || !std::isfinite(v_max)) {
+  // Refused here in GetNextTouch.srv's terms: the planner's own check speaks of its StopRule.
+  using Request = gpatlas_msgs::GetNextTouch::Request;
+  const auto refuse = [&res](const std::string& why) {
     res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-    res.message = "v_max must be > 0 (0 uses the parameter exploration/v_max), got " + std::to_string(req.v_max);
+    res.message = why;
     return true;
-  }
-  // Refused here in GetNextTouch.srv's terms: the planner's own check speaks of its StopRule, where
-  // 0 is the V_max rule, not the node's parameter.
-  if (std::isnan(req.max_position_sd_m) || req.max_position_sd_m == std::numeric_limits<double>::infinity()) {
-    res.status = gpatlas_msgs::GetNextTouch::Response::ERROR;
-    res.message = "max_position_sd_m must be a finite number of metres (> 0 a limit, 0 uses the parameter "
-                  "exploration/max_position_sd_m, < 0 the V_max rule alone), got " + std::to_string(req.max_position_sd_m);
-    return true;
-  }
+  };
+  if (req.use_v_max && (!(req.v_max > 0.0) || !std::isfinite(req.v_max)))
+    return refuse("v_max must be > 0 and finite with use_v_max (use_v_max false: the parameter exploration/v_max), "
+                  "got " + std::to_string(req.v_max));
+  if (req.stop_rule == Request::STOP_RULE_POSITION_SD &&
+      (!(req.max_position_sd_m > 0.0) || !std::isfinite(req.max_position_sd_m)))
+    return refuse("max_position_sd_m must be > 0 and finite metres with stop_rule STOP_RULE_POSITION_SD "
+                  "(STOP_RULE_V_MAX_ONLY: the V_max rule alone; STOP_RULE_PARAMETER: the parameter "
+                  "exploration/max_position_sd_m), got " + std::to_string(req.max_position_sd_m));
+  if (req.stop_rule != Request::STOP_RULE_PARAMETER && req.stop_rule != Request::STOP_RULE_POSITION_SD &&
+      req.stop_rule != Request::STOP_RULE_V_MAX_ONLY)
+    return refuse("stop_rule must be STOP_RULE_PARAMETER (0), STOP_RULE_POSITION_SD (1) or STOP_RULE_V_MAX_ONLY (2), "
+                  "got " + std::to_string(req.stop_rule));
   return false;
 }
 

@@ -16,6 +16,7 @@
 #include "gpatlas_core/observations/view_training.h"
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -60,8 +61,9 @@ void readExplorer(ParamReader& r, Explorer::Config* c);
 // The variance threshold V_max (exploration/v_max), for the loop (readExplorer) and for whoever
 // else needs it alone (the planner's default, the displayed colour scale).
 double readVMax(ParamReader& r, double fallback = Explorer::Config().v_max);
-// The stop rule in metres (exploration/max_position_sd_m), likewise.
-double readMaxPositionSd(ParamReader& r, double fallback = Explorer::Config().max_position_sd_m);
+// The stop rule in metres (exploration/max_position_sd_m; off: V_max alone), likewise.
+std::optional<double> readMaxPositionSd(ParamReader& r,
+                                        std::optional<double> fallback = Explorer::Config().max_position_sd_m);
 void readStrategyChoice(ParamReader& r, StrategyChoice* c);
 void readStrategy(ParamReader& r, StrategyConfig* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);

@@ -45,6 +45,11 @@ class ParamReader {
   std::vector<std::string> texts(const std::string& name, const std::vector<std::string>& fallback);
   std::vector<double> numbers(const std::string& name, const std::vector<double>& fallback);
   Vector3 vector3(const std::string& name, const Vector3& fallback);
+  // An optional limit: a value in (0, max], or `off` (empty: no limit, the feature off). 0 and
+  // negatives are refused, so that no number means "off" for one key and itself for another.
+  // rosparam reads a bare `off` as YAML 1.1's false, which is taken as off too.
+  std::optional<double> optionalNumber(const std::string& name, std::optional<double> fallback, double max);
+  std::optional<int> optionalInteger(const std::string& name, std::optional<int> fallback, int max);
 
   // Records a problem found by the caller's own check (e.g. an unknown plugin name).
   void invalid(const std::string& name, const std::string& why);
@@ -61,6 +66,8 @@ class ParamReader {
 
  private:
   bool present(const std::string& name);
+  bool isOff(const std::string& name) const;
+  void refuseNonPositive(const std::string& name, const std::string& value);
 
   const ParameterSource& source_;
   std::vector<std::string> errors_;

@@ -173,8 +173,8 @@ class Explorer {
   struct Config {
     double v_max{0.1};
     // The stop rule in metres (StopRule): converged when no reachable point of the predicted
-    // surface has a position sd above it (nor a variance above v_max); 0: v_max alone.
-    double max_position_sd_m{0.005};
+    // surface has a position sd above it (nor a variance above v_max); empty: v_max alone.
+    std::optional<double> max_position_sd_m{0.005};
     int max_actions{100};
     // The paper's extra stop on the real robot: this many failed touches in a row. A touch
     // fails when the probe reports failure or the model accepts none of its contacts; a touch

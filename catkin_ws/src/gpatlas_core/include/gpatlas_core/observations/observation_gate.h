@@ -4,6 +4,7 @@
 #include "gpatlas_core/common/types.h"
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,8 +21,8 @@ struct ObservationGateConfig {
   // A contact farther than this from every surface observation (the view's points and earlier
   // contacts) is refused when the model cannot explain it: it lies outside the model's domain,
   // or its mean f is more than max_inconsistency_sigma standard deviations from 0 (the model
-  // is confident that no surface is there). 0 disables the test.
-  double max_contact_distance_m{0.1};
+  // is confident that no surface is there). Empty: no such test.
+  std::optional<double> max_contact_distance_m{0.1};
   double max_inconsistency_sigma{4.0};
 };
 

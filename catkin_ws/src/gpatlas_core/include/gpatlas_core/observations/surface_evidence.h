@@ -19,9 +19,9 @@ namespace gpatlas_core {
 // reads (EvidenceState) comes with each plan.
 struct EvidenceRule {
   // A predicted surface point farther than this (normalised units: the initial view's radius
-  // is 1) from every measured surface point needs a touch whatever its variance. 0: V_max alone
-  // (the paper).
-  double max_distance{0.35};
+  // is 1) from every measured surface point needs a touch whatever its variance. Empty: V_max
+  // alone (the paper).
+  std::optional<double> max_distance{0.35};
   // A view point supports the predicted surface only this close (normalised units, at most
   // max_distance; NaN: max_distance). A dense view covers what the camera saw within a few of
   // its point spacings; what lies farther from it (the unseen back beyond the silhouette, a
@@ -36,9 +36,9 @@ struct EvidenceRule {
   // error is how far from the predicted surface it lay (TrainingPoint::prediction_error_m), so
   // that touches go on where the model's guesses fail and not where they hold. The same for an
   // attempted target the touch found the surface away from
-  // (EvidenceState::attempted_target_errors_m). 0: every contact and target supports
+  // (EvidenceState::attempted_target_errors_m). Empty: every contact and target supports
   // max_distance.
-  double surprise_distance_m{0.005};
+  std::optional<double> surprise_distance_m{0.005};
   double min_surprise_fraction{0.2};
   // A place whose variance is above V_max needs no touch when a measured surface point (a view
   // point or a contact) or an earlier touch's target lies within this distance: a touch there

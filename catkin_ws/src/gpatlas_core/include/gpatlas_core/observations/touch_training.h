@@ -8,6 +8,7 @@
 #include "gpatlas_core/observations/occluded_interior.h"
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -43,23 +44,23 @@ struct TouchObservationConfig {
   // two slope observations (TrainingPoint::slope_direction) along tangents, target 0, with
   // this noise sigma (reference units). They give the GP the measured normal's direction
   // without assuming f's slope along it: between sparse contacts the surface follows the
-  // measured normals. A probe that reports no normal gives none. Negative: none (the paper).
-  double contact_tangent_noise_sigma{0.1};
+  // measured normals. A probe that reports no normal gives none. Empty: none (the paper).
+  std::optional<double> contact_tangent_noise_sigma{0.1};
   // A touch's contacts and free space retract the occluded-interior guesses they contradict
   // (retractContradictedInterior), dropping those left shallower than this fraction of the
   // model's scale (the view's radius; the occluded interior's own margin_fraction).
   double guess_min_depth_fraction{0.08};
   // At most this many contacts and free-space points per touch after thinning: a touch with
-  // more is thinned at a coarser spacing (0: no cap). Every contact costs the model's coarse
+  // more is thinned at a coarser spacing (empty: no cap). Every contact costs the model's coarse
   // level a row of its O(n^3) factor, so one dense touch must not be able to stall it.
-  std::size_t max_contacts_per_touch{500};
-  std::size_t max_free_space_per_touch{1000};
+  std::optional<std::size_t> max_contacts_per_touch{500};
+  std::optional<std::size_t> max_free_space_per_touch{1000};
   // The most training points from touches (contacts, the points behind them, slopes, free
   // space) the model holds: the bound on its memory and on the cost of every later query
-  // however long the exploration runs (0: no bound). A touch that would pass it is thinned to
+  // however long the exploration runs (empty: no bound). A touch that would pass it is thinned to
   // the room left, its free space first; once there is no room, touches are refused and the
   // exploration stops (TouchUpdate::budget_full).
-  std::size_t max_touch_observations{20000};
+  std::optional<std::size_t> max_touch_observations{20000};
   // Which observations the model takes at all (gateObservations), checked first.
   ObservationGateConfig gate;
 };

@@ -148,7 +148,7 @@ class AtlasPlanner {
     // extend_path_charts is 0.
     double aim_past_m{0.0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
-    // charts are kept small enough that none hides such a point (max_distance 0: variance
+    // charts are kept small enough that none hides such a point (no max_distance: variance
     // alone, Algorithm 1). The atlas strategies take it from StrategyConfig::evidence.
     EvidenceRule evidence;
     // Which chart that needs a touch is touched. kFirst: the first one the growth finds, where

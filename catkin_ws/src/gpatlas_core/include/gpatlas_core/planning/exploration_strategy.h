@@ -18,8 +18,8 @@ namespace gpatlas_core {
 
 struct PlanRequest {
   double v_max{0.1};  // reported (paper-equivalent) variance units
-  // > 0: the stop rule in metres as well as V_max (StopRule).
-  double max_position_sd_m{0.0};
+  // The stop rule in metres as well as V_max (StopRule); empty: V_max alone.
+  std::optional<double> max_position_sd_m;
   StopRule stopRule() const { return StopRule{v_max, max_position_sd_m}; }
   // What the run has learnt that every strategy's evidence test reads (its EvidenceRule,
   // StrategyConfig::evidence, says how): the Explorer fills the attempted targets, the planner

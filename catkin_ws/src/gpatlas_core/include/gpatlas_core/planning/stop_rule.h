@@ -5,15 +5,16 @@
 
 #include "gpatlas_core/model/surface_model.h"
 
+#include <optional>
 #include <string>
 
 namespace gpatlas_core {
 
 // Algorithm 1's test of one predicted surface point, and so the loop's stop rule: the paper's
-// variance above V_max or, with max_position_sd_m > 0, the position sd above that bound.
+// variance above V_max or, with a max_position_sd_m, the position sd above that bound.
 struct StopRule {
-  double v_max{0.1};              // reported variance units
-  double max_position_sd_m{0.0};  // > 0: the position sd test as well as the V_max test
+  double v_max{0.1};                            // reported variance units
+  std::optional<double> max_position_sd_m;      // the position sd test as well; empty: V_max alone
 
   bool exceeded(const SurfaceModel& model, double reported_variance, double gradient_norm) const;
   // How far past the rule a point is: the larger of variance / V_max and position sd / its bound
