@@ -608,7 +608,7 @@ TEST(AtlasPlanner, AReusedAtlasTakesTheVarianceThatRemovedDataRaised) {
   MultiscaleGpisModel model;
   ASSERT_TRUE(model.restore(state).ok);
   // V_max alone, low enough that the lower half's charts are on either side of it.
-  const StopRule rule{0.03, 0.0};
+  const StopRule rule{0.03};
   const AtlasPlanner planner(bestScoreConfig());
   AtlasMemory memory;
   const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
@@ -636,6 +636,30 @@ TEST(AtlasPlanner, AReusedAtlasTakesTheVarianceThatRemovedDataRaised) {
   // The test means something: the removal raised the variance under kept charts that did not
   // need a touch before it.
   EXPECT_GT(raised, 3) << after.reused_charts << " kept, " << after.dropped_charts << " dropped of " << before.atlas.size();
+}
+
+// Convergence is what a run stops on: a reused atlas that finds no touch is grown again from
+// scratch, so the plan claims what a plan without a memory claims.
+TEST(AtlasPlanner, AReusedAtlasThatFindsNoTouchIsGrownAfreshBeforeConverging) {
+  const AnalyticSphere sphere;
+  const MultiscaleGpisModel model = viewedSphere(sphere);
+  const StopRule rule{1e6};  // nothing needs a touch ...
+  AtlasPlanner::Config config = bestScoreConfig();
+  config.evidence.max_distance.reset();  // ... for want of evidence either
+  const AtlasPlanner planner(config);
+  AtlasMemory memory;
+  const AtlasPlanResult first = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  ASSERT_EQ(first.status, PlanStatus::kConverged) << first.message;
+  const AtlasPlanResult again = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+  const AtlasPlanResult without_memory = planner.plan(model, rule);
+  ASSERT_EQ(again.status, PlanStatus::kConverged) << again.message;
+  EXPECT_EQ(again.reused_charts, 0);
+  EXPECT_NE(again.message.find("grown afresh"), std::string::npos) << again.message;
+  ASSERT_EQ(again.atlas.size(), without_memory.atlas.size());
+  for (std::size_t i = 0; i < again.atlas.size(); ++i)
+    EXPECT_EQ(again.atlas.chart(static_cast<int>(i)).centre, without_memory.atlas.chart(static_cast<int>(i)).centre);
+  // The memory holds the fresh atlas for the next plan.
+  EXPECT_EQ(memory.atlas.size(), again.atlas.size());
 }
 
 TEST(AtlasPlanner, AnotherModelOrAChangedFrameIsPlannedAfresh) {

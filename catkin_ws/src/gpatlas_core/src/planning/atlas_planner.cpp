@@ -614,6 +614,23 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
                                    const Progress& progress, const TouchFilter& reachable,
                                    const EvidenceState& evidence_state, const TouchObservationConfig& touch,
                                    AtlasMemory* memory) const {
+  AtlasPlanResult result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, config_.reuse.enabled);
+  if (result.status != PlanStatus::kConverged || result.reused_charts == 0) return result;
+  // Convergence is what the run stops on, so it is certified on an atlas grown afresh: one plan
+  // at the end of a run, which then claims exactly what a plan without reuse would.
+  const AtlasPlanResult reused = result;
+  result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, false);
+  result.elapsed_s += reused.elapsed_s;
+  result.queries += reused.queries;
+  result.message += "; grown afresh after the previous plan's atlas (" + std::to_string(reused.reused_charts) +
+                    " charts kept) found no touch";
+  return result;
+}
+
+AtlasPlanResult AtlasPlanner::grow(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
+                                   const Progress& progress, const TouchFilter& reachable,
+                                   const EvidenceState& evidence_state, const TouchObservationConfig& touch,
+                                   AtlasMemory* memory, bool reuse) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
   const bool scoring = config_.selection == Config::Selection::kBestScore;
@@ -633,7 +650,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
   AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, result);
   int continuation = 0;
   std::vector<Vector3> changed;
-  const bool reused = memory && scoring && config_.reuse.enabled && memory->changesTo(model, &changed) &&
+  const bool reused = memory && scoring && reuse && memory->changesTo(model, &changed) &&
                       growth.adoptPrevious(memory->atlas, changed);
   if (!reused) {
     std::string error;

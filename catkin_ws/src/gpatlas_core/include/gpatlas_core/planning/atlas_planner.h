@@ -176,7 +176,8 @@ class AtlasPlanner {
   // learnt that the evidence test reads (Config::evidence).
   // `touch`: how a touch's measurements become observations, for the score's fantasy pokes.
   // `memory`: the previous plan's atlas, reused where the model allows (Config::reuse), and
-  // replaced by this plan's; may be null.
+  // replaced by this plan's; may be null. A reused atlas that finds no touch is grown again
+  // from scratch before the plan reports convergence.
   AtlasPlanResult plan(const SurfaceModel& model, const StopRule& rule,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}, const TouchFilter& reachable = {},
@@ -184,6 +185,11 @@ class AtlasPlanner {
                        AtlasMemory* memory = nullptr) const;
 
  private:
+  // One growth, from the memory's atlas when `reuse` and the model allow it.
+  AtlasPlanResult grow(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
+                       const Progress& progress, const TouchFilter& reachable, const EvidenceState& evidence_state,
+                       const TouchObservationConfig& touch, AtlasMemory* memory, bool reuse) const;
+
   Config config_;
 };
 
