@@ -57,7 +57,8 @@ TEST(Stream, AFastCameraLeavesAtMostOneFitQueuedAndItsMemoryComesBack) {
   MemoryTrace memory(pid);
 
   // The stream: until no cloud has come for 2 s (after the first).
-  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(600.0);
+  // The stream's length (stream.test's duration_s), and three minutes for the pipeline and camera to start.
+  const ros::WallTime give_up = ros::WallTime::now() + ros::WallDuration(pnh.param("duration_s", 60.0) + 180.0);
   for (;;) {
     ros::WallDuration(0.1).sleep();
     memory.sample(!arrivals.models().empty());
