@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -57,7 +58,9 @@ gpatlas_core::PlanRequest fromMsg(const gpatlas_msgs::GetNextTouch::Request& msg
   switch (msg.stop_rule) {
     case Request::STOP_RULE_POSITION_SD: request.max_position_sd_m = msg.max_position_sd_m; break;
     case Request::STOP_RULE_V_MAX_ONLY: request.max_position_sd_m = std::nullopt; break;
-    default: request.max_position_sd_m = node.max_position_sd_m; break;
+    case Request::STOP_RULE_PARAMETER: request.max_position_sd_m = node.max_position_sd_m; break;
+    // Not a rule: a bound validate(StopRule) refuses, rather than the node's by accident.
+    default: request.max_position_sd_m = std::numeric_limits<double>::quiet_NaN(); break;
   }
   if (msg.use_start) request.start = fromMsg(msg.start);
   for (const auto& p : msg.attempted_targets) request.evidence_state.attempted_targets.push_back(fromMsg(p));

@@ -614,28 +614,32 @@ TEST(AtlasPlanner, AReusedAtlasTakesTheVarianceThatRemovedDataRaised) {
   const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_NE(before.status, PlanStatus::kError) << before.message;
 
-  state.observations.resize(view_size);
-  ASSERT_TRUE(model.restore(state).ok);
-  const AtlasPlanResult after = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
-  ASSERT_NE(after.status, PlanStatus::kError) << after.message;
-  ASSERT_GT(after.reused_charts, 0) << after.message;
-  Points3 centres(3, after.reused_charts);
-  for (int i = 0; i < after.reused_charts; ++i) centres.col(i) = after.atlas.chart(i).centre;
-  const BatchPrediction now = model.predictBatch(centres, true, false, true);
+  // The guesses go in two steps, so that a kept chart's radius is checked against the variance
+  // after each, not against the one it was last given.
   int raised = 0;
   const double tolerance = planner.config().reuse.max_centre_shift_m;
-  for (int i = 0; i < after.reused_charts; ++i) {
-    const Chart& chart = after.atlas.chart(i);
-    EXPECT_NEAR(chart.variance, now.variance(i), 1e-9 * now.variance(i)) << "kept chart " << i;
-    EXPECT_LE(chart.radius, gpatlas_core::chartRadius(now.variance(i), planner.config().chart) + tolerance) << "kept chart " << i;
-    const auto same = std::find_if(before.atlas.charts().begin(), before.atlas.charts().end(),
-                                   [&](const Chart& c) { return c.centre == chart.centre; });
-    ASSERT_NE(same, before.atlas.charts().end());
-    raised += !rule.exceeded(model, same->variance, chart.slope) && now.variance(i) > 1.01 * same->variance ? 1 : 0;
+  for (const std::size_t keep : {view_size + guesses.size() / 2, view_size}) {
+    state.observations.resize(keep);
+    ASSERT_TRUE(model.restore(state).ok);
+    const AtlasPlanResult after = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
+    ASSERT_NE(after.status, PlanStatus::kError) << after.message;
+    ASSERT_GT(after.reused_charts, 0) << after.message;
+    Points3 centres(3, after.reused_charts);
+    for (int i = 0; i < after.reused_charts; ++i) centres.col(i) = after.atlas.chart(i).centre;
+    const BatchPrediction now = model.predictBatch(centres, true, false, true);
+    for (int i = 0; i < after.reused_charts; ++i) {
+      const Chart& chart = after.atlas.chart(i);
+      EXPECT_NEAR(chart.variance, now.variance(i), 1e-9 * now.variance(i)) << "kept chart " << i;
+      EXPECT_LE(chart.radius, gpatlas_core::chartRadius(now.variance(i), planner.config().chart) + tolerance) << "kept chart " << i;
+      const auto same = std::find_if(before.atlas.charts().begin(), before.atlas.charts().end(),
+                                     [&](const Chart& c) { return c.centre == chart.centre; });
+      if (keep == view_size && same != before.atlas.charts().end())
+        raised += !rule.exceeded(model, same->variance, chart.slope) && now.variance(i) > 1.01 * same->variance ? 1 : 0;
+    }
   }
   // The test means something: the removal raised the variance under kept charts that did not
   // need a touch before it.
-  EXPECT_GT(raised, 3) << after.reused_charts << " kept, " << after.dropped_charts << " dropped of " << before.atlas.size();
+  EXPECT_GT(raised, 3);
 }
 
 // Convergence is what a run stops on: a reused atlas that finds no touch is grown again from

@@ -473,8 +473,8 @@ class AtlasGrowth {
   }
 
   // The previous plan's charts: dropped where surface observations changed near them, where the
-  // surface moved, or where the variance rose so that the chart's radius would now be smaller by
-  // more than the shift tolerance (one batch of the mean, its gradient and the variance at the
+  // surface moved, or where the variance is now so high that it allows a radius smaller than
+  // the chart's by more than the shift tolerance (one batch of the mean, its gradient and the variance at the
   // others' centres: removed data, such as the guesses a touch retracts or the coarse level's
   // re-thinning, can raise the variance far from any new surface data); else kept, with the
   // variance and slope there now (`variances`, `slopes`, in the order of `kept`).
@@ -506,8 +506,7 @@ class AtlasGrowth {
       const bool stays = std::isfinite(now.mean(q)) && norm > 0.0 && gradient.allFinite() && std::isfinite(variance) &&
                          std::abs(now.mean(q)) / norm <= config_.reuse.max_centre_shift_m &&
                          gradient.dot(chart.normal) / norm >= min_cos &&
-                         chartRadius(chart.variance, config_.chart) - chartRadius(variance, config_.chart) <=
-                             config_.reuse.max_centre_shift_m &&
+                         chart.radius - chartRadius(variance, config_.chart) <= config_.reuse.max_centre_shift_m &&
                          chart.radius <= evidence_.radiusCap(chart.centre, config_.chart.rho_min_m);
       (stays ? kept : dropped)->push_back(far[k]);
       if (stays) {
@@ -615,9 +614,10 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
                                    const EvidenceState& evidence_state, const TouchObservationConfig& touch,
                                    AtlasMemory* memory) const {
   AtlasPlanResult result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, config_.reuse.enabled);
-  if (result.status != PlanStatus::kConverged || result.reused_charts == 0) return result;
-  // Convergence is what the run stops on, so it is certified on an atlas grown afresh: one plan
-  // at the end of a run, which then claims exactly what a plan without reuse would.
+  const bool ends_run = result.status == PlanStatus::kConverged || result.status == PlanStatus::kCapReached;
+  if (!ends_run || result.reused_charts == 0) return result;
+  // Convergence (or a spent budget) is what the run stops on, so it is decided on an atlas grown
+  // afresh: one plan at the end of a run, which then claims exactly what a plan without reuse would.
   const AtlasPlanResult reused = result;
   result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, false);
   result.elapsed_s += reused.elapsed_s;

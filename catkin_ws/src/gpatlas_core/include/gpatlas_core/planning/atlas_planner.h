@@ -73,15 +73,16 @@ struct AtlasPlanResult {
 // chart far from the new data keeps its centre, basis and radius unless the surface moved there
 // by more than the tolerances below, and takes the model's variance and slope there now.
 struct AtlasReuseConfig {
-  bool enabled{false};
+  bool enabled{true};
   // A chart whose ball comes this close to a surface observation added (or removed) since is
   // dropped and grown again: about a local cell's side. Free space and interior points change
   // the surface less; where they moved it, the tolerances below catch it.
   double near_new_data_m{0.015};
   // Elsewhere the mean, its gradient and the variance are asked again at every chart's centre
   // (one batch): the chart is dropped when the predicted surface moved further than this from it
-  // (|f| / |grad f|), or when its variance rose so that its radius (eq. 14) would now be smaller
-  // by more than this (removed data, such as guesses a touch retracts, raise the variance)...
+  // (|f| / |grad f|), or when its variance is now so high that its radius (eq. 14) exceeds what
+  // the variance allows by more than this (removed data, such as guesses a touch retracts, raise
+  // the variance)...
   double max_centre_shift_m{0.001};
   // ... or its normal turned by more than this.
   double max_normal_change_rad{0.1};
@@ -177,7 +178,7 @@ class AtlasPlanner {
   // `touch`: how a touch's measurements become observations, for the score's fantasy pokes.
   // `memory`: the previous plan's atlas, reused where the model allows (Config::reuse), and
   // replaced by this plan's; may be null. A reused atlas that finds no touch is grown again
-  // from scratch before the plan reports convergence.
+  // from scratch before the plan reports convergence (or a spent budget).
   AtlasPlanResult plan(const SurfaceModel& model, const StopRule& rule,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}, const TouchFilter& reachable = {},
