@@ -473,9 +473,9 @@ class AtlasGrowth {
   }
 
   // The previous plan's charts: dropped where surface observations changed near them, where the
-  // surface moved, or where the variance is now so high that it allows a radius smaller than
-  // the chart's by more than the shift tolerance (one batch of the mean, its gradient and the variance at the
-  // others' centres: removed data, such as the guesses a touch retracts or the coarse level's
+  // surface moved, or where the variance now allows a radius smaller than the chart's by more
+  // than the shift tolerance (one batch of the mean, its gradient and the variance at the others'
+  // centres: removed data, such as the guesses a touch retracts or the coarse level's
   // re-thinning, can raise the variance far from any new surface data); else kept, with the
   // variance and slope there now (`variances`, `slopes`, in the order of `kept`).
   void splitPrevious(const Atlas& previous, const std::vector<Vector3>& changed, std::vector<int>* kept,
@@ -618,12 +618,13 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
   if (!ends_run || result.reused_charts == 0) return result;
   // Convergence (or a spent budget) is what the run stops on, so it is decided on an atlas grown
   // afresh: one plan at the end of a run, which then claims exactly what a plan without reuse would.
-  const AtlasPlanResult reused = result;
+  const double reused_s = result.elapsed_s;
+  const long reused_queries = result.queries;
+  const int kept = result.reused_charts;
   result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, false);
-  result.elapsed_s += reused.elapsed_s;
-  result.queries += reused.queries;
-  result.message += "; grown afresh after the previous plan's atlas (" + std::to_string(reused.reused_charts) +
-                    " charts kept) found no touch";
+  result.elapsed_s += reused_s;
+  result.queries += reused_queries;
+  result.message += "; grown afresh after the previous plan's atlas (" + std::to_string(kept) + " charts kept) found no touch";
   return result;
 }
 
