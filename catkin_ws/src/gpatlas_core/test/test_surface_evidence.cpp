@@ -13,6 +13,8 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <stdexcept>
 #include <random>
 
 using namespace gpatlas_core;
@@ -101,11 +103,15 @@ TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOn
   EXPECT_TRUE(evidence.isUnsupported(free.position));
   EXPECT_TRUE(evidence.isUnsupported(inside.position));
 
-  const SurfaceEvidence off(model, 0.0);
+  const SurfaceEvidence off(model, std::nullopt);
   EXPECT_FALSE(off.enabled());
   EXPECT_FALSE(off.isUnsupported(free.position));
   EXPECT_TRUE(std::isinf(off.radiusCap(free.position, 0.005)));
-  EXPECT_FALSE(SurfaceEvidence(model, std::nan("")).enabled());
+  // No number means "off": a distance that is none is refused.
+  EXPECT_THROW(SurfaceEvidence(model, 0.0), std::invalid_argument);
+  EXPECT_THROW(SurfaceEvidence(model, std::nan("")), std::invalid_argument);
+  EXPECT_THROW(SurfaceEvidence(model, max_distance, std::nullopt, 0.0, {}, -0.01), std::invalid_argument);
+  EXPECT_THROW(SurfaceEvidence(model, max_distance, std::nullopt, 0.0, {}, std::nullopt, {}, 0.0), std::invalid_argument);
 }
 
 // A view point vouches for the surface within view_max_distance, a contact (or an attempted
@@ -149,8 +155,8 @@ TEST(SurfaceEvidence, AViewPointVouchesForLessThanAContact) {
   }
   EXPECT_GT(unsupported_near_view, 50);
   EXPECT_GT(by_view_alone, 0);  // supported by a contact or the aim beyond a view point's reach
-  // NaN: view points vouch as far as contacts (the distance test alone).
-  const SurfaceEvidence as_far(model, max_distance, std::nullopt, 0.0, attempted, std::nan(""));
+  // None: view points vouch as far as contacts (the distance test alone).
+  const SurfaceEvidence as_far(model, max_distance, std::nullopt, 0.0, attempted, std::nullopt);
   for (int i = 0; i < 500; ++i) {
     const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
     EXPECT_EQ(as_far.isUnsupported(x), !(as_far.distance(x) <= max_distance));
@@ -159,6 +165,8 @@ TEST(SurfaceEvidence, AViewPointVouchesForLessThanAContact) {
   rule.view_max_distance = -0.1;
   EXPECT_FALSE(validate(rule).empty());
   rule.view_max_distance = std::nan("");
+  EXPECT_FALSE(validate(rule).empty());
+  rule.view_max_distance = 0.0;  // view points vouch for nothing: contacts alone
   EXPECT_TRUE(validate(rule).empty());
 }
 
@@ -298,7 +306,7 @@ TEST(SurfaceEvidence, MeasuredNearMatchesABruteForceSearch) {
   const std::vector<Vector3> attempted{sphere.centre + Vector3(0.0, 0.0, sphere.radius)};
   std::mt19937 rng(6);
   std::uniform_real_distribution<double> u(-1.2, 1.2);
-  for (const double max_distance : {0.0, 0.03}) {
+  for (const std::optional<double> max_distance : {std::optional<double>(), std::optional<double>(0.03)}) {
     const SurfaceEvidence evidence(model, max_distance, std::nullopt, 0.0, attempted);
     for (int i = 0; i < 400; ++i) {
       const Vector3 x = sphere.centre + sphere.radius * Vector3(u(rng), u(rng), u(rng));
@@ -306,7 +314,7 @@ TEST(SurfaceEvidence, MeasuredNearMatchesABruteForceSearch) {
       const double nearest = std::min(bruteForceDistance(model, x), to_target);
       for (const double radius : {0.005, 0.02, 0.05})
         EXPECT_EQ(evidence.measuredNear(x, radius), nearest <= radius)
-            << "max_distance " << max_distance << " radius " << radius << " nearest " << nearest;
+            << "max_distance " << max_distance.value_or(0.0) << " radius " << radius << " nearest " << nearest;
     }
   }
 }

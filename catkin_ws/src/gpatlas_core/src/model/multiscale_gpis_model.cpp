@@ -321,7 +321,7 @@ struct MultiscaleGpisModel::Impl {
   explicit Impl(Config c, GpisModelConfig cc) : config(std::move(c)), coarse_config(cc), coarse(std::move(cc)) {}
 
   double halfWidth() const { return 0.5 * config.cell_size_m + config.overlap_m; }
-  double lengthMax() const { return config.length_max_m > 0.0 ? config.length_max_m : config.overlap_m; }
+  double lengthMax() const { return config.overlap_m; }
   FineParams fine() const { return FineParams::fromLog(log_fine); }
   double noiseVar(const FineParams& p) const {
     const double noise_f = p.noise_m / coarse.scale();

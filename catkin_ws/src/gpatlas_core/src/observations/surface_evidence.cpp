@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -12,22 +13,36 @@ namespace {
 constexpr std::int64_t kCellRange = 1 << 20;  // cells per axis: enough for any scene in metres
 // The grid's cell side when the distance test is off (measuredNear alone): about a retouch radius.
 constexpr double kRetouchCellM = 0.01;
+std::optional<double> scaled(std::optional<double> normalised, double scale) {
+  if (normalised) return *normalised * scale;
+  return std::nullopt;
+}
 std::int64_t packCell(std::int64_t i, std::int64_t j, std::int64_t k) {
   return ((i + kCellRange / 2) * kCellRange + (j + kCellRange / 2)) * kCellRange + (k + kCellRange / 2);
 }
 }  // namespace
 
-SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
+namespace {
+// The distance, or why it is no distance; empty stays empty (the feature off).
+std::optional<double> checkedDistance(std::optional<double> distance_m, const char* name, bool zero_allowed) {
+  if (distance_m && !(std::isfinite(*distance_m) && (*distance_m > 0.0 || (zero_allowed && *distance_m == 0.0))))
+    throw std::invalid_argument(std::string("SurfaceEvidence: ") + name + " must be finite and " +
+                                (zero_allowed ? ">= 0" : "> 0") + ", or empty (off)");
+  return distance_m;
+}
+}  // namespace
+
+SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, std::optional<double> max_distance_m,
                                  const std::optional<SupportPlane>& support, double approach_m,
-                                 const std::vector<Vector3>& attempted, double view_max_distance_m,
-                                 const std::vector<double>& attempted_errors_m, double surprise_distance_m,
-                                 double min_surprise_fraction)
-    : max_distance_m_(std::isfinite(max_distance_m) && max_distance_m > 0.0 ? max_distance_m : 0.0),
+                                 const std::vector<Vector3>& attempted, std::optional<double> view_max_distance_m,
+                                 const std::vector<double>& attempted_errors_m,
+                                 std::optional<double> surprise_distance_m, double min_surprise_fraction)
+    : max_distance_m_(checkedDistance(max_distance_m, "max_distance_m", false).value_or(0.0)),
       cell_m_(enabled() ? max_distance_m_ : kRetouchCellM),
-      surprise_distance_m_(std::isfinite(surprise_distance_m) && surprise_distance_m > 0.0 ? surprise_distance_m : 0.0),
+      surprise_distance_m_(checkedDistance(surprise_distance_m, "surprise_distance_m", false).value_or(0.0)),
       min_surprise_fraction_(std::isfinite(min_surprise_fraction) ? std::clamp(min_surprise_fraction, 0.0, 1.0) : 1.0) {
-  const double view_radius_m = std::isnan(view_max_distance_m) ? max_distance_m_
-                                                                : std::clamp(view_max_distance_m, 0.0, max_distance_m_);
+  const double view_radius_m =
+      std::min(checkedDistance(view_max_distance_m, "view_max_distance_m", true).value_or(max_distance_m_), max_distance_m_);
   // Without the distance test the points are still kept for measuredNear, on a grid of its own.
   const auto add = [&](const Vector3& p, double radius_m) {
     if (!p.allFinite()) return;
@@ -52,10 +67,9 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, double max_distance_
 }
 
 SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule, const EvidenceState& state)
-    : SurfaceEvidence(model, rule.max_distance.value_or(0.0) * model.scale(), state.support_plane,
-                      rule.approach_distance_m, state.attempted_targets, rule.view_max_distance * model.scale(),
-                      state.attempted_target_errors_m, rule.surprise_distance_m.value_or(0.0),
-                      rule.min_surprise_fraction) {}
+    : SurfaceEvidence(model, scaled(rule.max_distance, model.scale()), state.support_plane, rule.approach_distance_m,
+                      state.attempted_targets, rule.view_max_distance * model.scale(), state.attempted_target_errors_m,
+                      rule.surprise_distance_m, rule.min_surprise_fraction) {}
 
 double SurfaceEvidence::surpriseFraction(double error_m) const {
   if (!(surprise_distance_m_ > 0.0) || !std::isfinite(error_m) || error_m <= surprise_distance_m_) return 1.0;
@@ -94,8 +108,8 @@ std::string validate(const EvidenceRule& rule) {
     return "approach_distance_m must be finite and >= 0";
   if (rule.max_distance && (!(*rule.max_distance > 0.0) || !std::isfinite(*rule.max_distance)))
     return "max_distance must be finite and > 0, or empty (V_max alone)";
-  if (!(rule.view_max_distance >= 0.0) && !std::isnan(rule.view_max_distance))
-    return "view_max_distance must be >= 0 (NaN: max_distance)";
+  if (!(rule.view_max_distance >= 0.0) || !std::isfinite(rule.view_max_distance))
+    return "view_max_distance must be finite and >= 0";
   if (rule.surprise_distance_m && (!(*rule.surprise_distance_m > 0.0) || !std::isfinite(*rule.surprise_distance_m)))
     return "surprise_distance_m must be finite and > 0, or empty (every contact supports max_distance)";
   if (!(rule.min_surprise_fraction > 0.0 && rule.min_surprise_fraction <= 1.0))

@@ -61,10 +61,9 @@ struct MultiscaleGpisConfig {
   int tune_max_cells{8};
   int tune_max_iterations{30};
   // Bounds. length: below the 2 mm data spacing the GP returns to its prior between samples
-  // (bumps); beyond the overlap a cell's prediction at its blending edge would rest on data on
-  // one side only (0 or less: overlap_m).
+  // (bumps); its upper bound is overlap_m, beyond which a cell's prediction at its blending edge
+  // would rest on data on one side only.
   double length_min_m{0.002};
-  double length_max_m{0.0};
   // sigma: from a residual of 1% of the object's radius to one as large as f itself.
   double sigma_min{0.01};
   double sigma_max{1.0};

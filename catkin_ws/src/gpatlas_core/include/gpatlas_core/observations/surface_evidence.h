@@ -23,7 +23,7 @@ struct EvidenceRule {
   // alone (the paper).
   std::optional<double> max_distance{0.35};
   // A view point supports the predicted surface only this close (normalised units, at most
-  // max_distance; NaN: max_distance). A dense view covers what the camera saw within a few of
+  // max_distance). A dense view covers what the camera saw within a few of
   // its point spacings; what lies farther from it (the unseen back beyond the silhouette, a
   // cavity the rim hid) was not seen, however near a view point it is, and needs a touch.
   double view_max_distance{0.2};
@@ -96,8 +96,9 @@ bool mergeEvidenceState(const EvidenceState& own, const EvidenceState& requested
 // surface farther from its points was not seen.
 class SurfaceEvidence {
  public:
-  // `max_distance_m` > 0: the distance beyond which a surface point is unsupported; 0 turns
-  // the test off (isUnsupported is always false, radiusCap is infinite).
+  // `max_distance_m`: the distance beyond which a surface point is unsupported; empty turns the
+  // test off (isUnsupported is always false, radiusCap is infinite). Throws
+  // std::invalid_argument when a given distance is not finite and > 0 (the view's: >= 0).
   // With `support`, the table the object rests on: a surface point whose probe approach
   // (approach_m along its outward normal) would start below the table cannot be touched, and
   // the table is its evidence (an object's underside; touches there hit the table).
@@ -105,16 +106,15 @@ class SurfaceEvidence {
   // count as evidence too, whatever the touch found: a point the probe cannot reach (its
   // approach blocked by another part of the object) is not asked for again and again.
   // `view_max_distance_m`: how far a view point (source vision) supports the surface, at most
-  // max_distance_m (contacts and attempted targets support within max_distance_m).
-  // `surprise_distance_m` > 0 (with `min_surprise_fraction` in (0, 1]): a contact, or an
+  // max_distance_m (empty: max_distance_m, as contacts and attempted targets).
+  // `surprise_distance_m` (with `min_surprise_fraction` in (0, 1]): a contact, or an
   // attempted target with a finite `attempted_errors_m`, supports the surface within
   // max_distance_m * surpriseFraction(its error) (EvidenceRule::surprise_distance_m).
-  SurfaceEvidence(const SurfaceModel& model, double max_distance_m,
+  SurfaceEvidence(const SurfaceModel& model, std::optional<double> max_distance_m,
                   const std::optional<SupportPlane>& support = std::nullopt, double approach_m = 0.0,
-                  const std::vector<Vector3>& attempted = {},
-                  double view_max_distance_m = std::numeric_limits<double>::infinity(),
-                  const std::vector<double>& attempted_errors_m = {}, double surprise_distance_m = 0.0,
-                  double min_surprise_fraction = 1.0);
+                  const std::vector<Vector3>& attempted = {}, std::optional<double> view_max_distance_m = std::nullopt,
+                  const std::vector<double>& attempted_errors_m = {},
+                  std::optional<double> surprise_distance_m = std::nullopt, double min_surprise_fraction = 1.0);
   // The same from a rule and a run's state, the rule's distances converted with the model's scale.
   SurfaceEvidence(const SurfaceModel& model, const EvidenceRule& rule, const EvidenceState& state = {});
 
