@@ -7,6 +7,7 @@
 #include "gpatlas_core/model/surface_projection.h"
 
 #include "gpatlas_core/testing/analytic_sphere.h"
+#include "gpatlas_core/testing/strategy_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -15,6 +16,7 @@
 
 using namespace gpatlas_core;
 using gpatlas_core::testing::AnalyticSphere;
+using gpatlas_core::testing::strategyWith;
 
 namespace {
 
@@ -30,10 +32,11 @@ GpisModel capModel(const AnalyticSphere& sphere) {
   return model;
 }
 
-// Algorithm 1 verbatim: the first chart that needs a touch.
+// Algorithm 1 verbatim: the first chart that needs a touch ends the path.
 AtlasPlanner::Config firstChartConfig() {
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kFirst;
+  config.extend_path_charts = 0;
   return config;
 }
 
@@ -150,6 +153,7 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
   const StopRule rule{kVMax};
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kBestScore;
+  config.extend_path_charts = 0;  // the path ends at the chosen chart
   config.seed = 2;
   config.score.max_reference_points = 100000;  // every chart, so the recomputation sees the same sum
   const AtlasPlanResult best = AtlasPlanner(config).plan(model, rule);
@@ -257,10 +261,10 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   }
   EXPECT_GT(highest.z() - lowest.z(), 1.5 * sphere.radius);
   // The strategies agree, and a converged plan carries no touch.
-  StrategyConfig strategy_config;
-  strategy_config.evidence = config.evidence;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
-    const PlanResult plan = makeStrategy(name, strategy_config)->plan(model, PlanRequest());
+    const PlanResult plan =
+        strategyWith(name, {"evidence/view_max_distance=" + std::to_string(*config.evidence.max_distance)})
+            ->plan(model, PlanRequest());
     EXPECT_EQ(plan.status, PlanStatus::kConverged) << name << ": " << plan.message;
     EXPECT_TRUE(plan.touch.points.empty());
   }
@@ -292,7 +296,9 @@ TEST(AtlasPlanner, ConvergenceCoversEveryPieceOfThePredictedSurface) {
   const AtlasPlanResult single = AtlasPlanner(one_tree).plan(model, StopRule{kVMax}, start);
   EXPECT_EQ(single.status, PlanStatus::kConverged) << single.message;
 
-  const AtlasPlanResult covering = AtlasPlanner(AtlasPlanner::Config()).plan(model, StopRule{kVMax}, start);
+  AtlasPlanner::Config covering_config;
+  covering_config.extend_path_charts = 0;  // the path ends at the chart that needs a touch
+  const AtlasPlanResult covering = AtlasPlanner(covering_config).plan(model, StopRule{kVMax}, start);
   ASSERT_EQ(covering.status, PlanStatus::kTouch) << covering.message;
   const Vector3 end = covering.atlas.chart(covering.path.back()).centre;
   EXPECT_LT((end - partly_seen.centre).norm(), (end - known.centre).norm());
@@ -380,10 +386,8 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   // A slide: its extension stops before the first refused chart, and it starts at the first
   // chart of the path the filter accepts. Algorithm 1's path: every chart before its end is
   // below V_max (best_score's may pass through refused ones on its way).
-  StrategyConfig slide_config;
-  slide_config.seed = 4;
-  slide_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
-  const auto slide = makeStrategy("atlas_slide", slide_config);
+  const std::vector<std::string> first_chart{"planner/selection=first"};
+  const auto slide = strategyWith("atlas_slide", first_chart, 4);
   PlanRequest request;
   request.v_max = kVMax;
   // The filter's direction: tilted from the normal toward +z (a made-up rule the touch must
@@ -406,7 +410,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   }
   EXPECT_LT((slid.touch.normals.back() - tilted(slid.atlas->atlas.chart(slid_path.back()).normal)).norm(), 1e-9);
   // A poke comes in along the direction the filter chose for its target.
-  const PlanResult poked = makeStrategy("atlas_poke", slide_config)->plan(model, request);
+  const PlanResult poked = strategyWith("atlas_poke", first_chart, 4)->plan(model, request);
   ASSERT_EQ(poked.status, PlanStatus::kTouch) << poked.message;
   ASSERT_EQ(poked.touch.normals.size(), 1u);
   EXPECT_LT((poked.touch.normals.front() - tilted(poked.atlas->atlas.chart(poked.atlas->path.back()).normal)).norm(), 1e-9);
@@ -432,11 +436,9 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
 TEST(AtlasPlanner, TheBaselinesPassOverTheChoicesTheTouchFilterRefuses) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
-  StrategyConfig slide_config;
-  slide_config.seed = 4;
   const Vector3 chosen_direction = Vector3(0.3, 0.0, 1.0).normalized();
   for (const std::string name : {"random", "max_variance"}) {
-    const auto baseline = makeStrategy(name, slide_config);
+    const auto baseline = makeStrategy(name, 4);
     PlanRequest free_request;
     free_request.v_max = kVMax;
     const PlanResult first = baseline->plan(model, free_request);
@@ -463,9 +465,7 @@ TEST(AtlasPlanner, TheBaselinesPassOverTheChoicesTheTouchFilterRefuses) {
 TEST(AtlasPlanner, MaxVariancesRankedPokesAreItsPlansChoicesInOrder) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
-  StrategyConfig config;
-  config.seed = 4;
-  const MaxVarianceStrategy max_variance(config.sampler, config.evidence, config.seed);
+  const MaxVarianceStrategy max_variance(SurfaceSampler::Config(), EvidenceRule(), 4);
   PlanRequest request;
   request.v_max = kVMax;
   const PlanResult plan = max_variance.plan(model, request);
@@ -517,6 +517,7 @@ AtlasPlanner::Config bestScoreConfig() {
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kBestScore;
   config.reuse.enabled = true;
+  config.extend_path_charts = 0;  // the path ends at the chosen chart
   config.seed = 3;
   return config;
 }
@@ -719,11 +720,9 @@ TEST(AtlasPlanner, TheWorkBudgetEndsAPlanWithLargerChartsAndSaysSo) {
   EXPECT_GT(capped_mean, free_mean);
 
   // Through the strategy the plan's result says so too.
-  StrategyConfig strategy_config;
-  strategy_config.atlas.max_charts = 10;
   PlanRequest request;
   request.max_position_sd_m = 0.005;
-  const PlanResult strategy_plan = makeStrategy("atlas_poke", strategy_config)->plan(model, request);
+  const PlanResult strategy_plan = strategyWith("atlas_poke", {"planner/max_charts=10"})->plan(model, request);
   EXPECT_TRUE(strategy_plan.budget_exhausted) << strategy_plan.message;
   EXPECT_LE(strategy_plan.atlas->atlas.size(), 10u);
 }

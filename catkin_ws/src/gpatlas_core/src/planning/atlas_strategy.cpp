@@ -15,6 +15,8 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   // unknown (extend_path_charts): Algorithm 1's path. A best-scoring atlas covers the surface,
   // so its charts leave the extension no room to grow.
   if (mode_ == Mode::kSlide) config.selection = AtlasPlanner::Config::Selection::kFirst;
+  // A poke touches the path's last chart: the first that needs a touch (or the best-scoring).
+  if (mode_ == Mode::kPoke) config.extend_path_charts = 0;
   // The pad's aim past the edge of the supported surface is for the first chart, which lies at
   // that edge; the best-scoring chart lies wherever its touch removes the most error.
   if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
