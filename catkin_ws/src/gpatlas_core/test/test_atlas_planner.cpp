@@ -41,9 +41,7 @@ AtlasPlanner::Config firstChartConfig() {
 }
 
 AtlasPlanResult planOnCap(const GpisModel& model, std::uint64_t seed) {
-  AtlasPlanner::Config config = firstChartConfig();
-  config.seed = seed;
-  return AtlasPlanner(config).plan(model, StopRule{kVMax});
+  return AtlasPlanner(firstChartConfig(), seed).plan(model, StopRule{kVMax});
 }
 
 TEST(AtlasPlanner, CapOfSphereChartsLieOnTheSurfaceAndPathReachesUncertainty) {
@@ -118,10 +116,9 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   const GpisModel model = capModel(sphere);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     AtlasPlanner::Config config = firstChartConfig();
-    config.seed = seed;
-    const AtlasPlanResult base = AtlasPlanner(config).plan(model, StopRule{kVMax});
+    const AtlasPlanResult base = AtlasPlanner(config, seed).plan(model, StopRule{kVMax});
     config.extend_path_charts = 5;
-    const AtlasPlanResult extended = AtlasPlanner(config).plan(model, StopRule{kVMax});
+    const AtlasPlanResult extended = AtlasPlanner(config, seed).plan(model, StopRule{kVMax});
     ASSERT_EQ(base.status, PlanStatus::kTouch) << base.message;
     ASSERT_EQ(extended.status, PlanStatus::kTouch) << extended.message;
     ASSERT_GT(extended.path.size(), base.path.size());
@@ -154,9 +151,8 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kBestScore;
   config.extend_path_charts = 0;  // the path ends at the chosen chart
-  config.seed = 2;
   config.score.max_reference_points = 100000;  // every chart, so the recomputation sees the same sum
-  const AtlasPlanResult best = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult best = AtlasPlanner(config, 2).plan(model, rule);
   const AtlasPlanResult first = AtlasPlanner(firstChartConfig()).plan(model, rule);
   ASSERT_EQ(best.status, PlanStatus::kTouch) << best.message;
   ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
@@ -204,7 +200,7 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
     ++asked;
     return best_side * (point.x() - sphere.centre.x()) < 0.0 ? std::optional<Vector3>(normal) : std::nullopt;
   };
-  const AtlasPlanResult refused = AtlasPlanner(config).plan(model, rule, std::nullopt, {}, other_half);
+  const AtlasPlanResult refused = AtlasPlanner(config, 2).plan(model, rule, std::nullopt, {}, other_half);
   ASSERT_EQ(refused.status, PlanStatus::kTouch) << refused.message;
   EXPECT_LT(best_side * (refused.atlas.chart(refused.path.back()).centre.x() - sphere.centre.x()), 0.0);
   EXPECT_EQ(asked, refused.unreachable_skipped + 1);
@@ -245,11 +241,10 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(400, -1.0, kNoiseSigma, 2)).ok);
   AtlasPlanner::Config config;
-  config.seed = 5;
   // 400 points over the whole sphere are farther apart than a camera's: here view points
   // vouch as far as contacts.
   config.evidence.view_max_distance = *config.evidence.max_distance;
-  const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax});
+  const AtlasPlanResult result = AtlasPlanner(config, 5).plan(model, StopRule{kVMax});
   EXPECT_EQ(result.status, PlanStatus::kConverged) << result.message;
   EXPECT_TRUE(result.path.empty());
   EXPECT_LE(result.max_chart_variance, kVMax);
@@ -352,15 +347,14 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    AtlasPlanner::Config config = firstChartConfig();
-    config.seed = seed;
+    const AtlasPlanner::Config config = firstChartConfig();
     int asked = 0;
     const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {
       ++asked;
       EXPECT_NEAR(normal.norm(), 1.0, 1e-9);
       return point.x() > sphere.centre.x() ? std::optional<Vector3>(normal) : std::nullopt;
     };
-    const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax}, std::nullopt, {}, east);
+    const AtlasPlanResult result = AtlasPlanner(config, seed).plan(model, StopRule{kVMax}, std::nullopt, {}, east);
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& target = result.atlas.chart(result.path.back());
     EXPECT_GT(target.centre.x(), sphere.centre.x());
@@ -518,15 +512,15 @@ AtlasPlanner::Config bestScoreConfig() {
   config.selection = AtlasPlanner::Config::Selection::kBestScore;
   config.reuse.enabled = true;
   config.extend_path_charts = 0;  // the path ends at the chosen chart
-  config.seed = 3;
   return config;
 }
+constexpr std::uint64_t kBestScoreSeed = 3;
 
 TEST(AtlasPlanner, AReusedAtlasKeepsTheChartsFarFromATouchAndRemakesThoseNearIt) {
   const AnalyticSphere sphere;
   MultiscaleGpisModel model = viewedSphere(sphere);
   const StopRule rule{kVMax, 0.005};
-  const AtlasPlanner planner(bestScoreConfig());
+  const AtlasPlanner planner(bestScoreConfig(), kBestScoreSeed);
   AtlasMemory memory;
   const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_NE(before.status, PlanStatus::kError) << before.message;
@@ -610,7 +604,7 @@ TEST(AtlasPlanner, AReusedAtlasTakesTheVarianceThatRemovedDataRaised) {
   ASSERT_TRUE(model.restore(state).ok);
   // V_max alone, low enough that the lower half's charts are on either side of it.
   const StopRule rule{0.03};
-  const AtlasPlanner planner(bestScoreConfig());
+  const AtlasPlanner planner(bestScoreConfig(), kBestScoreSeed);
   AtlasMemory memory;
   const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_NE(before.status, PlanStatus::kError) << before.message;
@@ -651,7 +645,7 @@ TEST(AtlasPlanner, AReusedAtlasThatFindsNoTouchIsGrownAfreshBeforeConverging) {
   const StopRule rule{1e6};  // nothing needs a touch ...
   AtlasPlanner::Config config = bestScoreConfig();
   config.evidence.max_distance.reset();  // ... for want of evidence either
-  const AtlasPlanner planner(config);
+  const AtlasPlanner planner(config, kBestScoreSeed);
   AtlasMemory memory;
   const AtlasPlanResult first = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_EQ(first.status, PlanStatus::kConverged) << first.message;
@@ -675,7 +669,7 @@ TEST(AtlasPlanner, AnotherModelOrAChangedFrameIsPlannedAfresh) {
   AtlasPlanner::Config config = bestScoreConfig();
   config.max_charts = 100000;
   config.max_queries = 1000000;
-  const AtlasPlanner planner(config);
+  const AtlasPlanner planner(config, kBestScoreSeed);
   const StopRule rule{kVMax, 0.005};
   AtlasMemory memory;
   planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
@@ -697,13 +691,13 @@ TEST(AtlasPlanner, TheWorkBudgetEndsAPlanWithLargerChartsAndSaysSo) {
   const MultiscaleGpisModel model = viewedSphere(sphere);
   const StopRule rule{kVMax, 0.005};
   AtlasPlanner::Config config = bestScoreConfig();
-  const AtlasPlanResult free_plan = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult free_plan = AtlasPlanner(config, kBestScoreSeed).plan(model, rule);
   ASSERT_EQ(free_plan.status, PlanStatus::kTouch) << free_plan.message;
   EXPECT_FALSE(free_plan.budget_exhausted);
   ASSERT_GT(free_plan.queries, 400);
 
   config.max_queries = free_plan.queries / 6;
-  const AtlasPlanResult capped = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult capped = AtlasPlanner(config, kBestScoreSeed).plan(model, rule);
   EXPECT_TRUE(capped.budget_exhausted);
   // Still a touch (the best one the smaller atlas found), and the message says why it stopped.
   EXPECT_EQ(capped.status, PlanStatus::kTouch) << capped.message;

@@ -319,10 +319,9 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
-  config.seed = 3;
   config.extend_path_charts = 0;  // the path ends at the chart that needs a touch
   config.evidence.max_distance = std::nullopt;  // variance alone (Algorithm 1)
-  const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+  const AtlasPlanResult variance_only = AtlasPlanner(config, 3).plan(model, StopRule{kHugeVMax});
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
   config.evidence.max_distance = 0.3;
@@ -330,9 +329,8 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const double max_distance_m = *config.evidence.max_distance * model.scale();
   for (const auto selection : {AtlasPlanner::Config::Selection::kFirst, AtlasPlanner::Config::Selection::kBestScore})
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    config.seed = seed;
     config.selection = selection;
-    const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+    const AtlasPlanResult result = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& end = result.atlas.chart(result.path.back());
     EXPECT_GT(bruteForceDistance(model, end.centre), max_distance_m);
@@ -363,11 +361,10 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
   for (const double fraction : {0.25, 0.5}) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
       SCOPED_TRACE(::testing::Message() << "fraction " << fraction << ", seed " << seed);
-      config.seed = seed;
       config.aim_past_m = 0.0;
-      const AtlasPlanResult first = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+      const AtlasPlanResult first = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
       config.aim_past_m = fraction * max_distance_m;
-      const AtlasPlanResult aimed = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+      const AtlasPlanResult aimed = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
       ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
       ASSERT_EQ(aimed.status, PlanStatus::kTouch) << aimed.message;
       // The same search up to the first chart that needs a touch, then the aim's charts.

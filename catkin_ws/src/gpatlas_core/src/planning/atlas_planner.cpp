@@ -670,7 +670,7 @@ AtlasPlanResult AtlasPlanner::grow(const SurfaceModel& model, const StopRule& ru
   if (const std::string problem = validate(config_); !problem.empty())
     return finish(PlanStatus::kError, "invalid planner config: " + problem);
 
-  std::mt19937_64 rng(config_.seed);
+  std::mt19937_64 rng(seed_);
   const SurfaceEvidence evidence(model, config_.evidence, evidence_state);
   AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, result);
   int continuation = 0;

@@ -10,7 +10,6 @@ std::string AtlasStrategy::name() const { return mode_ == Mode::kPoke ? "atlas_p
 PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
-  config.seed = mixSeeds(seed_, request.seed);
   // A slide runs from the known surface to the first chart that needs a touch and on into the
   // unknown (extend_path_charts): Algorithm 1's path. A best-scoring atlas covers the surface,
   // so its charts leave the extension no room to grow.
@@ -21,7 +20,7 @@ PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& req
   // that edge; the best-scoring chart lies wherever its touch removes the most error.
   if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
     config.aim_past_m = request.footprint_radius_m;
-  const AtlasPlanner planner(config);
+  const AtlasPlanner planner(config, mixSeeds(seed_, request.seed));
   const auto planWith = [&](AtlasMemory* memory) {
     return planner.plan(model, request.stopRule(), request.start, {}, request.reachable, request.evidence_state,
                         request.touch_observations, memory);

@@ -163,13 +163,16 @@ class AtlasPlanner {
     enum class Selection { kFirst, kBestScore };
     Selection selection{Selection::kBestScore};
     TouchScoreConfig score;
-    std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.
   using Progress = std::function<void(const Atlas& atlas)>;
 
+  // `seed`: the plan's random choices (the root, SELECTCHART, the score's samples). A strategy
+  // makes a planner per plan with the seed it derives from the run's and the plan's;
+  // kUnseeded is that of a plan made outside a run.
+  static constexpr std::uint64_t kUnseeded = 1;
   AtlasPlanner() = default;
-  explicit AtlasPlanner(Config config) : config_(std::move(config)) {}
+  explicit AtlasPlanner(Config config, std::uint64_t seed = kUnseeded) : config_(std::move(config)), seed_(seed) {}
   const Config& config() const { return config_; }
 
   // `start`: a point near the surface (e.g. the probe's position); without it the root is a
@@ -194,6 +197,7 @@ class AtlasPlanner {
                        const TouchObservationConfig& touch, AtlasMemory* memory, bool reuse) const;
 
   Config config_;
+  std::uint64_t seed_{kUnseeded};
 };
 
 std::string validate(const AtlasPlanner::Config& config);
