@@ -3,7 +3,8 @@
 // baseline worth having: pure geometric coverage, blind to the GP's variance except for when to
 // stop. It pokes, among the sampled surface points that still need a touch, the one farthest
 // from everything measured (view points and contacts). It stops by the built-in baselines' rule:
-// no sampled surface point above V_max or without evidence.
+// no sampled surface point above V_max or without evidence. It reads a setting of its own,
+// farthest_from_evidence/surface_samples, and the evidence test's evidence/ as every strategy does.
 #include <gpatlas_core/planning/exploration_strategy.h>
 #include <gpatlas_core/planning/strategy_library.h>
 #include <gpatlas_core/observations/surface_evidence.h>
@@ -13,6 +14,7 @@
 #include <chrono>
 #include <limits>
 #include <memory>
+#include <string>
 
 namespace {
 
@@ -24,8 +26,13 @@ using gpatlas_core::Vector3;
 
 class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
  public:
-  explicit FarthestFromEvidenceStrategy(const gpatlas_core::StrategyConfig& config)
-      : sampler_config_(config.sampler), evidence_(config.evidence), seed_(config.seed) {}
+  // Its settings, read when the registry makes it: the surface points it chooses among, and the
+  // evidence rule.
+  FarthestFromEvidenceStrategy(gpatlas_core::ParamReader& settings, std::uint64_t seed) : seed_(seed) {
+    sampler_config_.num_seeds =
+        settings.integer("farthest_from_evidence/surface_samples", sampler_config_.num_seeds, 1, 1000000);
+    gpatlas_core::readEvidence(settings, &evidence_);
+  }
 
   std::string name() const override { return "farthest_from_evidence"; }
 
@@ -39,9 +46,9 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
  private:
   PlanResult choose(const SurfaceModel& model, const PlanRequest& request) const {
     if (auto error = gpatlas_core::checkPlanInput(model, request)) return *error;
-    gpatlas_core::SurfaceSampler::Config sampler_config = sampler_config_;
-    sampler_config.seed = gpatlas_core::mixSeeds(gpatlas_core::mixSeeds(seed_, sampler_config_.seed), request.seed);
-    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler(sampler_config).sample(model);
+    // Its own stream, from the run's seed and the plan's.
+    const std::uint64_t seed = gpatlas_core::mixSeeds(gpatlas_core::mixSeeds(seed_, kSampleStream), request.seed);
+    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler(sampler_config_).sample(model, seed);
     PlanResult result;
     if (!sample.ok) {
       result.status = PlanStatus::kError;
@@ -76,17 +83,23 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
     }
     if (farthest < 0.0) {
       result.status = PlanStatus::kConverged;
-      result.message = "no sampled surface point has variance above V_max or lacks evidence";
+      result.message = "no sampled surface point has variance above V_max or lacks evidence" + sampled(sample);
       return result;
     }
     result.status = PlanStatus::kTouch;
-    result.message = "touch at the sampled surface point farthest from the measurements";
+    result.message = "touch at the sampled surface point farthest from the measurements" + sampled(sample);
     result.touch.kind = gpatlas_core::Touch::Kind::kPoke;
     result.touch.strategy = name();
     result.touch.points.push_back(sample.points[chosen]);
     result.touch.normals.push_back(sample.normals[chosen]);
     result.touch.variances.push_back(sample.variances[chosen]);
     return result;
+  }
+
+  static constexpr std::uint64_t kSampleStream = 7;
+
+  static std::string sampled(const gpatlas_core::SurfaceSample& sample) {
+    return " (" + std::to_string(sample.seeds_tried) + " surface samples)";
   }
 
   gpatlas_core::SurfaceSampler::Config sampler_config_;
@@ -96,6 +109,6 @@ class FarthestFromEvidenceStrategy : public gpatlas_core::ExplorationStrategy {
 
 }  // namespace
 
-GPATLAS_REGISTER_STRATEGY("farthest_from_evidence", [](const gpatlas_core::StrategyConfig& config) {
-  return std::make_unique<FarthestFromEvidenceStrategy>(config);
+GPATLAS_REGISTER_STRATEGY("farthest_from_evidence", [](gpatlas_core::ParamReader& settings, std::uint64_t seed) {
+  return std::make_unique<FarthestFromEvidenceStrategy>(settings, seed);
 });

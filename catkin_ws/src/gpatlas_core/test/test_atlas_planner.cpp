@@ -7,6 +7,7 @@
 #include "gpatlas_core/model/surface_projection.h"
 
 #include "gpatlas_core/testing/analytic_sphere.h"
+#include "gpatlas_core/testing/strategy_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -15,6 +16,7 @@
 
 using namespace gpatlas_core;
 using gpatlas_core::testing::AnalyticSphere;
+using gpatlas_core::testing::strategyWith;
 
 namespace {
 
@@ -30,17 +32,16 @@ GpisModel capModel(const AnalyticSphere& sphere) {
   return model;
 }
 
-// Algorithm 1 verbatim: the first chart that needs a touch.
+// Algorithm 1 verbatim: the first chart that needs a touch ends the path.
 AtlasPlanner::Config firstChartConfig() {
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kFirst;
+  config.extend_path_charts = 0;
   return config;
 }
 
 AtlasPlanResult planOnCap(const GpisModel& model, std::uint64_t seed) {
-  AtlasPlanner::Config config = firstChartConfig();
-  config.seed = seed;
-  return AtlasPlanner(config).plan(model, StopRule{kVMax});
+  return AtlasPlanner(firstChartConfig(), seed).plan(model, StopRule{kVMax});
 }
 
 TEST(AtlasPlanner, CapOfSphereChartsLieOnTheSurfaceAndPathReachesUncertainty) {
@@ -115,10 +116,9 @@ TEST(AtlasPlanner, AnExtendedPathContinuesPastTheFirstChartAboveVMax) {
   const GpisModel model = capModel(sphere);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     AtlasPlanner::Config config = firstChartConfig();
-    config.seed = seed;
-    const AtlasPlanResult base = AtlasPlanner(config).plan(model, StopRule{kVMax});
+    const AtlasPlanResult base = AtlasPlanner(config, seed).plan(model, StopRule{kVMax});
     config.extend_path_charts = 5;
-    const AtlasPlanResult extended = AtlasPlanner(config).plan(model, StopRule{kVMax});
+    const AtlasPlanResult extended = AtlasPlanner(config, seed).plan(model, StopRule{kVMax});
     ASSERT_EQ(base.status, PlanStatus::kTouch) << base.message;
     ASSERT_EQ(extended.status, PlanStatus::kTouch) << extended.message;
     ASSERT_GT(extended.path.size(), base.path.size());
@@ -150,9 +150,9 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
   const StopRule rule{kVMax};
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kBestScore;
-  config.seed = 2;
+  config.extend_path_charts = 0;  // the path ends at the chosen chart
   config.score.max_reference_points = 100000;  // every chart, so the recomputation sees the same sum
-  const AtlasPlanResult best = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult best = AtlasPlanner(config, 2).plan(model, rule);
   const AtlasPlanResult first = AtlasPlanner(firstChartConfig()).plan(model, rule);
   ASSERT_EQ(best.status, PlanStatus::kTouch) << best.message;
   ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
@@ -200,7 +200,7 @@ TEST(AtlasPlanner, BestScoreTouchesTheChartThatRemovesTheMostError) {
     ++asked;
     return best_side * (point.x() - sphere.centre.x()) < 0.0 ? std::optional<Vector3>(normal) : std::nullopt;
   };
-  const AtlasPlanResult refused = AtlasPlanner(config).plan(model, rule, std::nullopt, {}, other_half);
+  const AtlasPlanResult refused = AtlasPlanner(config, 2).plan(model, rule, std::nullopt, {}, other_half);
   ASSERT_EQ(refused.status, PlanStatus::kTouch) << refused.message;
   EXPECT_LT(best_side * (refused.atlas.chart(refused.path.back()).centre.x() - sphere.centre.x()), 0.0);
   EXPECT_EQ(asked, refused.unreachable_skipped + 1);
@@ -241,11 +241,10 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(400, -1.0, kNoiseSigma, 2)).ok);
   AtlasPlanner::Config config;
-  config.seed = 5;
   // 400 points over the whole sphere are farther apart than a camera's: here view points
   // vouch as far as contacts.
   config.evidence.view_max_distance = *config.evidence.max_distance;
-  const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax});
+  const AtlasPlanResult result = AtlasPlanner(config, 5).plan(model, StopRule{kVMax});
   EXPECT_EQ(result.status, PlanStatus::kConverged) << result.message;
   EXPECT_TRUE(result.path.empty());
   EXPECT_LE(result.max_chart_variance, kVMax);
@@ -257,10 +256,10 @@ TEST(AtlasPlanner, DenseDataAllOverTheSphereConverges) {
   }
   EXPECT_GT(highest.z() - lowest.z(), 1.5 * sphere.radius);
   // The strategies agree, and a converged plan carries no touch.
-  StrategyConfig strategy_config;
-  strategy_config.evidence = config.evidence;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
-    const PlanResult plan = makeStrategy(name, strategy_config)->plan(model, PlanRequest());
+    const PlanResult plan =
+        strategyWith(name, {"evidence/view_max_distance=" + std::to_string(*config.evidence.max_distance)})
+            ->plan(model, PlanRequest());
     EXPECT_EQ(plan.status, PlanStatus::kConverged) << name << ": " << plan.message;
     EXPECT_TRUE(plan.touch.points.empty());
   }
@@ -292,7 +291,9 @@ TEST(AtlasPlanner, ConvergenceCoversEveryPieceOfThePredictedSurface) {
   const AtlasPlanResult single = AtlasPlanner(one_tree).plan(model, StopRule{kVMax}, start);
   EXPECT_EQ(single.status, PlanStatus::kConverged) << single.message;
 
-  const AtlasPlanResult covering = AtlasPlanner(AtlasPlanner::Config()).plan(model, StopRule{kVMax}, start);
+  AtlasPlanner::Config covering_config;
+  covering_config.extend_path_charts = 0;  // the path ends at the chart that needs a touch
+  const AtlasPlanResult covering = AtlasPlanner(covering_config).plan(model, StopRule{kVMax}, start);
   ASSERT_EQ(covering.status, PlanStatus::kTouch) << covering.message;
   const Vector3 end = covering.atlas.chart(covering.path.back()).centre;
   EXPECT_LT((end - partly_seen.centre).norm(), (end - known.centre).norm());
@@ -346,15 +347,14 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    AtlasPlanner::Config config = firstChartConfig();
-    config.seed = seed;
+    const AtlasPlanner::Config config = firstChartConfig();
     int asked = 0;
     const TouchFilter east = [&](const Vector3& point, const Vector3& normal) {
       ++asked;
       EXPECT_NEAR(normal.norm(), 1.0, 1e-9);
       return point.x() > sphere.centre.x() ? std::optional<Vector3>(normal) : std::nullopt;
     };
-    const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kVMax}, std::nullopt, {}, east);
+    const AtlasPlanResult result = AtlasPlanner(config, seed).plan(model, StopRule{kVMax}, std::nullopt, {}, east);
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& target = result.atlas.chart(result.path.back());
     EXPECT_GT(target.centre.x(), sphere.centre.x());
@@ -380,10 +380,8 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   // A slide: its extension stops before the first refused chart, and it starts at the first
   // chart of the path the filter accepts. Algorithm 1's path: every chart before its end is
   // below V_max (best_score's may pass through refused ones on its way).
-  StrategyConfig slide_config;
-  slide_config.seed = 4;
-  slide_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
-  const auto slide = makeStrategy("atlas_slide", slide_config);
+  const std::vector<std::string> first_chart{"planner/selection=first"};
+  const auto slide = strategyWith("atlas_slide", first_chart, 4);
   PlanRequest request;
   request.v_max = kVMax;
   // The filter's direction: tilted from the normal toward +z (a made-up rule the touch must
@@ -406,7 +404,7 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
   }
   EXPECT_LT((slid.touch.normals.back() - tilted(slid.atlas->atlas.chart(slid_path.back()).normal)).norm(), 1e-9);
   // A poke comes in along the direction the filter chose for its target.
-  const PlanResult poked = makeStrategy("atlas_poke", slide_config)->plan(model, request);
+  const PlanResult poked = strategyWith("atlas_poke", first_chart, 4)->plan(model, request);
   ASSERT_EQ(poked.status, PlanStatus::kTouch) << poked.message;
   ASSERT_EQ(poked.touch.normals.size(), 1u);
   EXPECT_LT((poked.touch.normals.front() - tilted(poked.atlas->atlas.chart(poked.atlas->path.back()).normal)).norm(), 1e-9);
@@ -432,11 +430,9 @@ TEST(AtlasPlanner, ChartsTheTouchFilterRefusesArePassedOver) {
 TEST(AtlasPlanner, TheBaselinesPassOverTheChoicesTheTouchFilterRefuses) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
-  StrategyConfig slide_config;
-  slide_config.seed = 4;
   const Vector3 chosen_direction = Vector3(0.3, 0.0, 1.0).normalized();
   for (const std::string name : {"random", "max_variance"}) {
-    const auto baseline = makeStrategy(name, slide_config);
+    const auto baseline = makeStrategy(name, 4);
     PlanRequest free_request;
     free_request.v_max = kVMax;
     const PlanResult first = baseline->plan(model, free_request);
@@ -463,9 +459,7 @@ TEST(AtlasPlanner, TheBaselinesPassOverTheChoicesTheTouchFilterRefuses) {
 TEST(AtlasPlanner, MaxVariancesRankedPokesAreItsPlansChoicesInOrder) {
   const AnalyticSphere sphere;
   const GpisModel model = capModel(sphere);
-  StrategyConfig config;
-  config.seed = 4;
-  const MaxVarianceStrategy max_variance(config.sampler, config.evidence, config.seed);
+  const MaxVarianceStrategy max_variance(SurfaceSampler::Config(), EvidenceRule(), 4);
   PlanRequest request;
   request.v_max = kVMax;
   const PlanResult plan = max_variance.plan(model, request);
@@ -517,15 +511,16 @@ AtlasPlanner::Config bestScoreConfig() {
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kBestScore;
   config.reuse.enabled = true;
-  config.seed = 3;
+  config.extend_path_charts = 0;  // the path ends at the chosen chart
   return config;
 }
+constexpr std::uint64_t kBestScoreSeed = 3;
 
 TEST(AtlasPlanner, AReusedAtlasKeepsTheChartsFarFromATouchAndRemakesThoseNearIt) {
   const AnalyticSphere sphere;
   MultiscaleGpisModel model = viewedSphere(sphere);
   const StopRule rule{kVMax, 0.005};
-  const AtlasPlanner planner(bestScoreConfig());
+  const AtlasPlanner planner(bestScoreConfig(), kBestScoreSeed);
   AtlasMemory memory;
   const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_NE(before.status, PlanStatus::kError) << before.message;
@@ -609,7 +604,7 @@ TEST(AtlasPlanner, AReusedAtlasTakesTheVarianceThatRemovedDataRaised) {
   ASSERT_TRUE(model.restore(state).ok);
   // V_max alone, low enough that the lower half's charts are on either side of it.
   const StopRule rule{0.03};
-  const AtlasPlanner planner(bestScoreConfig());
+  const AtlasPlanner planner(bestScoreConfig(), kBestScoreSeed);
   AtlasMemory memory;
   const AtlasPlanResult before = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_NE(before.status, PlanStatus::kError) << before.message;
@@ -650,7 +645,7 @@ TEST(AtlasPlanner, AReusedAtlasThatFindsNoTouchIsGrownAfreshBeforeConverging) {
   const StopRule rule{1e6};  // nothing needs a touch ...
   AtlasPlanner::Config config = bestScoreConfig();
   config.evidence.max_distance.reset();  // ... for want of evidence either
-  const AtlasPlanner planner(config);
+  const AtlasPlanner planner(config, kBestScoreSeed);
   AtlasMemory memory;
   const AtlasPlanResult first = planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
   ASSERT_EQ(first.status, PlanStatus::kConverged) << first.message;
@@ -674,7 +669,7 @@ TEST(AtlasPlanner, AnotherModelOrAChangedFrameIsPlannedAfresh) {
   AtlasPlanner::Config config = bestScoreConfig();
   config.max_charts = 100000;
   config.max_queries = 1000000;
-  const AtlasPlanner planner(config);
+  const AtlasPlanner planner(config, kBestScoreSeed);
   const StopRule rule{kVMax, 0.005};
   AtlasMemory memory;
   planner.plan(model, rule, std::nullopt, {}, {}, {}, {}, &memory);
@@ -696,13 +691,13 @@ TEST(AtlasPlanner, TheWorkBudgetEndsAPlanWithLargerChartsAndSaysSo) {
   const MultiscaleGpisModel model = viewedSphere(sphere);
   const StopRule rule{kVMax, 0.005};
   AtlasPlanner::Config config = bestScoreConfig();
-  const AtlasPlanResult free_plan = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult free_plan = AtlasPlanner(config, kBestScoreSeed).plan(model, rule);
   ASSERT_EQ(free_plan.status, PlanStatus::kTouch) << free_plan.message;
   EXPECT_FALSE(free_plan.budget_exhausted);
   ASSERT_GT(free_plan.queries, 400);
 
   config.max_queries = free_plan.queries / 6;
-  const AtlasPlanResult capped = AtlasPlanner(config).plan(model, rule);
+  const AtlasPlanResult capped = AtlasPlanner(config, kBestScoreSeed).plan(model, rule);
   EXPECT_TRUE(capped.budget_exhausted);
   // Still a touch (the best one the smaller atlas found), and the message says why it stopped.
   EXPECT_EQ(capped.status, PlanStatus::kTouch) << capped.message;
@@ -719,11 +714,9 @@ TEST(AtlasPlanner, TheWorkBudgetEndsAPlanWithLargerChartsAndSaysSo) {
   EXPECT_GT(capped_mean, free_mean);
 
   // Through the strategy the plan's result says so too.
-  StrategyConfig strategy_config;
-  strategy_config.atlas.max_charts = 10;
   PlanRequest request;
   request.max_position_sd_m = 0.005;
-  const PlanResult strategy_plan = makeStrategy("atlas_poke", strategy_config)->plan(model, request);
+  const PlanResult strategy_plan = strategyWith("atlas_poke", {"planner/max_charts=10"})->plan(model, request);
   EXPECT_TRUE(strategy_plan.budget_exhausted) << strategy_plan.message;
   EXPECT_LE(strategy_plan.atlas->atlas.size(), 10u);
 }

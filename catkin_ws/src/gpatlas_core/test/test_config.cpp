@@ -1,7 +1,7 @@
 // The configuration file against the Configs' readers, the YAML source, and the view builder.
 #include "gpatlas_core/config/config_readers.h"
 #include "gpatlas_core/exploration/exploration_report.h"
-#include "gpatlas_core/config/parameters.h"
+#include "gpatlas_core/common/parameters.h"
 #include "gpatlas_core/observations/view_training.h"
 
 #include <gtest/gtest.h>
@@ -17,6 +17,57 @@ namespace {
 using gpatlas_core::ParamReader;
 using gpatlas_core::Vector3;
 using gpatlas_core::YamlParameters;
+
+// A scope reads under its namespace, nested scopes append theirs, and the names it reports
+// (read, defaulted, invalid) are full.
+TEST(ParamReader, AScopeReadsUnderItsNamespaceAndReportsFullNames) {
+  std::string error;
+  const auto params = YamlParameters::fromString("a: {b: {x: 2}, x: 3}\nx: 4\n", &error);
+  ASSERT_TRUE(params) << error;
+  ParamReader reader(*params);
+  {
+    const ParamReader::Scope a(reader, "a");
+    EXPECT_EQ(reader.integer("x", 0, 0, 10), 3);
+    {
+      const ParamReader::Scope b(reader, "b/");
+      EXPECT_EQ(reader.ns(), "a/b/");
+      EXPECT_EQ(reader.integer("x", 0, 0, 10), 2);
+      EXPECT_EQ(reader.integer("y", 5, 0, 10), 5);
+    }
+    EXPECT_EQ(reader.ns(), "a/");
+    reader.invalid("z", "bad");
+    EXPECT_EQ(reader.integer("x", 0, 0, 1), 0);  // 3 is out of range: the fallback, reported
+  }
+  EXPECT_EQ(reader.ns(), "");
+  EXPECT_EQ(reader.integer("x", 0, 0, 10), 4);
+  EXPECT_EQ(reader.readNames(), (std::vector<std::string>{"a/x", "a/b/x", "a/b/y", "a/x", "x"}));
+  EXPECT_EQ(reader.defaultedNames(), std::vector<std::string>{"a/b/y"});
+  EXPECT_NE(reader.errors().find("a/z: bad"), std::string::npos) << reader.errors();
+  EXPECT_NE(reader.errors().find("a/x: = 3 is outside [0, 1]"), std::string::npos) << reader.errors();
+}
+
+// A strategy made by the registry reads its own section: its values reach it, a refused one is
+// reported under the strategy's namespace, and another section is not read.
+TEST(StrategyRegistry, AStrategyReadsItsSettingsUnderItsNamespace) {
+  std::string error;
+  const auto params = YamlParameters::fromString(
+      "mine: {planner: {max_charts: 0}, frontier: {cell_m: 0.02}}\nplanner: {max_charts: 5}\n", &error);
+  ASSERT_TRUE(params) << error;
+  ParamReader reader(*params);
+  const auto poke = gpatlas_core::makeStrategy("atlas_poke", reader, 0, "mine");
+  EXPECT_EQ(poke->name(), "atlas_poke");
+  EXPECT_FALSE(reader.ok());
+  EXPECT_NE(reader.errors().find("mine/planner/max_charts"), std::string::npos) << reader.errors();
+  const auto& read = reader.readNames();
+  EXPECT_TRUE(std::count(read.begin(), read.end(), "mine/evidence/max_distance"));
+  EXPECT_FALSE(std::count(read.begin(), read.end(), "planner/max_charts"));
+  EXPECT_FALSE(std::count(read.begin(), read.end(), "mine/frontier/cell_m"));  // atlas_frontier's
+  ParamReader frontier_reader(*params);
+  gpatlas_core::makeStrategy("atlas_frontier", frontier_reader, 0, "mine");
+  const auto& frontier_read = frontier_reader.readNames();
+  EXPECT_TRUE(std::count(frontier_read.begin(), frontier_read.end(), "mine/frontier/cell_m"));
+  EXPECT_THROW(gpatlas_core::makeStrategy("no_such_strategy", reader, 0), std::invalid_argument);
+}
 
 TEST(YamlParameters, AnOverlaySetsItsLeavesAndKeepsTheRest) {
   std::string error;

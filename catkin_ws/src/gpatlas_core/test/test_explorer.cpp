@@ -4,6 +4,7 @@
 #include "gpatlas_core/exploration/explorer.h"
 
 #include "gpatlas_core/testing/analytic_sphere.h"
+#include "gpatlas_core/testing/strategy_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -16,6 +17,7 @@
 using namespace gpatlas_core;
 using gpatlas_core::testing::AnalyticSphere;
 using gpatlas_core::testing::AnalyticSphereProber;
+using gpatlas_core::testing::strategyWith;
 
 namespace {
 
@@ -36,6 +38,8 @@ EvidenceRule sparseViewEvidence() {
   rule.view_max_distance = *rule.max_distance;
   return rule;
 }
+// The same as a strategy's settings.
+std::string sparseViewSetting() { return "evidence/view_max_distance=" + std::to_string(*sparseViewEvidence().max_distance); }
 
 // RMSE of the predicted shape against the analytic sphere, along 400 rays from its centre: on
 // each, the outermost zero of the model's mean between the centre and 1.5 radii (by a 2 mm march
@@ -92,12 +96,9 @@ ExplorationResult explore(const std::string& strategy_name, std::uint64_t seed, 
                           const Explorer::Progress& progress = {}) {
   const AnalyticSphere sphere;
   AnalyticSphereProber prober(sphere);
-  StrategyConfig strategy_config;
-  strategy_config.seed = seed;
   // The paper's loop: V_max alone decides (no evidence distance), so that every touch is planned
   // above V_max.
-  strategy_config.evidence.max_distance = std::nullopt;
-  const auto strategy = makeStrategy(strategy_name, strategy_config);
+  const auto strategy = strategyWith(strategy_name, {"evidence/max_distance=off"}, seed);
   Explorer::Config config;
   config.v_max = 0.1;
   config.max_position_sd_m = std::nullopt;  // the paper's rule
@@ -532,14 +533,11 @@ TEST(Explorer, AnUnreachableVMaxNeverRepeatsATarget) {
     for (const TrainingPoint& p : model.observations())
       if (isSurfaceValue(p)) seen.push_back(p.position);
     AnalyticSphereProber prober(sphere);
-    StrategyConfig strategy_config;
-    strategy_config.seed = 3;
-    strategy_config.evidence = sparseViewEvidence();
+    EvidenceRule evidence = sparseViewEvidence();
     // The rule under test is the retouch radius. With the surprise rule a slide's extension past
     // its target (the touch's last point checked below) can run back over the view.
-    strategy_config.evidence.surprise_distance_m = std::nullopt;
-    const EvidenceRule& evidence = strategy_config.evidence;
-    const auto strategy = makeStrategy(strategy_name, strategy_config);
+    evidence.surprise_distance_m = std::nullopt;
+    const auto strategy = strategyWith(strategy_name, {sparseViewSetting(), "evidence/surprise_distance_m=off"}, 3);
     Explorer::Config config;
     config.v_max = 1e-4;
     config.max_actions = 10;
@@ -662,7 +660,7 @@ TEST(Explorer, TheObservationBudgetThinsThenRefusesTouchesAndStopsTheExploration
 
   // The loop stops at the first refused touch and says why.
   AnalyticSphereProber prober(sphere);
-  const auto strategy = makeStrategy("atlas_poke", StrategyConfig());
+  const auto strategy = makeStrategy("atlas_poke");
   Explorer::Config loop;
   loop.max_actions = 10;
   loop.v_max = 0.001;  // below the noise: a touch is always planned
@@ -749,7 +747,7 @@ ExplorationResult exploreWithApproacher(GpisModel& model, const ExplorationStrat
 // atlas_poke, with every request it was given.
 class RequestRecorder : public ExplorationStrategy {
  public:
-  explicit RequestRecorder(const StrategyConfig& config) : inner_(makeStrategy("atlas_poke", config)) {}
+  explicit RequestRecorder(const std::vector<std::string>& settings) : inner_(strategyWith("atlas_poke", settings)) {}
   std::string name() const override { return inner_->name(); }
   PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override {
     requests.push_back(request);
@@ -769,9 +767,7 @@ TEST(Explorer, ThePadsFootprintReachesThePlanAfterThePadReportsIt) {
   const AnalyticSphere sphere;
   GpisModel model = initialModel(sphere, 3);
   AmendingProber prober(sphere, padAfterTheFirst);
-  StrategyConfig strategy_config;
-  strategy_config.evidence = sparseViewEvidence();
-  RequestRecorder strategy(strategy_config);
+  RequestRecorder strategy({sparseViewSetting()});
   Explorer::Config config;
   config.max_actions = 4;
   config.seed = 3;
@@ -783,7 +779,7 @@ TEST(Explorer, ThePadsFootprintReachesThePlanAfterThePadReportsIt) {
 
   PlanRequest bad;
   bad.footprint_radius_m = std::numeric_limits<double>::quiet_NaN();
-  const PlanResult refused = makeStrategy("atlas_poke", StrategyConfig())->plan(model, bad);
+  const PlanResult refused = makeStrategy("atlas_poke")->plan(model, bad);
   EXPECT_EQ(refused.status, PlanStatus::kError);
   EXPECT_NE(refused.message.find("footprint"), std::string::npos) << refused.message;
 }
@@ -795,15 +791,12 @@ TEST(Explorer, TouchesWithoutASafeApproachAreSkippedAndCountAsEvidence) {
   GpisModel model = initialModel(sphere, 2);
   EquatorApproacher approacher(sphere);
   AmendingProber prober(sphere, bumpEveryApproach);
-  StrategyConfig strategy_config;
-  strategy_config.seed = 2;
   // Without the surprise rule Algorithm 1's atlas reaches under the sphere within these actions;
   // with it, it first goes back to where the touches surprised it. best_score's order did not
   // get there within them, so this test of the refusals keeps Algorithm 1's.
-  strategy_config.evidence.surprise_distance_m = std::nullopt;
-  strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
-  const EvidenceRule& evidence = strategy_config.evidence;
-  const auto strategy = makeStrategy("atlas_poke", strategy_config);
+  EvidenceRule evidence;
+  evidence.surprise_distance_m = std::nullopt;
+  const auto strategy = strategyWith("atlas_poke", {"evidence/surprise_distance_m=off", "planner/selection=first"}, 2);
   const ExplorationResult result = exploreWithApproacher(model, *strategy, prober, approacher, 25);
   ASSERT_FALSE(prober.executed.empty()) << result.stop_reason;
   ASSERT_FALSE(approacher.refused.empty()) << "the strategy never aimed under the sphere";
@@ -845,13 +838,9 @@ TEST(Explorer, ConvergenceWithinReachCountsTheCandidatesLeft) {
   GpisModel model = initialModel(sphere, 2);
   ReachableAboveTheBottom approacher(sphere);
   AmendingProber prober(sphere, bumpEveryApproach);
-  StrategyConfig strategy_config;
-  strategy_config.seed = 2;
-  strategy_config.evidence = sparseViewEvidence();
   // Algorithm 1's touches leave part of the bottom above V_max at convergence; best_score's
   // converged with none left to count, so this test of the count keeps Algorithm 1's.
-  strategy_config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
-  const auto strategy = makeStrategy("atlas_poke", strategy_config);
+  const auto strategy = strategyWith("atlas_poke", {sparseViewSetting(), "planner/selection=first"}, 2);
   const ExplorationResult result = exploreWithApproacher(model, *strategy, prober, approacher, 40);
   ASSERT_TRUE(result.converged) << result.stop_reason;
   EXPECT_GT(result.final_unreachable_candidates, 0);

@@ -9,6 +9,7 @@
 #include "gpatlas_core/observations/view_update.h"
 #include "gpatlas_core/planning/frontier_strategy.h"
 #include "gpatlas_core/planning/strategy_registry.h"
+#include "gpatlas_core/testing/strategy_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -19,6 +20,7 @@
 #include <vector>
 
 using namespace gpatlas_core;
+using gpatlas_core::testing::strategyWith;
 
 namespace {
 
@@ -141,11 +143,13 @@ PlanRequest surfaceSettled(const EvidenceState& state) {
   return request;
 }
 
-StrategyConfig frontierConfig() {
-  StrategyConfig config;
-  config.evidence.max_distance = std::nullopt;
-  return config;
+// atlas_frontier's atlas: V_max alone (no evidence distance).
+AtlasPlanner::Config varianceAlone() {
+  AtlasPlanner::Config atlas;
+  atlas.evidence.max_distance = std::nullopt;
+  return atlas;
 }
+const char* const kVarianceAlone = "evidence/max_distance=off";
 
 TEST(ViewShadow, HidesWhatLiesBehindTheSeenSurfaceOnly) {
   Scene scene;
@@ -181,7 +185,7 @@ TEST(FrontierStrategy, FirstPokeTargetsTheShadowAndFindsTheHiddenPart) {
   // The model does not predict the small ball.
   EXPECT_GT(model.mean(scene.hidden->centre), 0.0);
 
-  const std::unique_ptr<ExplorationStrategy> strategy = makeStrategy("atlas_frontier", frontierConfig());
+  const std::unique_ptr<ExplorationStrategy> strategy = strategyWith("atlas_frontier", {kVarianceAlone});
   const PlanResult first = strategy->plan(model, surfaceSettled(state));
   ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
   ASSERT_EQ(first.touch.points.size(), 1u);
@@ -218,14 +222,14 @@ TEST(FrontierStrategy, AnEmptyPokeClearsItsPathAndTheStrategyConverges) {
   const std::vector<Vector3> view = scene.view();
   GpisModel model = settledModel(scene, view);
   EvidenceState state = stateOf(scene, view);
-  StrategyConfig config = frontierConfig();
-  config.frontier.max_empty_pokes = 1000;  // converge by clearing, not by the budget
+  FrontierStrategy::Config config;
+  config.max_empty_pokes = 1000;  // converge by clearing, not by the budget
   // A coarse grid over a thin band: a few dozen pokes clear it.
-  config.frontier.cell_m = 0.02;
-  config.frontier.reach_m = 0.04;
-  config.frontier.clear_radius_m = 0.015;
-  const FrontierStrategy frontier(config.frontier, 0);
-  const std::unique_ptr<ExplorationStrategy> strategy = makeStrategy("atlas_frontier", config);
+  config.cell_m = 0.02;
+  config.reach_m = 0.04;
+  config.clear_radius_m = 0.015;
+  const FrontierStrategy frontier(config, varianceAlone(), 0);
+  const std::unique_ptr<ExplorationStrategy> strategy = std::make_unique<FrontierStrategy>(config, varianceAlone(), 0);
 
   const UnknownSpace before = frontier.unknownSpace(model, state);
   ASSERT_GT(before.unknown_cells, 0);
@@ -279,9 +283,8 @@ TEST(FrontierStrategy, TheBudgetOfEmptyPokesEndsTheSearch) {
   const std::vector<Vector3> view = scene.view();
   const GpisModel model = settledModel(scene, view);
   EvidenceState state = stateOf(scene, view);
-  StrategyConfig config = frontierConfig();
-  config.frontier.max_empty_pokes = 2;
-  const std::unique_ptr<ExplorationStrategy> strategy = makeStrategy("atlas_frontier", config);
+  const std::unique_ptr<ExplorationStrategy> strategy =
+      strategyWith("atlas_frontier", {kVarianceAlone, "frontier/max_empty_pokes=2"});
   EXPECT_EQ(strategy->plan(model, surfaceSettled(state)).status, PlanStatus::kTouch);
   state.empty_unknown_pokes = 2;
   EXPECT_EQ(strategy->plan(model, surfaceSettled(state)).status, PlanStatus::kConverged);
@@ -295,7 +298,7 @@ TEST(FrontierStrategy, RefusesABadConfig) {
   EXPECT_EQ(validate(config), "");
   config.min_gap_m = config.reach_m;
   EXPECT_NE(validate(config), "");
-  EXPECT_THROW(FrontierStrategy(config, 0), std::invalid_argument);
+  EXPECT_THROW(FrontierStrategy(config, AtlasPlanner::Config(), 0), std::invalid_argument);
   EvidenceState state;
   state.views = {CameraView{Vector3(std::nan(""), 0.0, 0.0), {}}};
   EXPECT_NE(validate(state), "");

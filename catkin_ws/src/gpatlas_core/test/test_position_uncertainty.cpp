@@ -6,6 +6,7 @@
 #include "gpatlas_core/model/surface_projection.h"
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/testing/analytic_sphere.h"
+#include "gpatlas_core/testing/strategy_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -310,9 +311,7 @@ GpisModel calibratedHalfSeenSphere(const AnalyticSphere& sphere) {
 // A strategy whose evidence rule (a touch wherever no data lie near) is off: the stop rule
 // alone decides.
 std::unique_ptr<gpatlas_core::ExplorationStrategy> withoutEvidenceRule(const std::string& name) {
-  gpatlas_core::StrategyConfig config;
-  config.evidence.max_distance = std::nullopt;
-  return gpatlas_core::makeStrategy(name, config);
+  return gpatlas_core::testing::strategyWith(name, {"evidence/max_distance=off"});
 }
 
 // The back of a sphere seen from above: the position rule must not call it known before the

@@ -95,6 +95,43 @@ TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {
   EXPECT_LE(run.final_max_evaluated_variance, config.v_max);
 }
 
+// The example reads its own setting (farthest_from_evidence/surface_samples) and the shared
+// evidence/ from the settings it is made with, under the namespace it is given, and a value it
+// refuses is reported with its full name.
+TEST(StrategyLibrary, TheExampleReadsItsOwnSettings) {
+  ASSERT_TRUE(loadStrategyLibrary(GPATLAS_EXAMPLE_STRATEGY_LIBRARY).ok);
+  std::string error;
+  const auto settings = gpatlas_core::YamlParameters::fromString(
+      "plugins: {farthest_from_evidence: {surface_samples: 50}, evidence: {max_distance: off}}", &error);
+  ASSERT_TRUE(settings) << error;
+  gpatlas_core::ParamReader reader(*settings);
+  const auto strategy = gpatlas_core::makeStrategy(kStrategy, reader, 0, "plugins");
+  EXPECT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_TRUE(reader.defaultedNames() ==
+              (std::vector<std::string>{"plugins/evidence/view_max_distance", "plugins/evidence/approach_distance_m",
+                                        "plugins/evidence/retouch_radius_m", "plugins/evidence/surprise_distance_m"}))
+      << reader.defaulted();
+  EXPECT_EQ(reader.ns(), "");  // the namespace ends with the strategy's making
+  // Its setting is used: a plan samples 50 surface points (the default is 600).
+  const AnalyticSphere sphere;
+  gpatlas_core::GpisModel model;
+  ASSERT_TRUE(model.fit(sphere.view(200, -1.0, 0.1, 1)).ok);
+  gpatlas_core::PlanRequest request;
+  request.v_max = 1e6;
+  const gpatlas_core::PlanResult plan = strategy->plan(model, request);
+  EXPECT_EQ(plan.status, gpatlas_core::PlanStatus::kConverged) << plan.message;
+  EXPECT_NE(plan.message.find("(50 surface samples)"), std::string::npos) << plan.message;
+  EXPECT_NE(gpatlas_core::makeStrategy(kStrategy)->plan(model, request).message.find("(600 surface samples)"),
+            std::string::npos);
+
+  const auto refused_settings =
+      gpatlas_core::YamlParameters::fromString("farthest_from_evidence: {surface_samples: 0}", &error);
+  gpatlas_core::ParamReader refused(*refused_settings);
+  gpatlas_core::makeStrategy(kStrategy, refused, 0);
+  EXPECT_FALSE(refused.ok());
+  EXPECT_NE(refused.errors().find("farthest_from_evidence/surface_samples"), std::string::npos) << refused.errors();
+}
+
 // The macro, twice in one file, with a factory whose capture list has a comma.
 class FixedAnswerStrategy : public gpatlas_core::ExplorationStrategy {
  public:
@@ -113,10 +150,11 @@ class FixedAnswerStrategy : public gpatlas_core::ExplorationStrategy {
 
 const std::string kFirstName = "test_macro_first";
 const gpatlas_core::PlanStatus kFirstStatus = gpatlas_core::PlanStatus::kConverged;
-GPATLAS_REGISTER_STRATEGY("test_macro_first", [name = kFirstName, status = kFirstStatus](const gpatlas_core::StrategyConfig&) {
+GPATLAS_REGISTER_STRATEGY("test_macro_first", [name = kFirstName, status = kFirstStatus](gpatlas_core::ParamReader&,
+                                                                                          std::uint64_t) {
   return std::make_unique<FixedAnswerStrategy>(name, status);
 });
-GPATLAS_REGISTER_STRATEGY("test_macro_second", [](const gpatlas_core::StrategyConfig&) {
+GPATLAS_REGISTER_STRATEGY("test_macro_second", [](gpatlas_core::ParamReader&, std::uint64_t) {
   return std::make_unique<FixedAnswerStrategy>("test_macro_second", gpatlas_core::PlanStatus::kError);
 });
 

@@ -3,11 +3,14 @@
 
 #include "gpatlas_core/model/gpis_model.h"
 #include "gpatlas_core/planning/atlas_planner.h"
+#include "gpatlas_core/planning/atlas_strategy.h"
+#include "gpatlas_core/planning/baseline_strategies.h"
 #include "gpatlas_core/planning/strategy_registry.h"
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 
 #include "gpatlas_core/testing/analytic_sphere.h"
+#include "gpatlas_core/testing/strategy_settings.h"
 
 #include <gtest/gtest.h>
 
@@ -19,6 +22,7 @@
 
 using namespace gpatlas_core;
 using gpatlas_core::testing::AnalyticSphere;
+using gpatlas_core::testing::strategyWith;
 
 namespace {
 
@@ -323,9 +327,9 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
-  config.seed = 3;
+  config.extend_path_charts = 0;  // the path ends at the chart that needs a touch
   config.evidence.max_distance = std::nullopt;  // variance alone (Algorithm 1)
-  const AtlasPlanResult variance_only = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+  const AtlasPlanResult variance_only = AtlasPlanner(config, 3).plan(model, StopRule{kHugeVMax});
   EXPECT_EQ(variance_only.status, PlanStatus::kConverged) << variance_only.message;
 
   config.evidence.max_distance = 0.3;
@@ -333,9 +337,8 @@ TEST(SurfaceEvidence, AtlasPlannerTouchesUnsupportedSurfaceWhateverItsVariance) 
   const double max_distance_m = *config.evidence.max_distance * model.scale();
   for (const auto selection : {AtlasPlanner::Config::Selection::kFirst, AtlasPlanner::Config::Selection::kBestScore})
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-    config.seed = seed;
     config.selection = selection;
-    const AtlasPlanResult result = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+    const AtlasPlanResult result = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
     ASSERT_EQ(result.status, PlanStatus::kTouch) << result.message;
     const Chart& end = result.atlas.chart(result.path.back());
     EXPECT_GT(bruteForceDistance(model, end.centre), max_distance_m);
@@ -359,17 +362,17 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kFirst;  // the first chart, at the edge
+  config.extend_path_charts = 0;  // aim_past_m's condition
   config.evidence.max_distance = 0.3;
   config.evidence.view_max_distance = 0.3;
   const double max_distance_m = *config.evidence.max_distance * model.scale();
   for (const double fraction : {0.25, 0.5}) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
       SCOPED_TRACE(::testing::Message() << "fraction " << fraction << ", seed " << seed);
-      config.seed = seed;
       config.aim_past_m = 0.0;
-      const AtlasPlanResult first = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+      const AtlasPlanResult first = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
       config.aim_past_m = fraction * max_distance_m;
-      const AtlasPlanResult aimed = AtlasPlanner(config).plan(model, StopRule{kHugeVMax});
+      const AtlasPlanResult aimed = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
       ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
       ASSERT_EQ(aimed.status, PlanStatus::kTouch) << aimed.message;
       // The same search up to the first chart that needs a touch, then the aim's charts.
@@ -399,28 +402,27 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
 TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
   const AnalyticSphere sphere;
   const GpisModel model = modelWithAHoleOnTop(sphere);
-  StrategyConfig config;
-  config.evidence.max_distance = 0.3;
-  config.evidence.view_max_distance = 0.3;
+  const std::vector<std::string> evidence{"evidence/max_distance=0.3", "evidence/view_max_distance=0.3"};
   PlanRequest request;
   request.v_max = kHugeVMax;
   request.seed = 5;
   PlanRequest with_pad = request;
   with_pad.footprint_radius_m = 0.01;
-  config.atlas.selection = AtlasPlanner::Config::Selection::kBestScore;
+  std::vector<std::string> settings = evidence;
+  settings.push_back("planner/selection=best_score");
   // A strategy each: a poke strategy keeps its last atlas for the next plan (AtlasMemory).
-  const PlanResult point = makeStrategy("atlas_poke", config)->plan(model, request);
-  const PlanResult pad = makeStrategy("atlas_poke", config)->plan(model, with_pad);
+  const PlanResult point = strategyWith("atlas_poke", settings)->plan(model, request);
+  const PlanResult pad = strategyWith("atlas_poke", settings)->plan(model, with_pad);
   ASSERT_EQ(point.status, PlanStatus::kTouch) << point.message;
   ASSERT_EQ(pad.status, PlanStatus::kTouch) << pad.message;
   ASSERT_EQ(pad.touch.points.size(), 1u);
   // The best-scoring chart lies wherever its touch removes the most error: no aim.
   EXPECT_EQ(pad.touch.points.front(), point.touch.points.front());
   // The first chart lies at the edge of the supported surface: the pad aims past it.
-  config.atlas.selection = AtlasPlanner::Config::Selection::kFirst;
-  const auto first = makeStrategy("atlas_poke", config);
+  settings.back() = "planner/selection=first";
+  const auto first = strategyWith("atlas_poke", settings);
   const PlanResult first_point = first->plan(model, request);
-  const PlanResult first_pad = makeStrategy("atlas_poke", config)->plan(model, with_pad);
+  const PlanResult first_pad = strategyWith("atlas_poke", settings)->plan(model, with_pad);
   ASSERT_EQ(first_pad.status, PlanStatus::kTouch) << first_pad.message;
   EXPECT_GT(bruteForceDistance(model, first_pad.touch.points.front()),
             bruteForceDistance(model, first_point.touch.points.front()));
@@ -435,7 +437,7 @@ TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {
         << refused.message;
   }
   // A slide's path runs on into the unknown by itself: the footprint changes nothing.
-  const auto slide = makeStrategy("atlas_slide", config);
+  const auto slide = strategyWith("atlas_slide", settings);
   const PlanResult slid = slide->plan(model, request), slid_with_pad = slide->plan(model, with_pad);
   ASSERT_EQ(slid.status, PlanStatus::kTouch) << slid.message;
   ASSERT_EQ(slid.touch.points.size(), slid_with_pad.touch.points.size());
@@ -449,24 +451,26 @@ TEST(SurfaceEvidence, EveryStrategyAppliesTheEvidenceDistanceOfItsRule) {
   PlanRequest request;
   request.v_max = kHugeVMax;
   for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"}) {
-    StrategyConfig config;
-    config.evidence.max_distance = std::nullopt;
-    const PlanResult converged = makeStrategy(name, config)->plan(model, request);
+    const PlanResult converged = strategyWith(name, {"evidence/max_distance=off"})->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
 
-    config.evidence.max_distance = 0.3;
-    config.evidence.view_max_distance = 0.3;
-    const PlanResult touch = makeStrategy(name, config)->plan(model, request);
+    const PlanResult touch =
+        strategyWith(name, {"evidence/max_distance=0.3", "evidence/view_max_distance=0.3"})->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     ASSERT_FALSE(touch.touch.points.empty());
     // The poke (or the slide's end) lies in the hole; random pokes anywhere.
     if (name != "random")
       EXPECT_GT(bruteForceDistance(model, touch.touch.points.back()), 0.3 * model.scale()) << name;
   }
-  StrategyConfig invalid;
+  // A rule the settings' reader would refuse, given to the strategies directly.
+  AtlasPlanner::Config invalid;
   invalid.evidence.max_distance = -1.0;
-  for (const std::string name : {"atlas_poke", "atlas_slide", "max_variance", "random"})
-    EXPECT_EQ(makeStrategy(name, invalid)->plan(model, request).status, PlanStatus::kError) << name;
+  EXPECT_EQ(AtlasStrategy(AtlasStrategy::Mode::kPoke, invalid, 0).plan(model, request).status, PlanStatus::kError);
+  EXPECT_EQ(AtlasStrategy(AtlasStrategy::Mode::kSlide, invalid, 0).plan(model, request).status, PlanStatus::kError);
+  EXPECT_EQ(MaxVarianceStrategy(SurfaceSampler::Config(), invalid.evidence, 0).plan(model, request).status,
+            PlanStatus::kError);
+  EXPECT_EQ(RandomStrategy(SurfaceSampler::Config(), invalid.evidence, 0).plan(model, request).status,
+            PlanStatus::kError);
 }
 
 // Touches whose approach is blocked: every poke lands on the (measured) bottom of the sphere,
@@ -488,13 +492,10 @@ TEST(SurfaceEvidence, TouchesThatCannotReachTheirTargetStillEndTheExploration) {
       return result;
     }
   };
-  StrategyConfig strategy_config;
-  strategy_config.evidence.max_distance = 0.3;
-  strategy_config.evidence.view_max_distance = 0.3;
   // The prober's contacts lie beyond the targets: a surprise the rule would answer with more
   // touches (ATouchThatWentThroughTheTargetSupportsLess); this test is about the aim alone.
-  strategy_config.evidence.surprise_distance_m = std::nullopt;
-  const auto strategy = makeStrategy("atlas_poke", strategy_config);
+  const auto strategy = strategyWith(
+      "atlas_poke", {"evidence/max_distance=0.3", "evidence/view_max_distance=0.3", "evidence/surprise_distance_m=off"});
   Explorer::Config config;
   config.v_max = kHugeVMax;
   config.max_position_sd_m = std::nullopt;  // the V_max rule: the evidence rule alone asks for touches
@@ -567,22 +568,24 @@ TEST(SurfaceEvidence, TheTableIsEvidenceForTheUnderside) {
   // Only 1 cm of approach: it starts above the table.
   EXPECT_TRUE(SurfaceEvidence(model, max_distance_m, table, 0.01).isUnsupported(side_point, -Vector3::UnitZ()));
 
-  StrategyConfig config;
-  config.evidence.max_distance = 0.3;
-  config.evidence.view_max_distance = 0.3;
+  const std::vector<std::string> settings{"evidence/max_distance=0.3", "evidence/view_max_distance=0.3"};
   PlanRequest request;
   request.v_max = kHugeVMax;
   for (const std::string name : {"atlas_poke", "max_variance"}) {
     request.evidence_state.support_plane.reset();
-    const PlanResult touch = makeStrategy(name, config)->plan(model, request);
+    const PlanResult touch = strategyWith(name, settings)->plan(model, request);
     ASSERT_EQ(touch.status, PlanStatus::kTouch) << name << ": " << touch.message;
     EXPECT_LT((touch.touch.points.back() - sphere.centre).normalized().z(), -0.6) << name;
     request.evidence_state.support_plane = table;
-    const PlanResult converged = makeStrategy(name, config)->plan(model, request);
+    const PlanResult converged = strategyWith(name, settings)->plan(model, request);
     EXPECT_EQ(converged.status, PlanStatus::kConverged) << name << ": " << converged.message;
   }
+  // A rule the settings' reader would refuse, given to the strategy directly.
+  AtlasPlanner::Config config;
+  config.evidence.max_distance = 0.3;
+  config.evidence.view_max_distance = 0.3;
   config.evidence.approach_distance_m = std::nan("");
-  EXPECT_EQ(makeStrategy("atlas_poke", config)->plan(model, request).status, PlanStatus::kError);
+  EXPECT_EQ(AtlasStrategy(AtlasStrategy::Mode::kPoke, config, 0).plan(model, request).status, PlanStatus::kError);
 }
 
 }  // namespace

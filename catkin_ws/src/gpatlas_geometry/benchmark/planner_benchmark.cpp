@@ -46,8 +46,7 @@ void BM_PlanNextTouch(benchmark::State& state) {
     state.SkipWithError("fit failed");
     return;
   }
-  gpatlas_core::StrategyConfig config;
-  const auto strategy = gpatlas_core::makeStrategy("atlas_poke", config);
+  const auto strategy = gpatlas_core::makeStrategy("atlas_poke");
   gpatlas_core::PlanRequest request;
   request.v_max = kVMax;
   std::uint64_t plan_index = 0;
@@ -74,7 +73,7 @@ void BM_PlanBaseline(benchmark::State& state) {
     state.SkipWithError("fit failed");
     return;
   }
-  const auto strategy = gpatlas_core::makeStrategy(name, gpatlas_core::StrategyConfig());
+  const auto strategy = gpatlas_core::makeStrategy(name);
   gpatlas_core::PlanRequest request;
   request.v_max = kVMax;
   std::uint64_t plan_index = 0;
@@ -103,14 +102,12 @@ void BM_ExploreSphere(benchmark::State& state) {
         return;
       }
       AnalyticSphereProber prober(sphere);
-      gpatlas_core::StrategyConfig strategy_config;
-      strategy_config.seed = static_cast<std::uint64_t>(seed);
       gpatlas_core::Explorer::Config config;
       config.v_max = kVMax;
       config.max_actions = 200;
       config.seed = static_cast<std::uint64_t>(seed);
       const gpatlas_core::ExplorationResult result =
-          gpatlas_core::Explorer(config).run(model, *gpatlas_core::makeStrategy(name, strategy_config), prober);
+          gpatlas_core::Explorer(config).run(model, *gpatlas_core::makeStrategy(name, static_cast<std::uint64_t>(seed)), prober);
       actions += result.actions;
       converged += result.converged ? 1.0 : 0.0;
       gpatlas_geometry::SurfaceMesher::Config mesher;
@@ -173,7 +170,7 @@ void BM_PlanAtlas(benchmark::State& state) {
   const gpatlas_core::TouchObservationConfig touch;
   gpatlas_core::applyTouch(touched, pokeAt(sphere, Eigen::Vector3d(0.5, 0.3, -0.8)).contacts,
                            pokeAt(sphere, Eigen::Vector3d(0.5, 0.3, -0.8)).free_space, touch);
-  const auto strategy = gpatlas_core::makeStrategy(name, gpatlas_core::StrategyConfig());
+  const auto strategy = gpatlas_core::makeStrategy(name);
   gpatlas_core::PlanRequest request;
   request.v_max = kVMax;
   request.max_position_sd_m = 0.005;

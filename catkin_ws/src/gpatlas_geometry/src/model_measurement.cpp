@@ -8,6 +8,9 @@ namespace gpatlas_geometry {
 
 namespace {
 
+// One fixed sample of the predicted surface, so that every model is measured at points drawn alike.
+constexpr std::uint64_t kSampleSeed = 7;
+
 double secondsSince(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
@@ -19,7 +22,7 @@ ModelMeasurement measureModel(const gpatlas_core::SurfaceModel& model, const Tri
   ModelMeasurement measured;
   if (request.sampled_max_variance) {
     const auto sample_start = std::chrono::steady_clock::now();
-    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model);
+    const gpatlas_core::SurfaceSample sample = gpatlas_core::SurfaceSampler().sample(model, kSampleSeed);
     if (sample.ok) measured.sampled_max_variance = sample.maxVariance();
     measured.sample_s = secondsSince(sample_start);
   }

@@ -13,10 +13,11 @@ void readPipeline(gpatlas_core::ParamReader& r, PipelineConfig* c) {
   readViewTraining(r, &c->view);
   c->use_support_plane = readUseSupportPlane(r);
   readTouchObservations(r, &c->touch);
-  readEvidence(r, &c->strategy.evidence);
   readExplorer(r, &c->exploration);
   readStrategyChoice(r, &c->strategy_choice);
-  readStrategy(r, &c->strategy);
+  readAtlasPlanner(r, &c->atlas);
+  readSurfaceSampler(r, &c->sampler);
+  readFrontier(r, &c->frontier);
   readMesher(r, &c->mesh);
   readCollisionMap(r, &c->collision_map);
   gpatlas_motion::readSceneMap(r, &c->scene_map);

@@ -44,6 +44,9 @@ TEST(OracleStrategy, PokesTheBestScoringOfItsCandidates) {
   gpatlas_core::GpisModel model;
   ASSERT_TRUE(model.fit(sphere.view(150, 0.3, 0.316, 1)).ok);
   gpatlas_bench::OracleStrategy::Config config;
+  std::string error;
+  const auto defaults = gpatlas_core::YamlParameters::fromString("{}", &error);  // every setting's default
+  gpatlas_core::ParamReader settings(*defaults);
   gpatlas_core::PlanRequest request;
   request.v_max = 0.1;
   request.max_position_sd_m = 0.005;
@@ -52,16 +55,15 @@ TEST(OracleStrategy, PokesTheBestScoringOfItsCandidates) {
   gpatlas_bench::OraclePlan reported;
   AnalyticSphereProber oracle_prober(sphere);
   const gpatlas_bench::OracleStrategy oracle(
-      config, [&](const gpatlas_core::Touch& touch) { return oracle_prober.probe(touch); },
+      config, settings, 0, [&](const gpatlas_core::Touch& touch) { return oracle_prober.probe(touch); },
       [&](const gpatlas_core::SurfaceModel& m) { return truthScore(m, sphere); },
       [&](const gpatlas_bench::OraclePlan& plan) { reported = plan; });
   const gpatlas_core::PlanResult plan = oracle.plan(model, request);
   ASSERT_EQ(plan.status, gpatlas_core::PlanStatus::kTouch) << plan.message;
   ASSERT_GE(reported.candidates.size(), 5u);
 
-  const gpatlas_core::PlanResult atlas = gpatlas_core::makeStrategy("atlas_poke", config.strategy)->plan(model, request);
-  const gpatlas_core::PlanResult max_variance =
-      gpatlas_core::makeStrategy("max_variance", config.strategy)->plan(model, request);
+  const gpatlas_core::PlanResult atlas = gpatlas_core::makeStrategy("atlas_poke")->plan(model, request);
+  const gpatlas_core::PlanResult max_variance = gpatlas_core::makeStrategy("max_variance")->plan(model, request);
   ASSERT_EQ(atlas.status, gpatlas_core::PlanStatus::kTouch);
   ASSERT_EQ(max_variance.status, gpatlas_core::PlanStatus::kTouch);
   EXPECT_TRUE(samePoint(reported.candidates.front().touch, atlas.touch));

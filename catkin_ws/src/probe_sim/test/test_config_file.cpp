@@ -4,7 +4,7 @@
 
 #include "probe_sim/pipeline_config.h"
 #include <gpatlas_core/config/config_readers.h>
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 
 #include <gtest/gtest.h>
 
@@ -170,7 +170,7 @@ TEST(PipelineYaml, ThePapersOverlaySetsOnlyParametersAndSelectsTheGlobalGpis) {
   // Its offs reach the Configs as absent limits, where the file's are set.
   EXPECT_FALSE(pipeline.exploration.max_position_sd_m.has_value());
   EXPECT_FALSE(pipeline.touch.contact_tangent_noise_sigma.has_value());
-  EXPECT_FALSE(pipeline.strategy.evidence.surprise_distance_m.has_value());
+  EXPECT_FALSE(pipeline.atlas.evidence.surprise_distance_m.has_value());
   probe_sim::PipelineConfig file_only;
   const auto file = gpatlas_core::YamlParameters::fromFile(GPATLAS_PIPELINE_CONFIG, &error);
   ASSERT_TRUE(file) << error;
@@ -178,7 +178,7 @@ TEST(PipelineYaml, ThePapersOverlaySetsOnlyParametersAndSelectsTheGlobalGpis) {
   probe_sim::readPipeline(file_reader, &file_only);
   EXPECT_EQ(file_only.exploration.max_position_sd_m, std::optional<double>(0.005));
   EXPECT_TRUE(file_only.touch.contact_tangent_noise_sigma.has_value());
-  EXPECT_TRUE(file_only.strategy.evidence.surprise_distance_m.has_value());
+  EXPECT_TRUE(file_only.atlas.evidence.surprise_distance_m.has_value());
 }
 
 // The file's values reach the Configs (a second, independent parse of the text).
@@ -196,7 +196,6 @@ TEST(PipelineYaml, ValuesReachTheConfigs) {
   ASSERT_TRUE(reader.ok()) << reader.errors();
   EXPECT_EQ(c.seed, 7u);
   EXPECT_EQ(c.exploration.seed, 7u);
-  EXPECT_EQ(c.strategy.seed, 7u);
   EXPECT_DOUBLE_EQ(c.exploration.v_max, 0.05);
   EXPECT_EQ(c.exploration.max_actions, 12);
   EXPECT_EQ(c.view.free_space.max_rays, 10);

@@ -6,7 +6,7 @@
 #include "probe_sim/procedural_objects.h"
 #include "probe_sim/simulation_settings.h"
 
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 
 #include <gtest/gtest.h>
 

@@ -2,7 +2,7 @@
 
 #include "bench_oracle.h"
 
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 #include <gpatlas_core/planning/strategy_library.h>
 #include <gpatlas_core/planning/strategy_registry.h>
 #include <probe_sim/object_mesh.h>
@@ -240,7 +240,7 @@ bool parseFlags(int argc, char** argv, Options& o) {
 // the robot's URDF; the config's strategy libraries.
 void readConfiguration(Options& o) {
   std::string error;
-  const std::unique_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
+  const std::shared_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
   if (!params) throw std::invalid_argument("--config: " + error);
   // The scene's file joins the pipeline's, so that overlays and --set reach both alike.
   const std::unique_ptr<gpatlas_core::YamlParameters> scene = gpatlas_core::YamlParameters::fromFile(o.simulation_path, &error);
@@ -266,6 +266,19 @@ void readConfiguration(Options& o) {
   std::ifstream urdf(o.urdf_path);
   if (!urdf) throw std::invalid_argument("--urdf: cannot read " + o.urdf_path);
   o.urdf_xml.assign(std::istreambuf_iterator<char>(urdf), std::istreambuf_iterator<char>());
+  for (const std::string& library : o.pipeline.strategy_choice.libraries) {
+    const auto load = gpatlas_core::loadStrategyLibrary(library);
+    if (!load.ok) throw std::invalid_argument(load.message);
+  }
+  // The runs' strategies read their settings now as each run will, so that a bad value, or a
+  // setting only a library's strategy reads, is known before any run (unknown names are
+  // reported with the command line's checks).
+  const std::vector<std::string> known = gpatlas_core::strategyNames();
+  for (const std::string& name :
+       o.strategies.empty() ? std::vector<std::string>{o.pipeline.strategy_choice.name} : o.strategies)
+    if (std::find(known.begin(), known.end(), name) != known.end()) gpatlas_core::makeStrategy(name, reader, 0);
+  if (!reader.ok()) throw std::invalid_argument(o.config_path + ": " + reader.errors());
+  o.settings = params;
   // A --set or an overlay of a name no reader knows is a typo, not a setting.
   std::vector<std::string> given = overlaid;
   for (const std::string& assignment : o.overrides) given.push_back(assignment);
@@ -274,10 +287,6 @@ void readConfiguration(Options& o) {
     const auto& read = reader.readNames();
     if (std::find(read.begin(), read.end(), key) == read.end())
       throw std::invalid_argument(setting + ": no such parameter (see " + o.config_path + " and " + o.simulation_path + ")");
-  }
-  for (const std::string& library : o.pipeline.strategy_choice.libraries) {
-    const auto load = gpatlas_core::loadStrategyLibrary(library);
-    if (!load.ok) throw std::invalid_argument(load.message);
   }
 }
 

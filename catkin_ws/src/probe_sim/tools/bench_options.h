@@ -2,10 +2,12 @@
 
 // gpatlas_bench's command line, and the configuration file it reads.
 
+#include <gpatlas_core/common/parameters.h>
 #include <probe_sim/pipeline_config.h>
 #include <probe_sim/reachability.h>
 #include <probe_sim/simulation_settings.h>
 
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -62,6 +64,9 @@ struct Options {
   // scene that probe_sim_node builds from the same file.
   probe_sim::PipelineConfig pipeline;
   probe_sim::SimulationSettings simulation;
+  // The whole configuration (file, overlays, --set), from which each run's strategy reads its
+  // settings when it is made (gpatlas_core::makeStrategy).
+  std::shared_ptr<const gpatlas_core::YamlParameters> settings;
 };
 
 // The options of a command line over `defaults` (which give this build's config and URDF

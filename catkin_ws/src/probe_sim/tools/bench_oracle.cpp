@@ -45,9 +45,21 @@ std::string describe(const OracleCandidate& c) {
   return out.str();
 }
 
-OracleStrategy::OracleStrategy(Config config, Probe probe, Score score, Report report)
+namespace {
+gpatlas_core::MaxVarianceStrategy maxVariance(gpatlas_core::ParamReader& settings, std::uint64_t seed) {
+  gpatlas_core::SurfaceSampler::Config sampler;
+  gpatlas_core::readSurfaceSampler(settings, &sampler);
+  gpatlas_core::EvidenceRule evidence;
+  gpatlas_core::readEvidence(settings, &evidence);
+  return gpatlas_core::MaxVarianceStrategy(sampler, evidence, seed);
+}
+}  // namespace
+
+OracleStrategy::OracleStrategy(Config config, gpatlas_core::ParamReader& settings, std::uint64_t seed, Probe probe,
+                               Score score, Report report)
     : config_(std::move(config)),
-      atlas_poke_(gpatlas_core::makeStrategy("atlas_poke", config_.strategy)),
+      atlas_poke_(gpatlas_core::makeStrategy("atlas_poke", settings, seed)),
+      max_variance_(maxVariance(settings, seed)),
       probe_(std::move(probe)),
       score_(std::move(score)),
       report_(std::move(report)) {}
@@ -71,10 +83,8 @@ std::vector<OracleCandidate> OracleStrategy::candidates(const gpatlas_core::Surf
       if (const auto direction = approachDirection(request, chart.centre, chart.normal))
         add({pokeAt(chart.centre, *direction, chart.variance), "scored"});
     }
-  const gpatlas_core::MaxVarianceStrategy max_variance(config_.strategy.sampler, config_.strategy.evidence,
-                                                      config_.strategy.seed);
   int rank = 0;
-  for (gpatlas_core::Touch& touch : max_variance.rankedPokes(model, request, config_.max_variance_candidates)) {
+  for (gpatlas_core::Touch& touch : max_variance_.rankedPokes(model, request, config_.max_variance_candidates)) {
     touch.strategy = kOracleStrategy;
     add({std::move(touch), "max_variance " + std::to_string(++rank)});
   }

@@ -11,6 +11,7 @@
 
 #include <gpatlas_core/exploration/prober.h>
 #include <gpatlas_core/planning/exploration_strategy.h>
+#include <gpatlas_core/planning/baseline_strategies.h>
 #include <gpatlas_core/planning/strategy_registry.h>
 
 #include <cmath>
@@ -51,11 +52,13 @@ class OracleStrategy : public gpatlas_core::ExplorationStrategy {
   using Probe = std::function<gpatlas_core::ProbeResult(const gpatlas_core::Touch& touch)>;
   using Report = std::function<void(const OraclePlan& plan)>;
   struct Config {
-    gpatlas_core::StrategyConfig strategy;  // atlas_poke's and max_variance's settings
     int max_variance_candidates{8};
   };
 
-  OracleStrategy(Config config, Probe probe, Score score, Report report = {});
+  // atlas_poke and max_variance read their settings from `settings` (makeStrategy); `seed` is
+  // the run's.
+  OracleStrategy(Config config, gpatlas_core::ParamReader& settings, std::uint64_t seed, Probe probe, Score score,
+                 Report report = {});
   std::string name() const override { return kOracleStrategy; }
   gpatlas_core::PlanResult plan(const gpatlas_core::SurfaceModel& model,
                                 const gpatlas_core::PlanRequest& request) const override;
@@ -72,6 +75,7 @@ class OracleStrategy : public gpatlas_core::ExplorationStrategy {
  private:
   Config config_;
   std::unique_ptr<gpatlas_core::ExplorationStrategy> atlas_poke_;
+  gpatlas_core::MaxVarianceStrategy max_variance_;
   Probe probe_;
   Score score_;
   Report report_;

@@ -386,13 +386,12 @@ void measureFinalModel(const gpatlas_core::SurfaceModel& model, const GroundTrut
 // curve's points measure it, and a line per plan.
 std::unique_ptr<gpatlas_core::ExplorationStrategy> makeOracle(std::shared_ptr<probe_sim::Scene> scene,
                                                               const GroundTruth& gt, const Options& o,
-                                                              const gpatlas_core::StrategyConfig& strategy_config,
+                                                              gpatlas_core::ParamReader& settings, std::uint64_t seed,
                                                               const std::string& label, std::mutex& print_mutex,
                                                               std::string* why) {
   std::shared_ptr<probe_sim::SimulatedProber> prober = makeProber(std::move(scene), o, why);
   if (!prober) return nullptr;
   OracleStrategy::Config config;
-  config.strategy = strategy_config;
   auto score = [&gt, &o](const gpatlas_core::SurfaceModel& model) {
     const gpatlas_geometry::ModelMeasurement measured = measure(model, gt, o, curveMesher(o), curveRequest(o));
     return measured.shape.ok ? measured.shape.f_score : std::nan("");
@@ -411,7 +410,7 @@ std::unique_ptr<gpatlas_core::ExplorationStrategy> makeOracle(std::shared_ptr<pr
     std::cout << line.str() << std::endl;
   };
   return std::make_unique<OracleStrategy>(
-      config, [prober](const gpatlas_core::Touch& touch) { return prober->probe(touch); }, score, report);
+      config, settings, seed, [prober](const gpatlas_core::Touch& touch) { return prober->probe(touch); }, score, report);
 }
 
 }  // namespace
@@ -446,12 +445,20 @@ RunResult runOne(const GroundTruth& gt, const std::string& strategy_name, int se
   if (!observeObject(*scene, gt, seed, o, print_mutex, &view, &why) || !fitInitialModel(view, pipeline, o.verbose, &model, &why))
     return failedRun(r, why);
 
-  gpatlas_core::StrategyConfig strategy_config = pipeline.strategy;
-  strategy_config.seed = static_cast<std::uint64_t>(seed);
   const std::string label = gt.name + " " + strategy_name + " seed " + std::to_string(seed);
-  const std::unique_ptr<gpatlas_core::ExplorationStrategy> strategy =
-      strategy_name == kOracleStrategy ? makeOracle(scene, gt, o, strategy_config, label, print_mutex, &why)
-                                       : gpatlas_core::makeStrategy(strategy_name, strategy_config);
+  std::unique_ptr<gpatlas_core::ExplorationStrategy> strategy;
+  {
+    // The strategy reads its settings from the configuration, whose YAML tree is not safe to
+    // read from several runs' threads at once.
+    static std::mutex settings_mutex;
+    const std::lock_guard<std::mutex> lock(settings_mutex);
+    gpatlas_core::ParamReader settings(*o.settings);
+    const auto run_seed = static_cast<std::uint64_t>(seed);
+    strategy = strategy_name == kOracleStrategy
+                   ? makeOracle(scene, gt, o, settings, run_seed, label, print_mutex, &why)
+                   : gpatlas_core::makeStrategy(strategy_name, settings, run_seed);
+    if (!settings.ok()) return failedRun(r, settings.errors());
+  }
   if (!strategy) return failedRun(r, why);
   const std::unique_ptr<probe_sim::SimulatedProber> prober = makeProber(scene, o, &why);
   if (!prober) return failedRun(r, why);

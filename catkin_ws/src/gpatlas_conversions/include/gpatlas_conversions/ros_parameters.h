@@ -4,7 +4,7 @@
 // (gpatlas_core/config/config_readers.h, probe_sim's readSimulation) read the nodes' parameters with
 // the same code that reads config/pipeline.yaml in gpatlas_bench.
 
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 
 #include <ros/node_handle.h>
 

@@ -128,14 +128,6 @@ void readTouchObservations(ParamReader& r, TouchObservationConfig* c) {
       r.number("touch/gate/max_inconsistency_sigma", c->gate.max_inconsistency_sigma, 1e-3, 1e6);
 }
 
-void readEvidence(ParamReader& r, EvidenceRule* c) {
-  c->max_distance = r.optionalNumber("evidence/max_distance", c->max_distance, 100.0);
-  c->view_max_distance = r.number("evidence/view_max_distance", c->view_max_distance, 0.0, 100.0);
-  c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
-  c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
-  c->surprise_distance_m = r.optionalNumber("evidence/surprise_distance_m", c->surprise_distance_m, 1.0);
-}
-
 void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c) {
   c->folds = r.integer("position_calibration/folds", c->folds, 0, 6);
   c->coverage = r.number("position_calibration/coverage", c->coverage, 0.01, 0.999);
@@ -160,36 +152,6 @@ void readExplorer(ParamReader& r, Explorer::Config* c) {
 void readStrategyChoice(ParamReader& r, StrategyChoice* c) {
   c->name = r.text("strategy", c->name);
   c->libraries = r.texts("strategy_libraries", c->libraries);
-}
-
-void readStrategy(ParamReader& r, StrategyConfig* c) {
-  ChartConfig& chart = c->atlas.chart;
-  chart.rho_gain = r.number("planner/rho_gain", chart.rho_gain, 1e-9, 10.0);
-  chart.rho_min_m = r.number("planner/rho_min_m", chart.rho_min_m, 1e-5, 1.0);
-  chart.rho_max_m = r.number("planner/rho_max_m", chart.rho_max_m, 1e-5, 1.0);
-  chart.candidate_density = r.number("planner/candidate_density", chart.candidate_density, 1.0, 1000.0);
-  c->atlas.depth_first_probability =
-      r.number("planner/depth_first_probability", c->atlas.depth_first_probability, 0.0, 1.0);
-  c->atlas.max_charts = r.integer("planner/max_charts", c->atlas.max_charts, 1, 1000000);
-  c->atlas.max_queries = r.integer("planner/max_queries", static_cast<int>(c->atlas.max_queries), 1, 100000000);
-  AtlasReuseConfig& reuse = c->atlas.reuse;
-  reuse.enabled = r.flag("planner/reuse/enabled", reuse.enabled);
-  reuse.near_new_data_m = r.number("planner/reuse/near_new_data_m", reuse.near_new_data_m, 0.0, 1.0);
-  c->atlas.extend_path_charts = r.integer("planner/extend_path_charts", c->atlas.extend_path_charts, 0, 1000);
-  const std::string selection = r.text("planner/selection", toString(c->atlas.selection));
-  if (!parseSelection(selection, &c->atlas.selection))
-    r.invalid("planner/selection", "'" + selection + "' is not first or best_score");
-  TouchScoreConfig& score = c->atlas.score;
-  score.max_reference_points = r.integer("score/max_reference_points", score.max_reference_points, 1, 100000);
-  score.max_candidates = r.integer("score/max_candidates", score.max_candidates, 1, 10000);
-  score.max_excess_candidates = r.integer("score/max_excess_candidates", score.max_excess_candidates, 0, score.max_candidates);
-  c->sampler.num_seeds = r.integer("planner/surface_samples", c->sampler.num_seeds, 1, 1000000);
-  FrontierStrategy::Config& frontier = c->frontier;
-  frontier.cell_m = r.number("frontier/cell_m", frontier.cell_m, 1e-3, 0.1);
-  // Beyond the fixed min_gap_m, nearer than which the atlas's own touches measure.
-  frontier.reach_m = r.number("frontier/reach_m", frontier.reach_m, std::nextafter(frontier.min_gap_m, 1.0), 1.0);
-  frontier.max_empty_pokes = r.integer("frontier/max_empty_pokes", frontier.max_empty_pokes, 0, 1000);
-  c->seed = readSeed(r, c->seed);
 }
 
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c) {

@@ -736,12 +736,19 @@ bool GpisModel::isFitted() const { return impl_->fitted; }
 const GpisModel::Config& GpisModel::config() const { return impl_->config; }
 const std::vector<TrainingPoint>& GpisModel::observations() const { return impl_->observations; }
 std::size_t GpisModel::size() const { return static_cast<std::size_t>(impl_->n); }
-const Vector3& GpisModel::centroid() const { return impl_->centroid; }
-double GpisModel::scale() const { return impl_->scale; }
+ModelFrame GpisModel::frame() const {
+  const Impl& m = *impl_;
+  ModelFrame f;
+  f.centroid = m.centroid;
+  f.scale = m.scale;
+  f.domain_radius_m = m.config.domain_radius * m.scale;
+  f.data_radius_m = m.config.data_radius * m.scale;
+  // A raw posterior variance times this is in the reported units.
+  f.variance_unit_factor = m.varianceUnitFactor();
+  return f;
+}
 Vector3 GpisModel::toNormalised(const Vector3& x_world) const { return impl_->normalise(x_world); }
 Vector3 GpisModel::toWorld(const Vector3& x_normalised) const { return impl_->centroid + impl_->scale * x_normalised; }
-double GpisModel::domainRadiusWorld() const { return impl_->config.domain_radius * impl_->scale; }
-double GpisModel::dataRadiusWorld() const { return impl_->config.data_radius * impl_->scale; }
 
 std::unique_ptr<SurfaceModel> GpisModel::clone() const { return std::make_unique<GpisModel>(*this); }
 
@@ -793,7 +800,6 @@ FitReport GpisModel::restore(const SurfaceModelState& state) {
 }
 
 const Kernel& GpisModel::kernel() const { return *impl_->kernel; }
-double GpisModel::varianceUnitFactor() const { return impl_->varianceUnitFactor(); }
 
 BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradient,
                                         bool with_variance_gradient, bool with_variance) const {

@@ -934,11 +934,7 @@ FitReport MultiscaleGpisModel::addPoints(const std::vector<TrainingPoint>& point
 
 bool MultiscaleGpisModel::isFitted() const { return impl_->fitted; }
 const std::vector<TrainingPoint>& MultiscaleGpisModel::observations() const { return impl_->observations; }
-const Vector3& MultiscaleGpisModel::centroid() const { return impl_->coarse.centroid(); }
-double MultiscaleGpisModel::scale() const { return impl_->coarse.scale(); }
-double MultiscaleGpisModel::domainRadiusWorld() const { return impl_->coarse.domainRadiusWorld(); }
-double MultiscaleGpisModel::dataRadiusWorld() const { return impl_->coarse.dataRadiusWorld(); }
-double MultiscaleGpisModel::varianceUnitFactor() const { return impl_->coarse.varianceUnitFactor(); }
+ModelFrame MultiscaleGpisModel::frame() const { return impl_->coarse.frame(); }
 const MultiscaleGpisModel::Config& MultiscaleGpisModel::config() const { return impl_->config; }
 const GpisModel& MultiscaleGpisModel::coarseModel() const { return impl_->coarse; }
 std::size_t MultiscaleGpisModel::numCells() const { return impl_->cells.size(); }

@@ -12,7 +12,9 @@ double SurfaceModel::variance(const Vector3& x_world) const {
 }
 
 bool SurfaceModel::inDomain(const Vector3& x_world) const {
-  return isFitted() && (x_world - centroid()).norm() <= domainRadiusWorld();
+  if (!isFitted()) return false;
+  const ModelFrame f = frame();
+  return (x_world - f.centroid).norm() <= f.domain_radius_m;
 }
 
 Prediction SurfaceModel::predict(const Vector3& x_world) const {
@@ -66,8 +68,9 @@ SurfaceModelState SurfaceModel::state() const {
   s.model = name();
   const Eigen::VectorXd params = hyperparameters();
   s.hyperparameters.assign(params.data(), params.data() + params.size());
-  s.centroid = centroid();
-  s.scale = scale();
+  const ModelFrame f = frame();
+  s.centroid = f.centroid;
+  s.scale = f.scale;
   s.observations = observations();
   s.position_sd_scale = positionSdScale();
   return s;

@@ -101,6 +101,14 @@ void SurfaceEvidence::forEachCandidate(const Vector3& x, Visit visit) const {
       }
 }
 
+void readEvidence(ParamReader& r, EvidenceRule* c) {
+  c->max_distance = r.optionalNumber("evidence/max_distance", c->max_distance, 100.0);
+  c->view_max_distance = r.number("evidence/view_max_distance", c->view_max_distance, 0.0, 100.0);
+  c->approach_distance_m = r.number("evidence/approach_distance_m", c->approach_distance_m, 0.0, 10.0);
+  c->retouch_radius_m = r.number("evidence/retouch_radius_m", c->retouch_radius_m, 0.0, 1.0);
+  c->surprise_distance_m = r.optionalNumber("evidence/surprise_distance_m", c->surprise_distance_m, 1.0);
+}
+
 std::string validate(const EvidenceRule& rule) {
   if (!(rule.retouch_radius_m >= 0.0) || !std::isfinite(rule.retouch_radius_m))
     return "retouch_radius_m must be finite and >= 0";

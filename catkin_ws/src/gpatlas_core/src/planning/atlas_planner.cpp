@@ -44,6 +44,30 @@ std::string validate(const AtlasPlanner::Config& config) {
   return problem.str();
 }
 
+void readAtlasPlanner(ParamReader& r, AtlasPlanner::Config* c) {
+  ChartConfig& chart = c->chart;
+  chart.rho_gain = r.number("planner/rho_gain", chart.rho_gain, 1e-9, 10.0);
+  chart.rho_min_m = r.number("planner/rho_min_m", chart.rho_min_m, 1e-5, 1.0);
+  chart.rho_max_m = r.number("planner/rho_max_m", chart.rho_max_m, 1e-5, 1.0);
+  chart.candidate_density = r.number("planner/candidate_density", chart.candidate_density, 1.0, 1000.0);
+  c->depth_first_probability =
+      r.number("planner/depth_first_probability", c->depth_first_probability, 0.0, 1.0);
+  c->max_charts = r.integer("planner/max_charts", c->max_charts, 1, 1000000);
+  c->max_queries = r.integer("planner/max_queries", static_cast<int>(c->max_queries), 1, 100000000);
+  AtlasReuseConfig& reuse = c->reuse;
+  reuse.enabled = r.flag("planner/reuse/enabled", reuse.enabled);
+  reuse.near_new_data_m = r.number("planner/reuse/near_new_data_m", reuse.near_new_data_m, 0.0, 1.0);
+  c->extend_path_charts = r.integer("planner/extend_path_charts", c->extend_path_charts, 0, 1000);
+  const std::string selection = r.text("planner/selection", toString(c->selection));
+  if (!parseSelection(selection, &c->selection))
+    r.invalid("planner/selection", "'" + selection + "' is not first or best_score");
+  TouchScoreConfig& score = c->score;
+  score.max_reference_points = r.integer("score/max_reference_points", score.max_reference_points, 1, 100000);
+  score.max_candidates = r.integer("score/max_candidates", score.max_candidates, 1, 10000);
+  score.max_excess_candidates = r.integer("score/max_excess_candidates", score.max_excess_candidates, 0, score.max_candidates);
+  readEvidence(r, &c->evidence);
+}
+
 bool parseSelection(const std::string& name, AtlasPlanner::Config::Selection* selection) {
   if (name == "first") *selection = AtlasPlanner::Config::Selection::kFirst;
   else if (name == "best_score") *selection = AtlasPlanner::Config::Selection::kBestScore;
@@ -646,7 +670,7 @@ AtlasPlanResult AtlasPlanner::grow(const SurfaceModel& model, const StopRule& ru
   if (const std::string problem = validate(config_); !problem.empty())
     return finish(PlanStatus::kError, "invalid planner config: " + problem);
 
-  std::mt19937_64 rng(config_.seed);
+  std::mt19937_64 rng(seed_);
   const SurfaceEvidence evidence(model, config_.evidence, evidence_state);
   AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, result);
   int continuation = 0;

@@ -10,16 +10,17 @@ std::string AtlasStrategy::name() const { return mode_ == Mode::kPoke ? "atlas_p
 PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   if (auto error = checkPlanInput(model, request)) return *error;
   AtlasPlanner::Config config = config_;
-  config.seed = mixSeeds(seed_, request.seed);
   // A slide runs from the known surface to the first chart that needs a touch and on into the
   // unknown (extend_path_charts): Algorithm 1's path. A best-scoring atlas covers the surface,
   // so its charts leave the extension no room to grow.
   if (mode_ == Mode::kSlide) config.selection = AtlasPlanner::Config::Selection::kFirst;
+  // A poke touches the path's last chart: the first that needs a touch (or the best-scoring).
+  if (mode_ == Mode::kPoke) config.extend_path_charts = 0;
   // The pad's aim past the edge of the supported surface is for the first chart, which lies at
   // that edge; the best-scoring chart lies wherever its touch removes the most error.
   if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
     config.aim_past_m = request.footprint_radius_m;
-  const AtlasPlanner planner(config);
+  const AtlasPlanner planner(config, mixSeeds(seed_, request.seed));
   const auto planWith = [&](AtlasMemory* memory) {
     return planner.plan(model, request.stopRule(), request.start, {}, request.reachable, request.evidence_state,
                         request.touch_observations, memory);

@@ -16,6 +16,12 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// A plan's surface sample: the baselines' own stream of the run's seed, varied by the plan's.
+std::uint64_t sampleSeed(std::uint64_t run_seed, const PlanRequest& request) {
+  constexpr std::uint64_t kSampleStream = 7;
+  return mixSeeds(mixSeeds(run_seed, kSampleStream), request.seed);
+}
+
 // A sampled surface and, per point, whether it needs a touch: above the StopRule or no
 // measured surface point within the rule's evidence distance, and no measurement or earlier
 // touch's target right there (EvidenceRule::retouch_radius_m): a touch would find what was found.
@@ -39,7 +45,7 @@ struct NeedySample {
 // Samples the surface and handles the shared outcomes: errors and the convergence rule.
 // Returns nullopt when a touch must be chosen from `needy`.
 std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRequest& request,
-                                         SurfaceSampler::Config config, const EvidenceRule& rule, std::uint64_t seed,
+                                         const SurfaceSampler::Config& config, const EvidenceRule& rule, std::uint64_t seed,
                                          NeedySample* needy) {
   if (auto error = checkPlanInput(model, request)) return error;
   if (std::string problem = validate(rule); !problem.empty()) {
@@ -48,8 +54,7 @@ std::optional<PlanResult> sampleOrFinish(const SurfaceModel& model, const PlanRe
     error.message = problem;
     return error;
   }
-  config.seed = seed;
-  needy->sample = SurfaceSampler(config).sample(model);
+  needy->sample = SurfaceSampler(config).sample(model, seed);
   PlanResult result;
   if (!needy->sample.ok) {
     result.status = PlanStatus::kError;
@@ -160,7 +165,7 @@ RandomStrategy::RandomStrategy(SurfaceSampler::Config config, EvidenceRule evide
     : config_(std::move(config)), evidence_(std::move(evidence)), seed_(seed) {}
 
 PlanResult RandomStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
-  return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+  return planOnSample(model, request, config_, evidence_, sampleSeed(seed_, request), name(),
                       [](const NeedySample& needy, const PlanRequest&, std::uint64_t seed) {
                         // Every sampled point, in random order.
                         std::vector<std::size_t> order(needy.sample.points.size());
@@ -175,7 +180,7 @@ MaxVarianceStrategy::MaxVarianceStrategy(SurfaceSampler::Config config, Evidence
     : config_(std::move(config)), evidence_(std::move(evidence)), seed_(seed) {}
 
 PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
-  return planOnSample(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), name(),
+  return planOnSample(model, request, config_, evidence_, sampleSeed(seed_, request), name(),
                       [&model](const NeedySample& needy, const PlanRequest& request, std::uint64_t) {
                         return rankByExcess(needy, model, request.stopRule());
                       });
@@ -184,7 +189,7 @@ PlanResult MaxVarianceStrategy::plan(const SurfaceModel& model, const PlanReques
 std::vector<Touch> MaxVarianceStrategy::rankedPokes(const SurfaceModel& model, const PlanRequest& request,
                                                     int count) const {
   NeedySample needy;
-  if (sampleOrFinish(model, request, config_, evidence_, mixSeeds(mixSeeds(seed_, config_.seed), request.seed), &needy))
+  if (sampleOrFinish(model, request, config_, evidence_, sampleSeed(seed_, request), &needy))
     return {};
   const std::vector<std::size_t> ranked = rankByExcess(needy, model, request.stopRule());
   std::vector<Touch> pokes;

@@ -247,8 +247,15 @@ std::string validate(const FrontierStrategy::Config& c) {
   return problem.str();
 }
 
-FrontierStrategy::FrontierStrategy(Config config, std::uint64_t seed)
-    : config_(std::move(config)), poke_(AtlasStrategy::Mode::kPoke, config_.atlas, seed) {
+void readFrontier(ParamReader& r, FrontierStrategy::Config* c) {
+  c->cell_m = r.number("frontier/cell_m", c->cell_m, 1e-3, 0.1);
+  // Beyond the fixed min_gap_m, nearer than which the atlas's own touches measure.
+  c->reach_m = r.number("frontier/reach_m", c->reach_m, std::nextafter(c->min_gap_m, 1.0), 1.0);
+  c->max_empty_pokes = r.integer("frontier/max_empty_pokes", c->max_empty_pokes, 0, 1000);
+}
+
+FrontierStrategy::FrontierStrategy(Config config, AtlasPlanner::Config atlas, std::uint64_t seed)
+    : config_(std::move(config)), poke_(AtlasStrategy::Mode::kPoke, std::move(atlas), seed) {
   if (const std::string problem = validate(config_); !problem.empty())
     throw std::invalid_argument("atlas_frontier: " + problem);
 }

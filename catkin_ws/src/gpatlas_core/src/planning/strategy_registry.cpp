@@ -3,6 +3,7 @@
 #include "gpatlas_core/common/named_factories.h"
 #include "gpatlas_core/planning/atlas_strategy.h"
 #include "gpatlas_core/planning/baseline_strategies.h"
+#include "gpatlas_core/planning/frontier_strategy.h"
 
 #include <stdexcept>
 
@@ -10,47 +11,72 @@ namespace gpatlas_core {
 
 namespace {
 
-// atlas_poke's planner, also atlas_frontier's: a poke touches the first chart that needs one.
-AtlasPlanner::Config pokeAtlas(const StrategyConfig& c) {
-  AtlasPlanner::Config atlas = c.atlas;
-  atlas.extend_path_charts = 0;
-  atlas.evidence = c.evidence;
+AtlasPlanner::Config atlasPlannerSettings(ParamReader& settings) {
+  AtlasPlanner::Config atlas;
+  readAtlasPlanner(settings, &atlas);
   return atlas;
+}
+
+StrategyFactory atlasFactory(AtlasStrategy::Mode mode) {
+  return [mode](ParamReader& settings, std::uint64_t seed) {
+    return std::make_unique<AtlasStrategy>(mode, atlasPlannerSettings(settings), seed);
+  };
+}
+
+template <typename Baseline>
+StrategyFactory baselineFactory() {
+  return [](ParamReader& settings, std::uint64_t seed) {
+    SurfaceSampler::Config sampler;
+    readSurfaceSampler(settings, &sampler);
+    EvidenceRule evidence;
+    readEvidence(settings, &evidence);
+    return std::make_unique<Baseline>(sampler, evidence, seed);
+  };
 }
 
 NamedFactories<StrategyFactory>& registry() {
   static NamedFactories<StrategyFactory> instance({
-      {"atlas_poke",
-       [](const StrategyConfig& c) {
-         return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kPoke, pokeAtlas(c), c.seed);
-       }},
-      {"atlas_slide",
-       [](const StrategyConfig& c) {
-         AtlasPlanner::Config atlas = c.atlas;
-         atlas.evidence = c.evidence;
-         return std::make_unique<AtlasStrategy>(AtlasStrategy::Mode::kSlide, atlas, c.seed);
-       }},
+      {"atlas_poke", atlasFactory(AtlasStrategy::Mode::kPoke)},
+      {"atlas_slide", atlasFactory(AtlasStrategy::Mode::kSlide)},
       {"atlas_frontier",
-       [](const StrategyConfig& c) {
-         FrontierStrategy::Config frontier = c.frontier;
-         frontier.atlas = pokeAtlas(c);
-         return std::make_unique<FrontierStrategy>(frontier, c.seed);
+       [](ParamReader& settings, std::uint64_t seed) {
+         FrontierStrategy::Config frontier;
+         readFrontier(settings, &frontier);
+         return std::make_unique<FrontierStrategy>(frontier, atlasPlannerSettings(settings), seed);
        }},
-      {"random",
-       [](const StrategyConfig& c) { return std::make_unique<RandomStrategy>(c.sampler, c.evidence, c.seed); }},
-      {"max_variance",
-       [](const StrategyConfig& c) { return std::make_unique<MaxVarianceStrategy>(c.sampler, c.evidence, c.seed); }},
+      {"random", baselineFactory<RandomStrategy>()},
+      {"max_variance", baselineFactory<MaxVarianceStrategy>()},
   });
   return instance;
 }
 
+// No settings: every reader keeps its Config's defaults.
+class NoParameters : public ParameterSource {
+ public:
+  bool exists(const std::string&) const override { return false; }
+  std::optional<double> number(const std::string&) const override { return std::nullopt; }
+  std::optional<int> integer(const std::string&) const override { return std::nullopt; }
+  std::optional<bool> flag(const std::string&) const override { return std::nullopt; }
+  std::optional<std::string> text(const std::string&) const override { return std::nullopt; }
+  std::optional<std::vector<double>> numbers(const std::string&) const override { return std::nullopt; }
+  std::optional<std::vector<std::string>> texts(const std::string&) const override { return std::nullopt; }
+};
+
 }  // namespace
 
-std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name, const StrategyConfig& config) {
+std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name, ParamReader& settings, std::uint64_t seed,
+                                                  const std::string& ns) {
   const StrategyFactory factory = registry().find(name);
   if (!factory)
     throw std::invalid_argument("unknown exploration strategy '" + name + "'; known: " + registry().namesJoined());
-  return factory(config);
+  const ParamReader::Scope section(settings, ns);
+  return factory(settings, seed);
+}
+
+std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name, std::uint64_t seed) {
+  const NoParameters none;
+  ParamReader defaults(none);
+  return makeStrategy(name, defaults, seed);
 }
 
 bool registerStrategy(const std::string& name, StrategyFactory factory) { return registry().add(name, std::move(factory)); }

@@ -10,7 +10,7 @@ double SurfaceSample::maxVariance() const {
   return variances.empty() ? 0.0 : *std::max_element(variances.begin(), variances.end());
 }
 
-SurfaceSample SurfaceSampler::sample(const SurfaceModel& model) const {
+SurfaceSample SurfaceSampler::sample(const SurfaceModel& model, std::uint64_t seed) const {
   SurfaceSample result;
   if (!model.isFitted()) {
     result.message = "no model: the GP is not fitted";
@@ -25,7 +25,7 @@ SurfaceSample SurfaceSampler::sample(const SurfaceModel& model) const {
     result.message = "the model's domain is degenerate";
     return result;
   }
-  std::mt19937_64 rng(config_.seed);
+  std::mt19937_64 rng(seed);
   std::normal_distribution<double> gaussian(0.0, 1.0);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   Points3 seeds(3, config_.num_seeds);
@@ -48,6 +48,10 @@ SurfaceSample SurfaceSampler::sample(const SurfaceModel& model) const {
   }
   result.ok = true;
   return result;
+}
+
+void readSurfaceSampler(ParamReader& r, SurfaceSampler::Config* c) {
+  c->num_seeds = r.integer("planner/surface_samples", c->num_seeds, 1, 1000000);
 }
 
 }  // namespace gpatlas_core

@@ -2,7 +2,7 @@
 
 // The readers of the geometry package's Configs (config/pipeline.yaml's mesh/ and segmentation/).
 
-#include "gpatlas_core/config/parameters.h"
+#include "gpatlas_core/common/parameters.h"
 #include "gpatlas_geometry/segmentation.h"
 #include "gpatlas_geometry/surface_mesher.h"
 

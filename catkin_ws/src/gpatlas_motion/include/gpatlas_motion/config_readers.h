@@ -6,7 +6,7 @@
 #include "gpatlas_motion/approach_config.h"
 #include "gpatlas_motion/scene_map.h"
 
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 
 namespace gpatlas_motion {
 

@@ -52,7 +52,10 @@ class AtlasPlannerServer {
   // After a reset (an empty training set), with mutex_ held: no atlas (DELETEALL markers, no
   // charts) and no touch, so that a late subscriber sees no plan on the model that is gone.
   void publishNoPlan(const std_msgs::Header& header);
-  const gpatlas_core::ExplorationStrategy* strategy(const std::string& name, std::string* error);
+  // The strategy of that name, made on first use; it reads its settings with `settings` (the
+  // start-up's reader) or, without, a reader of its own.
+  const gpatlas_core::ExplorationStrategy* strategy(const std::string& name, std::string* error,
+                                                    gpatlas_core::ParamReader* settings = nullptr);
 
   ros::NodeHandle nh_, pnh_;
   std::string world_frame_;
@@ -60,7 +63,7 @@ class AtlasPlannerServer {
   double default_v_max_{0.1};
   std::optional<double> default_max_position_sd_m_;
   gpatlas_core::SurfaceModelConfig model_config_;
-  gpatlas_core::StrategyConfig strategy_config_;  // with the evidence rule of every plan
+  std::uint64_t seed_{0};  // the run's: every strategy's (readSeed)
   gpatlas_core::TouchObservationConfig touch_config_;  // touch/, as the GP nodelet reads it: the score's fantasy touches
   void onSupportPlane(const gpatlas_msgs::SupportPlane::ConstPtr& msg);
   double tf_timeout_s_{0.5};

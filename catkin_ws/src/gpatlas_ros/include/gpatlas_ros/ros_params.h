@@ -7,7 +7,7 @@
 // (with the parameter's full name) into one error message.
 
 #include <gpatlas_core/config/config_readers.h>
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 #include <gpatlas_conversions/ros_parameters.h>
 #include <gpatlas_geometry/config_readers.h>
 #include <gpatlas_motion/config_readers.h>
@@ -30,7 +30,6 @@ using gpatlas_geometry::readMesher;
 using gpatlas_motion::readApproach;
 using gpatlas_core::readSeed;
 using gpatlas_geometry::readSegmenter;
-using gpatlas_core::readStrategy;
 using gpatlas_core::readStrategyChoice;
 using gpatlas_core::readTouchObservations;
 using gpatlas_core::readPositionCalibration;

@@ -30,14 +30,13 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   model_config_ = preamble.model;
   default_v_max_ = readVMax(reader);
   default_max_position_sd_m_ = readMaxPositionSd(reader);
-  readEvidence(reader, &strategy_config_.evidence);
-  readStrategy(reader, &strategy_config_);
+  seed_ = preamble.seed;
   readTouchObservations(reader, &touch_config_);
   readApproach(reader, &approach_config_);
   approach_arm_ = loadApproachArm(nh_, approach_config_, &approach_arm_error_);
   if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("atlas_planner: approach/use_arm: " << approach_arm_error_);
   std::string error;
-  if (!strategy(default_strategy_, &error)) reader.invalid("strategy", error);
+  if (!strategy(default_strategy_, &error, &reader)) reader.invalid("strategy", error);
   reader.report("atlas_planner");
 
   atlas_marker_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("atlas", 1, true);
@@ -52,11 +51,19 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
                                              << next_touch_srv_.getService());
 }
 
-const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std::string& name, std::string* error) {
+const gpatlas_core::ExplorationStrategy* AtlasPlannerServer::strategy(const std::string& name, std::string* error,
+                                                                      gpatlas_core::ParamReader* settings) {
   auto it = strategies_.find(name);
   if (it != strategies_.end()) return it->second.get();
   try {
-    auto created = gpatlas_core::makeStrategy(name, strategy_config_);
+    // The strategy reads its settings from the node's parameters (strategy_library.h): the
+    // default one with the node's other settings at start-up, another when it is first asked
+    // for, its problems logged here.
+    std::optional<RosParamReader> own;
+    if (!settings) settings = &own.emplace(pnh_);
+    auto created = gpatlas_core::makeStrategy(name, *settings, seed_);
+    if (own && !own->ok())
+      ROS_ERROR_STREAM("atlas_planner: strategy " << name << ": invalid parameters, defaults used instead: " << own->errors());
     const auto* raw = created.get();
     strategies_.emplace(name, std::move(created));
     return raw;

@@ -19,7 +19,12 @@ struct PipelineConfig {
   gpatlas_core::TouchObservationConfig touch;
   gpatlas_core::Explorer::Config exploration;
   gpatlas_core::StrategyChoice strategy_choice;
-  gpatlas_core::StrategyConfig strategy;
+  // The built-in strategies' settings (planner/, score/, evidence/; planner/surface_samples;
+  // frontier/), read here to check the file: a strategy reads its own from the same keys when a
+  // run makes it (gpatlas_core::makeStrategy), and none is handed on.
+  gpatlas_core::AtlasPlanner::Config atlas;
+  gpatlas_core::SurfaceSampler::Config sampler;
+  gpatlas_core::FrontierStrategy::Config frontier;
   gpatlas_geometry::SurfaceMesher::Config mesh;
   gpatlas_core::CollisionMapConfig collision_map;
   gpatlas_motion::SceneMapConfig scene_map;  // collision_map/scene_*: the camera's scene in the collision map, the bench's too

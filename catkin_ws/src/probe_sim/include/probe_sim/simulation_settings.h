@@ -6,7 +6,7 @@
 #include "probe_sim/scene.h"
 
 #include <gpatlas_motion/approach_config.h>
-#include <gpatlas_core/config/parameters.h>
+#include <gpatlas_core/common/parameters.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>

@@ -2,16 +2,22 @@
 
 // The one reader of each Config. The YAML (config/pipeline.yaml) mirrors them: each reader reads
 // its Config's section, and a test checks that the file sets every name the readers read and
-// nothing else. A Config field no reader reads is a constant of its component's design (tests
-// vary it), not a setting: a grid's cell count, a sampling fraction, a guess's noise. The
-// nodelets read them from the ROS parameter server, gpatlas_bench from the file itself.
+// nothing else. The strategies' Configs have their readers beside them (readAtlasPlanner,
+// readSurfaceSampler, readFrontier, readEvidence): a strategy reads its own settings when the
+// registry makes it (strategy_registry.h). A Config field no reader reads is a constant of its
+// component's design (tests vary it), not a setting: a grid's cell count, a sampling fraction, a
+// guess's noise. The nodelets read them from the ROS parameter server, gpatlas_bench from the
+// file itself.
 
+#include "gpatlas_core/planning/atlas_planner.h"
+#include "gpatlas_core/planning/frontier_strategy.h"
 #include "gpatlas_core/planning/strategy_registry.h"
+#include "gpatlas_core/planning/surface_sampler.h"
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/model/surface_model_factory.h"
 #include "gpatlas_core/model/occupancy_grid.h"
 #include "gpatlas_core/model/position_uncertainty.h"
-#include "gpatlas_core/config/parameters.h"
+#include "gpatlas_core/common/parameters.h"
 #include "gpatlas_core/observations/surface_evidence.h"
 #include "gpatlas_core/observations/view_training.h"
 
@@ -56,7 +62,6 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
 // in it, the evidence rule's approach test).
 bool readUseSupportPlane(ParamReader& r);
 void readTouchObservations(ParamReader& r, TouchObservationConfig* c);
-void readEvidence(ParamReader& r, EvidenceRule* c);
 void readExplorer(ParamReader& r, Explorer::Config* c);
 // The variance threshold V_max (exploration/v_max), for the loop (readExplorer) and for whoever
 // else needs it alone (the planner's default, the displayed colour scale).
@@ -65,7 +70,6 @@ double readVMax(ParamReader& r, double fallback = Explorer::Config().v_max);
 std::optional<double> readMaxPositionSd(ParamReader& r,
                                         std::optional<double> fallback = Explorer::Config().max_position_sd_m);
 void readStrategyChoice(ParamReader& r, StrategyChoice* c);
-void readStrategy(ParamReader& r, StrategyConfig* c);
 void readCollisionMap(ParamReader& r, CollisionMapConfig* c);
 
 }  // namespace gpatlas_core

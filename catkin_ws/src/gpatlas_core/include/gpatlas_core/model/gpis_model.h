@@ -136,14 +136,11 @@ class GpisModel : public SurfaceModel {
   // Size of the GP's training set, pseudo-points included.
   std::size_t size() const;
 
-  // Normalisation: x_normalised = (x_world - centroid) / scale.
-  const Vector3& centroid() const override;
-  double scale() const override;
+  // Normalisation: x_normalised = (x_world - centroid) / scale; the domain and data radii are
+  // Config's, times the scale.
+  ModelFrame frame() const override;
   Vector3 toNormalised(const Vector3& x_world) const;
   Vector3 toWorld(const Vector3& x_normalised) const;
-  // Centre and radius (metres) of the ball in which the model is valid.
-  double domainRadiusWorld() const override;
-  double dataRadiusWorld() const override;
 
   // One matrix solve for the whole batch. Gradients are computed only when asked for; without
   // `with_variance` (and without the variance gradient) the O(n^2) per point solve is skipped
@@ -170,8 +167,6 @@ class GpisModel : public SurfaceModel {
   FitReport restore(const SurfaceModelState& state) override;
   // Log marginal likelihood of the current fit (normalised frame).
   double logMarginalLikelihood() const;
-  // Factor turning a raw posterior variance into the reported units.
-  double varianceUnitFactor() const override;
 
 
  private:

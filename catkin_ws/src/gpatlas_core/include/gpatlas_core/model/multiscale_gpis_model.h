@@ -114,11 +114,7 @@ class MultiscaleGpisModel : public SurfaceModel {
   bool isFitted() const override;
   const std::vector<TrainingPoint>& observations() const override;
 
-  const Vector3& centroid() const override;
-  double scale() const override;
-  double domainRadiusWorld() const override;
-  double dataRadiusWorld() const override;
-  double varianceUnitFactor() const override;
+  ModelFrame frame() const override;  // the coarse level's
 
   BatchPrediction predictBatch(const Points3& x_world, bool with_gradient = true, bool with_variance_gradient = true,
                                bool with_variance = true) const override;

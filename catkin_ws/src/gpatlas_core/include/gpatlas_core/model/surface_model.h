@@ -55,6 +55,17 @@ struct TuneReport {
   double seconds{0.0};
 };
 
+// What every query of a model is relative to (SurfaceModel::frame()): its normalisation frame,
+// x_normalised = (x_world - centroid) / scale, the balls of its domain and of its data, and the
+// unit of its reported variance.
+struct ModelFrame {
+  Vector3 centroid{Vector3::Zero()};
+  double scale{1.0};
+  double domain_radius_m{0.0};  // queries are valid within this ball around the centroid
+  double data_radius_m{0.0};    // the ball around the centroid that holds the surface data
+  double variance_unit_factor{1.0};  // reported variance = variance of f * this
+};
+
 // Everything a replica needs to rebuild a model exactly (gpatlas_msgs/TrainingSet carries it
 // between nodelets): which model, its hyperparameters, its normalisation frame and its data.
 struct SurfaceModelState {
@@ -109,16 +120,17 @@ class SurfaceModel {
   // Observations in world coordinates (no pseudo-points), in the order they were accepted.
   virtual const std::vector<TrainingPoint>& observations() const = 0;
 
-  // ---- frame
-  virtual const Vector3& centroid() const = 0;
-  virtual double scale() const = 0;
+  // ---- frame: the model's answer, and what follows from it alike for every model
+  virtual ModelFrame frame() const = 0;
+  Vector3 centroid() const { return frame().centroid; }
+  double scale() const { return frame().scale; }
   // Queries are valid within the ball of domainRadiusWorld() (metres) around centroid(), once fitted.
   bool inDomain(const Vector3& x_world) const;
-  virtual double domainRadiusWorld() const = 0;
+  double domainRadiusWorld() const { return frame().domain_radius_m; }
   // Radius (metres) of the ball around centroid() that holds the surface data.
-  virtual double dataRadiusWorld() const = 0;
+  double dataRadiusWorld() const { return frame().data_radius_m; }
   // Reported variance = variance of f * this factor (the collision map needs the variance of f).
-  virtual double varianceUnitFactor() const = 0;
+  double varianceUnitFactor() const { return frame().variance_unit_factor; }
 
   // ---- queries (world coordinates; throw std::logic_error before the first fit)
   // predictBatch of one point, with gradients and variance.

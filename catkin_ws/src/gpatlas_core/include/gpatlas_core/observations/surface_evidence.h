@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_core/common/parameters.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/common/types.h"
 #include "gpatlas_core/observations/support_plane.h"
@@ -15,8 +16,8 @@
 namespace gpatlas_core {
 
 // The evidence test's settings: config/pipeline.yaml's evidence/ section (readEvidence). Every
-// strategy holds them (StrategyConfig::evidence); what the run has learnt that the test also
-// reads (EvidenceState) comes with each plan.
+// strategy reads them from that section when it is made; what the run has learnt that the test
+// also reads (EvidenceState) comes with each plan.
 struct EvidenceRule {
   // A predicted surface point farther than this (normalised units: the initial view's radius
   // is 1) from every measured surface point needs a touch whatever its variance. Empty: V_max
@@ -49,6 +50,8 @@ struct EvidenceRule {
 
 // Empty when the rule is usable; otherwise what is wrong with it.
 std::string validate(const EvidenceRule& rule);
+// Its reader: evidence/, read alike by every component that tests evidence.
+void readEvidence(ParamReader& r, EvidenceRule* c);
 
 // What a run has learnt that the evidence test reads besides the model's measurements: the
 // table under the object (the planner's own knowledge, from segmentation) and where earlier

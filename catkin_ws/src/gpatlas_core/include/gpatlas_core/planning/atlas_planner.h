@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_core/common/parameters.h"
 #include "gpatlas_core/planning/atlas.h"
 #include "gpatlas_core/planning/chart.h"
 #include "gpatlas_core/model/surface_model.h"
@@ -139,8 +140,9 @@ class AtlasPlanner {
     // Once a chart above V_max is found, extend the path from it by up to this many charts,
     // each grown toward the highest-variance candidate of the previous one: a slide then runs
     // on into the unknown instead of stopping at its edge, up to the first chart plan()'s
-    // `reachable` refuses. 0: Algorithm 1 verbatim.
-    int extend_path_charts{0};
+    // `reachable` refuses. 0: Algorithm 1 verbatim, which atlas_poke always plans with (a poke
+    // touches the path's last chart: AtlasStrategy).
+    int extend_path_charts{20};
     // The first chart that needs a touch lies where the supported surface ends. A probe with a
     // footprint (a tactile pad) centred there spends half of it on surface already measured, so
     // past that chart the path goes on toward the highest variance, chart by chart while each
@@ -150,7 +152,7 @@ class AtlasPlanner {
     double aim_past_m{0.0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
     // charts are kept small enough that none hides such a point (no max_distance: variance
-    // alone, Algorithm 1). The atlas strategies take it from StrategyConfig::evidence.
+    // alone, Algorithm 1). Read from evidence/, as every strategy's.
     EvidenceRule evidence;
     // Which chart that needs a touch is touched. kFirst: the first one the growth finds, where
     // it stops (Algorithm 1 verbatim). kBestScore: the atlas grows over the whole predicted
@@ -161,13 +163,16 @@ class AtlasPlanner {
     enum class Selection { kFirst, kBestScore };
     Selection selection{Selection::kBestScore};
     TouchScoreConfig score;
-    std::uint64_t seed{1};
   };
   // Called after each chart is added (for progress displays); may be empty.
   using Progress = std::function<void(const Atlas& atlas)>;
 
+  // `seed`: the plan's random choices (the root, SELECTCHART, the score's samples). A strategy
+  // makes a planner per plan with the seed it derives from the run's and the plan's;
+  // kUnseeded is that of a plan made outside a run.
+  static constexpr std::uint64_t kUnseeded = 1;
   AtlasPlanner() = default;
-  explicit AtlasPlanner(Config config) : config_(std::move(config)) {}
+  explicit AtlasPlanner(Config config, std::uint64_t seed = kUnseeded) : config_(std::move(config)), seed_(seed) {}
   const Config& config() const { return config_; }
 
   // `start`: a point near the surface (e.g. the probe's position); without it the root is a
@@ -192,9 +197,13 @@ class AtlasPlanner {
                        const TouchObservationConfig& touch, AtlasMemory* memory, bool reuse) const;
 
   Config config_;
+  std::uint64_t seed_{kUnseeded};
 };
 
 std::string validate(const AtlasPlanner::Config& config);
+// Its reader: planner/ (but planner/surface_samples, the baselines'), score/ and evidence/, which
+// every atlas strategy reads alike when it is made (strategy_registry.h).
+void readAtlasPlanner(ParamReader& r, AtlasPlanner::Config* c);
 // "first" or "best_score"; false for another name.
 bool parseSelection(const std::string& name, AtlasPlanner::Config::Selection* selection);
 const char* toString(AtlasPlanner::Config::Selection selection);

@@ -21,14 +21,14 @@ struct PlanRequest {
   // The stop rule in metres as well as V_max (StopRule); empty: V_max alone.
   std::optional<double> max_position_sd_m;
   StopRule stopRule() const { return StopRule{v_max, max_position_sd_m}; }
-  // What the run has learnt that every strategy's evidence test reads (its EvidenceRule,
-  // StrategyConfig::evidence, says how): the Explorer fills the attempted targets, the planner
+  // What the run has learnt that every strategy's evidence test reads (its EvidenceRule, from
+  // evidence/, says how): the Explorer fills the attempted targets, the planner
   // adds the table it knows of (mergeEvidenceState).
   EvidenceState evidence_state;
   // Where the probe is, if known: the atlas grows from there instead of a random surface point.
   std::optional<Vector3> start;
-  // Mixed with the strategy's own seed so that successive plans of one exploration differ
-  // while the whole run stays reproducible.
+  // Mixed with the run's seed, which the strategy was made with (makeStrategy), so that
+  // successive plans of one exploration differ while the whole run stays reproducible.
   std::uint64_t seed{0};
   // Every strategy passes over candidates this refuses (the Explorer's approacher's cheap
   // test) and approaches the one it keeps along the direction this chose; empty: every
@@ -72,8 +72,6 @@ class ExplorationStrategy {
   virtual PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const = 0;
 };
 
-// The atlas strategies' planner settings: a slide's path runs on for up to 20 charts past the
-// first one above V_max, into the unknown, instead of stopping at its edge.
 // Empty, or a note that V_max lies below a tenth of the smallest noise variance of the model's
 // surface observations: a point would have to be observed more than ten times to get there
 // (a point observed k times gets to about sigma^2 / k), so the loop may not converge. Strategies

@@ -45,8 +45,6 @@ struct UnknownSpace {
 class FrontierStrategy : public ExplorationStrategy {
  public:
   struct Config {
-    // atlas_poke's planner: every plan first looks for a chart above V_max on the predicted surface.
-    AtlasPlanner::Config atlas;
     ViewShadow::Config shadow;
     // The unknown space's voxel, and the cube it spans: this many times the model's data radius
     // about its centroid (within the model's domain).
@@ -89,7 +87,9 @@ class FrontierStrategy : public ExplorationStrategy {
     double part_size_m{0.03};
   };
 
-  FrontierStrategy(Config config, std::uint64_t seed);
+  // `atlas`: atlas_poke's planner (AtlasStrategy), with which every plan first looks for a chart
+  // above V_max on the predicted surface. `seed`: the run's.
+  FrontierStrategy(Config config, AtlasPlanner::Config atlas, std::uint64_t seed);
   std::string name() const override { return "atlas_frontier"; }
   // An atlas_poke touch while one is needed; when the predicted surface has converged, a poke
   // into the unknown space (UnknownSpace, PlanRequest::evidence_state's views) with the largest
@@ -111,5 +111,7 @@ class FrontierStrategy : public ExplorationStrategy {
 
 // Empty when the config is usable; otherwise what is wrong with it.
 std::string validate(const FrontierStrategy::Config& config);
+// Its reader: frontier/ (the strategy's planner is atlas_poke's: readAtlasPlanner).
+void readFrontier(ParamReader& r, FrontierStrategy::Config* c);
 
 }  // namespace gpatlas_core

@@ -11,11 +11,16 @@ namespace gpatlas_core {
 // (gpatlas_bench --strategy-library) without rebuilding them: compile the strategy into a shared
 // library that registers it when it is loaded,
 //
-//   GPATLAS_REGISTER_STRATEGY("my_strategy", [](const gpatlas_core::StrategyConfig& config) {
-//     return std::make_unique<MyStrategy>(config);
+//   GPATLAS_REGISTER_STRATEGY("my_strategy", [](gpatlas_core::ParamReader& settings, std::uint64_t seed) {
+//     return std::make_unique<MyStrategy>(settings, seed);
 //   });
 //
 // link it against gpatlas_core, and load it by path (examples/farthest_from_evidence_strategy.cpp).
+// The factory gets the tool's settings (config/pipeline.yaml, or the AtlasPlanner nodelet's
+// parameters) in the strategy's namespace: MyStrategy reads its own keys there with the
+// ParamReader ("my_strategy/..."), and shared sections such as evidence/ with their readers
+// (readEvidence); a value it refuses (ParamReader's range checks, or invalid()) is reported by
+// the tool. `seed` is the run's; each plan's PlanRequest::seed varies it.
 struct StrategyLibraryLoad {
   bool ok{false};
   std::string message;             // what went wrong, when !ok

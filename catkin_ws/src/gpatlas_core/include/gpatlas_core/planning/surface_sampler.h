@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_core/common/parameters.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/model/surface_projection.h"
 
@@ -35,17 +36,21 @@ class SurfaceSampler {
     // holds the outside pseudo-points and has no surface.
     double seed_radius_fraction{0.95};
     ProjectionConfig projection;
-    std::uint64_t seed{7};
   };
 
   SurfaceSampler() = default;
   explicit SurfaceSampler(Config config) : config_(std::move(config)) {}
   const Config& config() const { return config_; }
 
-  SurfaceSample sample(const SurfaceModel& model) const;
+  // `seed` draws the seeds: the caller's stream (a strategy derives it from the run's seed and
+  // the plan's).
+  SurfaceSample sample(const SurfaceModel& model, std::uint64_t seed) const;
 
  private:
   Config config_;
 };
+
+// Its reader: planner/surface_samples, the baselines' sample.
+void readSurfaceSampler(ParamReader& r, SurfaceSampler::Config* c);
 
 }  // namespace gpatlas_core

@@ -1,8 +1,8 @@
 #pragma once
 
-// Named parameters ("gpis/kernel") from the ROS parameter server or a YAML file, and the one
-// reader of each Config (config_readers.h) on top of them: the nodelets and gpatlas_bench fill
-// their Configs with the same code from the same config/pipeline.yaml.
+// Named parameters ("gpis/kernel") from the ROS parameter server or a YAML file, read by the one
+// reader of each Config (config/config_readers.h, and the strategies' own): the nodelets and
+// gpatlas_bench fill their Configs with the same code from the same config/pipeline.yaml.
 
 #include "gpatlas_core/common/types.h"
 
@@ -38,6 +38,23 @@ class ParamReader {
  public:
   explicit ParamReader(const ParameterSource& source) : source_(source) {}
 
+  // While it lives, every name is read under `ns` (appended to the current namespace; "" keeps
+  // it): a component reads its own section with its Configs' readers, wherever the section lies
+  // (a strategy made by the registry, as MoveIt's planner plugins read theirs).
+  class Scope {
+   public:
+    Scope(ParamReader& reader, const std::string& ns);
+    ~Scope() { reader_.ns_ = previous_; }
+    Scope(const Scope&) = delete;
+    Scope& operator=(const Scope&) = delete;
+
+   private:
+    ParamReader& reader_;
+    std::string previous_;
+  };
+  // The current namespace: "" or ending in '/'.
+  const std::string& ns() const { return ns_; }
+
   double number(const std::string& name, double fallback, double min, double max);
   int integer(const std::string& name, int fallback, int min, int max);
   bool flag(const std::string& name, bool fallback);
@@ -52,11 +69,12 @@ class ParamReader {
   std::optional<int> optionalInteger(const std::string& name, std::optional<int> fallback, int max);
 
   // Records a problem found by the caller's own check (e.g. an unknown plugin name).
-  void invalid(const std::string& name, const std::string& why);
+  void invalid(const std::string& name, const std::string& why) { problem(ns_ + name, why); }
 
   bool ok() const { return errors_.empty(); }
   std::string errors() const;
-  // The parameters that were not set, so their defaults apply.
+  // The parameters that were not set, so their defaults apply. Names here and in readNames(),
+  // defaults() and defaultedNames() are full: with the namespace they were read under.
   std::string defaulted() const;
   const std::vector<std::string>& readNames() const { return read_; }
   // The code's default of every parameter read, as YAML text ("0.1", "true", "[1, 2]", "x"):
@@ -65,11 +83,13 @@ class ParamReader {
   const std::vector<std::string>& defaultedNames() const { return defaulted_; }
 
  private:
+  void problem(const std::string& full_name, const std::string& why);
   bool present(const std::string& name);
   bool isOff(const std::string& name) const;
   void refuseNonPositive(const std::string& name, const std::string& value);
 
   const ParameterSource& source_;
+  std::string ns_;
   std::vector<std::string> errors_;
   std::vector<std::string> read_;
   std::vector<std::string> defaulted_;

@@ -1,4 +1,4 @@
-#include "gpatlas_core/config/parameters.h"
+#include "gpatlas_core/common/parameters.h"
 
 #include <yaml-cpp/yaml.h>
 
@@ -12,8 +12,12 @@ namespace gpatlas_core {
 
 // ---------------------------------------------------------------- ParamReader
 
-void ParamReader::invalid(const std::string& name, const std::string& why) {
-  errors_.push_back(source_.fullName(name) + ": " + why);
+ParamReader::Scope::Scope(ParamReader& reader, const std::string& ns) : reader_(reader), previous_(reader.ns_) {
+  if (!ns.empty()) reader.ns_ += ns.back() == '/' ? ns : ns + "/";
+}
+
+void ParamReader::problem(const std::string& full_name, const std::string& why) {
+  errors_.push_back(source_.fullName(full_name) + ": " + why);
 }
 
 bool ParamReader::present(const std::string& name) {
@@ -45,96 +49,103 @@ std::string joined(const std::vector<std::string>& items, const char* separator)
 std::string ParamReader::errors() const { return joined(errors_, "; "); }
 std::string ParamReader::defaulted() const { return joined(defaulted_, ", "); }
 
-double ParamReader::number(const std::string& name, double fallback, double min, double max) {
+double ParamReader::number(const std::string& key, double fallback, double min, double max) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, formatted(fallback));
   if (!present(name)) return fallback;
   const std::optional<double> value = source_.number(name);
   if (!value) {
-    invalid(name, "is not a number");
+    problem(name, "is not a number");
     return fallback;
   }
   if (!std::isfinite(*value) || *value < min || *value > max) {
     std::ostringstream why;
     why << "= " << *value << " is outside [" << min << ", " << max << "]";
-    invalid(name, why.str());
+    problem(name, why.str());
     return fallback;
   }
   return *value;
 }
 
-int ParamReader::integer(const std::string& name, int fallback, int min, int max) {
+int ParamReader::integer(const std::string& key, int fallback, int min, int max) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, std::to_string(fallback));
   if (!present(name)) return fallback;
   const std::optional<int> value = source_.integer(name);
   if (!value) {
-    invalid(name, "is not an integer");
+    problem(name, "is not an integer");
     return fallback;
   }
   if (*value < min || *value > max) {
-    invalid(name, "= " + std::to_string(*value) + " is outside [" + std::to_string(min) + ", " + std::to_string(max) + "]");
+    problem(name, "= " + std::to_string(*value) + " is outside [" + std::to_string(min) + ", " + std::to_string(max) + "]");
     return fallback;
   }
   return *value;
 }
 
-bool ParamReader::flag(const std::string& name, bool fallback) {
+bool ParamReader::flag(const std::string& key, bool fallback) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, std::string(fallback ? "true" : "false"));
   if (!present(name)) return fallback;
   const std::optional<bool> value = source_.flag(name);
   if (!value) {
-    invalid(name, "is not a boolean");
+    problem(name, "is not a boolean");
     return fallback;
   }
   return *value;
 }
 
-std::string ParamReader::text(const std::string& name, const std::string& fallback) {
+std::string ParamReader::text(const std::string& key, const std::string& fallback) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, fallback);
   if (!present(name)) return fallback;
   const std::optional<std::string> value = source_.text(name);
   if (!value) {
-    invalid(name, "is not a string");
+    problem(name, "is not a string");
     return fallback;
   }
   return *value;
 }
 
-std::vector<std::string> ParamReader::texts(const std::string& name, const std::vector<std::string>& fallback) {
+std::vector<std::string> ParamReader::texts(const std::string& key, const std::vector<std::string>& fallback) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, formattedList(fallback, [](const std::string& t) { return t; }));
   if (!present(name)) return fallback;
   if (auto value = source_.texts(name)) return *value;
   if (auto single = source_.text(name)) return {*single};  // one item given without brackets
-  invalid(name, "is not a list of strings");
+  problem(name, "is not a list of strings");
   return fallback;
 }
 
-std::vector<double> ParamReader::numbers(const std::string& name, const std::vector<double>& fallback) {
+std::vector<double> ParamReader::numbers(const std::string& key, const std::vector<double>& fallback) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, formattedList(fallback, formatted));
   if (!present(name)) return fallback;
   const auto value = source_.numbers(name);
   if (!value) {
-    invalid(name, "is not a list of numbers");
+    problem(name, "is not a list of numbers");
     return fallback;
   }
   for (double v : *value)
     if (!std::isfinite(v)) {
-      invalid(name, "must be finite");
+      problem(name, "must be finite");
       return fallback;
     }
   return *value;
 }
 
-Vector3 ParamReader::vector3(const std::string& name, const Vector3& fallback) {
+Vector3 ParamReader::vector3(const std::string& key, const Vector3& fallback) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, formattedList(std::vector<double>{fallback.x(), fallback.y(), fallback.z()}, formatted));
   if (!present(name)) return fallback;
   const auto value = source_.numbers(name);
   if (!value || value->size() != 3) {
-    invalid(name, "must be a list of 3 numbers");
+    problem(name, "must be a list of 3 numbers");
     return fallback;
   }
   const Vector3 v((*value)[0], (*value)[1], (*value)[2]);
   if (!v.allFinite()) {
-    invalid(name, "must be finite");
+    problem(name, "must be finite");
     return fallback;
   }
   return v;
@@ -147,17 +158,18 @@ bool ParamReader::isOff(const std::string& name) const {
 }
 
 void ParamReader::refuseNonPositive(const std::string& name, const std::string& value) {
-  invalid(name, "= " + value + " is not a limit (it must be > 0): write off for none");
+  problem(name, "= " + value + " is not a limit (it must be > 0): write off for none");
 }
 
-std::optional<double> ParamReader::optionalNumber(const std::string& name, std::optional<double> fallback,
+std::optional<double> ParamReader::optionalNumber(const std::string& key, std::optional<double> fallback,
                                                   double max) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, fallback ? formatted(*fallback) : std::string("off"));
   if (!present(name)) return fallback;
   if (isOff(name)) return std::nullopt;
   const std::optional<double> value = source_.number(name);
   if (!value || !std::isfinite(*value)) {
-    invalid(name, "is neither a finite number nor off");
+    problem(name, "is neither a finite number nor off");
     return fallback;
   }
   if (*value <= 0.0) {
@@ -165,19 +177,20 @@ std::optional<double> ParamReader::optionalNumber(const std::string& name, std::
     return fallback;
   }
   if (*value > max) {
-    invalid(name, "= " + formatted(*value) + " is outside (0, " + formatted(max) + "]");
+    problem(name, "= " + formatted(*value) + " is outside (0, " + formatted(max) + "]");
     return fallback;
   }
   return *value;
 }
 
-std::optional<int> ParamReader::optionalInteger(const std::string& name, std::optional<int> fallback, int max) {
+std::optional<int> ParamReader::optionalInteger(const std::string& key, std::optional<int> fallback, int max) {
+  const std::string name = ns_ + key;
   defaults_.emplace_back(name, fallback ? std::to_string(*fallback) : std::string("off"));
   if (!present(name)) return fallback;
   if (isOff(name)) return std::nullopt;
   const std::optional<int> value = source_.integer(name);
   if (!value) {
-    invalid(name, "is neither an integer nor off");
+    problem(name, "is neither an integer nor off");
     return fallback;
   }
   if (*value <= 0) {
@@ -185,7 +198,7 @@ std::optional<int> ParamReader::optionalInteger(const std::string& name, std::op
     return fallback;
   }
   if (*value > max) {
-    invalid(name, "= " + std::to_string(*value) + " is outside [1, " + std::to_string(max) + "]");
+    problem(name, "= " + std::to_string(*value) + " is outside [1, " + std::to_string(max) + "]");
     return fallback;
   }
   return *value;
