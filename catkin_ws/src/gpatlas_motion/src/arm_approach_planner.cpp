@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -30,7 +31,7 @@ ArmApproachPlanner::ArmApproachPlanner(std::shared_ptr<const Arm> arm, std::shar
   if (!arm_ || !world_) throw std::invalid_argument("ArmApproachPlanner: an arm and a world are required");
 }
 
-std::string ArmApproachPlanner::configurationProblem(const Eigen::VectorXd& q) const {
+std::string ArmApproachPlanner::configurationProblem(const Eigen::VectorXd& q, bool on_way) const {
   if (q.size() != arm_->jointCount() || !q.allFinite())
     return "a configuration needs " + std::to_string(arm_->jointCount()) + " finite joint values";
   constexpr double kLimitTolerance = 1e-9;
@@ -42,20 +43,40 @@ std::string ArmApproachPlanner::configurationProblem(const Eigen::VectorXd& q) c
     if (!world_->isCapsuleFree(link.a, link.b, link.radius)) return "the arm's links are in collision";
   const Eigen::Isometry3d tip = arm_->forwardKinematics(q);
   if (!world_->isFree(tip.translation(), tip.linear().col(2))) return "the probe is in collision";
+  if (on_way && !world_->isWayFree(tip.translation(), tip.linear().col(2)))
+    return "the probe is in space no sensor observed";
   return "";
 }
 
-bool ArmApproachPlanner::motionFree(const Eigen::VectorXd& from, const Eigen::VectorXd& to) const {
+bool ArmApproachPlanner::motionFree(const Eigen::VectorXd& from, const Eigen::VectorXd& to, bool on_way) const {
   const double step = world_->config().arm_check_step_rad;
   const int steps = std::max(1, static_cast<int>(std::ceil((to - from).norm() / step)));
   for (int i = 1; i <= steps; ++i)
-    if (!configurationProblem(from + (to - from) * (static_cast<double>(i) / steps)).empty()) return false;
+    if (!configurationProblem(from + (to - from) * (static_cast<double>(i) / steps), on_way).empty()) return false;
   return true;
+}
+
+Eigen::VectorXd ArmApproachPlanner::wayEndConfiguration(const Eigen::VectorXd& at_approach, const Eigen::Vector3d& touch_point,
+                                                        const Eigen::Vector3d& normal, std::string* problem) const {
+  const std::optional<Eigen::Vector3d> end = world_->wayEnd(touch_point, normal);
+  if (!end) {
+    *problem = "the approach pose lies in space no sensor observed, and the touch's line out of it meets an obstacle";
+    return {};
+  }
+  if (end->isApprox(touch_point + world_->config().approach_distance_m * normal)) return at_approach;
+  const Arm::IkResult ik = arm_->solveApproach(
+      *end, -normal, [&](const Eigen::VectorXd& q) { return configurationProblem(q, true).empty() ? 0u : 1u; },
+      &at_approach, world_->config().arm_reachability_ik_restarts);
+  if (!ik.success || !motionFree(ik.joints, at_approach, false)) {
+    *problem = "no free arm configuration where the touch's line leaves the space no sensor observed";
+    return {};
+  }
+  return ik.joints;
 }
 
 std::vector<Eigen::VectorXd> ArmApproachPlanner::planJointPath(const Eigen::VectorXd& from, const Eigen::VectorXd& to,
                                                                std::string* problem) const {
-  if (motionFree(from, to)) return {from, to};
+  if (motionFree(from, to, true)) return {from, to};
   const ApproachConfig& c = world_->config();
   const unsigned n = static_cast<unsigned>(arm_->jointCount());
   auto space = std::make_shared<ob::RealVectorStateSpace>(n);
@@ -71,7 +92,7 @@ std::vector<Eigen::VectorXd> ArmApproachPlanner::planJointPath(const Eigen::Vect
     return Eigen::Map<const Eigen::VectorXd>(v->values, n).eval();
   };
   setup.setStateValidityChecker(
-      [this, toJoints](const ob::State* state) { return configurationProblem(toJoints(state)).empty(); });
+      [this, toJoints](const ob::State* state) { return configurationProblem(toJoints(state), true).empty(); });
   setup.getSpaceInformation()->setStateValidityCheckingResolution(c.arm_check_step_rad / space->getMaximumExtent());
   ob::ScopedState<> start(space), goal(space);
   for (unsigned j = 0; j < n; ++j) {
@@ -174,7 +195,7 @@ ArmMotionPlan ArmApproachPlanner::plan(const Eigen::VectorXd& start, const Eigen
   if (const std::string problem = validate(c); !problem.empty()) return finish("invalid config: " + problem);
   if (std::string problem = world_->checkApproachPose(touch_point, touch_normal); !problem.empty())
     return finish(std::move(problem));
-  if (std::string problem = configurationProblem(start); !problem.empty())
+  if (std::string problem = configurationProblem(start, true); !problem.empty())
     return finish("the arm's start: " + problem);
   const Eigen::Vector3d normal = touch_normal.normalized();
   Eigen::VectorXd at_touch;
@@ -186,8 +207,11 @@ ArmMotionPlan ArmApproachPlanner::plan(const Eigen::VectorXd& start, const Eigen
   const Eigen::VectorXd& a = at_approach.joints;
   const Eigen::VectorXd& b = at_touch;
   std::string problem;
-  plan.approach = planJointPath(start, a, &problem);
+  const Eigen::VectorXd way_end = wayEndConfiguration(a, touch_point, normal, &problem);
+  if (way_end.size() == 0) return finish(problem);
+  plan.approach = planJointPath(start, way_end, &problem);
   if (plan.approach.empty()) return finish(problem);
+  if (!way_end.isApprox(a)) plan.approach.push_back(a);
   plan.probing = {a, b};
   plan.retreat.assign(plan.approach.rbegin(), plan.approach.rend());
   plan.approach_tips = tipPositions(*arm_, plan.approach);

@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 
@@ -46,6 +47,9 @@ struct ProbeApproachPlanner::Impl {
   std::shared_ptr<fcl::OcTreed> map;  // null: no map yet
   Eigen::AlignedBox3d map_bounds;      // the map's known voxels, grown by one voxel
   std::unique_ptr<fcl::CollisionObjectd> map_object;
+  std::shared_ptr<fcl::OcTreed> unseen;  // null: none
+  std::unique_ptr<fcl::CollisionObjectd> unseen_object;
+  double unseen_extent_m{0.0};  // the unseen tree's bounding box's diagonal
   std::vector<std::unique_ptr<fcl::CollisionObjectd>> static_obstacles;  // boxes, half-spaces
 
   bool collides(const fcl::CollisionObjectd& a, const fcl::CollisionObjectd& b) const {
@@ -71,6 +75,42 @@ struct ProbeApproachPlanner::Impl {
     if (map_object && hits(*map_object)) return false;
     for (const auto& obstacle : static_obstacles)
       if (hits(*obstacle)) return false;
+    return true;
+  }
+
+  // isFree, and clear of the unseen space: where the probe may travel on its way.
+  bool isWayFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
+    if (!isFree(tip_centre, direction)) return false;
+    if (!unseen_object) return true;
+    fcl::Transform3d tip_pose = fcl::Transform3d::Identity();
+    tip_pose.translation() = tip_centre;
+    fcl::Transform3d shaft_pose = fcl::Transform3d::Identity();
+    shaft_pose.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), direction).toRotationMatrix();
+    shaft_pose.translation() = tip_centre - direction * (config.probe.tip_radius_m + 0.5 * config.probe.shaft_length_m);
+    return !collides(fcl::CollisionObjectd(tip, tip_pose), *unseen_object) &&
+           !collides(fcl::CollisionObjectd(shaft, shaft_pose), *unseen_object);
+  }
+
+  // Where the probe, pointing along -normal, comes out of the unseen space going out from the
+  // approach pose along the normal (the approach pose itself when it is clear of it), with the
+  // line to there free; nullopt when an obstacle or the end of the unseen space's extent comes
+  // first.
+  std::optional<Eigen::Vector3d> guardedEntry(const Eigen::Vector3d& approach_pose, const Eigen::Vector3d& normal) const {
+    const double step = config.check_resolution_m;
+    for (double t = 0.0; t <= unseen_extent_m + step; t += step) {
+      const Eigen::Vector3d tip_centre = approach_pose + t * normal;
+      if (!isFree(tip_centre, -normal)) return std::nullopt;
+      if (isWayFree(tip_centre, -normal)) return tip_centre;
+    }
+    return std::nullopt;
+  }
+
+  // Whether every point of the segment, sampled at check_resolution_m, is clear for the way.
+  bool segmentWayFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& direction) const {
+    const double length = (b - a).norm();
+    const int steps = std::max(1, static_cast<int>(std::ceil(length / config.check_resolution_m)));
+    for (int i = 0; i <= steps; ++i)
+      if (!isWayFree(a + (b - a) * (static_cast<double>(i) / steps), direction)) return false;
     return true;
   }
 
@@ -130,6 +170,21 @@ void ProbeApproachPlanner::setCollisionMap(std::shared_ptr<const octomap::OcTree
   impl_->map_object = std::make_unique<fcl::CollisionObjectd>(impl_->map, fcl::Transform3d::Identity());
 }
 
+void ProbeApproachPlanner::setUnseenSpace(std::shared_ptr<const octomap::OcTree> unseen) {
+  impl_->unseen_object.reset();
+  impl_->unseen.reset();
+  impl_->unseen_extent_m = 0.0;
+  if (!unseen || unseen->getRoot() == nullptr) return;
+  impl_->unseen = std::make_shared<fcl::OcTreed>(unseen);
+  double lo[3], hi[3];
+  unseen->getMetricMin(lo[0], lo[1], lo[2]);
+  unseen->getMetricMax(hi[0], hi[1], hi[2]);
+  impl_->unseen_extent_m = (Eigen::Vector3d(hi[0], hi[1], hi[2]) - Eigen::Vector3d(lo[0], lo[1], lo[2])).norm();
+  impl_->unseen->setOccupancyThres(0.5);
+  impl_->unseen->setFreeThres(0.5);
+  impl_->unseen_object = std::make_unique<fcl::CollisionObjectd>(impl_->unseen, fcl::Transform3d::Identity());
+}
+
 void ProbeApproachPlanner::addStaticBox(const Eigen::Vector3d& centre, const Eigen::Vector3d& size) {
   fcl::Transform3d pose = fcl::Transform3d::Identity();
   pose.translation() = centre;
@@ -158,6 +213,16 @@ std::string ProbeApproachPlanner::checkApproachPose(const Eigen::Vector3d& touch
 
 bool ProbeApproachPlanner::isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const {
   return impl_->isFree(tip, direction.normalized());
+}
+
+bool ProbeApproachPlanner::isWayFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const {
+  return impl_->isWayFree(tip, direction.normalized());
+}
+
+std::optional<Eigen::Vector3d> ProbeApproachPlanner::wayEnd(const Eigen::Vector3d& touch_point,
+                                                            const Eigen::Vector3d& touch_normal) const {
+  const Eigen::Vector3d normal = touch_normal.normalized();
+  return impl_->guardedEntry(touch_point + impl_->config.approach_distance_m * normal, normal);
 }
 
 bool ProbeApproachPlanner::isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const {
@@ -197,27 +262,44 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
   if (!impl_->isFree(start_tip, plan.direction)) return finish("the probe's start is in collision");
   if (std::string blocked = impl_->approachPoseProblem(touch_point, normal); !blocked.empty())
     return finish(std::move(blocked));
-  if (impl_->segmentFree(start_tip, approach_pose, plan.direction)) {
-    plan.approach = {start_tip, approach_pose};
+  // The way ends where the probe enters the unseen space along the touch's line, if it must.
+  const std::optional<Eigen::Vector3d> entry = impl_->guardedEntry(approach_pose, normal);
+  if (!entry)
+    return finish("the approach pose lies in space no sensor observed, and the touch's line out of it meets an obstacle");
+  if (!impl_->isWayFree(start_tip, plan.direction)) return finish("the probe's start lies in space no sensor observed");
+  plan.approach = planWay(start_tip, *entry, plan.direction, &plan.message);
+  if (plan.approach.empty()) return finish(plan.message);
+  if (!entry->isApprox(approach_pose)) plan.approach.push_back(approach_pose);
+  plan.probing = {approach_pose, touch_point};
+  plan.retreat.assign(plan.approach.rbegin(), plan.approach.rend());
+  plan.ok = true;
+  return finish("");
+}
+
+std::vector<Eigen::Vector3d> ProbeApproachPlanner::planWay(const Eigen::Vector3d& start_tip, const Eigen::Vector3d& goal_tip,
+                                                           const Eigen::Vector3d& direction, std::string* problem) const {
+  const ApproachConfig& c = impl_->config;
+  std::vector<Eigen::Vector3d> way;
+  if (impl_->segmentWayFree(start_tip, goal_tip, direction)) {
+    way = {start_tip, goal_tip};
   } else {
     auto space = std::make_shared<ob::RealVectorStateSpace>(3);
     ob::RealVectorBounds bounds(3);
     for (int i = 0; i < 3; ++i) {
-      bounds.setLow(i, std::min(start_tip[i], approach_pose[i]) - c.workspace_margin_m);
-      bounds.setHigh(i, std::max(start_tip[i], approach_pose[i]) + c.workspace_margin_m);
+      bounds.setLow(i, std::min(start_tip[i], goal_tip[i]) - c.workspace_margin_m);
+      bounds.setHigh(i, std::max(start_tip[i], goal_tip[i]) + c.workspace_margin_m);
     }
     space->setBounds(bounds);
     og::SimpleSetup setup(space);
-    const Eigen::Vector3d direction = plan.direction;
     setup.setStateValidityChecker([this, direction](const ob::State* state) {
       const auto* v = state->as<ob::RealVectorStateSpace::StateType>();
-      return impl_->isFree(Eigen::Vector3d(v->values[0], v->values[1], v->values[2]), direction);
+      return impl_->isWayFree(Eigen::Vector3d(v->values[0], v->values[1], v->values[2]), direction);
     });
     setup.getSpaceInformation()->setStateValidityCheckingResolution(c.check_resolution_m / space->getMaximumExtent());
     ob::ScopedState<> start(space), goal(space);
     for (int i = 0; i < 3; ++i) {
       start[i] = start_tip[i];
-      goal[i] = approach_pose[i];
+      goal[i] = goal_tip[i];
     }
     setup.setStartAndGoalStates(start, goal);
     setup.setPlanner(std::make_shared<og::RRTConnect>(setup.getSpaceInformation()));
@@ -225,18 +307,16 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
     if (solved != ob::PlannerStatus::EXACT_SOLUTION) {
       std::ostringstream message;
       message << "no collision-free approach found within " << c.max_planning_time_s << " s (" << solved.asString() << ")";
-      return finish(message.str());
+      *problem = message.str();
+      return {};
     }
     setup.simplifySolution(0.25 * c.max_planning_time_s);
     for (const ob::State* state : setup.getSolutionPath().getStates()) {
       const auto* v = state->as<ob::RealVectorStateSpace::StateType>();
-      plan.approach.emplace_back(v->values[0], v->values[1], v->values[2]);
+      way.emplace_back(v->values[0], v->values[1], v->values[2]);
     }
   }
-  plan.probing = {approach_pose, touch_point};
-  plan.retreat.assign(plan.approach.rbegin(), plan.approach.rend());
-  plan.ok = true;
-  return finish("");
+  return way;
 }
 
 }  // namespace gpatlas_motion

@@ -75,6 +75,9 @@ std::string validate(const SceneMapConfig& c) {
     problems << "scene_object_margin_m must be finite and >= 0; ";
   if (!(c.shadow_depth_m >= 0.0) || !std::isfinite(c.shadow_depth_m))
     problems << "scene_shadow_depth_m must be finite and >= 0; ";
+  if (!(c.unseen_reach_m >= 0.0) || !std::isfinite(c.unseen_reach_m))
+    problems << "scene_unseen_reach_m must be finite and >= 0; ";
+  if (c.max_sensor_origins < 1) problems << "scene_max_sensor_origins must be at least 1; ";
   std::string out = problems.str();
   if (!out.empty()) out.resize(out.size() - 2);
   return out;
@@ -176,6 +179,7 @@ std::size_t SceneMap::insertCloud(const std::vector<Eigen::Vector3d>& points, co
   if (std::none_of(origins_.begin(), origins_.end(),
                    [&](const Eigen::Vector3d& o) { return (o - sensor_origin).norm() < resolution; })) {
     origins_.push_back(sensor_origin);
+    if (origins_.size() > static_cast<std::size_t>(config_.max_sensor_origins)) origins_.erase(origins_.begin());
     changed = true;
   }
   if (changed) ++revision_;
@@ -306,6 +310,38 @@ std::vector<Eigen::Vector3d> SceneMap::obstacles(const std::vector<Eigen::Vector
   return out;
 }
 
+std::vector<Eigen::Vector3d> SceneMap::unseen(const std::vector<Eigen::Vector3d>& object_points,
+                                              const std::vector<Eigen::Vector3d>& free_points) const {
+  std::vector<Eigen::Vector3d> out;
+  const double reach = config_.unseen_reach_m;
+  Eigen::AlignedBox3d box;
+  for (const Eigen::Vector3d& p : object_points)
+    if (p.allFinite()) box.extend(p);
+  if (!(reach > 0.0) || box.isEmpty()) return out;
+  octomap::KeySet probed;
+  for (const Eigen::Vector3d& p : free_points) {
+    octomap::OcTreeKey key;
+    if (p.allFinite() && tree_->coordToKeyChecked(toOctomap(p), key)) probed.insert(key);
+  }
+  const PointBuckets object(object_points, reach);
+  const Eigen::Vector3d grow = Eigen::Vector3d::Constant(reach);
+  octomap::OcTreeKey lower, upper;
+  if (!tree_->coordToKeyChecked(toOctomap(box.min() - grow), lower) ||
+      !tree_->coordToKeyChecked(toOctomap(box.max() + grow), upper))
+    return out;
+  for (unsigned k0 = lower[0]; k0 <= upper[0]; ++k0)
+    for (unsigned k1 = lower[1]; k1 <= upper[1]; ++k1)
+      for (unsigned k2 = lower[2]; k2 <= upper[2]; ++k2) {
+        const octomap::OcTreeKey key(static_cast<octomap::key_type>(k0), static_cast<octomap::key_type>(k1),
+                                     static_cast<octomap::key_type>(k2));
+        if (tree_->search(key) || probed.count(key)) continue;
+        const octomap::point3d c = tree_->keyToCoord(key);
+        const Eigen::Vector3d centre(c.x(), c.y(), c.z());
+        if (object.anyWithin(centre, reach)) out.push_back(centre);
+      }
+  return out;
+}
+
 SceneRole sceneRole(gpatlas_core::PointLabel label, gpatlas_core::PointSource source) {
   const bool measured = source == gpatlas_core::PointSource::kVision || source == gpatlas_core::PointSource::kTouch;
   if (label == gpatlas_core::PointLabel::kSurface && measured) return SceneRole::kObject;
@@ -321,6 +357,27 @@ std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::ve
     else if (role == SceneRole::kProbed) free.push_back(p.position);
   }
   return scene.obstacles(object, free);
+}
+
+std::vector<Eigen::Vector3d> sceneUnseen(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
+                                         const std::vector<Eigen::Vector3d>& view_points,
+                                         const std::vector<Eigen::Vector3d>& model_occupied) {
+  std::vector<Eigen::Vector3d> object = view_points, free;
+  object.insert(object.end(), model_occupied.begin(), model_occupied.end());
+  for (const gpatlas_core::TrainingPoint& p : observations) {
+    const SceneRole role = sceneRole(p.label, p.source);
+    if (role == SceneRole::kObject) object.push_back(p.position);
+    else if (role == SceneRole::kProbed) free.push_back(p.position);
+  }
+  return scene.unseen(object, free);
+}
+
+std::unique_ptr<octomap::OcTree> voxelOctree(const std::vector<Eigen::Vector3d>& centres, double resolution_m) {
+  if (!(resolution_m > 0.0) || !std::isfinite(resolution_m))
+    throw std::invalid_argument("voxelOctree: the resolution must be positive and finite");
+  auto tree = std::make_unique<octomap::OcTree>(resolution_m);
+  addObstacles(tree.get(), centres);
+  return tree;
 }
 
 std::size_t addObstacles(octomap::OcTree* map, const std::vector<Eigen::Vector3d>& centres) {

@@ -36,6 +36,15 @@ std::unique_ptr<octomap::OcTree> collisionOctree(const gpatlas_core::OccupancyGr
   return tree;
 }
 
+std::vector<Eigen::Vector3d> occupiedCentres(const gpatlas_core::OccupancyGrid& grid, double occupied_probability) {
+  std::vector<Eigen::Vector3d> out;
+  for (int k = 0; k < grid.size.z(); ++k)
+    for (int j = 0; j < grid.size.y(); ++j)
+      for (int i = 0; i < grid.size.x(); ++i)
+        if (grid.probabilities[grid.index(i, j, k)] > occupied_probability) out.push_back(grid.position(i, j, k));
+  return out;
+}
+
 TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_core::Touch& touch,
                             const Eigen::Vector3d& rest) {
   TouchMotion motion;
@@ -71,9 +80,11 @@ TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_c
 
 TouchMotionPlanner::TouchMotionPlanner(const ApproachConfig& config, std::shared_ptr<const octomap::OcTree> map,
                                        const std::optional<gpatlas_core::SupportPlane>& table,
-                                       std::shared_ptr<const Arm> arm, std::shared_ptr<ArmReachMemory> reach)
+                                       std::shared_ptr<const Arm> arm, std::shared_ptr<ArmReachMemory> reach,
+                                       std::shared_ptr<const octomap::OcTree> unseen)
     : config_(config), probe_(std::make_shared<ProbeApproachPlanner>(config)), reach_(std::move(reach)) {
   probe_->setCollisionMap(std::move(map));
+  probe_->setUnseenSpace(std::move(unseen));
   if (table) {
     probe_->addStaticHalfSpace(table->normal, table->offset);
     up_ = table->normal.normalized();
@@ -143,12 +154,17 @@ std::string ModelTouchApproacher::ensureMap() {
   if (!grid.ok) return "no collision map: " + grid.message;
   std::unique_ptr<octomap::OcTree> map = collisionOctree(grid, config_.occupied_probability);
   last_scene_obstacles_ = 0;
+  std::shared_ptr<const octomap::OcTree> unseen;
   if (scene_) {
     const std::vector<Eigen::Vector3d> obstacles = sceneObstacles(*scene_, model_.observations(), object_view_points_);
     addObstacles(map.get(), obstacles);
     last_scene_obstacles_ = obstacles.size();
+    const std::vector<Eigen::Vector3d> voxels =
+        sceneUnseen(*scene_, model_.observations(), object_view_points_,
+                    occupiedCentres(grid, config_.occupied_probability));
+    if (!voxels.empty()) unseen = voxelOctree(voxels, grid.resolution);
   }
-  planner_ = std::make_unique<TouchMotionPlanner>(config_, std::move(map), table_, arm_, reach_);
+  planner_ = std::make_unique<TouchMotionPlanner>(config_, std::move(map), table_, arm_, reach_, std::move(unseen));
   last_map_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count();
   return "";
 }

@@ -503,4 +503,150 @@ TEST(SceneMap, MergedIntoTheModelsMapTheNeighbourBlocksAndTheObjectDoesNot) {
   EXPECT_GE(clearance, 0.0);
 }
 
+// A tall body the camera sees, and a handle behind it the camera cannot see and its model does not
+// predict: the case of a scanned jug, whose hidden parts the probe's way used to cross.
+const Box kBody{Vector3d(0.55, -0.05, 0.0), Vector3d(0.65, 0.05, 0.2)};
+const Box kHiddenHandle{Vector3d(0.66, 0.02, 0.04), Vector3d(0.70, 0.05, 0.10)};
+const Box kDomain{Vector3d(0.45, -0.2, 0.0), Vector3d(0.85, 0.2, 0.3)};  // the model's
+
+struct HiddenPartScene {
+  std::vector<Vector3d> cloud, body;
+};
+
+HiddenPartScene hiddenPartScene() {
+  const std::vector<Box> solids = {kBody, kHiddenHandle};
+  HiddenPartScene s;
+  s.body = seenPoints(kBody, solids);
+  s.cloud = s.body;
+  const std::vector<Vector3d> handle = seenPoints(kHiddenHandle, solids), table = seenPoints(kTable, solids);
+  EXPECT_TRUE(handle.empty()) << "the handle must be hidden from the camera";
+  s.cloud.insert(s.cloud.end(), table.begin(), table.end());
+  return s;
+}
+
+// The body's voxels' centres, as its model's map holds them (mapOf).
+std::vector<Vector3d> bodyVoxels() {
+  std::vector<Vector3d> out;
+  for (double x = kDomain.lower.x() + 0.5 * kVoxel; x < kDomain.upper.x(); x += kVoxel)
+    for (double y = kDomain.lower.y() + 0.5 * kVoxel; y < kDomain.upper.y(); y += kVoxel)
+      for (double z = kDomain.lower.z() + 0.5 * kVoxel; z < kDomain.upper.z(); z += kVoxel)
+        if (kBody.distance(Vector3d(x, y, z)) == 0.0) out.emplace_back(x, y, z);
+  return out;
+}
+
+bool holdsVoxelOf(const std::vector<Vector3d>& centres, const Vector3d& p) {
+  return voxelsOf(centres).count(*voxelsOf({p}).begin()) == 1;
+}
+
+TEST(SceneMap, TheUnseenSpaceIsWhatNoRayReachedAndNoProbeStrokeWentThrough) {
+  const HiddenPartScene s = hiddenPartScene();
+  SceneMapConfig config = sceneConfig();
+  config.unseen_reach_m = 0.045;  // no voxel centre at exactly that distance from another
+  SceneMap map(config, kVoxel);
+  map.insertCloud(s.cloud, kSensor);
+  const std::vector<Vector3d> object = bodyVoxels();
+  const double reach = config.unseen_reach_m;
+  const Vector3d behind(0.685, 0.035, 0.07);  // in the handle, in the body's shadow
+  const Vector3d probed(0.68, -0.03, 0.05);  // in the shadow too, where a stroke went
+  const std::vector<Vector3d> unseen = map.unseen(object, {});
+  EXPECT_TRUE(holdsVoxelOf(unseen, behind));
+  EXPECT_TRUE(holdsVoxelOf(unseen, probed));
+  EXPECT_FALSE(holdsVoxelOf(map.unseen(object, {probed}), probed));
+  // Each one is unknown to the scene and within the reach of the object; a voxel a ray crossed
+  // is not one, nor the shadow's far part.
+  const auto distance = [&](const Vector3d& c) {
+    double nearest = std::numeric_limits<double>::infinity();
+    for (const Vector3d& p : object) nearest = std::min(nearest, (p - c).norm());
+    return nearest;
+  };
+  for (const Vector3d& c : unseen) {
+    ASSERT_EQ(map.tree().search(at(c)), nullptr) << c.transpose();
+    ASSERT_LE(distance(c), reach + 1e-6) << c.transpose();
+  }
+  EXPECT_FALSE(holdsVoxelOf(unseen, Vector3d(0.6, 0.0, 0.215)));  // above the body
+  EXPECT_FALSE(holdsVoxelOf(unseen, Vector3d(0.5, 0.0, 0.05)));   // in front of it
+  EXPECT_FALSE(holdsVoxelOf(unseen, Vector3d(0.8, 0.0, 0.05)));   // in the shadow, out of reach
+  // Every unknown voxel within the reach is one (the voxels around the body counted one by one).
+  std::size_t unknown = 0;
+  for (double x = 0.455; x < 0.8; x += kVoxel)
+    for (double y = -0.145; y < 0.15; y += kVoxel)
+      for (double z = -0.045; z < 0.3; z += kVoxel) {
+        const Vector3d c(x, y, z);
+        unknown += map.tree().search(at(c)) == nullptr && distance(c) <= reach ? 1 : 0;
+      }
+  EXPECT_EQ(voxelsOf(unseen).size(), unknown);
+  config.unseen_reach_m = 0.0;
+  SceneMap without(config, kVoxel);
+  without.insertCloud(s.cloud, kSensor);
+  EXPECT_TRUE(without.unseen(object, {}).empty());
+}
+
+// The smallest distance from the box to the probe's body (its tip sphere and its shaft's axis,
+// less their radii) along a polyline of tip positions, the probe pointing along `direction`.
+double bodyClearance(const std::vector<Vector3d>& path, const Vector3d& direction, const Box& box,
+                     const gpatlas_motion::ProbeGeometry& probe) {
+  double clearance = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i + 1 < path.size(); ++i)
+    for (int k = 0; k <= 200; ++k) {
+      const Vector3d tip = path[i] + (path[i + 1] - path[i]) * (k / 200.0);
+      clearance = std::min(clearance, box.distance(tip) - probe.tip_radius_m);
+      for (double t = probe.tip_radius_m; t <= probe.tip_radius_m + probe.shaft_length_m; t += 0.002)
+        clearance = std::min(clearance, box.distance(tip - t * direction) - probe.shaft_radius_m);
+    }
+  return clearance;
+}
+
+TEST(SceneMap, TheWayToATouchAvoidsTheObjectsUnseenSpaceAndTheStrokeGoesIn) {
+  const HiddenPartScene s = hiddenPartScene();
+  SceneMap map(sceneConfig(), kVoxel);
+  map.insertCloud(s.cloud, kSensor);
+  // The model's map knows the body only, and predicts the handle's place free.
+  const std::shared_ptr<octomap::OcTree> model = gpatlas_motion_test::mapOf({kBody}, kDomain);
+  gpatlas_motion::addObstacles(model.get(), map.obstacles(s.body, {}));
+  gpatlas_motion::ApproachConfig config;
+  config.max_planning_time_s = 1.0;
+  config.approach_distance_m = 0.05;
+  // A touch on the body's hidden back face, beside the handle; the probe rests to its left,
+  // where the camera saw, and the straight way there crosses the handle.
+  const Vector3d touch(0.65, -0.03, 0.07), normal(1.0, 0.0, 0.0), rest(0.70, 0.3, 0.07);
+  gpatlas_motion::ProbeApproachPlanner model_only(config), with_unseen(config);
+  model_only.setCollisionMap(model);
+  with_unseen.setCollisionMap(model);
+  with_unseen.setUnseenSpace(gpatlas_motion::voxelOctree(map.unseen(bodyVoxels(), {}), kVoxel));
+  const gpatlas_motion::ApproachPlan blind = model_only.plan(rest, touch, normal);
+  ASSERT_TRUE(blind.ok) << blind.message;
+  EXPECT_LT(bodyClearance(blind.approach, -normal, kHiddenHandle, config.probe), 0.0) << "the test's way must cross the handle";
+
+  const gpatlas_motion::ApproachPlan plan = with_unseen.plan(rest, touch, normal);
+  ASSERT_TRUE(plan.ok) << plan.message;
+  EXPECT_GE(bodyClearance(plan.approach, -normal, kHiddenHandle, config.probe), 0.0);
+  EXPECT_GE(bodyClearance(plan.retreat, -normal, kHiddenHandle, config.probe), 0.0);
+  // It ends at the same approach pose, the last stretch along the touch's line (the guarded
+  // move in), and the probing segment is the same.
+  const Vector3d approach_pose = touch + config.approach_distance_m * normal;
+  ASSERT_GE(plan.approach.size(), 3u);
+  EXPECT_TRUE(plan.approach.back().isApprox(approach_pose));
+  const Vector3d entry = plan.approach[plan.approach.size() - 2];
+  EXPECT_GT((entry - approach_pose).dot(normal), 0.0);
+  EXPECT_LT((entry - approach_pose).cross(normal).norm(), 1e-9);
+  EXPECT_EQ(plan.probing, blind.probing);
+  // The cheap test does not see the unseen space: the touch stays a candidate.
+  EXPECT_EQ(with_unseen.checkApproachPose(touch, normal), "");
+}
+
+TEST(SceneMap, AMovingCameraKeepsAtMostItsNewestSensorOrigins) {
+  SceneMapConfig config = sceneConfig();
+  config.max_sensor_origins = 4;
+  SceneMap map(config, kVoxel);
+  for (int i = 0; i < 10; ++i) map.insertCloud({}, kSensor + Vector3d(0.0, 0.05 * i, 0.0));
+  ASSERT_EQ(map.sensorOrigins().size(), 4u);
+  for (int k = 0; k < 4; ++k) EXPECT_TRUE(map.sensorOrigins()[k].isApprox(kSensor + Vector3d(0.0, 0.05 * (6 + k), 0.0)));
+  // An origin within a voxel of a kept one is that one.
+  map.insertCloud({}, kSensor + Vector3d(0.0, 0.45, 0.3 * kVoxel));
+  EXPECT_EQ(map.sensorOrigins().size(), 4u);
+  EXPECT_TRUE(map.sensorOrigins().front().isApprox(kSensor + Vector3d(0.0, 0.3, 0.0)));
+  config.max_sensor_origins = 0;
+  EXPECT_NE(gpatlas_motion::validate(config).find("scene_max_sensor_origins"), std::string::npos);
+}
+
 }  // namespace

@@ -70,8 +70,10 @@ class ArmApproachPlanner {
 
   const Arm& arm() const { return *arm_; }
 
-  // Empty when the configuration is within the limits and free; otherwise why not.
-  std::string configurationProblem(const Eigen::VectorXd& joints) const;
+  // Empty when the configuration is within the limits and free; otherwise why not. `on_way`:
+  // on the way to a touch or back, where the probe keeps out of the unseen space too
+  // (ProbeApproachPlanner::isWayFree).
+  std::string configurationProblem(const Eigen::VectorXd& joints, bool on_way = false) const;
 
   // The approach from `start` (joints) to the touch's approach pose, the probing segment, and
   // the approach reversed as the retreat.
@@ -88,9 +90,16 @@ class ArmApproachPlanner {
  private:
   std::shared_ptr<const Arm> arm_;
   std::shared_ptr<const ProbeApproachPlanner> world_;
+  // On the way (configurationProblem's on_way).
   std::vector<Eigen::VectorXd> planJointPath(const Eigen::VectorXd& from, const Eigen::VectorXd& to,
                                              std::string* problem) const;
-  bool motionFree(const Eigen::VectorXd& from, const Eigen::VectorXd& to) const;
+  bool motionFree(const Eigen::VectorXd& from, const Eigen::VectorXd& to, bool on_way) const;
+  // The configuration where the way to the touch ends (ProbeApproachPlanner::wayEnd) when the
+  // approach pose lies in the unseen space: the tip out along the touch's line, found from the
+  // one at the approach pose, and free to move to it; the approach pose's own otherwise. Empty
+  // with the problem when there is none.
+  Eigen::VectorXd wayEndConfiguration(const Eigen::VectorXd& at_approach, const Eigen::Vector3d& touch_point,
+                                      const Eigen::Vector3d& normal, std::string* problem) const;
   // Empty when the configuration at the approach pose is free and the probing segment from it
   // to the touch point is clear for the links; its configuration at the touch to *at_touch.
   std::string approachConfigurationProblem(const Eigen::VectorXd& at_approach, const Eigen::Vector3d& touch_point,

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -42,6 +43,12 @@ class ProbeApproachPlanner {
 
   // The probabilistic collision map (the CollisionMap nodelet's octree of P(occupied)).
   void setCollisionMap(std::shared_ptr<const octomap::OcTree> map);
+  // The space near the explored object that no sensor observed (occupied voxels; null: none),
+  // where the object may have a part its model does not predict. It blocks the way to the
+  // approach pose and back, not the approach pose and the probing segment: when the approach
+  // pose lies in it, the probe comes in along the touch's line, from where that line leaves it,
+  // as it goes on to the touch (a guarded move on a robot), and the way is planned to there.
+  void setUnseenSpace(std::shared_ptr<const octomap::OcTree> unseen);
   // A box of the known static world, axis-aligned.
   void addStaticBox(const Eigen::Vector3d& centre, const Eigen::Vector3d& size);
   // Everything below a plane (the table): solid where normal . x + offset < 0. Throws
@@ -59,6 +66,13 @@ class ProbeApproachPlanner {
   // Whether the probe, pointing along `direction` with its tip at `tip`, is clear of every
   // obstacle by clearance_m.
   bool isFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const;
+  // isFree, and the probe clear of the unseen space (setUnseenSpace): a place on the way to a
+  // touch and back.
+  bool isWayFree(const Eigen::Vector3d& tip, const Eigen::Vector3d& direction) const;
+  // Where the probe's way to the approach pose in front of a touch ends: the approach pose when
+  // it is clear of the unseen space, else the first place out along the touch's line that is,
+  // from which the probe comes in along that line; nullopt when an obstacle comes first.
+  std::optional<Eigen::Vector3d> wayEnd(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
   // Whether a capsule from a to b of this radius, inflated by clearance_m, is clear of every
   // obstacle (the arm's links).
   bool isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const;
@@ -66,6 +80,11 @@ class ProbeApproachPlanner {
   const ApproachConfig& config() const;
 
  private:
+  // The tip's way from start to goal, pointing along `direction`, clear of the obstacles and the
+  // unseen space: straight when that is, else RRT-Connect's; empty with the problem when none.
+  std::vector<Eigen::Vector3d> planWay(const Eigen::Vector3d& start_tip, const Eigen::Vector3d& goal_tip,
+                                       const Eigen::Vector3d& direction, std::string* problem) const;
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -3,6 +3,7 @@
 #include <gpatlas_core/common/types.h>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <cstddef>
 #include <cstdint>
@@ -44,6 +45,18 @@ struct SceneMapConfig {
   // side. So the unknown voxels up to this far behind each obstacle voxel, along the ray from
   // the sensor, are obstacles too (0: none; about a small object's depth keeps a shaft out).
   double shadow_depth_m{0.1};
+  // The explored object's model predicts what the camera did not see of it, and can miss a part
+  // (a handle behind it): a probe crossing that space on its way would hit it. So the voxels
+  // within this distance of the object (its points and the model's occupied voxels) that no
+  // camera ray reached and no probe stroke went through are obstacles for the way to a touch and
+  // back, not for the approach pose and the probing stroke, a guarded move that may enter them
+  // along its line (ProbeApproachPlanner::setUnseenSpace). About how far a part may stand out of
+  // the predicted surface; 0: off.
+  double unseen_reach_m{0.05};
+  // Each distinct sensor origin (farther than a voxel from the others) casts the obstacles'
+  // shadows; a moving camera brings new ones at every frame. The oldest beyond this many are
+  // forgotten (their shadows go, the voxels they saw stay).
+  int max_sensor_origins{16};
 };
 
 // Empty when the config is usable, else what is wrong with it.
@@ -75,6 +88,8 @@ class SceneMap {
   // The clouds insertCloud did not cast, as they could not change the map.
   std::size_t skippedClouds() const { return skipped_clouds_; }
   std::size_t occupiedVoxels() const;
+  // The sensor origins whose shadows are cast, oldest first (at most max_sensor_origins).
+  const std::vector<Eigen::Vector3d>& sensorOrigins() const { return origins_; }
   const SceneMapConfig& config() const { return config_; }
   const octomap::OcTree& tree() const { return *tree_; }
 
@@ -85,6 +100,13 @@ class SceneMap {
   // (shadow_depth_m) but those.
   std::vector<Eigen::Vector3d> obstacles(const std::vector<Eigen::Vector3d>& object_points,
                                          const std::vector<Eigen::Vector3d>& free_points) const;
+
+  // The centres of the voxels within unseen_reach_m of an `object_points` point (the explored
+  // object: its points and its model's occupied voxels) that no camera ray reached (unknown in
+  // the scene) and that hold no `free_points` point (the probe went through it): where the
+  // object may have a part nobody saw. None when unseen_reach_m is 0.
+  std::vector<Eigen::Vector3d> unseen(const std::vector<Eigen::Vector3d>& object_points,
+                                      const std::vector<Eigen::Vector3d>& free_points) const;
 
  private:
   SceneMapConfig config_;
@@ -120,6 +142,17 @@ SceneRole sceneRole(gpatlas_core::PointLabel label, gpatlas_core::PointSource so
 // points are where the probe went (sceneRole).
 std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
                                             const std::vector<Eigen::Vector3d>& view_points);
+
+// SceneMap::unseen() for a model's training data: its surface points from the camera and the
+// probe, with `view_points` and `model_occupied` (its occupied voxels' centres), are the object;
+// its free-space points are where the probe went (sceneRole).
+std::vector<Eigen::Vector3d> sceneUnseen(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
+                                         const std::vector<Eigen::Vector3d>& view_points,
+                                         const std::vector<Eigen::Vector3d>& model_occupied);
+
+// An octree of `resolution_m` whose occupied voxels are those at `centres` (addObstacles), with
+// nothing else known: the unseen space as ProbeApproachPlanner::setUnseenSpace takes it.
+std::unique_ptr<octomap::OcTree> voxelOctree(const std::vector<Eigen::Vector3d>& centres, double resolution_m);
 
 // Marks the voxels at `centres` occupied in `map` (the collision octree, at its clamping
 // maximum, whatever the model said there). Returns how many were not occupied before.

@@ -19,6 +19,9 @@ class OcTree;
 
 namespace gpatlas_motion {
 
+// The centres of a grid's nodes above `occupied_probability`: the object as its model predicts it.
+std::vector<Eigen::Vector3d> occupiedCentres(const gpatlas_core::OccupancyGrid& grid, double occupied_probability);
+
 // The collision map as an octree of P(occupied): every grid node becomes a leaf holding its
 // log-odds (P clamped to [0.001, 0.999]), the tree's occupancy threshold is `occupied_probability`. `occupied` (optional)
 // gets the number of nodes above it. Throws std::invalid_argument for a grid that is not ok.
@@ -55,9 +58,12 @@ class TouchMotionPlanner {
   // which throws std::runtime_error when the arm does not reach it; use_arm without an arm
   // throws std::invalid_argument.
   // `reach` (optional) keeps what the cheap test learns of the arm's reach for the next map.
+  // `unseen` (optional): the space no sensor observed near the object, which the probe's way
+  // there and back avoids (ProbeApproachPlanner::setUnseenSpace).
   TouchMotionPlanner(const ApproachConfig& config, std::shared_ptr<const octomap::OcTree> map,
                      const std::optional<gpatlas_core::SupportPlane>& table, std::shared_ptr<const Arm> arm,
-                     std::shared_ptr<ArmReachMemory> reach = nullptr);
+                     std::shared_ptr<ArmReachMemory> reach = nullptr,
+                     std::shared_ptr<const octomap::OcTree> unseen = nullptr);
 
   // The cheap test of a candidate (ProbeApproachPlanner's or ArmApproachPlanner's
   // checkApproachPose): empty when it may be approached, else why not.
@@ -105,7 +111,9 @@ class ModelTouchApproacher : public gpatlas_core::TouchApproacher {
   void prepare() override { ensureMap(); }
   // The camera's scene in every map, as the collision map nodelet merges it: its occupied voxels
   // but the explored object's (its view's points `object_view_points` and the model's surface
-  // points) and those the probe went through are obstacles (sceneObstacles). Null: none.
+  // points) and those the probe went through are obstacles (sceneObstacles), and the unobserved
+  // voxels near the object (SceneMapConfig::unseen_reach_m) block the way there and back
+  // (sceneUnseen). Null: none.
   void setScene(std::shared_ptr<const SceneMap> scene, std::vector<Eigen::Vector3d> object_view_points);
 
   // The last map's build time (ms) and size.

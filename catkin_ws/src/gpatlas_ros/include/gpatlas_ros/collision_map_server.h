@@ -90,6 +90,11 @@ class CollisionMapServer {
                const std::string& summary, const ros::WallTime& started);
   // The scene's obstacles for a training set (its object points and the probe's free space).
   std::shared_ptr<const std::vector<Eigen::Vector3d>> sceneObstacles(const gpatlas_msgs::TrainingSet& msg) const;
+  // The space near the explored object that no sensor observed (SceneMap::unseen), for a
+  // training set (its object points and probe's free space) and its model's occupied voxels;
+  // null without a scene, with collision_map/scene_unseen_reach_m 0, or when there is none.
+  std::shared_ptr<const octomap::OcTree> unseenSpace(const gpatlas_msgs::TrainingSet& msg,
+                                                     const std::vector<Eigen::Vector3d>& model_occupied) const;
   // The map of one training set and what it holds, or null with the reason.
   // `model` is the GP nodelet's snapshot of it, null for a replica refitted from the message.
   std::shared_ptr<Map> build(const gpatlas_msgs::TrainingSet& msg, std::shared_ptr<const gpatlas_core::SurfaceModel> model,

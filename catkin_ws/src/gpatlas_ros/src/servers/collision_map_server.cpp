@@ -61,6 +61,11 @@ struct CollisionMapServer::Map {
   std::shared_ptr<const octomap::OcTree> model_tree;
   // The scene's obstacles in both trees (null: none).
   std::shared_ptr<const std::vector<Eigen::Vector3d>> scene_obstacles;
+  // The model's occupied voxels' centres, and the space near them and the object's points that
+  // no sensor observed, which the way to a touch and back avoids (null: none;
+  // collision_map/scene_unseen_reach_m).
+  std::shared_ptr<const std::vector<Eigen::Vector3d>> model_occupied;
+  std::shared_ptr<const octomap::OcTree> unseen;
   gpatlas_msgs::TrainingSet::ConstPtr training;
   // P(occupied) per voxel, for the map's topics and save_map; null until asked for (mutex_).
   std::shared_ptr<const octomap::OcTree> probabilities;
@@ -208,7 +213,7 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     }
     res.map_training_sequence = map->training_sequence;
     res.map_stale = map->training_sequence != latest;
-    const gpatlas_motion::TouchMotionPlanner planner(approach_config_, map->tree, plane, approach_arm_);
+    const gpatlas_motion::TouchMotionPlanner planner(approach_config_, map->tree, plane, approach_arm_, nullptr, map->unseen);
     const Eigen::Vector3d start = fromMsg(req.start);
     Eigen::VectorXd start_joints;
     if (approach_arm_ && !req.start_joints.name.empty()) {
@@ -469,6 +474,22 @@ std::shared_ptr<const std::vector<Eigen::Vector3d>> CollisionMapServer::sceneObs
   return std::make_shared<const std::vector<Eigen::Vector3d>>(scene_->obstacles(object, free));
 }
 
+std::shared_ptr<const octomap::OcTree> CollisionMapServer::unseenSpace(
+    const gpatlas_msgs::TrainingSet& msg, const std::vector<Eigen::Vector3d>& model_occupied) const {
+  if (!scene_) return nullptr;
+  std::vector<Eigen::Vector3d> object = model_occupied, free;
+  for (std::size_t i = 0; i < msg.points.size() && i < msg.labels.size() && i < msg.sources.size(); ++i) {
+    const gpatlas_motion::SceneRole role = gpatlas_motion::sceneRole(static_cast<gpatlas_core::PointLabel>(msg.labels[i]),
+                                                                     static_cast<gpatlas_core::PointSource>(msg.sources[i]));
+    if (role == gpatlas_motion::SceneRole::kObject) object.push_back(fromMsg(msg.points[i]));
+    else if (role == gpatlas_motion::SceneRole::kProbed) free.push_back(fromMsg(msg.points[i]));
+  }
+  for (const auto& p : msg.view_points) object.emplace_back(p.x, p.y, p.z);
+  const std::vector<Eigen::Vector3d> unseen = scene_->unseen(object, free);
+  if (unseen.empty()) return nullptr;
+  return gpatlas_motion::voxelOctree(unseen, map_config_.grid.resolution_m);
+}
+
 std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::remerge(
     const Map& map, std::shared_ptr<const octomap::OcTree> model_probabilities, std::string* summary) const {
   auto out = std::make_shared<Map>();
@@ -481,6 +502,8 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::remerge(
   out->scene_revision = scene_->revision();
   out->scene_obstacles = sceneObstacles(*map.training);
   out->tree = withObstacles(out->model_tree, out->scene_obstacles.get());
+  out->model_occupied = map.model_occupied;
+  out->unseen = unseenSpace(*map.training, *map.model_occupied);
   *summary = "training set " + std::to_string(map.training_sequence) + " with the scene of " +
              std::to_string(scene_clouds_) + " clouds: " + std::to_string(out->scene_obstacles->size()) +
              " scene voxels are obstacles";
@@ -511,6 +534,9 @@ std::shared_ptr<CollisionMapServer::Map> CollisionMapServer::build(
   const ros::WallTime scene_started = ros::WallTime::now();
   map->scene_obstacles = sceneObstacles(msg);
   map->tree = withObstacles(map->model_tree, map->scene_obstacles.get());
+  map->model_occupied =
+      std::make_shared<const std::vector<Eigen::Vector3d>>(gpatlas_motion::occupiedCentres(grid, threshold));
+  map->unseen = unseenSpace(msg, *map->model_occupied);
   const double scene_s = (ros::WallTime::now() - scene_started).toSec();
   std::ostringstream message;
   message << "training set " << msg.sequence << ": " << occupied << " of " << grid.probabilities.size()
