@@ -116,6 +116,9 @@ TEST(SurfaceEvidence, DistancesMatchABruteForceSearchOverMeasuredSurfacePointsOn
   EXPECT_THROW(SurfaceEvidence(model, std::nan("")), std::invalid_argument);
   EXPECT_THROW(SurfaceEvidence(model, max_distance, std::nullopt, 0.0, {}, -0.01), std::invalid_argument);
   EXPECT_THROW(SurfaceEvidence(model, max_distance, std::nullopt, 0.0, {}, std::nullopt, {}, 0.0), std::invalid_argument);
+  for (const double fraction : {0.0, 1.5, std::nan("")})
+    EXPECT_THROW(SurfaceEvidence(model, max_distance, std::nullopt, 0.0, {}, std::nullopt, {}, 0.005, fraction),
+                 std::invalid_argument);
 }
 
 // A view point vouches for the surface within view_max_distance, a contact (or an attempted

@@ -40,7 +40,9 @@ SurfaceEvidence::SurfaceEvidence(const SurfaceModel& model, std::optional<double
     : max_distance_m_(checkedDistance(max_distance_m, "max_distance_m", false).value_or(0.0)),
       cell_m_(enabled() ? max_distance_m_ : kRetouchCellM),
       surprise_distance_m_(checkedDistance(surprise_distance_m, "surprise_distance_m", false).value_or(0.0)),
-      min_surprise_fraction_(std::isfinite(min_surprise_fraction) ? std::clamp(min_surprise_fraction, 0.0, 1.0) : 1.0) {
+      min_surprise_fraction_(min_surprise_fraction) {
+  if (!(min_surprise_fraction > 0.0 && min_surprise_fraction <= 1.0))
+    throw std::invalid_argument("SurfaceEvidence: min_surprise_fraction must be in (0, 1]");
   const double view_radius_m =
       std::min(checkedDistance(view_max_distance_m, "view_max_distance_m", true).value_or(max_distance_m_), max_distance_m_);
   // Without the distance test the points are still kept for measuredNear, on a grid of its own.

@@ -76,7 +76,10 @@ std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name, Param
 std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name, std::uint64_t seed) {
   const NoParameters none;
   ParamReader defaults(none);
-  return makeStrategy(name, defaults, seed);
+  auto strategy = makeStrategy(name, defaults, seed);
+  // A factory that needs a setting it was not given says so: that is no strategy to run.
+  if (!defaults.ok()) throw std::invalid_argument("strategy '" + name + "' with its defaults: " + defaults.errors());
+  return strategy;
 }
 
 bool registerStrategy(const std::string& name, StrategyFactory factory) { return registry().add(name, std::move(factory)); }

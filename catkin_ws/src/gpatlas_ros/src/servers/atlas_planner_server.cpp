@@ -37,6 +37,10 @@ AtlasPlannerServer::AtlasPlannerServer(ros::NodeHandle nh, ros::NodeHandle pnh)
   if (!approach_arm_error_.empty()) ROS_ERROR_STREAM("atlas_planner: approach/use_arm: " << approach_arm_error_);
   std::string error;
   if (!strategy(default_strategy_, &error, &reader)) reader.invalid("strategy", error);
+  // Every other strategy reads its settings now too, so that a bad one is reported at start-up,
+  // as the bench does, and not when a request first names it.
+  for (const std::string& name : gpatlas_core::strategyNames())
+    if (name != default_strategy_ && !strategy(name, &error, &reader)) reader.invalid("strategy " + name, error);
   reader.report("atlas_planner");
 
   atlas_marker_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("atlas", 1, true);

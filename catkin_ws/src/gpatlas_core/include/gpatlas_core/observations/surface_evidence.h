@@ -101,7 +101,8 @@ class SurfaceEvidence {
  public:
   // `max_distance_m`: the distance beyond which a surface point is unsupported; empty turns the
   // test off (isUnsupported is always false, radiusCap is infinite). Throws
-  // std::invalid_argument when a given distance is not finite and > 0 (the view's: >= 0).
+  // std::invalid_argument when a given distance is not finite and > 0 (the view's: >= 0), or
+  // min_surprise_fraction is outside (0, 1].
   // With `support`, the table the object rests on: a surface point whose probe approach
   // (approach_m along its outward normal) would start below the table cannot be touched, and
   // the table is its evidence (an object's underside; touches there hit the table).
