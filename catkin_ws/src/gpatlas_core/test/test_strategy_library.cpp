@@ -2,12 +2,14 @@
 #include "gpatlas_core/exploration/explorer.h"
 #include "gpatlas_core/planning/strategy_library.h"
 #include "gpatlas_core/model/surface_model_factory.h"
+#include "gpatlas_core/config/config_readers.h"
 
 #include "gpatlas_core/testing/analytic_sphere.h"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 
 namespace {
@@ -45,6 +47,46 @@ TEST(StrategyLibrary, LoadsASurfaceModelThatFitsAndRebuildsFromItsState) {
   EXPECT_EQ(replica->mean(sphere.centre), model->mean(sphere.centre));
   EXPECT_EQ(replica->variance(on_surface), model->variance(on_surface));
   EXPECT_EQ(replica->clone()->name(), "gpis_matern52");
+}
+
+// The library's model reads gpis/ and a setting of its own under the namespace it is made in,
+// through the registry as the nodes and the bench make it, and a refused value is reported by
+// its full name (its default applies).
+TEST(StrategyLibrary, ALibrarysSurfaceModelReadsItsSettingsUnderItsNamespace) {
+  ASSERT_TRUE(loadStrategyLibrary(GPATLAS_EXAMPLE_MODEL_LIBRARY).ok);
+  std::string error;
+  const auto settings = gpatlas_core::YamlParameters::fromString(
+      "plugins: {gpis_matern52: {length: 0.5}, gpis: {data_radius: 0.8}}\n"
+      "gpis_matern52: {length: 0.05}\n"
+      "refused: {gpis_matern52: {length: -1}}\n",
+      &error);
+  ASSERT_TRUE(settings) << error;
+  gpatlas_core::ParamReader reader(*settings);
+  const std::unique_ptr<gpatlas_core::SurfaceModel> model =
+      gpatlas_core::surfaceModelMaker("gpis_matern52", reader, "plugins")();
+  EXPECT_TRUE(reader.ok()) << reader.errors();
+  EXPECT_NEAR(model->hyperparameters()[1], std::log(0.5), 1e-12);  // log sigma, log length, ...
+  EXPECT_EQ(dynamic_cast<const gpatlas_core::GpisModel&>(*model).config().data_radius, 0.8);
+  const auto& read = reader.readNames();
+  EXPECT_TRUE(std::count(read.begin(), read.end(), "plugins/gpis_matern52/length"));
+  EXPECT_FALSE(std::count(read.begin(), read.end(), "gpis_matern52/length"));
+
+  // The nodes' path: readSurfaceModel has every registered model read its settings.
+  const auto nodes = gpatlas_core::YamlParameters::fromString(
+      "model: {type: gpis_matern52}\ngpis_matern52: {length: 0.05}\n", &error);
+  ASSERT_TRUE(nodes) << error;
+  gpatlas_core::ParamReader node_reader(*nodes);
+  gpatlas_core::SurfaceModelConfig config;
+  gpatlas_core::readSurfaceModel(node_reader, &config);
+  EXPECT_TRUE(node_reader.ok()) << node_reader.errors();
+  EXPECT_NEAR(gpatlas_core::makeSurfaceModel(config)->hyperparameters()[1], std::log(0.05), 1e-12);
+
+  gpatlas_core::ParamReader refused_reader(*settings);
+  const std::unique_ptr<gpatlas_core::SurfaceModel> refused =
+      gpatlas_core::surfaceModelMaker("gpis_matern52", refused_reader, "refused")();
+  EXPECT_FALSE(refused_reader.ok());
+  EXPECT_NE(refused_reader.errors().find("refused/gpis_matern52/length"), std::string::npos) << refused_reader.errors();
+  EXPECT_NEAR(refused->hyperparameters()[1], std::log(0.3), 1e-12);  // Matern52Kernel's default
 }
 
 TEST(StrategyLibrary, LoadsTheExampleOnceAndItsStrategyPlans) {

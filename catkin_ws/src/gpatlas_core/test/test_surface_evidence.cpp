@@ -365,17 +365,17 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
   const GpisModel model = modelWithAHoleOnTop(sphere);
   AtlasPlanner::Config config;
   config.selection = AtlasPlanner::Config::Selection::kFirst;  // the first chart, at the edge
-  config.extend_path_charts = 0;  // aim_past_m's condition
+  config.extend_path_charts = 0;  // the aim's condition
   config.evidence.max_distance = 0.3;
   config.evidence.view_max_distance = 0.3;
   const double max_distance_m = *config.evidence.max_distance * model.scale();
   for (const double fraction : {0.25, 0.5}) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
       SCOPED_TRACE(::testing::Message() << "fraction " << fraction << ", seed " << seed);
-      config.aim_past_m = 0.0;
       const AtlasPlanResult first = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
-      config.aim_past_m = fraction * max_distance_m;
-      const AtlasPlanResult aimed = AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax});
+      const AtlasPlanResult aimed =
+          AtlasPlanner(config, seed).plan(model, StopRule{kHugeVMax}, std::nullopt, {}, {}, {}, {}, nullptr,
+                                          fraction * max_distance_m);
       ASSERT_EQ(first.status, PlanStatus::kTouch) << first.message;
       ASSERT_EQ(aimed.status, PlanStatus::kTouch) << aimed.message;
       // The same search up to the first chart that needs a touch, then the aim's charts.
@@ -398,8 +398,10 @@ TEST(SurfaceEvidence, APokeAimsPastTheEdgeOfTheSupportedSurfaceWhileTouchesAreSt
                 bruteForceDistance(model, first.atlas.chart(first.path.back()).centre));
     }
   }
-  config.aim_past_m = -0.01;
-  EXPECT_FALSE(validate(config).empty());
+  for (const double aim_past_m : {-0.01, std::numeric_limits<double>::quiet_NaN()})
+    EXPECT_EQ(AtlasPlanner(config, 1).plan(model, StopRule{kHugeVMax}, std::nullopt, {}, {}, {}, {}, nullptr, aim_past_m)
+                  .status,
+              PlanStatus::kError);
 }
 
 TEST(SurfaceEvidence, OnlyAPokeAimsByTheProbesFootprint) {

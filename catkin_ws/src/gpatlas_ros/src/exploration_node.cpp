@@ -52,8 +52,8 @@ ExplorationNodeSettings readSettings(const ros::NodeHandle& pnh) {
   readStrategyChoice(r, &choice);
   settings.strategy = choice.name;
   readExplorationNode(r, &settings.node);
+  loadPluginLibraries(choice.libraries, r, "exploration");  // before the models read their settings
   readSurfaceModel(r, &settings.model);
-  loadPluginLibraries(choice.libraries, r, "exploration");
   readMesher(r, &settings.mesher);
   readApproach(r, &settings.approach);
   if (!r.ok()) throw std::runtime_error("invalid parameters: " + r.errors());

@@ -20,9 +20,10 @@ ServerPreamble readServerPreamble(gpatlas_core::ParamReader& reader, const std::
   readFrames(reader, &preamble.frames);
   preamble.seed = readSeed(reader);
   preamble.use_support_plane = readUseSupportPlane(reader);
-  gpatlas_core::readSurfaceModel(reader, &preamble.model);
   readStrategyChoice(reader, &preamble.strategy_choice);
+  // Before the model's settings: a library's surface model reads its own.
   loadPluginLibraries(preamble.strategy_choice.libraries, reader, who);
+  gpatlas_core::readSurfaceModel(reader, &preamble.model);
   return preamble;
 }
 

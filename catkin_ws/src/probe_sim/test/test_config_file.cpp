@@ -203,8 +203,10 @@ TEST(PipelineYaml, ValuesReachTheConfigs) {
   ASSERT_TRUE(c.segmentation.object_hint_m.has_value());
   EXPECT_EQ(*c.segmentation.object_hint_m, gpatlas_core::Vector3(1, 2, 3));
   EXPECT_FALSE(c.segmentation.voxel_leaf_m.has_value());
-  ASSERT_EQ(c.model.gpis.initial_params.size(), 1u);
-  EXPECT_NEAR(std::exp(c.model.gpis.initial_params[0]), 2.5, 1e-12);
+  const std::unique_ptr<gpatlas_core::SurfaceModel> gpis = c.model.makers.at(gpatlas_core::GpisModel::kName)();
+  const std::vector<double>& initial_params = dynamic_cast<const gpatlas_core::GpisModel&>(*gpis).config().initial_params;
+  ASSERT_EQ(initial_params.size(), 1u);
+  EXPECT_NEAR(std::exp(initial_params[0]), 2.5, 1e-12);
   // Unset sections keep the Configs' own defaults.
   EXPECT_EQ(c.touch.min_point_spacing_m, gpatlas_core::TouchObservationConfig().min_point_spacing_m);
 }

@@ -237,7 +237,7 @@ bool parseFlags(int argc, char** argv, Options& o) {
 }
 
 // The config file with its overlays and --set overrides, read into o.pipeline and o.simulation;
-// the robot's URDF; the config's strategy libraries.
+// the config's strategy libraries; the robot's URDF.
 void readConfiguration(Options& o) {
   std::string error;
   const std::shared_ptr<gpatlas_core::YamlParameters> params = gpatlas_core::YamlParameters::fromFile(o.config_path, &error);
@@ -253,6 +253,17 @@ void readConfiguration(Options& o) {
   }
   for (const std::string& assignment : o.overrides)
     if (!params->set(assignment, &error)) throw std::invalid_argument("--set: " + error);
+  {
+    // The config's libraries first: a library's surface model reads its settings with the
+    // pipeline's (readPipeline reports a bad strategy_libraries).
+    gpatlas_core::ParamReader libraries_reader(*params);
+    gpatlas_core::StrategyChoice choice;
+    gpatlas_core::readStrategyChoice(libraries_reader, &choice);
+    for (const std::string& library : choice.libraries) {
+      const auto load = gpatlas_core::loadStrategyLibrary(library);
+      if (!load.ok) throw std::invalid_argument(load.message);
+    }
+  }
   gpatlas_core::ParamReader reader(*params);
   probe_sim::readPipeline(reader, &o.pipeline);
   probe_sim::readSimulation(reader, &o.simulation);
@@ -266,10 +277,6 @@ void readConfiguration(Options& o) {
   std::ifstream urdf(o.urdf_path);
   if (!urdf) throw std::invalid_argument("--urdf: cannot read " + o.urdf_path);
   o.urdf_xml.assign(std::istreambuf_iterator<char>(urdf), std::istreambuf_iterator<char>());
-  for (const std::string& library : o.pipeline.strategy_choice.libraries) {
-    const auto load = gpatlas_core::loadStrategyLibrary(library);
-    if (!load.ok) throw std::invalid_argument(load.message);
-  }
   // The runs' strategies read their settings now as each run will, so that a bad value, or a
   // setting only a library's strategy reads, is known before any run (unknown names are
   // reported with the command line's checks).

@@ -17,13 +17,16 @@ ParamReader::Scope::Scope(ParamReader& reader, const std::string& ns) : reader_(
 }
 
 void ParamReader::problem(const std::string& full_name, const std::string& why) {
-  errors_.push_back(source_.fullName(full_name) + ": " + why);
+  // A section two components read (gpis/: the global model's and the multiscale model's coarse
+  // level) is reported once.
+  const std::string error = source_.fullName(full_name) + ": " + why;
+  if (std::find(errors_.begin(), errors_.end(), error) == errors_.end()) errors_.push_back(error);
 }
 
 bool ParamReader::present(const std::string& name) {
   read_.push_back(name);
   if (source_.exists(name)) return true;
-  defaulted_.push_back(name);
+  if (std::find(defaulted_.begin(), defaulted_.end(), name) == defaulted_.end()) defaulted_.push_back(name);
   return false;
 }
 

@@ -34,8 +34,6 @@ std::string validate(const AtlasPlanner::Config& config) {
   if (!(config.max_start_distance_m > 0.0)) problem << "max_start_distance_m must be positive; ";
   if (config.max_start_attempts < 1) problem << "max_start_attempts must be at least 1; ";
   if (config.extend_path_charts < 0) problem << "extend_path_charts must be >= 0; ";
-  if (!(config.aim_past_m >= 0.0) || !std::isfinite(config.aim_past_m))
-    problem << "aim_past_m must be finite and >= 0; ";
   if (!(config.projection.f_tolerance > 0.0) || config.projection.max_iterations < 1 ||
       !(config.projection.max_step_fraction > 0.0))
     problem << "projection needs f_tolerance > 0, max_iterations >= 1, max_step_fraction > 0; ";
@@ -253,9 +251,9 @@ class AtlasGrowth {
  public:
   AtlasGrowth(const SurfaceModel& model, const StopRule& rule, const AtlasPlanner::Config& config,
               const SurfaceEvidence& evidence, const AtlasPlanner::Progress& progress,
-              const TouchFilter& reachable, std::mt19937_64& rng, AtlasPlanResult& result)
+              const TouchFilter& reachable, double aim_past_m, std::mt19937_64& rng, AtlasPlanResult& result)
       : model_(model), rule_(rule), config_(config), evidence_(evidence), progress_(progress),
-        reachable_(reachable), rng_(rng), result_(result), atlas_(result.atlas),
+        reachable_(reachable), aim_past_m_(aim_past_m), rng_(rng), result_(result), atlas_(result.atlas),
         scoring_(config.selection == AtlasPlanner::Config::Selection::kBestScore) {}
 
   ChartCreation makeChart(const SurfacePoint& point, int parent) {
@@ -602,7 +600,7 @@ class AtlasGrowth {
     }
     // Until the path has gone at least that far: in unsupported surface the charts are
     // rho_min_m wide, so the last step overshoots by less than that.
-    for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < config_.aim_past_m;) {
+    for (double aimed = 0.0; config_.extend_path_charts == 0 && aimed < aim_past_m_;) {
       if (capReached()) break;
       if (atlas_.chart(last).candidates.empty()) break;
       ChartCreation extension = expand(last);
@@ -619,6 +617,7 @@ class AtlasGrowth {
   const SurfaceEvidence& evidence_;
   const AtlasPlanner::Progress& progress_;
   const TouchFilter& reachable_;
+  const double aim_past_m_;
   std::mt19937_64& rng_;
   AtlasPlanResult& result_;
   Atlas& atlas_;
@@ -636,8 +635,9 @@ class AtlasGrowth {
 AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
                                    const Progress& progress, const TouchFilter& reachable,
                                    const EvidenceState& evidence_state, const TouchObservationConfig& touch,
-                                   AtlasMemory* memory) const {
-  AtlasPlanResult result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, config_.reuse.enabled);
+                                   AtlasMemory* memory, double aim_past_m) const {
+  AtlasPlanResult result =
+      grow(model, rule, start, progress, reachable, evidence_state, touch, memory, aim_past_m, config_.reuse.enabled);
   const bool ends_run = result.status == PlanStatus::kConverged || result.status == PlanStatus::kCapReached;
   if (!ends_run || result.reused_charts == 0) return result;
   // Convergence (or a spent budget) is what the run stops on, so it is decided on an atlas grown
@@ -645,7 +645,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
   const double reused_s = result.elapsed_s;
   const long reused_queries = result.queries;
   const int kept = result.reused_charts;
-  result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, false);
+  result = grow(model, rule, start, progress, reachable, evidence_state, touch, memory, aim_past_m, false);
   result.elapsed_s += reused_s;
   result.queries += reused_queries;
   result.message += "; grown afresh after the previous plan's atlas (" + std::to_string(kept) + " charts kept) found no touch";
@@ -655,7 +655,7 @@ AtlasPlanResult AtlasPlanner::plan(const SurfaceModel& model, const StopRule& ru
 AtlasPlanResult AtlasPlanner::grow(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
                                    const Progress& progress, const TouchFilter& reachable,
                                    const EvidenceState& evidence_state, const TouchObservationConfig& touch,
-                                   AtlasMemory* memory, bool reuse) const {
+                                   AtlasMemory* memory, double aim_past_m, bool reuse) const {
   const Clock::time_point started = Clock::now();
   AtlasPlanResult result;
   const bool scoring = config_.selection == Config::Selection::kBestScore;
@@ -669,10 +669,12 @@ AtlasPlanResult AtlasPlanner::grow(const SurfaceModel& model, const StopRule& ru
   if (const std::string problem = validate(rule); !problem.empty()) return finish(PlanStatus::kError, problem);
   if (const std::string problem = validate(config_); !problem.empty())
     return finish(PlanStatus::kError, "invalid planner config: " + problem);
+  if (!(aim_past_m >= 0.0) || !std::isfinite(aim_past_m))
+    return finish(PlanStatus::kError, "aim_past_m " + std::to_string(aim_past_m) + " must be finite and >= 0");
 
   std::mt19937_64 rng(seed_);
   const SurfaceEvidence evidence(model, config_.evidence, evidence_state);
-  AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, rng, result);
+  AtlasGrowth growth(model, rule, config_, evidence, progress, reachable, aim_past_m, rng, result);
   int continuation = 0;
   std::vector<Vector3> changed;
   const bool reused = memory && scoring && reuse && memory->changesTo(model, &changed) &&

@@ -2,33 +2,41 @@
 
 namespace gpatlas_core {
 
+namespace {
+
+// The rules of each mode, applied once when the strategy is made.
+AtlasPlanner::Config withModeRules(AtlasStrategy::Mode mode, AtlasPlanner::Config config) {
+  // A slide runs from the known surface to the first chart that needs a touch and on into the
+  // unknown (extend_path_charts): Algorithm 1's path. A best-scoring atlas covers the surface,
+  // so its charts leave the extension no room to grow.
+  if (mode == AtlasStrategy::Mode::kSlide) config.selection = AtlasPlanner::Config::Selection::kFirst;
+  // A poke touches the path's last chart: the first that needs a touch (or the best-scoring).
+  if (mode == AtlasStrategy::Mode::kPoke) config.extend_path_charts = 0;
+  return config;
+}
+
+}  // namespace
+
 AtlasStrategy::AtlasStrategy(Mode mode, AtlasPlanner::Config config, std::uint64_t seed)
-    : mode_(mode), config_(std::move(config)), seed_(seed) {}
+    : mode_(mode), config_(withModeRules(mode, std::move(config))), seed_(seed) {}
 
 std::string AtlasStrategy::name() const { return mode_ == Mode::kPoke ? "atlas_poke" : "atlas_slide"; }
 
 PlanResult AtlasStrategy::plan(const SurfaceModel& model, const PlanRequest& request) const {
   if (auto error = checkPlanInput(model, request)) return *error;
-  AtlasPlanner::Config config = config_;
-  // A slide runs from the known surface to the first chart that needs a touch and on into the
-  // unknown (extend_path_charts): Algorithm 1's path. A best-scoring atlas covers the surface,
-  // so its charts leave the extension no room to grow.
-  if (mode_ == Mode::kSlide) config.selection = AtlasPlanner::Config::Selection::kFirst;
-  // A poke touches the path's last chart: the first that needs a touch (or the best-scoring).
-  if (mode_ == Mode::kPoke) config.extend_path_charts = 0;
   // The pad's aim past the edge of the supported surface is for the first chart, which lies at
   // that edge; the best-scoring chart lies wherever its touch removes the most error.
-  if (mode_ == Mode::kPoke && config.selection == AtlasPlanner::Config::Selection::kFirst)
-    config.aim_past_m = request.footprint_radius_m;
-  const AtlasPlanner planner(config, mixSeeds(seed_, request.seed));
+  const double aim_past_m =
+      mode_ == Mode::kPoke && config_.selection == AtlasPlanner::Config::Selection::kFirst ? request.footprint_radius_m : 0.0;
+  const AtlasPlanner planner(config_, mixSeeds(seed_, request.seed));
   const auto planWith = [&](AtlasMemory* memory) {
     return planner.plan(model, request.stopRule(), request.start, {}, request.reachable, request.evidence_state,
-                        request.touch_observations, memory);
+                        request.touch_observations, memory, aim_past_m);
   };
   // Without reuse a plan neither reads nor leaves a memory: plans need not wait for each other,
   // nor hash the model's observations and copy the atlas for nobody.
   AtlasPlanResult planned;
-  if (config.reuse.enabled) {
+  if (config_.reuse.enabled) {
     const std::lock_guard<std::mutex> lock(memory_->mutex);
     planned = planWith(&memory_->atlas);
   } else {

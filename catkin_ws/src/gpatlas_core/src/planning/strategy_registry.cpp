@@ -50,18 +50,6 @@ NamedFactories<StrategyFactory>& registry() {
   return instance;
 }
 
-// No settings: every reader keeps its Config's defaults.
-class NoParameters : public ParameterSource {
- public:
-  bool exists(const std::string&) const override { return false; }
-  std::optional<double> number(const std::string&) const override { return std::nullopt; }
-  std::optional<int> integer(const std::string&) const override { return std::nullopt; }
-  std::optional<bool> flag(const std::string&) const override { return std::nullopt; }
-  std::optional<std::string> text(const std::string&) const override { return std::nullopt; }
-  std::optional<std::vector<double>> numbers(const std::string&) const override { return std::nullopt; }
-  std::optional<std::vector<std::string>> texts(const std::string&) const override { return std::nullopt; }
-};
-
 }  // namespace
 
 std::unique_ptr<ExplorationStrategy> makeStrategy(const std::string& name, ParamReader& settings, std::uint64_t seed,

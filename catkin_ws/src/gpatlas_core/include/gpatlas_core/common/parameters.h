@@ -96,6 +96,18 @@ class ParamReader {
   std::vector<std::pair<std::string, std::string>> defaults_;
 };
 
+// No settings: every reader keeps its Config's defaults.
+class NoParameters : public ParameterSource {
+ public:
+  bool exists(const std::string&) const override { return false; }
+  std::optional<double> number(const std::string&) const override { return std::nullopt; }
+  std::optional<int> integer(const std::string&) const override { return std::nullopt; }
+  std::optional<bool> flag(const std::string&) const override { return std::nullopt; }
+  std::optional<std::string> text(const std::string&) const override { return std::nullopt; }
+  std::optional<std::vector<double>> numbers(const std::string&) const override { return std::nullopt; }
+  std::optional<std::vector<std::string>> texts(const std::string&) const override { return std::nullopt; }
+};
+
 // Parameters from a YAML file (yaml-cpp), with overrides "key/sub=value" (the value parsed as
 // YAML: 0.2, true, [1, 2, 3], text).
 class YamlParameters : public ParameterSource {

@@ -4,7 +4,8 @@
 // its Config's section, and a test checks that the file sets every name the readers read and
 // nothing else. The strategies' Configs have their readers beside them (readAtlasPlanner,
 // readSurfaceSampler, readFrontier, readEvidence): a strategy reads its own settings when the
-// registry makes it (strategy_registry.h). A Config field no reader reads is a constant of its
+// registry makes it (strategy_registry.h), as a surface model does (readGpis, readMultiscale:
+// surface_model_factory.h). A Config field no reader reads is a constant of its
 // component's design (tests vary it), not a setting: a grid's cell count, a sampling fraction, a
 // guess's noise. The nodelets read them from the ROS parameter server, gpatlas_bench from the
 // file itself.
@@ -52,10 +53,9 @@ struct StrategyChoice {
 void readFrames(ParamReader& r, PipelineFrames* c);
 // The run's seed ("seed"): the view's subset and samples, the strategy and every plan.
 std::uint64_t readSeed(ParamReader& r, std::uint64_t fallback = 0);
-void readGpis(ParamReader& r, GpisModel::Config* c);
-// model/type and the settings of every built-in model.
+// model/type, and the settings of every registered model, each read by its factory
+// (surface_model_factory.h, with readGpis and readMultiscale).
 void readSurfaceModel(ParamReader& r, SurfaceModelConfig* c);
-void readMultiscale(ParamReader& r, MultiscaleGpisConfig* c);
 void readPositionCalibration(ParamReader& r, PositionCalibrationConfig* c);
 void readViewTraining(ParamReader& r, ViewTrainingConfig* c);
 // Whether the table found by segmentation is used (the view's below-support points, no guesses

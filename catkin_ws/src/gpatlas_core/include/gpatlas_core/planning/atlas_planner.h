@@ -143,13 +143,6 @@ class AtlasPlanner {
     // `reachable` refuses. 0: Algorithm 1 verbatim, which atlas_poke always plans with (a poke
     // touches the path's last chart: AtlasStrategy).
     int extend_path_charts{20};
-    // The first chart that needs a touch lies where the supported surface ends. A probe with a
-    // footprint (a tactile pad) centred there spends half of it on surface already measured, so
-    // past that chart the path goes on toward the highest variance, chart by chart while each
-    // still needs a touch, until it has gone at least this distance (metres): the footprint's
-    // rim, not its centre, then meets the supported surface. 0: the first chart (Algorithm 1). Only when
-    // extend_path_charts is 0.
-    double aim_past_m{0.0};
     // A chart without evidence (SurfaceEvidence) needs a touch whatever its variance, and
     // charts are kept small enough that none hides such a point (no max_distance: variance
     // alone, Algorithm 1). Read from evidence/, as every strategy's.
@@ -158,7 +151,7 @@ class AtlasPlanner {
     // it stops (Algorithm 1 verbatim). kBestScore: the atlas grows over the whole predicted
     // surface, and the chart whose poke would remove the most error (scoreTouches, over the
     // charts as the surface's patches, each with its disc's area) is touched, or the next best
-    // one the TouchFilter accepts. atlas_slide always follows Algorithm 1's path, and
+    // one the TouchFilter accepts. atlas_slide always follows Algorithm 1's path, and plan()'s
     // aim_past_m is for kFirst's chart (AtlasStrategy).
     enum class Selection { kFirst, kBestScore };
     Selection selection{Selection::kBestScore};
@@ -184,17 +177,25 @@ class AtlasPlanner {
   // `memory`: the previous plan's atlas, reused where the model allows (Config::reuse), and
   // replaced by this plan's; may be null. A reused atlas that finds no touch is grown again
   // from scratch before the plan reports convergence (or a spent budget).
+  // `aim_past_m`: the first chart that needs a touch lies where the supported surface ends. A
+  // probe with a footprint (a tactile pad) centred there spends half of it on surface already
+  // measured, so past that chart the path goes on toward the highest variance, chart by chart
+  // while each still needs a touch, until it has gone at least this distance (metres; the
+  // request's footprint radius): the footprint's rim, not its centre, then meets the supported
+  // surface. 0: the first chart (Algorithm 1). Only when Config::extend_path_charts is 0; a
+  // negative or non-finite one is an error.
   AtlasPlanResult plan(const SurfaceModel& model, const StopRule& rule,
                        const std::optional<Vector3>& start = std::nullopt,
                        const Progress& progress = {}, const TouchFilter& reachable = {},
                        const EvidenceState& evidence_state = {}, const TouchObservationConfig& touch = {},
-                       AtlasMemory* memory = nullptr) const;
+                       AtlasMemory* memory = nullptr, double aim_past_m = 0.0) const;
 
  private:
   // One growth, from the memory's atlas when `reuse` and the model allow it.
   AtlasPlanResult grow(const SurfaceModel& model, const StopRule& rule, const std::optional<Vector3>& start,
                        const Progress& progress, const TouchFilter& reachable, const EvidenceState& evidence_state,
-                       const TouchObservationConfig& touch, AtlasMemory* memory, bool reuse) const;
+                       const TouchObservationConfig& touch, AtlasMemory* memory, double aim_past_m,
+                       bool reuse) const;
 
   Config config_;
   std::uint64_t seed_{kUnseeded};

@@ -15,6 +15,8 @@ namespace gpatlas_core {
 class AtlasStrategy : public ExplorationStrategy {
  public:
   enum class Mode { kPoke, kSlide };
+  // `config` with the mode's rules: a slide selects the first chart that needs a touch
+  // (Algorithm 1's path), a poke plans with extend_path_charts = 0.
   AtlasStrategy(Mode mode, AtlasPlanner::Config config, std::uint64_t seed);
   std::string name() const override;
   PlanResult plan(const SurfaceModel& model, const PlanRequest& request) const override;

@@ -37,7 +37,7 @@ struct PlanRequest {
   TouchFilter reachable;
   // The probe's contact footprint: half the side of the largest tactile pad it has reported
   // (ProbeResult::pads; the Explorer fills it), 0 for a point probe. atlas_poke aims this far
-  // past the edge of the supported surface (AtlasPlanner::Config::aim_past_m).
+  // past the edge of the supported surface (AtlasPlanner::plan's aim_past_m).
   double footprint_radius_m{0.0};
   // How the loop turns a touch's measurements into observations (the Explorer's, the GP
   // nodelet's touch/): the atlas strategies' score adds a candidate's in fantasy.
