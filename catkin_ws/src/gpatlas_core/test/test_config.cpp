@@ -30,15 +30,15 @@ TEST(ParamReader, AScopeReadsUnderItsNamespaceAndReportsFullNames) {
     EXPECT_EQ(reader.integer("x", 0, 0, 10), 3);
     {
       const ParamReader::Scope b(reader, "b/");
-      EXPECT_EQ(reader.ns(), "a/b/");
+      EXPECT_EQ(reader.scope(), "a/b/");
       EXPECT_EQ(reader.integer("x", 0, 0, 10), 2);
       EXPECT_EQ(reader.integer("y", 5, 0, 10), 5);
     }
-    EXPECT_EQ(reader.ns(), "a/");
+    EXPECT_EQ(reader.scope(), "a/");
     reader.invalid("z", "bad");
     EXPECT_EQ(reader.integer("x", 0, 0, 1), 0);  // 3 is out of range: the fallback, reported
   }
-  EXPECT_EQ(reader.ns(), "");
+  EXPECT_EQ(reader.scope(), "");
   EXPECT_EQ(reader.integer("x", 0, 0, 10), 4);
   EXPECT_EQ(reader.readNames(), (std::vector<std::string>{"a/x", "a/b/x", "a/b/y", "a/x", "x"}));
   EXPECT_EQ(reader.defaultedNames(), std::vector<std::string>{"a/b/y"});

@@ -153,7 +153,7 @@ TEST(StrategyLibrary, TheExampleReadsItsOwnSettings) {
               (std::vector<std::string>{"plugins/evidence/view_max_distance", "plugins/evidence/approach_distance_m",
                                         "plugins/evidence/retouch_radius_m", "plugins/evidence/surprise_distance_m"}))
       << reader.defaulted();
-  EXPECT_EQ(reader.ns(), "");  // the namespace ends with the strategy's making
+  EXPECT_EQ(reader.scope(), "");  // the namespace ends with the strategy's making
   // Its setting is used: a plan samples 50 surface points (the default is 600).
   const AnalyticSphere sphere;
   gpatlas_core::GpisModel model;

@@ -30,7 +30,6 @@ void readSceneMap(gpatlas_core::ParamReader& r, SceneMapConfig* c) {
   c->object_margin_m = r.number("collision_map/scene_object_margin_m", c->object_margin_m, 0.0, 0.5);
   c->shadow_depth_m = r.number("collision_map/scene_shadow_depth_m", c->shadow_depth_m, 0.0, 1.0);
   c->unseen_reach_m = r.number("collision_map/scene_unseen_reach_m", c->unseen_reach_m, 0.0, 1.0);
-  c->max_sensor_origins = r.integer("collision_map/scene_max_sensor_origins", c->max_sensor_origins, 1, 100000);
 }
 
 }  // namespace gpatlas_motion

@@ -77,7 +77,7 @@ std::string validate(const SceneMapConfig& c) {
     problems << "scene_shadow_depth_m must be finite and >= 0; ";
   if (!(c.unseen_reach_m >= 0.0) || !std::isfinite(c.unseen_reach_m))
     problems << "scene_unseen_reach_m must be finite and >= 0; ";
-  if (c.max_sensor_origins < 1) problems << "scene_max_sensor_origins must be at least 1; ";
+  if (c.max_sensor_origins < 1) problems << "max_sensor_origins must be at least 1; ";
   std::string out = problems.str();
   if (!out.empty()) out.resize(out.size() - 2);
   return out;

@@ -646,7 +646,7 @@ TEST(SceneMap, AMovingCameraKeepsAtMostItsNewestSensorOrigins) {
   EXPECT_EQ(map.sensorOrigins().size(), 4u);
   EXPECT_TRUE(map.sensorOrigins().front().isApprox(kSensor + Vector3d(0.0, 0.3, 0.0)));
   config.max_sensor_origins = 0;
-  EXPECT_NE(gpatlas_motion::validate(config).find("scene_max_sensor_origins"), std::string::npos);
+  EXPECT_NE(gpatlas_motion::validate(config).find("max_sensor_origins"), std::string::npos);
 }
 
 }  // namespace

@@ -55,7 +55,8 @@ struct SceneMapConfig {
   double unseen_reach_m{0.05};
   // Each distinct sensor origin (farther than a voxel from the others) casts the obstacles'
   // shadows; a moving camera brings new ones at every frame. The oldest beyond this many are
-  // forgotten (their shadows go, the voxels they saw stay).
+  // forgotten (their shadows go, the voxels they saw stay). A bound on memory and on each merge's
+  // casts, not a setting: fixed, not in the YAML.
   int max_sensor_origins{16};
 };
 

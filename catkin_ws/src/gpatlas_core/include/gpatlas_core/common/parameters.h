@@ -53,7 +53,7 @@ class ParamReader {
     std::string previous_;
   };
   // The current namespace: "" or ending in '/'.
-  const std::string& ns() const { return ns_; }
+  const std::string& scope() const { return ns_; }
 
   double number(const std::string& name, double fallback, double min, double max);
   int integer(const std::string& name, int fallback, int min, int max);

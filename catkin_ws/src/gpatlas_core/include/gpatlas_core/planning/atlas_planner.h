@@ -108,7 +108,8 @@ struct AtlasMemory {
 std::uint64_t observationHash(const TrainingPoint& point);
 
 // GPAtlasRRT, paper Algorithm 1: grows an atlas over the GP's zero level set toward high
-// variance and returns the tree path to the first chart whose centre variance exceeds V_max.
+// variance and returns the tree path to the first chart whose centre variance exceeds V_max,
+// run on by up to Config::extend_path_charts charts (a slide's; a poke plans with 0).
 class AtlasPlanner {
  public:
   struct Config {
@@ -162,10 +163,10 @@ class AtlasPlanner {
 
   // `seed`: the plan's random choices (the root, SELECTCHART, the score's samples). A strategy
   // makes a planner per plan with the seed it derives from the run's and the plan's;
-  // kUnseeded is that of a plan made outside a run.
-  static constexpr std::uint64_t kUnseeded = 1;
+  // kStandaloneSeed is that of a plan made outside a run.
+  static constexpr std::uint64_t kStandaloneSeed = 1;
   AtlasPlanner() = default;
-  explicit AtlasPlanner(Config config, std::uint64_t seed = kUnseeded) : config_(std::move(config)), seed_(seed) {}
+  explicit AtlasPlanner(Config config, std::uint64_t seed = kStandaloneSeed) : config_(std::move(config)), seed_(seed) {}
   const Config& config() const { return config_; }
 
   // `start`: a point near the surface (e.g. the probe's position); without it the root is a
@@ -198,7 +199,7 @@ class AtlasPlanner {
                        bool reuse) const;
 
   Config config_;
-  std::uint64_t seed_{kUnseeded};
+  std::uint64_t seed_{kStandaloneSeed};
 };
 
 std::string validate(const AtlasPlanner::Config& config);

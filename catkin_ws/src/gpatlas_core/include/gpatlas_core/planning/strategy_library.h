@@ -17,10 +17,10 @@ namespace gpatlas_core {
 //
 // link it against gpatlas_core, and load it by path (examples/farthest_from_evidence_strategy.cpp).
 // The factory gets the tool's settings (config/pipeline.yaml, or the AtlasPlanner nodelet's
-// parameters) in the strategy's namespace: MyStrategy reads its own keys there with the
-// ParamReader ("my_strategy/..."), and shared sections such as evidence/ with their readers
-// (readEvidence); a value it refuses (ParamReader's range checks, or invalid()) is reported by
-// the tool. `seed` is the run's; each plan's PlanRequest::seed varies it.
+// parameters) in the namespace the tool gives (the root, for gpatlas_bench and the nodelet):
+// MyStrategy reads its own keys under a prefix of its own ("my_strategy/..."), and shared
+// sections such as evidence/ with their readers (readEvidence); a value it refuses (ParamReader's
+// range checks, or invalid()) is reported by the tool. `seed` is the run's; each plan's PlanRequest::seed varies it.
 struct StrategyLibraryLoad {
   bool ok{false};
   std::string message;             // what went wrong, when !ok
