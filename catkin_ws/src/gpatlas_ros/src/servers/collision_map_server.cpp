@@ -459,18 +459,29 @@ void CollisionMapServer::install(const gpatlas_msgs::TrainingSet& msg, const std
   publishStatus();
 }
 
-std::shared_ptr<const std::vector<Eigen::Vector3d>> CollisionMapServer::sceneObstacles(
-    const gpatlas_msgs::TrainingSet& msg) const {
-  if (!scene_) return nullptr;
-  // The explored object: what the camera saw of it and the probe's contacts, on its surface.
-  std::vector<Eigen::Vector3d> object, free;
+namespace {
+
+// The training set's points the scene map takes apart: the explored object (what the camera saw
+// of it and the probe's contacts, on its surface), appended to `object`, and the space the probe
+// went through, to `free`.
+void splitByScene(const gpatlas_msgs::TrainingSet& msg, std::vector<Eigen::Vector3d>* object,
+                  std::vector<Eigen::Vector3d>* free) {
   for (std::size_t i = 0; i < msg.points.size() && i < msg.labels.size() && i < msg.sources.size(); ++i) {
     const gpatlas_motion::SceneRole role = gpatlas_motion::sceneRole(static_cast<gpatlas_core::PointLabel>(msg.labels[i]),
                                                                      static_cast<gpatlas_core::PointSource>(msg.sources[i]));
-    if (role == gpatlas_motion::SceneRole::kObject) object.push_back(fromMsg(msg.points[i]));
-    else if (role == gpatlas_motion::SceneRole::kProbed) free.push_back(fromMsg(msg.points[i]));
+    if (role == gpatlas_motion::SceneRole::kObject) object->push_back(fromMsg(msg.points[i]));
+    else if (role == gpatlas_motion::SceneRole::kProbed) free->push_back(fromMsg(msg.points[i]));
   }
-  for (const auto& p : msg.view_points) object.emplace_back(p.x, p.y, p.z);
+  for (const auto& p : msg.view_points) object->emplace_back(p.x, p.y, p.z);
+}
+
+}  // namespace
+
+std::shared_ptr<const std::vector<Eigen::Vector3d>> CollisionMapServer::sceneObstacles(
+    const gpatlas_msgs::TrainingSet& msg) const {
+  if (!scene_) return nullptr;
+  std::vector<Eigen::Vector3d> object, free;
+  splitByScene(msg, &object, &free);
   return std::make_shared<const std::vector<Eigen::Vector3d>>(scene_->obstacles(object, free));
 }
 
@@ -478,13 +489,7 @@ std::shared_ptr<const octomap::OcTree> CollisionMapServer::unseenSpace(
     const gpatlas_msgs::TrainingSet& msg, const std::vector<Eigen::Vector3d>& model_occupied) const {
   if (!scene_) return nullptr;
   std::vector<Eigen::Vector3d> object = model_occupied, free;
-  for (std::size_t i = 0; i < msg.points.size() && i < msg.labels.size() && i < msg.sources.size(); ++i) {
-    const gpatlas_motion::SceneRole role = gpatlas_motion::sceneRole(static_cast<gpatlas_core::PointLabel>(msg.labels[i]),
-                                                                     static_cast<gpatlas_core::PointSource>(msg.sources[i]));
-    if (role == gpatlas_motion::SceneRole::kObject) object.push_back(fromMsg(msg.points[i]));
-    else if (role == gpatlas_motion::SceneRole::kProbed) free.push_back(fromMsg(msg.points[i]));
-  }
-  for (const auto& p : msg.view_points) object.emplace_back(p.x, p.y, p.z);
+  splitByScene(msg, &object, &free);
   const std::vector<Eigen::Vector3d> unseen = scene_->unseen(object, free);
   if (unseen.empty()) return nullptr;
   return gpatlas_motion::voxelOctree(unseen, map_config_.grid.resolution_m);
