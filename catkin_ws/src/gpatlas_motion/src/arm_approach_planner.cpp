@@ -42,10 +42,11 @@ std::string ArmApproachPlanner::configurationProblem(const Eigen::VectorXd& q, b
   for (const LinkCapsule& link : arm_->linkCapsules(q, false))
     if (!world_->isCapsuleFree(link.a, link.b, link.radius)) return "the arm's links are in collision";
   const Eigen::Isometry3d tip = arm_->forwardKinematics(q);
-  if (!world_->isFree(tip.translation(), tip.linear().col(2))) return "the probe is in collision";
-  if (on_way && !world_->isWayFree(tip.translation(), tip.linear().col(2)))
-    return "the probe is in space no sensor observed";
-  return "";
+  // One check where the probe is clear (isWayFree includes isFree); the second only to say why not.
+  const Eigen::Vector3d direction = tip.linear().col(2);
+  if (on_way ? world_->isWayFree(tip.translation(), direction) : world_->isFree(tip.translation(), direction)) return "";
+  return on_way && world_->isFree(tip.translation(), direction) ? "the probe is in space no sensor observed"
+                                                               : "the probe is in collision";
 }
 
 bool ArmApproachPlanner::motionFree(const Eigen::VectorXd& from, const Eigen::VectorXd& to, bool on_way) const {

@@ -59,7 +59,9 @@ struct ProbeApproachPlanner::Impl {
     return result.isCollision();
   }
 
-  bool isFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
+  // Whether the probe's body, its tip at `tip_centre` pointing along `direction`, is clear of the
+  // map and the static obstacles and, on its way there and back (`way`), of the unseen space.
+  bool isClear(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction, bool way) const {
     fcl::Transform3d tip_pose = fcl::Transform3d::Identity();
     tip_pose.translation() = tip_centre;
     const fcl::CollisionObjectd tip_object(tip, tip_pose);
@@ -75,20 +77,13 @@ struct ProbeApproachPlanner::Impl {
     if (map_object && hits(*map_object)) return false;
     for (const auto& obstacle : static_obstacles)
       if (hits(*obstacle)) return false;
-    return true;
+    return !(way && unseen_object && hits(*unseen_object));
   }
-
-  // isFree, and clear of the unseen space: where the probe may travel on its way.
+  bool isFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
+    return isClear(tip_centre, direction, false);
+  }
   bool isWayFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
-    if (!isFree(tip_centre, direction)) return false;
-    if (!unseen_object) return true;
-    fcl::Transform3d tip_pose = fcl::Transform3d::Identity();
-    tip_pose.translation() = tip_centre;
-    fcl::Transform3d shaft_pose = fcl::Transform3d::Identity();
-    shaft_pose.linear() = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), direction).toRotationMatrix();
-    shaft_pose.translation() = tip_centre - direction * (config.probe.tip_radius_m + 0.5 * config.probe.shaft_length_m);
-    return !collides(fcl::CollisionObjectd(tip, tip_pose), *unseen_object) &&
-           !collides(fcl::CollisionObjectd(shaft, shaft_pose), *unseen_object);
+    return isClear(tip_centre, direction, true);
   }
 
   // Where the probe, pointing along -normal, comes out of the unseen space going out from the
@@ -105,15 +100,6 @@ struct ProbeApproachPlanner::Impl {
     return std::nullopt;
   }
 
-  // Whether every point of the segment, sampled at check_resolution_m, is clear for the way.
-  bool segmentWayFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& direction) const {
-    const double length = (b - a).norm();
-    const int steps = std::max(1, static_cast<int>(std::ceil(length / config.check_resolution_m)));
-    for (int i = 0; i <= steps; ++i)
-      if (!isWayFree(a + (b - a) * (static_cast<double>(i) / steps), direction)) return false;
-    return true;
-  }
-
   // Empty when the approach pose in front of the touch and the probing segment, up to the
   // contact zone around the touch, are free; otherwise why not. `normal` is unit.
   std::string approachPoseProblem(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& normal) const {
@@ -123,17 +109,18 @@ struct ProbeApproachPlanner::Impl {
              " m out along the normal, is in collision: the touch cannot be approached";
     const double probing_length =
         std::max(0.0, config.approach_distance_m - config.contact_zone_m - config.probe.tip_radius_m);
-    if (!segmentFree(approach_pose, approach_pose - probing_length * normal, -normal))
+    if (!segmentClear(approach_pose, approach_pose - probing_length * normal, -normal, false))
       return "the probing segment meets an obstacle before the touch: the touch is occluded";
     return "";
   }
 
-  // Whether every point of the segment, sampled at check_resolution_m, is free.
-  bool segmentFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& direction) const {
+  // Whether every point of the segment, sampled at check_resolution_m, is clear (isClear).
+  bool segmentClear(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& direction,
+                    bool way) const {
     const double length = (b - a).norm();
     const int steps = std::max(1, static_cast<int>(std::ceil(length / config.check_resolution_m)));
     for (int i = 0; i <= steps; ++i)
-      if (!isFree(a + (b - a) * (static_cast<double>(i) / steps), direction)) return false;
+      if (!isClear(a + (b - a) * (static_cast<double>(i) / steps), direction, way)) return false;
     return true;
   }
 };
@@ -280,7 +267,7 @@ std::vector<Eigen::Vector3d> ProbeApproachPlanner::planWay(const Eigen::Vector3d
                                                            const Eigen::Vector3d& direction, std::string* problem) const {
   const ApproachConfig& c = impl_->config;
   std::vector<Eigen::Vector3d> way;
-  if (impl_->segmentWayFree(start_tip, goal_tip, direction)) {
+  if (impl_->segmentClear(start_tip, goal_tip, direction, true)) {
     way = {start_tip, goal_tip};
   } else {
     auto space = std::make_shared<ob::RealVectorStateSpace>(3);

@@ -348,14 +348,25 @@ SceneRole sceneRole(gpatlas_core::PointLabel label, gpatlas_core::PointSource so
   return source == gpatlas_core::PointSource::kFreeSpace ? SceneRole::kProbed : SceneRole::kNone;
 }
 
+namespace {
+
+// The explored object's measured surface points, appended to `object`, and where the probe went,
+// to `free` (sceneRole).
+void splitBySceneRole(const std::vector<gpatlas_core::TrainingPoint>& observations, std::vector<Eigen::Vector3d>* object,
+                      std::vector<Eigen::Vector3d>* free) {
+  for (const gpatlas_core::TrainingPoint& p : observations) {
+    const SceneRole role = sceneRole(p.label, p.source);
+    if (role == SceneRole::kObject) object->push_back(p.position);
+    else if (role == SceneRole::kProbed) free->push_back(p.position);
+  }
+}
+
+}  // namespace
+
 std::vector<Eigen::Vector3d> sceneObstacles(const SceneMap& scene, const std::vector<gpatlas_core::TrainingPoint>& observations,
                                             const std::vector<Eigen::Vector3d>& view_points) {
   std::vector<Eigen::Vector3d> object = view_points, free;
-  for (const gpatlas_core::TrainingPoint& p : observations) {
-    const SceneRole role = sceneRole(p.label, p.source);
-    if (role == SceneRole::kObject) object.push_back(p.position);
-    else if (role == SceneRole::kProbed) free.push_back(p.position);
-  }
+  splitBySceneRole(observations, &object, &free);
   return scene.obstacles(object, free);
 }
 
@@ -364,11 +375,7 @@ std::vector<Eigen::Vector3d> sceneUnseen(const SceneMap& scene, const std::vecto
                                          const std::vector<Eigen::Vector3d>& model_occupied) {
   std::vector<Eigen::Vector3d> object = view_points, free;
   object.insert(object.end(), model_occupied.begin(), model_occupied.end());
-  for (const gpatlas_core::TrainingPoint& p : observations) {
-    const SceneRole role = sceneRole(p.label, p.source);
-    if (role == SceneRole::kObject) object.push_back(p.position);
-    else if (role == SceneRole::kProbed) free.push_back(p.position);
-  }
+  splitBySceneRole(observations, &object, &free);
   return scene.unseen(object, free);
 }
 
