@@ -24,6 +24,7 @@ namespace {
 // (inside the ball the ray meets no other part of the shell, the ball being convex).
 constexpr double kRadius = 0.1;
 const Vector3 kEye(0.03, 0.0, 0.4);
+constexpr std::uint64_t kSeed = 1;  // the samplers' random stream
 
 // `count` points uniform in area on the sphere |p| = kRadius that `keep` accepts.
 template <typename Keep>
@@ -54,7 +55,7 @@ TEST(ViewFreeSpace, SamplesLieOnTheRaysBeforeTheHitWithDistanceLabelsToTheView) 
   ViewFreeSpaceConfig config;
   config.max_rays = 100;
   config.samples_per_ray = 3;
-  const ViewSamples free = sampleViewFreeSpace(view, kEye, config);
+  const ViewSamples free = sampleViewFreeSpace(view, kEye, kSeed, config);
   ASSERT_TRUE(free.ok) << free.message;
   ASSERT_GT(free.points.size(), 250u);
 
@@ -101,18 +102,18 @@ TEST(ViewFreeSpace, SamplesLieOnTheRaysBeforeTheHitWithDistanceLabelsToTheView) 
 TEST(ViewFreeSpace, BadInputIsRefusedWithAReason) {
   const auto view = visibleBowlInside(20, 2);
   const Vector3 nan_origin(std::nan(""), 0.0, 0.0);
-  auto result = sampleViewFreeSpace(view, nan_origin);
+  auto result = sampleViewFreeSpace(view, nan_origin, kSeed);
   EXPECT_FALSE(result.ok);
   EXPECT_NE(result.message.find("sensor origin"), std::string::npos);
 
-  result = sampleViewFreeSpace({Vector3(std::nan(""), 0, 0), Vector3::Zero()}, kEye);
+  result = sampleViewFreeSpace({Vector3(std::nan(""), 0, 0), Vector3::Zero()}, kEye, kSeed);
   EXPECT_FALSE(result.ok);
   EXPECT_NE(result.message.find("fewer than 2"), std::string::npos);
 
   ViewFreeSpaceConfig inverted;
   inverted.min_offset_fraction = 0.5;
   inverted.max_offset_fraction = 0.1;
-  result = sampleViewFreeSpace(view, kEye, inverted);
+  result = sampleViewFreeSpace(view, kEye, kSeed, inverted);
   EXPECT_FALSE(result.ok);
   EXPECT_FALSE(result.message.empty());
   EXPECT_TRUE(result.points.empty());
@@ -136,7 +137,7 @@ TEST(ViewFreeSpace, KeepsTheCavityOfABowlOpen) {
   ASSERT_TRUE(surface_only.fit(surface).ok);
   GpisModel with_free_space;
   auto data = surface;
-  const auto free = sampleViewFreeSpace(view, kEye);
+  const auto free = sampleViewFreeSpace(view, kEye, kSeed);
   ASSERT_TRUE(free.ok) << free.message;
   data.insert(data.end(), free.points.begin(), free.points.end());
   ASSERT_TRUE(with_free_space.fit(data).ok);
@@ -210,7 +211,7 @@ TEST(OccludedInterior, SamplesOfASolidBallLieInsideItBehindTheVisibleSurface) {
   const auto view = visibleBallFront(3000, 4);
   OccludedInteriorConfig config;
   config.max_points = 80;
-  const ViewSamples inside = sampleOccludedInterior(view, kSideEye, config);
+  const ViewSamples inside = sampleOccludedInterior(view, kSideEye, kSeed, config);
   ASSERT_TRUE(inside.ok) << inside.message;
   ASSERT_EQ(inside.points.size(), 80u);  // the ball's hidden half is large: the cap applies
 
@@ -249,7 +250,7 @@ TEST(OccludedInterior, NothingTheCameraSawAsAirInABowl) {
   const auto view = sphereSamples(3000, 5, [&eye](const Vector3& p) {
     return p.z() <= 0.0 && (openingCrossing(eye, p).head<2>().norm() < kRadius || p.dot(eye - p) > 0.0);
   });
-  const ViewSamples inside = sampleOccludedInterior(view, eye);
+  const ViewSamples inside = sampleOccludedInterior(view, eye, kSeed);
   ASSERT_TRUE(inside.ok) << inside.message;
   ASSERT_GE(inside.points.size(), 20u);
   std::size_t grazing = 0;
@@ -278,21 +279,21 @@ TEST(OccludedInterior, NothingTheCameraSawAsAirInABowl) {
 
 TEST(OccludedInterior, BadInputIsRefusedWithAReason) {
   const auto view = visibleBallFront(50, 6);
-  auto result = sampleOccludedInterior(view, Vector3(std::nan(""), 0.0, 0.0));
+  auto result = sampleOccludedInterior(view, Vector3(std::nan(""), 0.0, 0.0), kSeed);
   EXPECT_FALSE(result.ok);
   EXPECT_NE(result.message.find("sensor origin"), std::string::npos);
 
-  result = sampleOccludedInterior({Vector3::Zero(), Vector3::UnitX(), Vector3(std::nan(""), 0, 0)}, kSideEye);
+  result = sampleOccludedInterior({Vector3::Zero(), Vector3::UnitX(), Vector3(std::nan(""), 0, 0)}, kSideEye, kSeed);
   EXPECT_FALSE(result.ok);
   EXPECT_NE(result.message.find("fewer than 4"), std::string::npos);
 
-  result = sampleOccludedInterior(view, Vector3::Zero());  // the sensor amid the points
+  result = sampleOccludedInterior(view, Vector3::Zero(), kSeed);  // the sensor amid the points
   EXPECT_FALSE(result.ok);
   EXPECT_NE(result.message.find("surround the sensor"), std::string::npos);
 
   OccludedInteriorConfig bad;
   bad.grid_cells = 1;
-  result = sampleOccludedInterior(view, kSideEye, bad);
+  result = sampleOccludedInterior(view, kSideEye, kSeed, bad);
   EXPECT_FALSE(result.ok);
   EXPECT_TRUE(result.points.empty());
 
@@ -316,7 +317,7 @@ std::vector<TrainingPoint> surfaceData(const std::vector<Vector3>& view, std::si
 TEST(OccludedInterior, TellsTheModelTheHiddenBulkIsMaterial) {
   const auto view = visibleBallFront(1500, 7);
   std::vector<TrainingPoint> data = surfaceData(view, 4);
-  const auto free = sampleViewFreeSpace(view, kSideEye);
+  const auto free = sampleViewFreeSpace(view, kSideEye, kSeed);
   ASSERT_TRUE(free.ok) << free.message;
   data.insert(data.end(), free.points.begin(), free.points.end());
   GpisModelConfig config;
@@ -324,7 +325,7 @@ TEST(OccludedInterior, TellsTheModelTheHiddenBulkIsMaterial) {
   GpisModel without(config);
   ASSERT_TRUE(without.fit(data).ok);
 
-  const auto inside = sampleOccludedInterior(view, kSideEye);
+  const auto inside = sampleOccludedInterior(view, kSideEye, kSeed);
   ASSERT_TRUE(inside.ok) << inside.message;
   data.insert(data.end(), inside.points.begin(), inside.points.end());
   GpisModel with(config);
@@ -622,8 +623,8 @@ TEST(SupportPlane, PutsTheUnseenBottomOfABallOnTheTable) {
     if (p.z() > -0.8 * kRadius) view.push_back(p + lift);  // the table hides the lowest band
   const Vector3 eye = kSideEye + lift;
   std::vector<TrainingPoint> data = surfaceData(view, 4);
-  const auto free = sampleViewFreeSpace(view, eye);
-  auto inside = sampleOccludedInterior(view, eye);
+  const auto free = sampleViewFreeSpace(view, eye, kSeed);
+  auto inside = sampleOccludedInterior(view, eye, kSeed);
   ASSERT_TRUE(free.ok && inside.ok);
   data.insert(data.end(), free.points.begin(), free.points.end());
   auto without_plane = data;

@@ -61,7 +61,6 @@ void readViewTraining(ParamReader& r, ViewTrainingConfig* c) {
   beside.max_distance_m = r.number("view/support_free_space/max_distance_m", beside.max_distance_m,
                                    std::nextafter(beside.min_distance_m, 1.0), 0.5);
   beside.max_points = r.integer("view/support_free_space/max_points", beside.max_points, 0, 1000000);
-  BelowSupportConfig& below = c->below_support;
 }
 
 bool readUseSupportPlane(ParamReader& r) { return r.flag("use_support_plane", true); }

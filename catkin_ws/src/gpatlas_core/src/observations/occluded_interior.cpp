@@ -119,7 +119,7 @@ bool validConfig(const OccludedInteriorConfig& config) {
 }  // namespace
 
 ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
-                                     const OccludedInteriorConfig& config) {
+                                   std::uint64_t seed, const OccludedInteriorConfig& config) {
   ViewSamples out;
   if (!sensor_origin.allFinite()) {
     out.message = "the sensor origin is not finite";
@@ -158,7 +158,7 @@ ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, c
         const Vector3 x = lo + (hi - lo).cwiseProduct(t);
         if (hull.contains(x) && range_image.occludes(x, margin)) candidates.push_back(x);
       }
-  std::mt19937_64 rng(config.seed);
+  std::mt19937_64 rng(seed);
   std::shuffle(candidates.begin(), candidates.end(), rng);
   for (const Vector3& x : candidates) {
     if (out.points.size() >= static_cast<std::size_t>(config.max_points)) break;

@@ -18,7 +18,7 @@ using detail::finiteView;
 using detail::View;
 
 ViewSamples sampleViewFreeSpace(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
-                                  const ViewFreeSpaceConfig& config) {
+                                std::uint64_t seed, const ViewFreeSpaceConfig& config) {
   ViewSamples out;
   if (!sensor_origin.allFinite()) {
     out.message = "the sensor origin is not finite";
@@ -40,7 +40,7 @@ ViewSamples sampleViewFreeSpace(const std::vector<Vector3>& surface_points, cons
 
   std::vector<std::size_t> rays(points.size());
   std::iota(rays.begin(), rays.end(), 0);
-  std::mt19937_64 rng(config.seed);
+  std::mt19937_64 rng(seed);
   std::shuffle(rays.begin(), rays.end(), rng);
   rays.resize(std::min<std::size_t>(rays.size(), static_cast<std::size_t>(config.max_rays)));
   std::uniform_real_distribution<double> depth(config.min_offset_fraction * radius, config.max_offset_fraction * radius);

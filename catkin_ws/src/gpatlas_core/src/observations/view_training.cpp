@@ -75,9 +75,7 @@ ViewTraining buildViewTraining(const std::vector<Vector3>& view_points, const st
     // The camera's rays crossed free space up to the object: outside points that keep the
     // model from closing cavities the camera looked into. Labels use the whole view.
     if (config.free_space.max_rays > 0 && config.free_space.samples_per_ray > 0) {
-      ViewFreeSpaceConfig free_config = config.free_space;
-      free_config.seed = mixSeeds(seed, kFreeSpaceSalt);
-      const ViewSamples free = sampleViewFreeSpace(points, *sensor_origin, free_config);
+      const ViewSamples free = sampleViewFreeSpace(points, *sensor_origin, mixSeeds(seed, kFreeSpaceSalt), config.free_space);
       if (free.ok) {
         result.points.insert(result.points.end(), free.points.begin(), free.points.end());
         result.free_space = free.points.size();
@@ -97,9 +95,8 @@ ViewTraining buildViewTraining(const std::vector<Vector3>& view_points, const st
     // Material behind what the camera saw, within the view's hull: without it a surface the
     // camera never saw (a bowl's bottom behind its rim) has no zero crossing to explore.
     if (config.occluded_interior.max_points > 0) {
-      OccludedInteriorConfig inside_config = config.occluded_interior;
-      inside_config.seed = mixSeeds(seed, kInteriorSalt);
-      ViewSamples inside = sampleOccludedInterior(points, *sensor_origin, inside_config);
+      ViewSamples inside =
+          sampleOccludedInterior(points, *sensor_origin, mixSeeds(seed, kInteriorSalt), config.occluded_interior);
       if (inside.ok) {
         if (support) dropNearOrBelowPlane(&inside.points, *support, config.support_clearance_m);
         result.points.insert(result.points.end(), inside.points.begin(), inside.points.end());

@@ -50,7 +50,6 @@ struct PositionCalibrationConfig {
   // Bounds on s.
   double min_scale{0.01};
   double max_scale{10.0};
-  std::uint64_t seed{3};
 };
 
 std::string validate(const PositionCalibrationConfig& config);

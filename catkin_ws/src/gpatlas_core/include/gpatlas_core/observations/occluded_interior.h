@@ -37,13 +37,12 @@ struct OccludedInteriorConfig {
   int hull_directions{64};
   // Noise sigma of the samples (reference units): a guess, weaker than an observation.
   double noise_sigma{1.0};
-  std::uint64_t seed{1};
 };
 
 // Same inputs as sampleViewFreeSpace. The points have label kInside, source kVision and
 // surface_distance_m set.
 ViewSamples sampleOccludedInterior(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
-                                     const OccludedInteriorConfig& config = OccludedInteriorConfig());
+                                   std::uint64_t seed, const OccludedInteriorConfig& config = OccludedInteriorConfig());
 
 // True for sampleOccludedInterior's guesses (label kInside, source kVision): the only inside
 // observations that nothing measured.

@@ -28,12 +28,12 @@ struct ViewFreeSpaceConfig {
   double max_offset_fraction{1.0};
   // Noise sigma of the samples, in the model's reference units (as the touch free space).
   double noise_sigma{0.3162};
-  std::uint64_t seed{1};
 };
 
 // `surface_points` are the view's points (world frame, every one of them: the labels use the
-// nearest); `sensor_origin` is the optical centre in the same frame.
+// nearest); `sensor_origin` is the optical centre in the same frame; `seed` the run's stream for
+// the rays' subset and depths (viewTrainingPoints derives it from the run's seed).
 ViewSamples sampleViewFreeSpace(const std::vector<Vector3>& surface_points, const Vector3& sensor_origin,
-                                  const ViewFreeSpaceConfig& config = ViewFreeSpaceConfig());
+                                std::uint64_t seed, const ViewFreeSpaceConfig& config = ViewFreeSpaceConfig());
 
 }  // namespace gpatlas_core
