@@ -447,21 +447,14 @@ GpisModel::GpisModel(Config config) : impl_(std::make_unique<Impl>()) {
   if (!(c.noise_scale > 0.0)) throw std::invalid_argument("GpisModel: noise_scale must be > 0");
 }
 
-GpisModel::GpisModel(const GpisModel& other) : SurfaceModel(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
+GpisModel::GpisModel(const GpisModel& other) = default;
 
 GpisModel::GpisModel(const GpisModel& other, std::size_t room_for_observations)
     : SurfaceModel(other),
       impl_(std::make_unique<Impl>(*other.impl_,
                                    other.impl_->num_pseudo + static_cast<Eigen::Index>(room_for_observations))) {}
 
-GpisModel& GpisModel::operator=(const GpisModel& other) {
-  if (this != &other) {
-    SurfaceModel::operator=(other);
-    impl_ = std::make_unique<Impl>(*other.impl_);
-  }
-  return *this;
-}
-
+GpisModel& GpisModel::operator=(const GpisModel& other) = default;
 GpisModel::GpisModel(GpisModel&&) noexcept = default;
 GpisModel& GpisModel::operator=(GpisModel&&) noexcept = default;
 GpisModel::~GpisModel() = default;
@@ -807,12 +800,7 @@ BatchPrediction GpisModel::predictBatch(const Points3& x_world, bool with_gradie
   if (!m.fitted) throw std::logic_error("GpisModel: query before the model was fitted");
   const Eigen::Index q = x_world.cols();
   const Eigen::Index n = m.n;
-  BatchPrediction out;
-  out.mean.resize(q);
-  out.variance.resize(q);
-  out.in_domain.resize(q);
-  if (with_gradient) out.gradient.resize(3, q);
-  if (with_variance_gradient) out.variance_gradient.resize(3, q);
+  BatchPrediction out(q, with_gradient, with_variance_gradient);
   if (q == 0) return out;
 
   Points3 xq = (x_world.colwise() - m.centroid) / m.scale;

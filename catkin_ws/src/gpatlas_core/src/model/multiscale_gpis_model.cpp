@@ -163,12 +163,7 @@ CellGroups groupByCell(const QuerySlots& query_slots, std::size_t num_cells) {
 // The coarse level at every query, in parallel chunks.
 BatchPrediction coarseBatch(const GpisModel& coarse_model, const Points3& x_world, const BatchNeeds& needs) {
   const Eigen::Index q = x_world.cols();
-  BatchPrediction coarse;
-  coarse.mean.resize(q);
-  coarse.variance.resize(q);
-  coarse.in_domain.resize(q);
-  if (needs.gradient) coarse.gradient.resize(3, q);
-  if (needs.variance_gradient) coarse.variance_gradient.resize(3, q);
+  BatchPrediction coarse(q, needs.gradient, needs.variance_gradient);
   constexpr Eigen::Index chunk = 128;
   tbb::parallel_for(Eigen::Index{0}, (q + chunk - 1) / chunk, [&](Eigen::Index b) {
     const Eigen::Index begin = b * chunk, count = std::min(q, begin + chunk) - begin;
@@ -722,15 +717,8 @@ MultiscaleGpisModel::MultiscaleGpisModel(Config config, GpisModelConfig coarse_c
   impl_->fine_tune.message = "no fine tuning ran yet";
 }
 
-MultiscaleGpisModel::MultiscaleGpisModel(const MultiscaleGpisModel& other)
-    : SurfaceModel(other), impl_(std::make_unique<Impl>(*other.impl_)) {}
-MultiscaleGpisModel& MultiscaleGpisModel::operator=(const MultiscaleGpisModel& other) {
-  if (this != &other) {
-    SurfaceModel::operator=(other);
-    impl_ = std::make_unique<Impl>(*other.impl_);
-  }
-  return *this;
-}
+MultiscaleGpisModel::MultiscaleGpisModel(const MultiscaleGpisModel& other) = default;
+MultiscaleGpisModel& MultiscaleGpisModel::operator=(const MultiscaleGpisModel& other) = default;
 MultiscaleGpisModel::MultiscaleGpisModel(MultiscaleGpisModel&&) noexcept = default;
 MultiscaleGpisModel& MultiscaleGpisModel::operator=(MultiscaleGpisModel&&) noexcept = default;
 MultiscaleGpisModel::~MultiscaleGpisModel() = default;
@@ -1050,12 +1038,7 @@ BatchPrediction MultiscaleGpisModel::predictBatch(const Points3& x_world, bool w
   const Eigen::Index q = x_world.cols();
   const BatchNeeds needs{with_gradient, with_variance_gradient, with_variance || with_variance_gradient,
                          with_gradient || with_variance_gradient};
-  BatchPrediction out;
-  out.mean.resize(q);
-  out.variance.resize(q);
-  out.in_domain.resize(q);
-  if (with_gradient) out.gradient.resize(3, q);
-  if (with_variance_gradient) out.variance_gradient.resize(3, q);
+  BatchPrediction out(q, with_gradient, with_variance_gradient);
   if (q == 0) return out;
 
   const FineParams p = m.fine();

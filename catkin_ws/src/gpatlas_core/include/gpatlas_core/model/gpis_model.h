@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_core/common/deep_copy_ptr.h"
 #include "gpatlas_core/model/gp_numerics.h"
 #include "gpatlas_core/model/kernel.h"
 #include "gpatlas_core/model/surface_model.h"
@@ -182,7 +183,7 @@ class GpisModel : public SurfaceModel {
   FitReport refitWith(const std::vector<TrainingPoint>& added, bool renormalise);
 
   struct Impl;
-  std::unique_ptr<Impl> impl_;
+  DeepCopyPtr<Impl> impl_;
 };
 
 }  // namespace gpatlas_core

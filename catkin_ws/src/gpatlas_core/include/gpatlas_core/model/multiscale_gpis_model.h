@@ -1,5 +1,6 @@
 #pragma once
 
+#include "gpatlas_core/common/deep_copy_ptr.h"
 #include "gpatlas_core/model/gpis_model.h"
 #include "gpatlas_core/model/surface_model.h"
 #include "gpatlas_core/common/types.h"
@@ -146,7 +147,7 @@ class MultiscaleGpisModel : public SurfaceModel {
 
  private:
   struct Impl;
-  std::unique_ptr<Impl> impl_;
+  DeepCopyPtr<Impl> impl_;
 };
 
 }  // namespace gpatlas_core

@@ -37,6 +37,13 @@ struct Prediction {
 };
 
 struct BatchPrediction {
+  BatchPrediction() = default;
+  // Room for `queries` answers, the gradients' only where they will be filled.
+  BatchPrediction(Eigen::Index queries, bool with_gradient, bool with_variance_gradient)
+      : mean(queries), variance(queries), in_domain(queries) {
+    if (with_gradient) gradient.resize(3, queries);
+    if (with_variance_gradient) variance_gradient.resize(3, queries);
+  }
   Eigen::VectorXd mean;
   Eigen::VectorXd variance;
   Points3 gradient;           // filled when requested
