@@ -212,7 +212,8 @@ ArmMotionPlan ArmApproachPlanner::plan(const Eigen::VectorXd& start, const Eigen
   if (way_end.size() == 0) return finish(problem);
   plan.approach = planJointPath(start, way_end, &problem);
   if (plan.approach.empty()) return finish(problem);
-  if (!way_end.isApprox(a)) plan.approach.push_back(a);
+  plan.guarded_entry = !way_end.isApprox(a);
+  if (plan.guarded_entry) plan.approach.push_back(a);
   plan.probing = {a, b};
   plan.retreat.assign(plan.approach.rbegin(), plan.approach.rend());
   plan.approach_tips = tipPositions(*arm_, plan.approach);
@@ -241,6 +242,7 @@ ArmMotionPlan planArmTouchMotion(const ArmApproachPlanner& planner, const gpatla
   }
   motion.retreat = back.retreat;
   motion.retreat_tips = back.retreat_tips;
+  motion.guarded_entry = motion.guarded_entry || back.guarded_entry;
   return motion;
 }
 

@@ -212,6 +212,13 @@ std::optional<Eigen::Vector3d> ProbeApproachPlanner::wayEnd(const Eigen::Vector3
   return impl_->guardedEntry(touch_point + impl_->config.approach_distance_m * normal, normal);
 }
 
+bool ProbeApproachPlanner::approachPoseObserved(const Eigen::Vector3d& touch_point,
+                                                const Eigen::Vector3d& touch_normal) const {
+  if (!touch_point.allFinite() || !touch_normal.allFinite() || !(touch_normal.norm() > 1e-9)) return false;
+  const Eigen::Vector3d normal = touch_normal.normalized();
+  return impl_->isWayFree(touch_point + impl_->config.approach_distance_m * normal, -normal);
+}
+
 bool ProbeApproachPlanner::isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const {
   const Eigen::Vector3d axis = b - a;
   const double length = axis.norm();
@@ -256,7 +263,8 @@ ApproachPlan ProbeApproachPlanner::plan(const Eigen::Vector3d& start_tip, const 
   if (!impl_->isWayFree(start_tip, plan.direction)) return finish("the probe's start lies in space no sensor observed");
   plan.approach = planWay(start_tip, *entry, plan.direction, &plan.message);
   if (plan.approach.empty()) return finish(plan.message);
-  if (!entry->isApprox(approach_pose)) plan.approach.push_back(approach_pose);
+  plan.guarded_entry = !entry->isApprox(approach_pose);
+  if (plan.guarded_entry) plan.approach.push_back(approach_pose);
   plan.probing = {approach_pose, touch_point};
   plan.retreat.assign(plan.approach.rbegin(), plan.approach.rend());
   plan.ok = true;

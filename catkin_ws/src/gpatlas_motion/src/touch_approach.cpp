@@ -63,6 +63,7 @@ TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_c
   motion.approach = there.approach;
   motion.probing = there.probing;
   motion.direction = there.direction;
+  motion.guarded_entry = there.guarded_entry;
   if (last == first) {
     motion.retreat = there.retreat;
   } else {
@@ -73,6 +74,7 @@ TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_c
       return motion;
     }
     motion.retreat = back.retreat;
+    motion.guarded_entry = motion.guarded_entry || back.guarded_entry;
   }
   motion.ok = true;
   return motion;
@@ -103,9 +105,18 @@ std::string TouchMotionPlanner::check(const Eigen::Vector3d& point, const Eigen:
 std::optional<Eigen::Vector3d> TouchMotionPlanner::approachDirection(const Eigen::Vector3d& point,
                                                                     const Eigen::Vector3d& outward_normal) const {
   if (!point.allFinite() || !outward_normal.allFinite() || !(outward_normal.norm() > 1e-9)) return std::nullopt;
-  for (const Eigen::Vector3d& direction : approachDirections(outward_normal, up_, config_))
-    if (check(point, direction).empty()) return direction;
-  return std::nullopt;
+  // A part nobody saw may stand anywhere in the unseen space, the approach pose included: a
+  // direction whose pose lies in seen space is worth the tilt. Only the first acceptable
+  // direction into the unseen space is kept (the last resort), so each direction is checked once.
+  std::optional<Eigen::Vector3d> guarded;
+  for (const Eigen::Vector3d& direction : approachDirections(outward_normal, up_, config_)) {
+    const bool observed = probe_->approachPoseObserved(point, direction);
+    if (!observed && guarded) continue;
+    if (!check(point, direction).empty()) continue;
+    if (observed) return direction;
+    guarded = direction;
+  }
+  return guarded;
 }
 
 TouchMotion TouchMotionPlanner::plan(const gpatlas_core::Touch& touch, const Eigen::Vector3d* probe_start,
@@ -116,6 +127,7 @@ TouchMotion TouchMotionPlanner::plan(const gpatlas_core::Touch& touch, const Eig
   motion.ok = arm_plan.ok;
   motion.message = std::move(arm_plan.message);
   motion.planning_ms = arm_plan.planning_ms;
+  motion.guarded_entry = arm_plan.guarded_entry;
   if (!motion.ok) return motion;
   motion.approach = std::move(arm_plan.approach_tips);
   motion.retreat = std::move(arm_plan.retreat_tips);
@@ -195,6 +207,7 @@ gpatlas_core::ApproachResult ModelTouchApproacher::plan(const gpatlas_core::Touc
     result.retreat_path = std::move(motion.retreat);
     result.approach_joints = std::move(motion.approach_joints);
     result.retreat_joints = std::move(motion.retreat_joints);
+    result.guarded_entry = motion.guarded_entry;
   }
   return result;
 }

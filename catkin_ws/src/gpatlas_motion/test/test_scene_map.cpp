@@ -5,6 +5,7 @@
 #include "gpatlas_motion/scene_map.h"
 
 #include "gpatlas_motion/probe_approach_planner.h"
+#include "gpatlas_motion/touch_approach.h"
 
 #include "box_octree.h"
 
@@ -19,6 +20,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <set>
 #include <stdexcept>
 #include <tuple>
@@ -632,6 +634,66 @@ TEST(SceneMap, TheWayToATouchAvoidsTheObjectsUnseenSpaceAndTheStrokeGoesIn) {
   EXPECT_EQ(plan.probing, blind.probing);
   // The cheap test does not see the unseen space: the touch stays a candidate.
   EXPECT_EQ(with_unseen.checkApproachPose(touch, normal), "");
+}
+
+// The voxels' centres of a box aligned with the voxel grid, as SceneMap::unseen lists them.
+std::vector<Vector3d> voxelCentres(const Box& box) {
+  std::vector<Vector3d> out;
+  for (double x = box.lower.x() + 0.5 * kVoxel; x < box.upper.x(); x += kVoxel)
+    for (double y = box.lower.y() + 0.5 * kVoxel; y < box.upper.y(); y += kVoxel)
+      for (double z = box.lower.z() + 0.5 * kVoxel; z < box.upper.z(); z += kVoxel) out.emplace_back(x, y, z);
+  return out;
+}
+
+// A touch on the body's back face whose approach pose along the normal lies in space nobody saw,
+// where a part nobody saw stands (the kettle's case): the cheap test tilts the approach until its
+// pose lies in seen space, and the way there and back clears that part; only when every
+// acceptable direction's pose is unseen is the normal kept, entered along its line (guarded).
+TEST(TouchMotionPlanner, AnApproachPoseInSpaceNobodySawIsTiltedOutOfItAndGuardedOnlyAsTheLastResort) {
+  const Box unseen_region{Vector3d(0.65, -0.06, 0.06), Vector3d(0.80, 0.06, 0.12)};
+  const Box hidden_knob{Vector3d(0.73, -0.01, 0.09), Vector3d(0.77, 0.01, 0.11)};
+  gpatlas_motion::ApproachConfig config;
+  config.max_planning_time_s = 1.0;
+  config.rest_tip_position_m = Vector3d(0.75, 0.0, 0.45);
+  const std::shared_ptr<octomap::OcTree> model = gpatlas_motion_test::mapOf({kBody}, kDomain);
+  const gpatlas_motion::TouchMotionPlanner planner(config, model, std::nullopt, nullptr, nullptr,
+                                                   gpatlas_motion::voxelOctree(voxelCentres(unseen_region), kVoxel));
+  const Vector3d point(0.65, 0.0, 0.10), normal = Vector3d::UnitX();
+  gpatlas_core::Touch touch;
+  touch.points = {point};
+  touch.normals = {normal};
+  // Along the normal the approach pose is in the knob, and the guarded entry meets it.
+  const gpatlas_motion::TouchMotion along_normal = planner.plan(touch);
+  ASSERT_TRUE(along_normal.ok) << along_normal.message;
+  EXPECT_TRUE(along_normal.guarded_entry);
+  EXPECT_LT(bodyClearance(along_normal.approach, -normal, hidden_knob, config.probe), 0.0)
+      << "the test's knob must stand in the guarded entry's way";
+
+  const std::optional<Vector3d> direction = planner.approachDirection(point, normal);
+  ASSERT_TRUE(direction.has_value());
+  const double tilt_deg = std::acos(std::clamp(direction->dot(normal), -1.0, 1.0)) * 180.0 / M_PI;
+  EXPECT_GT(tilt_deg, 1.0);
+  EXPECT_LE(tilt_deg, config.max_tilt_deg + 1e-9);
+  // Its approach pose is clear of the unseen region by the tip's inflated radius.
+  const Vector3d pose = point + config.approach_distance_m * *direction;
+  EXPECT_GT(unseen_region.distance(pose), config.probe.tip_radius_m + config.clearance_m) << pose.transpose();
+  touch.normals = {*direction};
+  const gpatlas_motion::TouchMotion tilted = planner.plan(touch);
+  ASSERT_TRUE(tilted.ok) << tilted.message;
+  EXPECT_FALSE(tilted.guarded_entry);
+  EXPECT_TRUE(tilted.approach.back().isApprox(pose));
+  EXPECT_GE(bodyClearance(tilted.approach, -*direction, hidden_knob, config.probe), 0.0);
+  EXPECT_GE(bodyClearance(tilted.retreat, -*direction, hidden_knob, config.probe), 0.0);
+
+  // Without unseen space, or with every direction's approach pose in it, the normal.
+  const gpatlas_motion::TouchMotionPlanner all_seen(config, model, std::nullopt, nullptr);
+  ASSERT_EQ(all_seen.approachDirection(point, normal), std::optional<Vector3d>(normal));
+  const Box around{Vector3d(0.65, -0.2, 0.0), Vector3d(0.85, 0.2, 0.3)};
+  const gpatlas_motion::TouchMotionPlanner all_unseen(config, model, std::nullopt, nullptr, nullptr,
+                                                      gpatlas_motion::voxelOctree(voxelCentres(around), kVoxel));
+  EXPECT_EQ(all_unseen.approachDirection(point, normal), std::optional<Vector3d>(normal));
+  // A direction the cheap test refuses is not the last resort: from inside the body, none.
+  EXPECT_FALSE(all_unseen.approachDirection(point, -normal).has_value());
 }
 
 TEST(SceneMap, AMovingCameraKeepsAtMostItsNewestSensorOrigins) {

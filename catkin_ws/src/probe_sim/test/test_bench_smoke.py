@@ -14,7 +14,7 @@ COLUMNS = ("object,strategy,probe,seed,vmax,max_position_sd_m,actions,contacts,c
            "fscore_5mm,calibration_2sd,position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
            "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
            "final_unreachable_area_fraction,approach_collisions,retreat_collisions,neighbour_collision_touches,"
-           "approach_plan_ms_median,recent_target_error_m").split(",")
+           "guarded_entries,approach_plan_ms_median,recent_target_error_m").split(",")
 
 
 def read_ply(path):
@@ -91,7 +91,7 @@ class BenchSmokeTest(unittest.TestCase):
             # Approach planning is on by default: every touch was planned, in a fraction of its
             # 0.2 s budget.
             for key in ("unreachable_touches", "unreachable_candidates", "final_unreachable_candidates",
-                        "approach_collisions", "retreat_collisions", "neighbour_collision_touches"):
+                        "approach_collisions", "retreat_collisions", "neighbour_collision_touches", "guarded_entries"):
                 self.assertGreaterEqual(int(r[key]), 0, (key, r))
             # An atlas's charts left out of reach have a share of its area, and none have none; a
             # baseline's candidates are sampled points, without an area.

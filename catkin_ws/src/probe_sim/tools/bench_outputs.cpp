@@ -267,7 +267,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
        "position_sd_m,coverage_2sd,sharpness,position_sd_scale,max_evaluated_variance,wall_s,plan_ms_median,"
        "update_ms_median,unreachable_touches,unreachable_candidates,final_unreachable_candidates,"
        "final_unreachable_area_fraction,approach_collisions,retreat_collisions,neighbour_collision_touches,"
-       "approach_plan_ms_median,recent_target_error_m\n";
+       "guarded_entries,approach_plan_ms_median,recent_target_error_m\n";
   for (const auto& r : runs) {
     const bool ok = r.metrics.ok;
     f << r.object << ',' << r.strategy << ',' << r.probe << ',' << r.seed << ',' << num(r.v_max) << ',' << (r.max_position_sd_m ? num(*r.max_position_sd_m) : "off") << ',' << r.actions
@@ -282,7 +282,7 @@ void writeRunsCsv(const std::vector<RunResult>& runs, const fs::path& path) {
       << num(r.wall_s, 4) << ',' << num(r.plan_ms_median, 4) << ',' << num(r.update_ms_median, 4) << ','
       << r.unreachable_touches << ',' << r.unreachable_candidates << ',' << r.final_unreachable_candidates << ','
       << num(r.final_unreachable_area_fraction) << ',' << r.approach_collisions << ',' << r.retreat_collisions << ','
-      << r.neighbour_collision_touches << ',' << num(r.approach_plan_ms_median, 4) << ',' << num(r.recent_target_error_m) << '\n';
+      << r.neighbour_collision_touches << ',' << r.guarded_entries << ',' << num(r.approach_plan_ms_median, 4) << ',' << num(r.recent_target_error_m) << '\n';
   }
 }
 

@@ -320,6 +320,7 @@ void recordLoop(const gpatlas_core::ExplorationResult& result, const gpatlas_cor
   r.out_of_reach_note = gpatlas_core::outOfReachNote(result);
   r.approach_collisions = result.approach_collisions;
   r.retreat_collisions = result.retreat_collisions;
+  r.guarded_entries = result.guarded_entries;
 }
 
 // The contacts the model took, one line each: action (1-based), x, y, z in metres (world frame),

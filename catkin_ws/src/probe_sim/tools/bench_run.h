@@ -60,6 +60,9 @@ struct RunResult {
   int retreat_collisions{0};
   // The touches whose way there or back met a neighbour (simulation/neighbours).
   int neighbour_collision_touches{0};
+  // The touches whose way ended in a guarded entry into space no sensor observed (the approach
+  // pose of every acceptable direction lay in it: gpatlas_core::ApproachResult::guarded_entry).
+  int guarded_entries{0};
   double approach_plan_ms_median{std::nan("")};
   // How far from their targets the last touches found the surface (recentTargetError).
   double recent_target_error_m{std::nan("")};

@@ -84,6 +84,7 @@ std::string describeAction(const ExplorationRecord& record) {
   }
   if (record.approach_collisions + record.retreat_collisions > 0)
     line << ", " << record.approach_collisions << "+" << record.retreat_collisions << " collisions on the way";
+  if (record.guarded_entry) line << ", guarded entry";
   if (!record.probe_reason.empty()) line << " (probe: " << record.probe_reason << ")";
   if (!record.update_message.empty()) line << " (model: " << record.update_message << ")";
   return line.str();

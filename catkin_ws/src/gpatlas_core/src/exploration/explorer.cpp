@@ -224,6 +224,7 @@ class ExplorationRun {
       plan->touch.retreat_path = std::move(approach.retreat_path);
       plan->touch.approach_joints = std::move(approach.approach_joints);
       plan->touch.retreat_joints = std::move(approach.retreat_joints);
+      record.guarded_entry = approach.guarded_entry;
       return true;
     }
     // No safe way there: the target counts as evidence, as a touch made would, so that the
@@ -263,6 +264,7 @@ class ExplorationRun {
     record.retreat_collisions = probed.retreat_collisions;
     result_.approach_collisions += probed.approach_collisions;
     result_.retreat_collisions += probed.retreat_collisions;
+    result_.guarded_entries += record.guarded_entry ? 1 : 0;
 
     bool budget_full = false;
     if (!probed.contacts.empty() || !probed.free_space.empty()) {

@@ -43,7 +43,8 @@ struct ApproachConfig {
   // a handle) is tried along directions tilted from the normal, in rings of tilt_step_deg up to
   // max_tilt_deg, tilt_azimuths per ring, the ring's first direction turned toward the table's
   // normal (the usual obstacle is the table; +z without one). The probe then comes in along the
-  // first free one.
+  // first free one whose approach pose lies clear of the space no sensor observed, else along
+  // the first free one (TouchMotionPlanner::approachDirection).
   // 0: along the normal only.
   double max_tilt_deg{60.0};
   double tilt_step_deg{15.0};

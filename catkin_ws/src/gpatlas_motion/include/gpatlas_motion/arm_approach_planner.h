@@ -29,6 +29,7 @@ struct ArmMotionPlan {
   std::vector<Eigen::VectorXd> retreat;
   std::vector<Eigen::Vector3d> approach_tips;
   std::vector<Eigen::Vector3d> retreat_tips;
+  bool guarded_entry{false};  // as ApproachPlan's: the last stretch in enters the unseen space
   double planning_ms{0.0};
 };
 

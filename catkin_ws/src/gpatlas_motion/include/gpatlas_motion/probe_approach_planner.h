@@ -31,6 +31,9 @@ struct ApproachPlan {
   std::vector<Eigen::Vector3d> probing;   // the approach pose and the touch
   std::vector<Eigen::Vector3d> retreat;   // the approach pose back to the start (the approach reversed)
   Eigen::Vector3d direction{Eigen::Vector3d::Zero()};  // the probe's pointing direction (against the normal)
+  // The approach pose lies in the unseen space (setUnseenSpace): the way ends where the touch's
+  // line leaves it and the probe comes in along that line, a guarded move on a robot.
+  bool guarded_entry{false};
   double planning_ms{0.0};
 };
 
@@ -73,6 +76,10 @@ class ProbeApproachPlanner {
   // it is clear of the unseen space, else the first place out along the touch's line that is,
   // from which the probe comes in along that line; nullopt when an obstacle comes first.
   std::optional<Eigen::Vector3d> wayEnd(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
+  // Whether the probe at the approach pose in front of the touch is clear of every obstacle and
+  // of the unseen space (isWayFree there): the way ends at the approach pose, with no guarded
+  // entry through space no sensor observed.
+  bool approachPoseObserved(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
   // Whether a capsule from a to b of this radius, inflated by clearance_m, is clear of every
   // obstacle (the arm's links).
   bool isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const;

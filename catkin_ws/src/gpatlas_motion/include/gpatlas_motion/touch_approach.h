@@ -44,6 +44,7 @@ struct TouchMotion {
   std::vector<Eigen::VectorXd> approach_joints;
   std::vector<Eigen::VectorXd> probing_joints;
   std::vector<Eigen::VectorXd> retreat_joints;
+  bool guarded_entry{false};  // the way there or back enters the unseen space (ApproachPlan's)
   double planning_ms{0.0};
 };
 TouchMotion planTouchMotion(const ProbeApproachPlanner& planner, const gpatlas_core::Touch& touch,
@@ -70,7 +71,9 @@ class TouchMotionPlanner {
   std::string check(const Eigen::Vector3d& point, const Eigen::Vector3d& outward_normal) const;
   // The first of approachDirections (the normal, then the directions tilted from
   // it, the first of each ring toward the table's normal, or +z without a table) that check()
-  // accepts; nullopt when none does.
+  // accepts and whose approach pose lies clear of the unseen space
+  // (ProbeApproachPlanner::approachPoseObserved); when none does, the first that check() accepts,
+  // whose way will end in a guarded entry along its line; nullopt when check() accepts none.
   std::optional<Eigen::Vector3d> approachDirection(const Eigen::Vector3d& point,
                                                    const Eigen::Vector3d& outward_normal) const;
 

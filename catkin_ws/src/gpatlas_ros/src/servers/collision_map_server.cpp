@@ -248,6 +248,9 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
         trajectory->header.stamp = ros::Time::now();
       }
     }
+    if (plan.ok && plan.guarded_entry)
+      ROS_INFO_STREAM("collision_map: every acceptable approach pose of the touch lies in space no sensor observed: "
+                      "the way ends where the touch's line leaves it, and the probe comes in along that line (a guarded move)");
     if (plan.ok) publishApproach(plan, res, resets);
   } catch (const std::exception& e) {
     res.success = false;

@@ -58,6 +58,7 @@ struct ExplorationRecord {
   double approach_compute_ms{0.0};
   int approach_collisions{0};
   int retreat_collisions{0};
+  bool guarded_entry{false};  // the touch's way ends in a guarded entry (ApproachResult)
   InteriorRetraction retraction; // occluded-interior guesses this touch contradicted
   Touch touch;
   // How far from where it aimed the touch found the surface: the median over its aimed points
@@ -100,6 +101,7 @@ struct ExplorationResult {
   int unreachable_candidates{0};  // passed over by the strategies before they chose (PlanRequest::reachable)
   int approach_collisions{0};
   int retreat_collisions{0};
+  int guarded_entries{0};  // executed touches whose way ended in a guarded entry
 };
 
 // Per target, the distance to the nearest of a touch's contacts: how far from where it aimed the
@@ -139,6 +141,10 @@ struct ApproachResult {
   std::vector<Vector3> retreat_path;
   std::vector<Eigen::VectorXd> approach_joints;  // Touch::approach_joints; empty without an arm
   std::vector<Eigen::VectorXd> retreat_joints;
+  // The way ends short of the approach pose, in space no sensor observed, and the probe comes in
+  // along the touch's line from there: a guarded move on a robot, the one place it may meet an
+  // unpredicted part.
+  bool guarded_entry{false};
   double planning_ms{0.0};
 };
 
