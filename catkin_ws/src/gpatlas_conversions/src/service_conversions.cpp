@@ -71,6 +71,7 @@ bool fromMsg(const gpatlas_msgs::PlanApproach::Response& msg, gpatlas_core::Appr
   out.message = msg.message;
   if (msg.map_stale) out.message += " (on the map of an older model: its rebuild failed)";
   out.planning_ms = 1000.0 * msg.planning_time_s;
+  out.guarded_entry = msg.guarded_entry;
   for (const auto& p : msg.approach) out.approach_path.push_back(fromMsg(p));
   for (const auto& p : msg.retreat) out.retreat_path.push_back(fromMsg(p));
   const auto& approach = msg.approach_trajectory;

@@ -581,6 +581,10 @@ TEST(Conversions, ApproachAnswerGivesThePathsAndTheArmsJointPaths) {
   EXPECT_EQ(result.approach_joints, (std::vector<Eigen::VectorXd>{rest, above}));
   EXPECT_EQ(result.retreat_joints, (std::vector<Eigen::VectorXd>{above, rest}));
   EXPECT_EQ(joint_names, names);
+  EXPECT_FALSE(result.guarded_entry);
+  msg.guarded_entry = true;
+  ASSERT_TRUE(fromMsg(msg, &result, &joint_names, &error)) << error;
+  EXPECT_TRUE(result.guarded_entry);
 
   msg.map_stale = true;
   ASSERT_TRUE(fromMsg(msg, &result, &joint_names, &error)) << error;

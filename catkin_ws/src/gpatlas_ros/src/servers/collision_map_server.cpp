@@ -237,6 +237,7 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
     for (const auto& p : plan.probing) res.probing.push_back(toPointMsg(p));
     for (const auto& p : plan.retreat) res.retreat.push_back(toPointMsg(p));
     res.direction = toVectorMsg(plan.direction);
+    res.guarded_entry = plan.ok && plan.guarded_entry;
     if (approach_arm_ && plan.ok) {
       const std::vector<std::string>& names = approach_arm_->jointNames();
       const double speed = approach_config_.arm_joint_speed_rad_s;
@@ -248,7 +249,7 @@ bool CollisionMapServer::onPlanApproach(gpatlas_msgs::PlanApproach::Request& req
         trajectory->header.stamp = ros::Time::now();
       }
     }
-    if (plan.ok && plan.guarded_entry)
+    if (res.guarded_entry)
       ROS_INFO_STREAM("collision_map: every acceptable approach pose of the touch lies in space no sensor observed: "
                       "the way ends where the touch's line leaves it, and the probe comes in along that line (a guarded move)");
     if (plan.ok) publishApproach(plan, res, resets);
