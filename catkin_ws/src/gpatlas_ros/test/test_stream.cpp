@@ -1,5 +1,5 @@
 // stream.test: a 30 Hz stream of a real cloud (the same view every time) leaves no backlog of
-// fits (after the last cloud, at most the fit under way and one more publish a model), and the
+// fits, and the
 // nodelet manager's memory at the end is within ~max_memory_growth of what it was when the first
 // model came: a refit of the same view holds no more than the first fit did.
 
@@ -91,7 +91,10 @@ TEST(Stream, AFastCameraLeavesAtMostOneFitQueuedAndItsMemoryComesBack) {
               memory.firstModel(), memory.peak(), memory.last(), memory.last() / memory.firstModel());
   ASSERT_GT(clouds, 300u) << "the camera streamed too little to test anything";
   ASSERT_GE(models.size(), 3u) << "too few models from the stream to see memory grow";
-  EXPECT_LE(after_end, 2u) << "a backlog of fits ran on after the stream";
+  // Two stages that each take the newest input: after the last cloud, the fit under way, then the
+  // cloud segmentation is working on, then the one waiting for it can each give a model, if the
+  // fit ends between them (three). A queue would give dozens at 30 Hz.
+  EXPECT_LE(after_end, 3u) << "a backlog of fits ran on after the stream";
   ASSERT_GT(memory.firstModel(), 0.0);
   EXPECT_LE(memory.last(), max_growth * memory.firstModel())
       << "the manager kept memory over " << models.size() << " fits of the same view";
