@@ -60,8 +60,9 @@ struct ProbeApproachPlanner::Impl {
   }
 
   // Whether the probe's body, its tip at `tip_centre` pointing along `direction`, is clear of the
-  // map and the static obstacles and, on its way there and back (`way`), of the unseen space.
-  bool isClear(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction, bool way) const {
+  // map and the static obstacles (`obstacles`) and of the unseen space (`unseen`: on its way there
+  // and back).
+  bool isClear(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction, bool obstacles, bool unseen) const {
     fcl::Transform3d tip_pose = fcl::Transform3d::Identity();
     tip_pose.translation() = tip_centre;
     const fcl::CollisionObjectd tip_object(tip, tip_pose);
@@ -74,16 +75,18 @@ struct ProbeApproachPlanner::Impl {
     const auto hits = [&](const fcl::CollisionObjectd& obstacle) {
       return collides(tip_object, obstacle) || collides(shaft_object, obstacle);
     };
-    if (map_object && hits(*map_object)) return false;
-    for (const auto& obstacle : static_obstacles)
-      if (hits(*obstacle)) return false;
-    return !(way && unseen_object && hits(*unseen_object));
+    if (obstacles) {
+      if (map_object && hits(*map_object)) return false;
+      for (const auto& obstacle : static_obstacles)
+        if (hits(*obstacle)) return false;
+    }
+    return !(unseen && unseen_object && hits(*unseen_object));
   }
   bool isFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
-    return isClear(tip_centre, direction, false);
+    return isClear(tip_centre, direction, true, false);
   }
   bool isWayFree(const Eigen::Vector3d& tip_centre, const Eigen::Vector3d& direction) const {
-    return isClear(tip_centre, direction, true);
+    return isClear(tip_centre, direction, true, true);
   }
 
   // Where the probe, pointing along -normal, comes out of the unseen space going out from the
@@ -109,7 +112,7 @@ struct ProbeApproachPlanner::Impl {
              " m out along the normal, is in collision: the touch cannot be approached";
     const double probing_length =
         std::max(0.0, config.approach_distance_m - config.contact_zone_m - config.probe.tip_radius_m);
-    if (!segmentClear(approach_pose, approach_pose - probing_length * normal, -normal, false))
+    if (!segmentClear(approach_pose, approach_pose - probing_length * normal, -normal, /*way=*/false))
       return "the probing segment meets an obstacle before the touch: the touch is occluded";
     return "";
   }
@@ -120,7 +123,7 @@ struct ProbeApproachPlanner::Impl {
     const double length = (b - a).norm();
     const int steps = std::max(1, static_cast<int>(std::ceil(length / config.check_resolution_m)));
     for (int i = 0; i <= steps; ++i)
-      if (!isClear(a + (b - a) * (static_cast<double>(i) / steps), direction, way)) return false;
+      if (!isClear(a + (b - a) * (static_cast<double>(i) / steps), direction, true, way)) return false;
     return true;
   }
 };
@@ -216,7 +219,8 @@ bool ProbeApproachPlanner::approachPoseObserved(const Eigen::Vector3d& touch_poi
                                                 const Eigen::Vector3d& touch_normal) const {
   if (!touch_point.allFinite() || !touch_normal.allFinite() || !(touch_normal.norm() > 1e-9)) return false;
   const Eigen::Vector3d normal = touch_normal.normalized();
-  return impl_->isWayFree(touch_point + impl_->config.approach_distance_m * normal, -normal);
+  return impl_->isClear(touch_point + impl_->config.approach_distance_m * normal, -normal, /*obstacles=*/false,
+                        /*unseen=*/true);
 }
 
 bool ProbeApproachPlanner::isCapsuleFree(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius) const {

@@ -76,8 +76,8 @@ class ProbeApproachPlanner {
   // it is clear of the unseen space, else the first place out along the touch's line that is,
   // from which the probe comes in along that line; nullopt when an obstacle comes first.
   std::optional<Eigen::Vector3d> wayEnd(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
-  // Whether the probe at the approach pose in front of the touch is clear of every obstacle and
-  // of the unseen space (isWayFree there): the way ends at the approach pose, with no guarded
+  // Whether the probe at the approach pose in front of the touch is clear of the unseen space (the
+  // obstacles are checkApproachPose's): if the pose is free, the way ends there, with no guarded
   // entry through space no sensor observed.
   bool approachPoseObserved(const Eigen::Vector3d& touch_point, const Eigen::Vector3d& touch_normal) const;
   // Whether a capsule from a to b of this radius, inflated by clearance_m, is clear of every
